@@ -1,0 +1,531 @@
+/* OpenCL runtime: device choice, program registry over the embedded kernels, checked calls.
+ * Modelled on darktable's src/common/opencl.c (a registry of kernel files, error codes turned
+ * into names) and GEGL's embedding of .cl sources at build time. */
+#include "csi/runtime.h"
+
+#include <clFFT.h>
+#include <ctype.h>
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+struct csi_embedded_kernel {
+    const char *name;
+    const char *source;
+};
+extern const struct csi_embedded_kernel csi_embedded_kernels[];
+
+#define CSI_MAX_PROGRAMS 32
+#define CSI_MAX_KERNELS 256
+
+struct csi_kernel_slot {
+    char program[48];
+    char name[64];
+    cl_kernel kernel;
+};
+
+struct csi_ctx {
+    cl_platform_id platform;
+    cl_device_id device;
+    cl_context context;
+    cl_command_queue queue;
+    char name[512];
+    size_t max_alloc;
+    uint64_t global_mem;
+    struct {
+        const char *name;
+        cl_program program;
+    } programs[CSI_MAX_PROGRAMS];
+    int nprograms;
+    struct csi_kernel_slot kernels[CSI_MAX_KERNELS];
+    int nkernels;
+    bool clfft;
+};
+
+/* clFFT keeps one library state per process; count the contexts that use it. */
+static int csi_clfft_users;
+
+const char *csi_cl_error_name(cl_int err)
+{
+    switch (err) {
+#define N(c) case c: return #c
+    N(CL_SUCCESS); N(CL_DEVICE_NOT_FOUND); N(CL_DEVICE_NOT_AVAILABLE); N(CL_COMPILER_NOT_AVAILABLE);
+    N(CL_MEM_OBJECT_ALLOCATION_FAILURE); N(CL_OUT_OF_RESOURCES); N(CL_OUT_OF_HOST_MEMORY);
+    N(CL_PROFILING_INFO_NOT_AVAILABLE); N(CL_MEM_COPY_OVERLAP); N(CL_IMAGE_FORMAT_MISMATCH);
+    N(CL_IMAGE_FORMAT_NOT_SUPPORTED); N(CL_BUILD_PROGRAM_FAILURE); N(CL_MAP_FAILURE);
+    N(CL_MISALIGNED_SUB_BUFFER_OFFSET); N(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST);
+    N(CL_COMPILE_PROGRAM_FAILURE); N(CL_LINKER_NOT_AVAILABLE); N(CL_LINK_PROGRAM_FAILURE);
+    N(CL_DEVICE_PARTITION_FAILED); N(CL_KERNEL_ARG_INFO_NOT_AVAILABLE);
+    N(CL_INVALID_VALUE); N(CL_INVALID_DEVICE_TYPE); N(CL_INVALID_PLATFORM); N(CL_INVALID_DEVICE);
+    N(CL_INVALID_CONTEXT); N(CL_INVALID_QUEUE_PROPERTIES); N(CL_INVALID_COMMAND_QUEUE);
+    N(CL_INVALID_HOST_PTR); N(CL_INVALID_MEM_OBJECT); N(CL_INVALID_IMAGE_FORMAT_DESCRIPTOR);
+    N(CL_INVALID_IMAGE_SIZE); N(CL_INVALID_SAMPLER); N(CL_INVALID_BINARY); N(CL_INVALID_BUILD_OPTIONS);
+    N(CL_INVALID_PROGRAM); N(CL_INVALID_PROGRAM_EXECUTABLE); N(CL_INVALID_KERNEL_NAME);
+    N(CL_INVALID_KERNEL_DEFINITION); N(CL_INVALID_KERNEL); N(CL_INVALID_ARG_INDEX);
+    N(CL_INVALID_ARG_VALUE); N(CL_INVALID_ARG_SIZE); N(CL_INVALID_KERNEL_ARGS);
+    N(CL_INVALID_WORK_DIMENSION); N(CL_INVALID_WORK_GROUP_SIZE); N(CL_INVALID_WORK_ITEM_SIZE);
+    N(CL_INVALID_GLOBAL_OFFSET); N(CL_INVALID_EVENT_WAIT_LIST); N(CL_INVALID_EVENT);
+    N(CL_INVALID_OPERATION); N(CL_INVALID_GL_OBJECT); N(CL_INVALID_BUFFER_SIZE);
+    N(CL_INVALID_MIP_LEVEL); N(CL_INVALID_GLOBAL_WORK_SIZE); N(CL_INVALID_PROPERTY);
+    N(CL_INVALID_IMAGE_DESCRIPTOR); N(CL_INVALID_COMPILER_OPTIONS); N(CL_INVALID_LINKER_OPTIONS);
+    N(CL_INVALID_DEVICE_PARTITION_COUNT);
+    N(-1001); /* CL_PLATFORM_NOT_FOUND_KHR: the ICD loader found no platform */
+#undef N
+    }
+    static _Thread_local char buf[32];
+    snprintf(buf, sizeof buf, "CL_ERROR(%d)", (int)err);
+    return buf;
+}
+
+const char *csi_clfft_error_name(int err)
+{
+    switch (err) {
+    case CLFFT_BUGCHECK: return "CLFFT_BUGCHECK";
+    case CLFFT_NOTIMPLEMENTED: return "CLFFT_NOTIMPLEMENTED";
+    case CLFFT_TRANSPOSED_NOTIMPLEMENTED: return "CLFFT_TRANSPOSED_NOTIMPLEMENTED";
+    case CLFFT_FILE_NOT_FOUND: return "CLFFT_FILE_NOT_FOUND";
+    case CLFFT_FILE_CREATE_FAILURE: return "CLFFT_FILE_CREATE_FAILURE";
+    case CLFFT_VERSION_MISMATCH: return "CLFFT_VERSION_MISMATCH";
+    case CLFFT_INVALID_PLAN: return "CLFFT_INVALID_PLAN";
+    case CLFFT_DEVICE_NO_DOUBLE: return "CLFFT_DEVICE_NO_DOUBLE";
+    case CLFFT_DEVICE_MISMATCH: return "CLFFT_DEVICE_MISMATCH";
+    default: return csi_cl_error_name((cl_int)err);
+    }
+}
+
+csi_status csi_cl_check(cl_int err, const char *call, const char *file, int line)
+{
+    if (err == CL_SUCCESS)
+        return CSI_OK;
+    /* Keep only the function name of the call for a readable one-line message. */
+    char fn[64];
+    size_t i = 0;
+    while (call[i] && call[i] != '(' && i + 1 < sizeof fn) {
+        fn[i] = call[i];
+        i++;
+    }
+    fn[i] = '\0';
+    const char *base = strrchr(file, '/');
+    return csi_fail(CSI_ERR_CL, "OpenCL call %s failed with %s (%s:%d)", fn, csi_cl_error_name(err),
+                    base ? base + 1 : file, line);
+}
+
+static bool contains_ci(const char *hay, const char *needle)
+{
+    size_t n = strlen(needle);
+    for (const char *p = hay; *p; p++) {
+        size_t i = 0;
+        while (i < n && p[i] && tolower((unsigned char)p[i]) == tolower((unsigned char)needle[i]))
+            i++;
+        if (i == n)
+            return true;
+    }
+    return n == 0;
+}
+
+static void mkdirs(const char *path)
+{
+    char tmp[1024];
+    snprintf(tmp, sizeof tmp, "%s", path);
+    for (char *p = tmp + 1; *p; p++) {
+        if (*p == '/') {
+            *p = '\0';
+            mkdir(tmp, 0755);
+            *p = '/';
+        }
+    }
+    mkdir(tmp, 0755);
+}
+
+/* Sets up kernel caches before the platform is first touched (PoCL reads its env at init). */
+static void setup_caches(void)
+{
+    const char *dir = getenv("CSI_CACHE_DIR");
+    char path[1024];
+    if (dir && *dir) {
+        snprintf(path, sizeof path, "%s/pocl", dir);
+        mkdirs(path);
+        setenv("POCL_CACHE_DIR", path, 0);
+        snprintf(path, sizeof path, "%s/clfft", dir);
+        mkdirs(path);
+        setenv("CLFFT_CACHE_PATH", path, 0);
+        return;
+    }
+    if (getenv("CLFFT_CACHE_PATH"))
+        return;
+    const char *xdg = getenv("XDG_CACHE_HOME");
+    const char *home = getenv("HOME");
+    if (xdg && *xdg)
+        snprintf(path, sizeof path, "%s/csi/clfft", xdg);
+    else if (home && *home)
+        snprintf(path, sizeof path, "%s/.cache/csi/clfft", home);
+    else
+        return;
+    mkdirs(path);
+    setenv("CLFFT_CACHE_PATH", path, 0);
+}
+
+typedef struct {
+    cl_platform_id platform;
+    cl_device_id device;
+    char label[512];
+    cl_device_type type;
+} dev_entry;
+
+static csi_status enumerate(dev_entry *out, int cap, int *count)
+{
+    cl_uint np = 0;
+    cl_int err = clGetPlatformIDs(0, NULL, &np);
+    *count = 0;
+    if (err == -1001 || np == 0)
+        return CSI_OK; /* no platform installed: reported by the caller as "no device" */
+    CSI_CL_TRY(err);
+    cl_platform_id plats[16];
+    if (np > 16)
+        np = 16;
+    CSI_CL_TRY(clGetPlatformIDs(np, plats, NULL));
+    for (cl_uint p = 0; p < np; p++) {
+        char pname[256] = "";
+        clGetPlatformInfo(plats[p], CL_PLATFORM_NAME, sizeof pname, pname, NULL);
+        cl_uint nd = 0;
+        if (clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_ALL, 0, NULL, &nd) != CL_SUCCESS || nd == 0)
+            continue;
+        cl_device_id devs[16];
+        if (nd > 16)
+            nd = 16;
+        if (clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_ALL, nd, devs, NULL) != CL_SUCCESS)
+            continue;
+        for (cl_uint d = 0; d < nd && *count < cap; d++) {
+            dev_entry *e = &out[(*count)++];
+            char dname[256] = "";
+            clGetDeviceInfo(devs[d], CL_DEVICE_NAME, sizeof dname, dname, NULL);
+            clGetDeviceInfo(devs[d], CL_DEVICE_TYPE, sizeof e->type, &e->type, NULL);
+            e->platform = plats[p];
+            e->device = devs[d];
+            snprintf(e->label, sizeof e->label, "%s / %s", pname, dname);
+        }
+    }
+    return CSI_OK;
+}
+
+csi_status csi_list_devices(char *buf, size_t len)
+{
+    setup_caches();
+    dev_entry devs[32];
+    int n = 0;
+    CSI_TRY(enumerate(devs, 32, &n));
+    size_t used = 0;
+    if (len)
+        buf[0] = '\0';
+    for (int i = 0; i < n && used < len; i++) {
+        const char *t = (devs[i].type & CL_DEVICE_TYPE_CPU) ? "CPU"
+                        : (devs[i].type & CL_DEVICE_TYPE_GPU) ? "GPU" : "other";
+        int w = snprintf(buf + used, len - used, "%s (%s)\n", devs[i].label, t);
+        if (w < 0)
+            break;
+        used += (size_t)w;
+    }
+    return CSI_OK;
+}
+
+csi_status csi_ctx_create(csi_ctx **out, const char *spec)
+{
+    *out = NULL;
+    setup_caches();
+    if (!spec || !*spec)
+        spec = getenv("CSI_DEVICE");
+    dev_entry devs[32];
+    int n = 0;
+    CSI_TRY(enumerate(devs, 32, &n));
+    if (n == 0)
+        return csi_fail(CSI_ERR_DEVICE, "no OpenCL device found: install PoCL (tools/setup installs "
+                                        "pocl-opencl-icd) or check /etc/OpenCL/vendors");
+    int pick = -1;
+    if (spec && *spec) {
+        for (int i = 0; i < n && pick < 0; i++)
+            if (contains_ci(devs[i].label, spec))
+                pick = i;
+        if (pick < 0)
+            return csi_fail(CSI_ERR_DEVICE, "no OpenCL device matches '%s' (%d device%s found; "
+                            "first: %s)", spec, n, n == 1 ? "" : "s", devs[0].label);
+    } else {
+        for (int i = 0; i < n && pick < 0; i++)
+            if (contains_ci(devs[i].label, "Portable Computing Language") &&
+                (devs[i].type & CL_DEVICE_TYPE_CPU))
+                pick = i;
+        if (pick < 0)
+            pick = 0;
+    }
+
+    csi_ctx *ctx = calloc(1, sizeof *ctx);
+    if (!ctx)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory creating the OpenCL context");
+    ctx->platform = devs[pick].platform;
+    ctx->device = devs[pick].device;
+    snprintf(ctx->name, sizeof ctx->name, "%s", devs[pick].label);
+    cl_ulong maxalloc = 0, gmem = 0;
+    clGetDeviceInfo(ctx->device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof maxalloc, &maxalloc, NULL);
+    clGetDeviceInfo(ctx->device, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof gmem, &gmem, NULL);
+    ctx->max_alloc = (size_t)maxalloc;
+    ctx->global_mem = gmem;
+
+    cl_int err;
+    cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)ctx->platform, 0};
+    ctx->context = clCreateContext(props, 1, &ctx->device, NULL, NULL, &err);
+    if (err != CL_SUCCESS) {
+        csi_status st = CSI_CL(err);
+        free(ctx);
+        return csi_fail_context(st, "creating a context on %s: ", devs[pick].label);
+    }
+    ctx->queue = clCreateCommandQueue(ctx->context, ctx->device, 0, &err);
+    if (err != CL_SUCCESS) {
+        csi_status st = CSI_CL(err);
+        clReleaseContext(ctx->context);
+        free(ctx);
+        return st;
+    }
+    *out = ctx;
+    return CSI_OK;
+}
+
+void csi_ctx_release(csi_ctx *ctx)
+{
+    if (!ctx)
+        return;
+    if (ctx->queue)
+        clFinish(ctx->queue);
+    for (int i = 0; i < ctx->nkernels; i++)
+        clReleaseKernel(ctx->kernels[i].kernel);
+    for (int i = 0; i < ctx->nprograms; i++)
+        clReleaseProgram(ctx->programs[i].program);
+    if (ctx->clfft && --csi_clfft_users == 0)
+        clfftTeardown();
+    if (ctx->queue)
+        clReleaseCommandQueue(ctx->queue);
+    if (ctx->context)
+        clReleaseContext(ctx->context);
+    free(ctx);
+}
+
+cl_context csi_ctx_context(const csi_ctx *ctx) { return ctx->context; }
+cl_command_queue csi_ctx_queue(const csi_ctx *ctx) { return ctx->queue; }
+cl_device_id csi_ctx_device(const csi_ctx *ctx) { return ctx->device; }
+const char *csi_ctx_device_name(const csi_ctx *ctx) { return ctx->name; }
+size_t csi_ctx_max_alloc(const csi_ctx *ctx) { return ctx->max_alloc; }
+uint64_t csi_ctx_global_mem(const csi_ctx *ctx) { return ctx->global_mem; }
+
+static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
+{
+    for (int i = 0; i < ctx->nprograms; i++)
+        if (strcmp(ctx->programs[i].name, name) == 0) {
+            *out = ctx->programs[i].program;
+            return CSI_OK;
+        }
+    const char *src = NULL, *stored_name = NULL;
+    for (const struct csi_embedded_kernel *e = csi_embedded_kernels; e->name; e++)
+        if (strcmp(e->name, name) == 0) {
+            src = e->source;
+            stored_name = e->name;
+        }
+    if (!src)
+        return csi_fail(CSI_ERR_BUILD, "no kernel program '%s' is embedded (kernels/%s.cl)", name, name);
+    if (ctx->nprograms == CSI_MAX_PROGRAMS)
+        return csi_fail(CSI_ERR_BUILD, "too many kernel programs (limit %d)", CSI_MAX_PROGRAMS);
+    cl_int err;
+    cl_program prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
+    CSI_CL_TRY(err);
+    /* No -cl-fast-relaxed-math: the solvers' stopping rules depend on IEEE float behaviour. */
+    err = clBuildProgram(prog, 1, &ctx->device, "-cl-std=CL1.2", NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[1500] = "";
+        size_t len = 0;
+        clGetProgramBuildInfo(prog, ctx->device, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, &len);
+        log[sizeof log - 1] = '\0';
+        for (char *p = log; *p; p++)
+            if (*p == '\n')
+                *p = ' ';
+        clReleaseProgram(prog);
+        return csi_fail(CSI_ERR_BUILD, "kernels/%s.cl failed to build (%s): %s", name,
+                        csi_cl_error_name(err), log);
+    }
+    ctx->programs[ctx->nprograms].name = stored_name;
+    ctx->programs[ctx->nprograms].program = prog;
+    ctx->nprograms++;
+    *out = prog;
+    return CSI_OK;
+}
+
+csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_kernel *out)
+{
+    for (int i = 0; i < ctx->nkernels; i++)
+        if (strcmp(ctx->kernels[i].name, kernel) == 0 && strcmp(ctx->kernels[i].program, program) == 0) {
+            *out = ctx->kernels[i].kernel;
+            return CSI_OK;
+        }
+    if (ctx->nkernels == CSI_MAX_KERNELS)
+        return csi_fail(CSI_ERR_BUILD, "too many kernels (limit %d)", CSI_MAX_KERNELS);
+    cl_program prog;
+    CSI_TRY(build_program(ctx, program, &prog));
+    cl_int err;
+    cl_kernel k = clCreateKernel(prog, kernel, &err);
+    if (err != CL_SUCCESS)
+        return csi_fail(CSI_ERR_BUILD, "kernel '%s' not found in kernels/%s.cl (%s)", kernel, program,
+                        csi_cl_error_name(err));
+    struct csi_kernel_slot *s = &ctx->kernels[ctx->nkernels++];
+    snprintf(s->program, sizeof s->program, "%s", program);
+    snprintf(s->name, sizeof s->name, "%s", kernel);
+    s->kernel = k;
+    *out = k;
+    return CSI_OK;
+}
+
+static void human_bytes(char *buf, size_t len, double b)
+{
+    const char *u[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+    int i = 0;
+    while (b >= 1024.0 && i < 4) {
+        b /= 1024.0;
+        i++;
+    }
+    snprintf(buf, len, "%.1f %s", b, u[i]);
+}
+
+csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char *what, cl_mem *out)
+{
+    *out = NULL;
+    if (bytes == 0)
+        bytes = 16;
+    if (bytes > ctx->max_alloc) {
+        char a[32], b[32];
+        human_bytes(a, sizeof a, (double)bytes);
+        human_bytes(b, sizeof b, (double)ctx->max_alloc);
+        return csi_fail(CSI_ERR_DEVICE, "%s needs a %s buffer, over the device's single-buffer limit "
+                        "of %s (%s)", what ? what : "an operation", a, b, ctx->name);
+    }
+    cl_int err;
+    cl_mem m = clCreateBuffer(ctx->context, flags, bytes, NULL, &err);
+    if (err != CL_SUCCESS) {
+        char a[32];
+        human_bytes(a, sizeof a, (double)bytes);
+        csi_status st = CSI_CL(err);
+        return csi_fail_context(st, "allocating %s for %s: ", a, what ? what : "a buffer");
+    }
+    *out = m;
+    return CSI_OK;
+}
+
+void csi_buffer_release(cl_mem *buf)
+{
+    if (buf && *buf) {
+        clReleaseMemObject(*buf);
+        *buf = NULL;
+    }
+}
+
+csi_status csi_write(csi_ctx *ctx, cl_mem dst, size_t offset, size_t bytes, const void *src)
+{
+    if (bytes == 0)
+        return CSI_OK;
+    return CSI_CL(clEnqueueWriteBuffer(ctx->queue, dst, CL_TRUE, offset, bytes, src, 0, NULL, NULL));
+}
+
+csi_status csi_read(csi_ctx *ctx, cl_mem src, size_t offset, size_t bytes, void *dst)
+{
+    if (bytes == 0)
+        return CSI_OK;
+    return CSI_CL(clEnqueueReadBuffer(ctx->queue, src, CL_TRUE, offset, bytes, dst, 0, NULL, NULL));
+}
+
+csi_status csi_fill_zero(csi_ctx *ctx, cl_mem buf, size_t bytes)
+{
+    if (bytes == 0)
+        return CSI_OK;
+    const cl_uint zero = 0;
+    if (bytes % 4 == 0)
+        return CSI_CL(clEnqueueFillBuffer(ctx->queue, buf, &zero, 4, 0, bytes, 0, NULL, NULL));
+    const cl_uchar z = 0;
+    return CSI_CL(clEnqueueFillBuffer(ctx->queue, buf, &z, 1, 0, bytes, 0, NULL, NULL));
+}
+
+csi_status csi_copy(csi_ctx *ctx, cl_mem dst, size_t dst_off, cl_mem src, size_t src_off, size_t bytes)
+{
+    if (bytes == 0)
+        return CSI_OK;
+    return CSI_CL(clEnqueueCopyBuffer(ctx->queue, src, dst, src_off, dst_off, bytes, 0, NULL, NULL));
+}
+
+csi_status csi_run(csi_ctx *ctx, cl_kernel k, cl_uint dims, const size_t *global, const size_t *local)
+{
+    size_t loc[3] = {64, 1, 1}, glob[3];
+    if (dims == 2) {
+        loc[0] = 8;
+        loc[1] = 8;
+    }
+    if (local)
+        for (cl_uint d = 0; d < dims; d++)
+            loc[d] = local[d];
+    for (cl_uint d = 0; d < dims; d++) {
+        if (global[d] == 0)
+            return CSI_OK; /* nothing to do */
+        glob[d] = (global[d] + loc[d] - 1) / loc[d] * loc[d];
+    }
+    cl_int err = clEnqueueNDRangeKernel(ctx->queue, k, dims, NULL, glob, loc, 0, NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char kname[128] = "?";
+        clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof kname, kname, NULL);
+        csi_status st = CSI_CL(err);
+        return csi_fail_context(st, "launching kernel %s: ", kname);
+    }
+    return CSI_OK;
+}
+
+csi_status csi_run1d(csi_ctx *ctx, cl_kernel k, size_t n)
+{
+    return csi_run(ctx, k, 1, &n, NULL);
+}
+
+csi_status csi_finish(csi_ctx *ctx) { return CSI_CL(clFinish(ctx->queue)); }
+
+csi_status csi_set_args(cl_kernel k, const char *name, ...)
+{
+    va_list ap;
+    va_start(ap, name);
+    cl_uint i = 0;
+    for (;;) {
+        size_t sz = va_arg(ap, size_t);
+        if (sz == 0)
+            break;
+        const void *p = va_arg(ap, const void *);
+        cl_int err = clSetKernelArg(k, i, sz, p);
+        if (err != CL_SUCCESS) {
+            va_end(ap);
+            char kname[128] = "?";
+            clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof kname, kname, NULL);
+            return csi_fail(CSI_ERR_CL, "clSetKernelArg(%s, arg %u) failed with %s", kname, i,
+                            csi_cl_error_name(err));
+        }
+        i++;
+    }
+    va_end(ap);
+    return CSI_OK;
+}
+
+csi_status csi_clfft_ready(csi_ctx *ctx)
+{
+    if (ctx->clfft)
+        return CSI_OK;
+    if (csi_clfft_users == 0) {
+        clfftSetupData setup;
+        clfftStatus s = clfftInitSetupData(&setup);
+        if (s == CLFFT_SUCCESS)
+            s = clfftSetup(&setup);
+        if (s != CLFFT_SUCCESS)
+            return csi_fail(CSI_ERR_CL, "clfftSetup failed with %s", csi_clfft_error_name(s));
+    }
+    csi_clfft_users++;
+    ctx->clfft = true;
+    return CSI_OK;
+}

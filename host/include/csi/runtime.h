@@ -1,0 +1,91 @@
+/* OpenCL runtime: device choice, embedded programs built once and cached, checked calls.
+ *
+ * One csi_ctx holds a context, an in-order queue on one device, the programs built from the
+ * embedded kernels/ sources (built lazily, once per process; PoCL caches the binaries across
+ * runs), and clFFT's library state. Every OpenCL error becomes a csi_status with the call and
+ * the error's name in the message. */
+#ifndef CSI_RUNTIME_H
+#define CSI_RUNTIME_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <CL/cl.h>
+
+#include "csi/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct csi_ctx csi_ctx;
+
+/* Device selection, in this order: `spec` if non-NULL and non-empty, else the environment
+ * variable CSI_DEVICE, else the first CPU device of a platform whose name contains "Portable
+ * Computing Language" (PoCL), else the first device of any kind. A spec is a case-insensitive
+ * substring matched against "platform name / device name"; "list" is not a device.
+ * Also: CSI_CACHE_DIR (if set) becomes POCL_CACHE_DIR and holds clFFT's kernel cache; otherwise
+ * clFFT's cache goes to $XDG_CACHE_HOME/csi/clfft or ~/.cache/csi/clfft unless
+ * CLFFT_CACHE_PATH is already set. */
+csi_status csi_ctx_create(csi_ctx **out, const char *spec);
+void csi_ctx_release(csi_ctx *ctx);
+
+/* Lists every platform/device pair as lines "platform / device (type)" into buf. */
+csi_status csi_list_devices(char *buf, size_t len);
+
+cl_context csi_ctx_context(const csi_ctx *ctx);
+cl_command_queue csi_ctx_queue(const csi_ctx *ctx);
+cl_device_id csi_ctx_device(const csi_ctx *ctx);
+const char *csi_ctx_device_name(const csi_ctx *ctx); /* "platform / device" */
+size_t csi_ctx_max_alloc(const csi_ctx *ctx);        /* CL_DEVICE_MAX_MEM_ALLOC_SIZE */
+uint64_t csi_ctx_global_mem(const csi_ctx *ctx);     /* CL_DEVICE_GLOBAL_MEM_SIZE */
+
+/* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(-NN)". */
+const char *csi_cl_error_name(cl_int err);
+/* The name of a clFFT status (clFFT codes extend OpenCL's). */
+const char *csi_clfft_error_name(int err);
+
+/* Records and returns a CSI_ERR_CL failure naming the call and error, when err != CL_SUCCESS. */
+csi_status csi_cl_check(cl_int err, const char *call, const char *file, int line);
+#define CSI_CL(call) csi_cl_check((call), #call, __FILE__, __LINE__)
+#define CSI_CL_TRY(call) CSI_TRY(CSI_CL(call))
+
+/* The kernel `kernel` from program `program` (the stem of kernels/<program>.cl), built on first
+ * use. The returned object is owned by ctx; callers set arguments and enqueue it, never release
+ * it. Single-threaded use of one ctx is assumed. */
+csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_kernel *out);
+
+/* Buffers. Refuses sizes over the device's single-allocation limit with a message naming the
+ * size, the limit and `what`; zero-size requests allocate one element so callers need no cases. */
+csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char *what, cl_mem *out);
+void csi_buffer_release(cl_mem *buf); /* releases and sets to NULL; NULL is fine */
+csi_status csi_write(csi_ctx *ctx, cl_mem dst, size_t offset, size_t bytes, const void *src);
+csi_status csi_read(csi_ctx *ctx, cl_mem src, size_t offset, size_t bytes, void *dst);
+csi_status csi_fill_zero(csi_ctx *ctx, cl_mem buf, size_t bytes);
+csi_status csi_copy(csi_ctx *ctx, cl_mem dst, size_t dst_off, cl_mem src, size_t src_off, size_t bytes);
+
+/* Enqueues a kernel over `global` work-items in 1, 2 or 3 dimensions with an explicit local
+ * size (PoCL otherwise may run one huge group on one core). The global size is rounded up to a
+ * multiple of the local size, so kernels must check their bounds. local may be NULL for the
+ * default (64 in x, 1 elsewhere; 8x8 for 2-D). */
+csi_status csi_run(csi_ctx *ctx, cl_kernel k, cl_uint dims, const size_t *global, const size_t *local);
+csi_status csi_run1d(csi_ctx *ctx, cl_kernel k, size_t n);
+csi_status csi_finish(csi_ctx *ctx);
+
+/* Sets kernel arguments in order. Each argument is given as a (size, pointer) pair; ends with
+ * a 0 size. Prefer the CSI_ARGS macro: CSI_ARGS(k, CSI_MEM(buf), CSI_U32(n), CSI_F32(a)). */
+csi_status csi_set_args(cl_kernel k, const char *name, ...);
+#define CSI_MEM(m) sizeof(cl_mem), (const void *)&(m)
+#define CSI_ARG(v) sizeof(v), (const void *)&(v)
+#define CSI_LOCAL(bytes) (size_t)(bytes), (const void *)NULL
+#define CSI_ARGS(k, ...) csi_set_args((k), #k, __VA_ARGS__, (size_t)0)
+
+/* clFFT's library state for this ctx (clfftSetup once per process; torn down by the last ctx
+ * released). Modules that make plans call this first. */
+csi_status csi_clfft_ready(csi_ctx *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
