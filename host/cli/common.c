@@ -1,0 +1,136 @@
+#include "common.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+int cli_exit_code(csi_status st)
+{
+    switch (st) {
+    case CSI_OK: return CLI_EXIT_OK;
+    case CSI_ERR_ARG:
+    case CSI_ERR_IO:
+    case CSI_ERR_FORMAT:
+    case CSI_ERR_SCENE:
+    case CSI_ERR_DEVICE:
+        return CLI_EXIT_USAGE;
+    default:
+        return CLI_EXIT_FAIL;
+    }
+}
+
+int cli_error(const char *prog, csi_status st, const char *fmt, ...)
+{
+    char msg[4096];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    /* One line: fold any newline a library message might carry. */
+    for (char *p = msg; *p; p++)
+        if (*p == '\n' || *p == '\r')
+            *p = ' ';
+    fprintf(stderr, "%s: error: %s\n", prog, msg);
+    return st == CSI_OK ? CLI_EXIT_USAGE : cli_exit_code(st);
+}
+
+bool cli_parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out)
+{
+    if (!s || !*s || *s == '-' || *s == '+')
+        return false;
+    errno = 0;
+    char *end;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || *end || v < lo || v > hi)
+        return false;
+    *out = v;
+    return true;
+}
+
+bool cli_parse_double(const char *s, double lo, double hi, double *out)
+{
+    if (!s || !*s)
+        return false;
+    errno = 0;
+    char *end;
+    double v = strtod(s, &end);
+    if (errno || *end || !isfinite(v) || v < lo || v > hi)
+        return false;
+    *out = v;
+    return true;
+}
+
+bool cli_parse_size(const char *s, uint32_t *w, uint32_t *h)
+{
+    if (!s)
+        return false;
+    const char *x = strchr(s, 'x');
+    if (!x)
+        return false;
+    char a[32];
+    size_t n = (size_t)(x - s);
+    if (n == 0 || n >= sizeof a)
+        return false;
+    memcpy(a, s, n);
+    a[n] = '\0';
+    uint64_t vw, vh;
+    if (!cli_parse_u64(a, 1, 1u << 20, &vw) || !cli_parse_u64(x + 1, 1, 1u << 20, &vh))
+        return false;
+    *w = (uint32_t)vw;
+    *h = (uint32_t)vh;
+    return true;
+}
+
+double cli_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void cli_progress_init(cli_progress *p, bool quiet)
+{
+    memset(p, 0, sizeof *p);
+    p->enabled = !quiet && isatty(STDERR_FILENO);
+    p->start = cli_now();
+    p->last = -1;
+}
+
+void cli_progress_update(cli_progress *p, const char *phase, double fraction, const char *detail)
+{
+    if (!p->enabled)
+        return;
+    double now = cli_now();
+    bool new_phase = strncmp(p->phase, phase, sizeof p->phase - 1) != 0;
+    if (!new_phase && now - p->last < 0.1 && fraction < 1.0)
+        return;
+    p->last = now;
+    snprintf(p->phase, sizeof p->phase, "%s", phase);
+    char bar[32] = "";
+    if (fraction >= 0) {
+        if (fraction > 1)
+            fraction = 1;
+        int filled = (int)(fraction * 20 + 0.5);
+        bar[0] = '[';
+        for (int i = 0; i < 20; i++)
+            bar[1 + i] = i < filled ? '#' : '.';
+        bar[21] = ']';
+        bar[22] = '\0';
+    }
+    fprintf(stderr, "\r\033[K%-14s %s %s  %.1fs", phase, bar, detail ? detail : "", now - p->start);
+    fflush(stderr);
+}
+
+void cli_progress_end(cli_progress *p)
+{
+    if (p->enabled && p->last >= 0) {
+        fprintf(stderr, "\r\033[K");
+        fflush(stderr);
+    }
+    p->last = -1;
+}

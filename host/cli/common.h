@@ -1,0 +1,41 @@
+/* Shared by the command-line programs: option parsing helpers, the progress bar, exit codes. */
+#ifndef CSI_CLI_COMMON_H
+#define CSI_CLI_COMMON_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "csi/status.h"
+
+/* Exit codes: 0 success, 2 bad input or usage (the user can fix it), 1 anything else. */
+enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
+
+/* Prints "prog: error: message" on one line and returns the exit code for st. */
+int cli_error(const char *prog, csi_status st, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/* Exit code for a library failure: input problems -> 2, the rest -> 1. */
+int cli_exit_code(csi_status st);
+
+/* Strict number parsing: the whole string must be a number in [lo, hi]. */
+bool cli_parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
+bool cli_parse_double(const char *s, double lo, double hi, double *out);
+/* "WxH" -> w, h (both >= 1). */
+bool cli_parse_size(const char *s, uint32_t *w, uint32_t *h);
+
+/* Progress on stderr: drawn only when stderr is a terminal and not quiet; at most ~10 redraws
+ * a second; cleared by cli_progress_end. */
+typedef struct cli_progress {
+    bool enabled;
+    double start, last;
+    char phase[48];
+} cli_progress;
+void cli_progress_init(cli_progress *p, bool quiet);
+/* fraction < 0: unknown (spinner-free text only). detail: free text such as "iter 12 res 3e-3". */
+void cli_progress_update(cli_progress *p, const char *phase, double fraction, const char *detail);
+void cli_progress_end(cli_progress *p);
+double cli_now(void); /* seconds, monotonic */
+
+#endif
