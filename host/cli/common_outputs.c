@@ -1,0 +1,139 @@
+#include "outputs.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "csi/image.h"
+
+static csi_status check_dir_of(const char *path, const char *what)
+{
+    if (!path)
+        return CSI_OK;
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == dir)
+        dir[1] = '\0';
+    else
+        *slash = '\0';
+    struct stat sb;
+    if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode))
+        return csi_fail(CSI_ERR_IO, "%s: cannot write %s: directory %s does not exist", path, what, dir);
+    if (access(dir, W_OK) != 0)
+        return csi_fail(CSI_ERR_IO, "%s: cannot write %s: directory %s is not writable", path, what, dir);
+    return CSI_OK;
+}
+
+csi_status cli_outputs_check(const cli_outputs *o)
+{
+    CSI_TRY(check_dir_of(o->exr, "the image"));
+    CSI_TRY(check_dir_of(o->png, "the preview"));
+    CSI_TRY(check_dir_of(o->stats, "the statistics"));
+    if (o->frames_dir) {
+        struct stat sb;
+        if (stat(o->frames_dir, &sb) != 0) {
+            if (mkdir(o->frames_dir, 0755) != 0)
+                return csi_fail(CSI_ERR_IO, "%s: cannot create the frames directory: %s", o->frames_dir,
+                                strerror(errno));
+        } else if (!S_ISDIR(sb.st_mode)) {
+            return csi_fail(CSI_ERR_IO, "%s: not a directory (for --frames)", o->frames_dir);
+        }
+        if (access(o->frames_dir, W_OK) != 0)
+            return csi_fail(CSI_ERR_IO, "%s: frames directory is not writable", o->frames_dir);
+    }
+    return CSI_OK;
+}
+
+void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_result *r)
+{
+    csi_json_str(j, "solver", csi_solver_kind_name(r->solver));
+    csi_json_int(j, "k", (int64_t)r->k);
+    csi_json_int(j, "n", (int64_t)r->n);
+    csi_json_num(j, "sampling_fraction", r->k ? (double)r->n / (double)r->k : 0);
+    csi_json_str(j, "wavelet", csi_wavelet_name(opt->wavelet));
+    csi_json_num(j, "lambda", opt->lambda);
+    csi_json_num(j, "sigma_scale", opt->sigma_scale);
+    csi_json_str(j, "integrate", csi_aa_output_name(opt->output));
+    csi_json_num(j, "t_setup_s", r->t_setup);
+    csi_json_num(j, "t_solve_s", r->t_solve);
+    csi_json_num(j, "t_integrate_s", r->t_integrate);
+    csi_json_begin(j, "channels");
+    static const char *names[4] = {"0", "1", "2", "3"};
+    for (uint32_t c = 0; c < r->channels; c++) {
+        const csi_solve_report *p = &r->report[c];
+        csi_json_begin(j, names[c]);
+        csi_json_bool(j, "converged", p->converged);
+        csi_json_str(j, "reason", csi_solve_reason_name(p->reason));
+        csi_json_str(j, "message", p->message);
+        csi_json_int(j, "iterations", p->iterations);
+        csi_json_int(j, "inner_iterations", p->inner_iterations);
+        csi_json_num(j, "rel_residual", p->rel_residual);
+        csi_json_num(j, "objective", p->objective);
+        csi_json_int(j, "support", (int64_t)p->support);
+        csi_json_num(j, "t_total_s", p->t_total);
+        csi_json_end(j);
+    }
+    csi_json_end(j);
+}
+
+static csi_status write_one(const char *exr, const char *png, const float *planes, uint32_t w,
+                            uint32_t h, uint32_t channels, const csi_attr *attrs, size_t nattrs)
+{
+    csi_image img = {0};
+    CSI_TRY(csi_image_alloc(&img, w, h, channels));
+    memcpy(img.data, planes, (size_t)w * h * channels * sizeof(float));
+    csi_status s = CSI_OK;
+    if (exr)
+        s = csi_exr_write(exr, &img, attrs, nattrs);
+    if (s == CSI_OK && png)
+        s = csi_png_write(png, &img);
+    csi_image_free(&img);
+    return s;
+}
+
+csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
+                            const csi_recon_result *r, const char *method)
+{
+    double iters = 0, resid = 0;
+    for (uint32_t c = 0; c < r->channels; c++) {
+        iters += r->report[c].iterations;
+        if (r->report[c].rel_residual > resid)
+            resid = r->report[c].rel_residual;
+    }
+    char ver[64];
+    snprintf(ver, sizeof ver, "csi %s", CSI_VERSION);
+    csi_attr attrs[] = {
+        {.name = "csi:software", .type = CSI_ATTR_STRING, .s = ver},
+        {.name = "csi:method", .type = CSI_ATTR_STRING, .s = method},
+        {.name = "csi:solver", .type = CSI_ATTR_STRING, .s = csi_solver_kind_name(r->solver)},
+        {.name = "csi:wavelet", .type = CSI_ATTR_STRING, .s = csi_wavelet_name(opt->wavelet)},
+        {.name = "csi:integrate", .type = CSI_ATTR_STRING, .s = csi_aa_output_name(opt->output)},
+        {.name = "csi:lambda", .type = CSI_ATTR_FLOAT, .f = opt->lambda},
+        {.name = "csi:samples", .type = CSI_ATTR_DOUBLE, .f = (double)r->n},
+        {.name = "csi:unknowns", .type = CSI_ATTR_DOUBLE, .f = (double)r->k},
+        {.name = "csi:iterations", .type = CSI_ATTR_DOUBLE, .f = iters},
+        {.name = "csi:max_rel_residual", .type = CSI_ATTR_DOUBLE, .f = resid},
+        {.name = "csi:t_solve_s", .type = CSI_ATTR_DOUBLE, .f = r->t_solve},
+        {.name = "csi:t_total_s", .type = CSI_ATTR_DOUBLE, .f = r->t_setup + r->t_solve + r->t_integrate},
+    };
+    const size_t nattrs = sizeof attrs / sizeof attrs[0];
+    CSI_TRY(write_one(o->exr, o->png, r->image, r->out_w, r->out_h, r->channels, attrs, nattrs));
+    if (o->frames_dir && r->nframes) {
+        const size_t plane = (size_t)r->out_w * r->out_h * r->channels;
+        for (uint32_t t = 0; t < r->nframes; t++) {
+            char exr[PATH_MAX], png[PATH_MAX];
+            snprintf(exr, sizeof exr, "%s/frame_%04u.exr", o->frames_dir, t);
+            snprintf(png, sizeof png, "%s/frame_%04u.png", o->frames_dir, t);
+            CSI_TRY(write_one(exr, png, r->frames + t * plane, r->out_w, r->out_h, r->channels, attrs,
+                              nattrs));
+        }
+    }
+    return CSI_OK;
+}

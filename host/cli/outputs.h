@@ -1,0 +1,23 @@
+/* Writing a reconstruction's outputs (EXR with metadata, PNG preview, frames, stats JSON):
+ * shared by csi-reconstruct and csi-render so both write the same files the same way. */
+#ifndef CSI_CLI_OUTPUTS_H
+#define CSI_CLI_OUTPUTS_H
+
+#include "csi/reconstruct.h"
+#include "csi/stats.h"
+
+typedef struct cli_outputs {
+    const char *exr, *png, *frames_dir, *stats;
+} cli_outputs;
+
+/* Checks that every output's directory exists and is writable before any work is done. */
+csi_status cli_outputs_check(const cli_outputs *o);
+
+/* The solver's figures as EXR attributes and JSON members. */
+void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_result *r);
+
+/* Writes the image (and frames) with attributes describing the run. */
+csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
+                            const csi_recon_result *r, const char *method);
+
+#endif

@@ -1,0 +1,80 @@
+/* Compressive reconstruction of an image (or an x,y,t volume) from point samples on a fine grid:
+ * the paper's Alg. 1 (antialiasing) and Alg. 2 (motion blur), end to end on the device.
+ *
+ *   grid.t == 1  Alg. 1: A = S Phi^-1 Psi (sampling, Wiener-inverted Gaussian, Daubechies
+ *                wavelet synthesis); solve for the wavelet coefficients of the filtered image
+ *                f_b; box-integrate f_b (the paper's estimator) or Phi^-1 f_b (csi's sharper
+ *                option) over each output pixel.
+ *   grid.t  > 1  Alg. 2: A = S F3^H (3-D orthonormal Fourier basis over x, y, t); solve for the
+ *                complex coefficients; f = Re(F3^H x); the image is the mean of f over t, box-
+ *                integrated to the output size; optionally every frame too (Sec. 6.1).
+ *
+ * Channels are independent right-hand sides over one operator built once. Images are planar
+ * (channel-major) float32, out_w * out_h per plane. */
+#ifndef CSI_RECONSTRUCT_H
+#define CSI_RECONSTRUCT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/runtime.h"
+#include "csi/samples.h"
+#include "csi/solve.h"
+#include "csi/wavelet.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum { CSI_SOLVER_DEFAULT = 0, CSI_SOLVER_ROMP, CSI_SOLVER_SPARSA } csi_solver_kind;
+const char *csi_solver_kind_name(csi_solver_kind k);
+csi_status csi_solver_kind_parse(const char *s, csi_solver_kind *out);
+
+/* Which signal Alg. 1 integrates over each pixel. */
+typedef enum {
+    CSI_AA_FILTERED = 0, /* the paper's: the filtered estimate f_b = Psi x (biased: blurred) */
+    CSI_AA_SHARP,        /* Phi^-1 f_b, the estimate of f the samples constrain */
+} csi_aa_output;
+const char *csi_aa_output_name(csi_aa_output o);
+csi_status csi_aa_output_parse(const char *s, csi_aa_output *out);
+
+typedef struct csi_recon_options {
+    csi_solver_kind solver;       /* DEFAULT: the measured best per method (docs/BENCHMARKS.md) */
+    csi_wavelet_family wavelet;   /* Alg. 1 basis, default db4 */
+    int levels;                   /* 0: csi_wavelet_default_levels */
+    float lambda;                 /* Wiener regularisation, default 0.3 (the paper's) */
+    double sigma_scale;           /* multiplies the paper's sigma_Phi, default 1 */
+    csi_aa_output output;         /* default CSI_AA_FILTERED (the paper's) */
+    double tol;                   /* solver tolerance; 0: the solver's default */
+    int max_iter;                 /* 0: the solver's default */
+    double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: default */
+    size_t romp_s;                /* ROMP sparsity; 0: default from N */
+    bool frames;                  /* grid.t > 1: also return every frame */
+    csi_progress_fn progress;     /* phase names: "setup", "solve R" ..., "integrate" */
+    void *user;
+} csi_recon_options;
+void csi_recon_defaults(csi_recon_options *o);
+
+typedef struct csi_recon_result {
+    uint32_t out_w, out_h, channels;
+    uint32_t nframes;       /* grid.t when frames were asked for, else 0 */
+    float *image;           /* out_w * out_h * channels, planar */
+    float *frames;          /* nframes * channels * out_w * out_h (frame-major, then planar) */
+    csi_solver_kind solver; /* the solver used */
+    csi_solve_report report[4];
+    double t_setup, t_solve, t_integrate; /* seconds */
+    size_t k, n;            /* unknowns and measurements per channel */
+} csi_recon_result;
+void csi_recon_result_free(csi_recon_result *r);
+
+/* values: n * channels floats, sample-major (values[i * channels + c]). Positions must be
+ * unique and inside the grid (csi_dump_read guarantees both). */
+csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
+                           const csi_sample_pos *pos, const float *values, size_t n,
+                           const csi_recon_options *opt, csi_recon_result *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

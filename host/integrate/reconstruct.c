@@ -1,0 +1,403 @@
+/* Alg. 1 and Alg. 2 of Sen & Darabi 2010 on the device: build the operator once, solve each
+ * channel, integrate. See csi/reconstruct.h. */
+#include "csi/reconstruct.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <time.h>
+
+#include "csi/integrate_ops.h"
+#include "csi/linop.h"
+#include "csi/sampling.h"
+#include "csi/spectral.h"
+#include "csi/vec.h"
+
+const char *csi_solver_kind_name(csi_solver_kind k)
+{
+    switch (k) {
+    case CSI_SOLVER_ROMP: return "romp";
+    case CSI_SOLVER_SPARSA: return "sparsa";
+    default: return "default";
+    }
+}
+
+csi_status csi_solver_kind_parse(const char *s, csi_solver_kind *out)
+{
+    if (s && !strcasecmp(s, "romp"))
+        *out = CSI_SOLVER_ROMP;
+    else if (s && !strcasecmp(s, "sparsa"))
+        *out = CSI_SOLVER_SPARSA;
+    else
+        return csi_fail(CSI_ERR_ARG, "unknown solver '%s' (expected romp or sparsa)", s ? s : "");
+    return CSI_OK;
+}
+
+const char *csi_aa_output_name(csi_aa_output o)
+{
+    return o == CSI_AA_SHARP ? "sharp" : "filtered";
+}
+
+csi_status csi_aa_output_parse(const char *s, csi_aa_output *out)
+{
+    if (s && !strcasecmp(s, "filtered"))
+        *out = CSI_AA_FILTERED;
+    else if (s && !strcasecmp(s, "sharp"))
+        *out = CSI_AA_SHARP;
+    else
+        return csi_fail(CSI_ERR_ARG, "unknown integration target '%s' (expected filtered or sharp)",
+                        s ? s : "");
+    return CSI_OK;
+}
+
+void csi_recon_defaults(csi_recon_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->solver = CSI_SOLVER_DEFAULT;
+    o->wavelet = CSI_WAVELET_DB4;
+    o->lambda = 0.3f;
+    o->sigma_scale = 1.0;
+    o->output = CSI_AA_FILTERED;
+}
+
+void csi_recon_result_free(csi_recon_result *r)
+{
+    if (!r)
+        return;
+    free(r->image);
+    free(r->frames);
+    r->image = r->frames = NULL;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Everything one reconstruction allocates, released in one place. */
+typedef struct {
+    csi_linop *S, *inner, *A, *Psi, *W;
+    csi_solver *solver;
+    cl_mem y, x, f, tmp, out;
+    uint32_t *idx;
+    float *plane;
+} recon_state;
+
+static void state_free(recon_state *st)
+{
+    csi_solver_free(st->solver);
+    csi_linop_free(st->A); /* owns S and inner, which own the rest (see below) */
+    if (!st->A) {
+        csi_linop_free(st->S);
+        csi_linop_free(st->inner);
+    }
+    csi_buffer_release(&st->y);
+    csi_buffer_release(&st->x);
+    csi_buffer_release(&st->f);
+    csi_buffer_release(&st->tmp);
+    csi_buffer_release(&st->out);
+    free(st->idx);
+    free(st->plane);
+}
+
+static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                               const float *values, size_t n)
+{
+    if (channels < 1 || channels > 4)
+        return csi_fail(CSI_ERR_ARG, "%u channels (expected 1 to 4)", channels);
+    if (!g->w || !g->h || !g->t || !g->out_w || !g->out_h)
+        return csi_fail(CSI_ERR_ARG, "grid %ux%ux%u -> %ux%u has a zero size", g->w, g->h, g->t,
+                        g->out_w, g->out_h);
+    if (g->w % g->out_w || g->h % g->out_h)
+        return csi_fail(CSI_ERR_ARG, "grid %ux%u is not a multiple of the output %ux%u", g->w, g->h,
+                        g->out_w, g->out_h);
+    if (n == 0)
+        return csi_fail(CSI_ERR_ARG, "no samples to reconstruct from");
+    uint64_t k = (uint64_t)g->w * g->h * g->t;
+    if (k > UINT32_MAX)
+        return csi_fail(CSI_ERR_ARG, "grid %ux%ux%u has %llu cells, over 2^32", g->w, g->h, g->t,
+                        (unsigned long long)k);
+    if (n > k)
+        return csi_fail(CSI_ERR_ARG, "%zu samples for %llu grid cells", n, (unsigned long long)k);
+    for (size_t i = 0; i < n; i++) {
+        if (pos[i].x >= g->w || pos[i].y >= g->h || pos[i].t >= g->t)
+            return csi_fail(CSI_ERR_ARG, "sample %zu at (%u, %u, %u) is outside the %ux%ux%u grid", i,
+                            pos[i].x, pos[i].y, pos[i].t, g->w, g->h, g->t);
+        for (uint32_t c = 0; c < channels; c++)
+            if (!isfinite(values[i * channels + c]))
+                return csi_fail(CSI_ERR_ARG, "sample %zu channel %u is %s", i, c,
+                                isnan(values[i * channels + c]) ? "NaN" : "infinite");
+    }
+    return CSI_OK;
+}
+
+static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_recon_options *opt,
+                             const char *phase, csi_solve_report *rep)
+{
+    if (kind == CSI_SOLVER_ROMP) {
+        csi_romp_options o;
+        csi_romp_defaults(&o);
+        if (opt->tol > 0)
+            o.tol = opt->tol;
+        if (opt->max_iter > 0)
+            o.max_iter = opt->max_iter;
+        if (opt->romp_s > 0)
+            o.s = opt->romp_s;
+        o.progress = opt->progress;
+        o.user = opt->user;
+        (void)phase;
+        return csi_romp_run(st->solver, st->y, st->x, &o, rep);
+    }
+    csi_sparsa_options o;
+    csi_sparsa_defaults(&o);
+    if (opt->tol > 0)
+        o.tol = opt->tol;
+    if (opt->max_iter > 0)
+        o.max_iter = opt->max_iter;
+    if (opt->tau_rel > 0)
+        o.tau_rel = opt->tau_rel;
+    o.progress = opt->progress;
+    o.user = opt->user;
+    return csi_sparsa_run(st->solver, st->y, st->x, &o, rep);
+}
+
+static void report_progress(const csi_recon_options *opt, const char *phase)
+{
+    if (opt->progress)
+        opt->progress(opt->user, phase, 0, -1.0);
+}
+
+static csi_status finish_nan_check(const float *a, size_t n, const char *what)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(a[i]))
+            return csi_fail(CSI_ERR_NUMERIC, "the reconstructed %s has a non-finite value at %zu", what, i);
+    return CSI_OK;
+}
+
+/* Alg. 1. */
+static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                            const csi_sample_pos *pos, const float *values, size_t n,
+                            const csi_recon_options *opt, csi_recon_result *res, recon_state *st)
+{
+    const size_t w = g->w, h = g->h, k = w * h;
+    const size_t dims[3] = {w, h, 1};
+    double sphi[3] = {0, 0, 0};
+    csi_gauss_sigmas(w, g->out_w, &sphi[0], NULL);
+    csi_gauss_sigmas(h, g->out_h, &sphi[1], NULL);
+    sphi[0] *= opt->sigma_scale;
+    sphi[1] *= opt->sigma_scale;
+    int levels = opt->levels > 0 ? opt->levels : csi_wavelet_default_levels(opt->wavelet, w, h);
+    if (levels < 1)
+        return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,
+                        csi_wavelet_name(opt->wavelet));
+
+    st->idx = malloc(n * sizeof *st->idx);
+    if (!st->idx)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu sample indices", n);
+    for (size_t i = 0; i < n; i++)
+        st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
+
+    /* A = S . (Phi^-1 . Psi); the compositions own their parts. */
+    csi_linop *Psi = NULL, *W = NULL, *WPsi = NULL;
+    CSI_TRY(csi_wavelet_create(ctx, opt->wavelet, w, h, levels, &Psi));
+    csi_status s = csi_filter_create(ctx, dims, sphi, CSI_FILTER_WIENER, opt->lambda, &W);
+    if (s == CSI_OK)
+        s = csi_linop_compose("Phi^-1 Psi", W, Psi, true, &WPsi);
+    if (s != CSI_OK) {
+        csi_linop_free(W);
+        csi_linop_free(Psi);
+        return s;
+    }
+    st->inner = WPsi;
+    st->Psi = Psi; /* borrowed from WPsi */
+    st->W = W;     /* borrowed from WPsi */
+    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, false, &st->S));
+    CSI_TRY(csi_linop_compose("S Phi^-1 Psi", st->S, st->inner, true, &st->A));
+    CSI_TRY(csi_solver_create(st->A, &st->solver));
+
+    CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
+    CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
+    CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the fine image", &st->f));
+    CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the sharpened image", &st->tmp));
+    const size_t np = (size_t)g->out_w * g->out_h;
+    CSI_TRY(csi_buffer(ctx, np * sizeof(float), CL_MEM_READ_WRITE, "the output image", &st->out));
+    st->plane = malloc(n * sizeof(float));
+    if (!st->plane)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+    res->t_setup = now_s();
+
+    double t_solve = 0, t_int = 0;
+    for (uint32_t c = 0; c < channels; c++) {
+        for (size_t i = 0; i < n; i++)
+            st->plane[i] = values[i * channels + c];
+        CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
+        CSI_TRY(csi_fill_zero(ctx, st->x, k * sizeof(float)));
+        static const char *phase[4] = {"solve 1/", "solve 2/", "solve 3/", "solve 4/"};
+        double t0 = now_s();
+        CSI_TRY(run_solver(st, res->solver, opt, phase[c], &res->report[c]));
+        CSI_TRY(csi_finish(ctx));
+        double t1 = now_s();
+        t_solve += t1 - t0;
+        report_progress(opt, "integrate");
+        CSI_TRY(csi_linop_apply(st->Psi, st->x, st->f)); /* f_b = Psi x */
+        cl_mem src = st->f;
+        if (opt->output == CSI_AA_SHARP) {
+            CSI_TRY(csi_linop_apply(st->W, st->f, st->tmp)); /* Phi^-1 f_b */
+            src = st->tmp;
+        }
+        CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
+        CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), res->image + (size_t)c * np));
+        t_int += now_s() - t1;
+    }
+    res->t_solve = t_solve;
+    res->t_integrate = t_int;
+    return finish_nan_check(res->image, np * channels, "image");
+}
+
+/* Alg. 2 and Sec. 6.1. */
+static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                         const csi_sample_pos *pos, const float *values, size_t n,
+                         const csi_recon_options *opt, csi_recon_result *res, recon_state *st)
+{
+    const size_t w = g->w, h = g->h, T = g->t, k = w * h * T, wh = w * h;
+    const size_t dims[3] = {w, h, T};
+    if (res->solver == CSI_SOLVER_ROMP)
+        return csi_fail(CSI_ERR_ARG, "ROMP is real-valued and the 3-D Fourier problem is complex: "
+                                     "use --solver sparsa for a volume (grid_t = %zu)", T);
+    st->idx = malloc(n * sizeof *st->idx);
+    if (!st->idx)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu sample indices", n);
+    for (size_t i = 0; i < n; i++)
+        st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
+
+    csi_linop *F = NULL;
+    CSI_TRY(csi_fourier_create(ctx, dims, &F));
+    st->inner = F;
+    st->Psi = F;
+    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, true, &st->S));
+    CSI_TRY(csi_linop_compose("S F3^H", st->S, st->inner, true, &st->A));
+    CSI_TRY(csi_solver_create(st->A, &st->solver));
+
+    CSI_TRY(csi_buffer(ctx, n * 8, CL_MEM_READ_WRITE, "the measurements", &st->y));
+    CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the Fourier coefficients", &st->x));
+    CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the reconstructed volume", &st->f));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the real volume", &st->tmp));
+    const size_t np = (size_t)g->out_w * g->out_h;
+    CSI_TRY(csi_buffer(ctx, (np > wh ? np : wh) * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
+    cl_mem mean = NULL, slice = NULL, real_y = NULL;
+    csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "the time mean", &mean);
+    if (s == CSI_OK)
+        s = csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the real measurements", &real_y);
+    if (s == CSI_OK && opt->frames)
+        s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "a frame", &slice);
+    st->plane = malloc(n * sizeof(float));
+    if (s == CSI_OK && !st->plane)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+    cl_kernel r2c = NULL, c2r = NULL;
+    if (s == CSI_OK)
+        s = csi_kernel(ctx, "recon", "csi_real_to_complex", &r2c);
+    if (s == CSI_OK)
+        s = csi_kernel(ctx, "recon", "csi_complex_real", &c2r);
+    res->t_setup = now_s();
+
+    double t_solve = 0, t_int = 0;
+    for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
+        for (size_t i = 0; i < n; i++)
+            st->plane[i] = values[i * channels + c];
+        cl_uint nn = (cl_uint)n, nk = (cl_uint)k;
+        s = csi_write(ctx, real_y, 0, n * 4, st->plane);
+        if (s == CSI_OK)
+            s = CSI_ARGS(r2c, CSI_MEM(real_y), CSI_MEM(st->y), CSI_ARG(nn));
+        if (s == CSI_OK)
+            s = csi_run1d(ctx, r2c, n);
+        if (s == CSI_OK)
+            s = csi_fill_zero(ctx, st->x, k * 8);
+        double t0 = now_s();
+        if (s == CSI_OK)
+            s = run_solver(st, res->solver, opt, "solve", &res->report[c]);
+        if (s == CSI_OK)
+            s = csi_finish(ctx);
+        double t1 = now_s();
+        t_solve += t1 - t0;
+        report_progress(opt, "integrate");
+        if (s == CSI_OK)
+            s = csi_linop_apply(st->Psi, st->x, st->f);
+        if (s == CSI_OK)
+            s = CSI_ARGS(c2r, CSI_MEM(st->f), CSI_MEM(st->tmp), CSI_ARG(nk));
+        if (s == CSI_OK)
+            s = csi_run1d(ctx, c2r, k);
+        if (s == CSI_OK)
+            s = csi_time_mean(ctx, st->tmp, g->w, g->h, g->t, 1, mean);
+        if (s == CSI_OK)
+            s = csi_box_integrate(ctx, mean, g->w, g->h, 1, g->out_w, g->out_h, st->out);
+        if (s == CSI_OK)
+            s = csi_read(ctx, st->out, 0, np * 4, res->image + (size_t)c * np);
+        for (size_t t = 0; opt->frames && t < T && s == CSI_OK; t++) {
+            s = csi_copy(ctx, slice, 0, st->tmp, t * wh * 4, wh * 4);
+            if (s == CSI_OK)
+                s = csi_box_integrate(ctx, slice, g->w, g->h, 1, g->out_w, g->out_h, st->out);
+            if (s == CSI_OK)
+                s = csi_read(ctx, st->out, 0, np * 4, res->frames + (t * channels + c) * np);
+        }
+        t_int += now_s() - t1;
+    }
+    csi_buffer_release(&mean);
+    csi_buffer_release(&slice);
+    csi_buffer_release(&real_y);
+    CSI_TRY(s);
+    res->t_solve = t_solve;
+    res->t_integrate = t_int;
+    CSI_TRY(finish_nan_check(res->image, np * channels, "image"));
+    if (opt->frames)
+        CSI_TRY(finish_nan_check(res->frames, np * channels * T, "frames"));
+    return CSI_OK;
+}
+
+csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
+                           const csi_sample_pos *pos, const float *values, size_t n,
+                           const csi_recon_options *opt_in, csi_recon_result *out)
+{
+    memset(out, 0, sizeof *out);
+    csi_recon_options opt;
+    if (opt_in)
+        opt = *opt_in;
+    else
+        csi_recon_defaults(&opt);
+    if (!(opt.lambda > 0) || !isfinite(opt.lambda))
+        return csi_fail(CSI_ERR_ARG, "lambda must be a finite number > 0 (got %g)", (double)opt.lambda);
+    if (!(opt.sigma_scale > 0) || !isfinite(opt.sigma_scale))
+        return csi_fail(CSI_ERR_ARG, "sigma scale must be a finite number > 0 (got %g)", opt.sigma_scale);
+    CSI_TRY(check_inputs(grid, channels, pos, values, n));
+
+    const size_t np = (size_t)grid->out_w * grid->out_h;
+    out->out_w = grid->out_w;
+    out->out_h = grid->out_h;
+    out->channels = channels;
+    out->k = (size_t)grid->w * grid->h * grid->t;
+    out->n = n;
+    out->solver = opt.solver != CSI_SOLVER_DEFAULT ? opt.solver : CSI_SOLVER_SPARSA;
+    out->image = calloc(np * channels, sizeof(float));
+    if (grid->t > 1 && opt.frames) {
+        out->nframes = grid->t;
+        out->frames = calloc(np * channels * grid->t, sizeof(float));
+    }
+    if (!out->image || (out->nframes && !out->frames)) {
+        csi_recon_result_free(out);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the output image");
+    }
+    recon_state st;
+    memset(&st, 0, sizeof st);
+    double t0 = now_s();
+    report_progress(&opt, "setup");
+    csi_status s = grid->t == 1 ? antialias(ctx, grid, channels, pos, values, n, &opt, out, &st)
+                                : motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
+    out->t_setup = out->t_setup > t0 ? out->t_setup - t0 : 0;
+    state_free(&st);
+    if (s != CSI_OK)
+        csi_recon_result_free(out);
+    return s;
+}
