@@ -319,12 +319,50 @@ typedef struct {
     int64_t *next;      /* per sample: next in its cell */
     csi_sample_pos *pts;
     size_t n;
+    /* Small radii: an occupancy bitmap of the grid and the list of integer offsets closer than
+     * r, so a test is a few bit lookups instead of walking the accelerator's neighbour cells
+     * (which is memory-bound when the candidates come in random order). */
+    uint64_t *bits;     /* k bits, or NULL when the accelerator is used */
+    int32_t (*off)[3];  /* offsets (dx, dy, dt) with 0 < |d|^2 < r^2 */
+    size_t noff;
 } pd_state;
+
+/* Bitmap path limits: at most this many offsets (r^2 <= ~9 in 3-D, ~40 in 2-D) and a bitmap
+ * of at most 2^30 cells (128 MiB). */
+#define PD_MAX_OFFSETS 128
+#define PD_MAX_BITMAP_CELLS (UINT64_C(1) << 30)
+
+static csi_status pd_offsets(pd_state *s)
+{
+    const int R = (int)ceil(s->r);
+    const int tr = s->dims == 3 ? R : 0;
+    size_t n = 0;
+    for (int dt = -tr; dt <= tr; dt++)
+        for (int dy = -R; dy <= R; dy++)
+            for (int dx = -R; dx <= R; dx++) {
+                double d2 = (double)dx * dx + (double)dy * dy + (double)dt * dt;
+                if (d2 > 0 && d2 < s->r2) {
+                    if (n == PD_MAX_OFFSETS) {
+                        s->noff = 0;
+                        return CSI_OK; /* too many: use the accelerator */
+                    }
+                    s->off[n][0] = dx, s->off[n][1] = dy, s->off[n][2] = dt;
+                    n++;
+                }
+            }
+    s->noff = n;
+    return CSI_OK;
+}
 
 static csi_status pd_rebuild(pd_state *s, double r)
 {
     s->r = r;
     s->r2 = r * r;
+    if (s->bits) {
+        CSI_TRY(pd_offsets(s));
+        if (s->noff > 0)
+            return CSI_OK;
+    }
     double c = ceil(r);
     s->cs = c < 1 ? 1 : (uint32_t)c;
     s->ax = (s->g->w + s->cs - 1) / s->cs;
@@ -344,6 +382,22 @@ static csi_status pd_rebuild(pd_state *s, double r)
         s->head[a] = (int64_t)i;
     }
     return CSI_OK;
+}
+
+static bool pd_accept_bits(const pd_state *s, csi_sample_pos p, uint64_t lin)
+{
+    if (s->bits[lin >> 6] >> (lin & 63) & 1)
+        return false;
+    const int64_t W = s->g->w, H = s->g->h, T = s->g->t;
+    for (size_t i = 0; i < s->noff; i++) {
+        int64_t x = (int64_t)p.x + s->off[i][0], y = (int64_t)p.y + s->off[i][1], t = (int64_t)p.t + s->off[i][2];
+        if (x < 0 || y < 0 || t < 0 || x >= W || y >= H || t >= T)
+            continue;
+        uint64_t q = ((uint64_t)t * (uint64_t)H + (uint64_t)y) * (uint64_t)W + (uint64_t)x;
+        if (s->bits[q >> 6] >> (q & 63) & 1)
+            return false;
+    }
+    return true;
 }
 
 static bool pd_accept(const pd_state *s, csi_sample_pos p)
@@ -391,6 +445,14 @@ static csi_status poisson(const csi_grid *g, const csi_pos_opts *o, uint64_t *li
         st = csi_fail(CSI_ERR_NOMEM, "out of memory for %zu positions", N);
         goto done;
     }
+    if (k <= PD_MAX_BITMAP_CELLS) {
+        s.bits = calloc((size_t)((k + 63) / 64), sizeof *s.bits);
+        s.off = malloc(PD_MAX_OFFSETS * sizeof *s.off);
+        if (!s.bits || !s.off) {
+            free(s.bits);
+            s.bits = NULL; /* fall back to the accelerator */
+        }
+    }
     double r = 0.7 * rmax;
     while (s.n < N && r > 1.0) {
         if ((st = pd_rebuild(&s, r)) != CSI_OK)
@@ -398,9 +460,19 @@ static csi_status poisson(const csi_grid *g, const csi_pos_opts *o, uint64_t *li
         feistel f;
         feistel_init(&f, k, &rng);
         for (uint64_t i = 0; i < k && s.n < N; i++) {
-            const csi_sample_pos p = pos_of(g, feistel_apply(&f, i));
+            const uint64_t lin = feistel_apply(&f, i);
+            const csi_sample_pos p = pos_of(g, lin);
+            if (s.bits && s.noff > 0) {
+                if (!pd_accept_bits(&s, p, lin))
+                    continue;
+                s.bits[lin >> 6] |= UINT64_C(1) << (lin & 63);
+                s.pts[s.n++] = p;
+                continue;
+            }
             if (!pd_accept(&s, p))
                 continue;
+            if (s.bits)
+                s.bits[lin >> 6] |= UINT64_C(1) << (lin & 63);
             size_t a = ((size_t)(p.t / s.cs) * s.ay + p.y / s.cs) * s.ax + p.x / s.cs;
             s.pts[s.n] = p;
             s.next[s.n] = s.head[a];
@@ -433,6 +505,8 @@ done:
     free(s.head);
     free(s.next);
     free(s.pts);
+    free(s.bits);
+    free(s.off);
     return st;
 }
 

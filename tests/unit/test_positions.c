@@ -206,6 +206,9 @@ static int test_poisson_cases(void)
         {{40, 40, 1, 10, 10}, 0.6, 0},
         {{16, 16, 1, 4, 4}, 1.0, 0},
         {{64, 64, 1, 8, 8}, 0, 1},
+        /* large radii (over 128 integer offsets inside r): the neighbour-cell accelerator path */
+        {{128, 128, 1, 8, 8}, 0, 1},
+        {{64, 64, 16, 8, 8}, 0, 1},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         csi_pos_opts o = {.method = CSI_POS_POISSON, .fraction = cases[i].frac, .spp = cases[i].spp, .seed = 11};
@@ -218,6 +221,9 @@ static int test_poisson_cases(void)
         CHECK(sorted_unique_in_bounds(&cases[i].g, p, n) == 0, "case %zu: unique", i);
         double d = n > 1 ? min_dist(p, n) : INFINITY;
         CHECK(d >= info.radius && info.radius >= 1.0, "case %zu: min distance %g, promised %g", i, d, info.radius);
+        if (cases[i].spp == 1)
+            CHECK(info.radius >= 0.5 * info.radius_max, "case %zu: radius %g of r_max %g", i, info.radius,
+                  info.radius_max);
         free(p);
     }
     return 0;
