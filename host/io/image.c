@@ -165,7 +165,11 @@ csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr 
     EXR_STEP(exr_add_part(f, "main", EXR_STORAGE_SCANLINE, &part), "exr_add_part");
     EXR_STEP(exr_initialize_required_attr_simple(f, part, w, h, EXR_COMPRESSION_ZIP), "required attributes");
     for (uint32_t c = 0; c < nc; c++)
-        EXR_STEP(exr_add_channel(f, part, exr_names[nc - 1][c], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1),
+        /* Colour and luminance are "perceptually logarithmic" (0), alpha linear (1): only lossy
+         * codecs use the flag, but it should be right in the file. */
+        EXR_STEP(exr_add_channel(f, part, exr_names[nc - 1][c], EXR_PIXEL_FLOAT,
+                                 strcmp(exr_names[nc - 1][c], "A") == 0 ? EXR_PERCEPTUALLY_LINEAR
+                                                                        : EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1),
                  "exr_add_channel");
     for (size_t i = 0; i < nattrs; i++) {
         const csi_attr *a = &attrs[i];
