@@ -1,0 +1,97 @@
+/* Write-to-temporary-then-rename output files (see csi/outfile.h). */
+#include "csi/outfile.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+static void outfile_release(csi_outfile *of)
+{
+    free(of->path);
+    free(of->tmp);
+    of->path = of->tmp = NULL;
+    of->fp = NULL;
+    of->fd = -1;
+}
+
+csi_status csi_outfile_open(csi_outfile *of, const char *path)
+{
+    memset(of, 0, sizeof *of);
+    of->fd = -1;
+    if (!path || !*path)
+        return csi_fail(CSI_ERR_ARG, "output path is empty");
+    size_t len = strlen(path);
+    if (path[len - 1] == '/')
+        return csi_fail(CSI_ERR_IO, "%s: output path names a directory", path);
+    const char *slash = strrchr(path, '/');
+    size_t dirlen = slash ? (size_t)(slash - path) + 1 : 0;
+    /* "<dir>/.<name>.tmpXXXXXX": a hidden name in the same directory, so rename stays within
+     * one file system and is atomic. */
+    of->path = malloc(len + 1);
+    of->tmp = malloc(len + 16);
+    if (!of->path || !of->tmp) {
+        outfile_release(of);
+        return csi_fail(CSI_ERR_NOMEM, "%s: out of memory", path);
+    }
+    memcpy(of->path, path, len + 1);
+    memcpy(of->tmp, path, dirlen);
+    snprintf(of->tmp + dirlen, len + 16 - dirlen, ".%s.tmpXXXXXX", path + dirlen);
+    int fd = mkstemp(of->tmp);
+    if (fd < 0) {
+        int e = errno;
+        outfile_release(of);
+        return csi_fail(CSI_ERR_IO, "%s: cannot create a file in its directory: %s", path, strerror(e));
+    }
+    /* mkstemp makes the file 0600; give it the permissions a plain fopen would (0666 & ~umask). */
+    mode_t mask = umask(0);
+    umask(mask);
+    (void)fchmod(fd, 0666 & ~mask);
+    FILE *fp = fdopen(fd, "wb");
+    if (!fp) {
+        int e = errno;
+        close(fd);
+        unlink(of->tmp);
+        outfile_release(of);
+        return csi_fail(CSI_ERR_IO, "%s: %s", path, strerror(e));
+    }
+    of->fp = fp;
+    of->fd = fd;
+    return CSI_OK;
+}
+
+csi_status csi_outfile_commit(csi_outfile *of)
+{
+    if (!of->fp)
+        return csi_fail(CSI_ERR_ARG, "csi_outfile_commit: file is not open");
+    int err = 0;
+    if (fflush(of->fp) != 0 || ferror(of->fp))
+        err = errno ? errno : EIO;
+    if (!err && fsync(of->fd) != 0 && errno != EINVAL && errno != EROFS)
+        err = errno;
+    if (fclose(of->fp) != 0 && !err)
+        err = errno ? errno : EIO;
+    of->fp = NULL;
+    if (!err && rename(of->tmp, of->path) != 0)
+        err = errno;
+    if (err) {
+        unlink(of->tmp);
+        csi_status st = csi_fail(CSI_ERR_IO, "%s: write failed: %s", of->path, strerror(err));
+        outfile_release(of);
+        return st;
+    }
+    outfile_release(of);
+    return CSI_OK;
+}
+
+void csi_outfile_abort(csi_outfile *of)
+{
+    if (of->fp)
+        fclose(of->fp);
+    if (of->tmp)
+        unlink(of->tmp);
+    outfile_release(of);
+}
