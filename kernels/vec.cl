@@ -110,7 +110,7 @@ __kernel void vec_soft(__global const float *x, const uint n, const uint cplx, c
         soft1(x[i], t, out + i);
 }
 
-/* The SpaRSA step: out = soft(x - g / alpha, t) computed as soft(x + c * g, t), c = -1/alpha. */
+/* The SpaRSA step: out = soft(x + c g, t) (c = -1/alpha on the gradient). */
 __kernel void vec_prox_step(__global const float *x, __global const float *g, const uint n,
                             const uint cplx, const float c, const float t, __global float *out)
 {

@@ -137,17 +137,16 @@ csi_status csi_vec_soft(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, float t, cl
     return run1(ctx, k, n);
 }
 
-csi_status csi_vec_prox_step(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_mem g, float alpha,
+csi_status csi_vec_prox_step(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_mem g, float cf,
                              float t, cl_mem out)
 {
     CSI_TRY(check_n(n, "vec_prox_step"));
-    if (!(alpha > 0.0f) || isinf(alpha) || !(t >= 0.0f) || isinf(t))
-        return csi_fail(CSI_ERR_ARG, "proximal step needs finite alpha > 0 and t >= 0 (alpha %g, t %g)",
-                        (double)alpha, (double)t);
+    if (!isfinite(cf) || !(t >= 0.0f) || isinf(t))
+        return csi_fail(CSI_ERR_ARG, "proximal step needs a finite factor and t >= 0 (c %g, t %g)",
+                        (double)cf, (double)t);
     cl_kernel k;
     CSI_TRY(kern(ctx, "vec_prox_step", &k));
     cl_uint nn = (cl_uint)n, c = cplx;
-    float cf = -1.0f / alpha;
     CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(g), CSI_ARG(nn), CSI_ARG(c), CSI_ARG(cf), CSI_ARG(t),
                      CSI_MEM(out)));
     return run1(ctx, k, n);

@@ -78,7 +78,7 @@ static void test_elementwise(csi_ctx *ctx, test_rng *r, size_t n)
         bad += h[i] != want;
     }
     CHECK(bad == 0, "soft real n=%zu: %d mismatches", n, bad);
-    CHECK_OK(csi_vec_prox_step(ctx, n, false, dx, dy, alpha, t, dw));
+    CHECK_OK(csi_vec_prox_step(ctx, n, false, dx, dy, -1.0f / alpha, t, dw));
     test_download(dw, h, n * 4);
     bad = 0;
     for (size_t i = 0; i < n; i++) {

@@ -54,8 +54,9 @@ csi_status csi_vec_waxpby(csi_ctx *ctx, size_t nf, float a, cl_mem x, float b, c
 /* out = soft(x, t), t >= 0: real sign(x) max(|x| - t, 0); complex x max(|x| - t, 0) / |x| with
  * x = 0 giving 0 and t = 0 giving x unchanged (no 0/0). out may be x. */
 csi_status csi_vec_soft(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, float t, cl_mem out);
-/* out = soft(x - g / alpha, t): the proximal gradient step of SpaRSA in one pass. alpha > 0. */
-csi_status csi_vec_prox_step(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_mem g, float alpha,
+/* out = soft(x + c g, t): the proximal gradient step of SpaRSA in one pass (c = -1/alpha on
+ * the gradient, or +1/alpha on A^H r). c finite, t >= 0; out may not alias x or g. */
+csi_status csi_vec_prox_step(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_mem g, float c,
                              float t, cl_mem out);
 /* x_i = 0 where mask_i == 0 (mask: n bytes). */
 csi_status csi_vec_mask(csi_ctx *ctx, size_t n, bool cplx, cl_mem mask, cl_mem x);
