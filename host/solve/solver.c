@@ -1,0 +1,189 @@
+/* Solver workspace, reports and the least-squares step (CGLS) shared by ROMP and SpaRSA. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "internal.h"
+
+#define ROMP_BINS 4096
+
+double csi_solve_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+const char *csi_solve_reason_name(csi_solve_reason r)
+{
+    switch (r) {
+    case CSI_SOLVE_CONVERGED: return "converged";
+    case CSI_SOLVE_ZERO: return "zero solution";
+    case CSI_SOLVE_MAX_ITER: return "iteration cap reached";
+    case CSI_SOLVE_SUPPORT_LIMIT: return "support limit reached";
+    case CSI_SOLVE_NOT_IDENTIFIABLE: return "not identifiable";
+    case CSI_SOLVE_STALLED: return "stalled";
+    }
+    return "?";
+}
+
+void csi_report_init(csi_solve_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    rep->reason = CSI_SOLVE_STALLED;
+}
+
+void csi_report_set(csi_solve_report *rep, csi_solve_reason reason, const char *fmt, ...)
+{
+    rep->reason = reason;
+    rep->converged = reason == CSI_SOLVE_CONVERGED || reason == CSI_SOLVE_ZERO;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(rep->message, sizeof rep->message, fmt, ap);
+    va_end(ap);
+}
+
+void csi_solver_free(csi_solver *S)
+{
+    if (!S)
+        return;
+    cl_mem *bufs[] = {&S->r, &S->q, &S->Ax, &S->Axn, &S->g, &S->p, &S->s, &S->xn, &S->xbest,
+                      &S->mask, &S->hist, &S->count, &S->cand_idx, &S->cand_val, &S->sel};
+    for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
+        csi_buffer_release(bufs[i]);
+    csi_vec_ws_free(S->ws);
+    free(S->h_hist);
+    free(S->h_idx);
+    free(S->h_sel);
+    free(S->h_val);
+    free(S->h_mask);
+    free(S);
+}
+
+csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
+{
+    *out = NULL;
+    if (!A || !A->apply || !A->adjoint || !A->ctx)
+        return csi_fail(CSI_ERR_ARG, "solver: no usable operator given");
+    if (A->rows == 0 || A->cols == 0)
+        return csi_fail(CSI_ERR_ARG, "solver: operator %s is %zu x %zu", A->name ? A->name : "?",
+                        A->rows, A->cols);
+    if (A->cols > 0x7fffffffu || A->rows > 0x7fffffffu)
+        return csi_fail(CSI_ERR_ARG, "solver: operator %s (%zu x %zu) exceeds the 31-bit index range",
+                        A->name ? A->name : "?", A->rows, A->cols);
+    csi_solver *S = calloc(1, sizeof *S);
+    if (!S)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver");
+    S->A = A;
+    S->ctx = A->ctx;
+    S->N = A->rows;
+    S->k = A->cols;
+    S->cplx = A->complex_valued;
+    S->nfN = S->N * (S->cplx ? 2 : 1);
+    S->nfk = S->k * (S->cplx ? 2 : 1);
+    csi_status st = csi_vec_ws_create(S->ctx, &S->ws);
+    struct {
+        cl_mem *m;
+        size_t bytes;
+        const char *what;
+    } b[] = {
+        {&S->r, S->nfN * 4, "solver residual"},        {&S->q, S->nfN * 4, "solver measurement scratch"},
+        {&S->Ax, S->nfN * 4, "solver A x"},            {&S->Axn, S->nfN * 4, "solver A x (trial)"},
+        {&S->g, S->nfk * 4, "solver gradient"},        {&S->p, S->nfk * 4, "solver direction"},
+        {&S->s, S->nfk * 4, "solver coefficient scratch"}, {&S->xn, S->nfk * 4, "solver trial iterate"},
+        {&S->xbest, S->nfk * 4, "solver previous iterate"}, {&S->mask, S->k, "solver support mask"},
+        {&S->hist, ROMP_BINS * 4, "ROMP histogram"},   {&S->count, 4, "ROMP candidate count"},
+        {&S->cand_idx, S->k * 4, "ROMP candidates"},   {&S->cand_val, S->k * 4, "ROMP candidate values"},
+        {&S->sel, S->k * 4, "ROMP selection"},
+    };
+    for (size_t i = 0; st == CSI_OK && i < sizeof b / sizeof *b; i++)
+        st = csi_buffer(S->ctx, b[i].bytes, CL_MEM_READ_WRITE, b[i].what, b[i].m);
+    if (st == CSI_OK) {
+        S->h_hist = malloc(ROMP_BINS * sizeof *S->h_hist);
+        S->h_idx = malloc(S->k * sizeof *S->h_idx);
+        S->h_sel = malloc(S->k * sizeof *S->h_sel);
+        S->h_val = malloc(S->k * sizeof *S->h_val);
+        S->h_mask = calloc(S->k, 1);
+        if (!S->h_hist || !S->h_idx || !S->h_sel || !S->h_val || !S->h_mask)
+            st = csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver over %zu unknowns", S->k);
+    }
+    if (st != CSI_OK) {
+        csi_solver_free(S);
+        return st;
+    }
+    *out = S;
+    return CSI_OK;
+}
+
+static csi_status apply(csi_solver *S, cl_mem x, cl_mem y, csi_solve_report *rep)
+{
+    rep->applies++;
+    return csi_linop_apply(S->A, x, y);
+}
+
+static csi_status adjoint(csi_solver *S, cl_mem y, cl_mem x, csi_solve_report *rep)
+{
+    rep->adjoints++;
+    return csi_linop_adjoint(S->A, y, x);
+}
+
+csi_status csi_residual(csi_solver *S, cl_mem y, cl_mem x, double *rnorm, csi_solve_report *rep)
+{
+    CSI_TRY(apply(S, x, S->q, rep));
+    CSI_TRY(csi_vec_waxpby(S->ctx, S->nfN, 1.0f, y, -1.0f, S->q, S->r));
+    return csi_vec_nrm2(S->ws, S->nfN, S->r, rnorm);
+}
+
+csi_status csi_cgls(csi_solver *S, cl_mem y, cl_mem x, cl_mem mask, int max_iter, double tol,
+                    double r_target, int *iters, double *rnorm, csi_solve_report *rep)
+{
+    csi_ctx *ctx = S->ctx;
+    double rn;
+    *iters = 0;
+    CSI_TRY(csi_residual(S, y, x, &rn, rep));
+    *rnorm = rn;
+    if (rn <= r_target || max_iter <= 0)
+        return CSI_OK;
+    /* s = A_I^H r; p = s */
+    CSI_TRY(adjoint(S, S->r, S->s, rep));
+    if (mask)
+        CSI_TRY(csi_vec_mask(ctx, S->k, S->cplx, mask, S->s));
+    CSI_TRY(csi_vec_copy(ctx, S->p, S->s, S->nfk));
+    double gamma;
+    CSI_TRY(csi_vec_dot(S->ws, S->nfk, S->s, S->s, &gamma));
+    const double gamma0 = gamma;
+    int it = 0;
+    bool moved = false;
+    while (it < max_iter && gamma > tol * tol * gamma0 && gamma > 0) {
+        CSI_TRY(apply(S, S->p, S->q, rep)); /* q = A p */
+        double qq;
+        CSI_TRY(csi_vec_dot(S->ws, S->nfN, S->q, S->q, &qq));
+        if (!(qq > 0) || !isfinite(qq))
+            break; /* p in the null space (or a numerical failure): nothing more to gain */
+        const double alpha = gamma / qq;
+        CSI_TRY(csi_vec_axpy(ctx, S->nfk, (float)alpha, S->p, x));
+        CSI_TRY(csi_vec_axpy(ctx, S->nfN, (float)-alpha, S->q, S->r));
+        moved = true;
+        it++;
+        CSI_TRY(csi_vec_nrm2(S->ws, S->nfN, S->r, &rn));
+        if (rn <= r_target)
+            break;
+        CSI_TRY(adjoint(S, S->r, S->s, rep));
+        if (mask)
+            CSI_TRY(csi_vec_mask(ctx, S->k, S->cplx, mask, S->s));
+        double gnew;
+        CSI_TRY(csi_vec_dot(S->ws, S->nfk, S->s, S->s, &gnew));
+        const double beta = gnew / gamma;
+        gamma = gnew;
+        CSI_TRY(csi_vec_xpay(ctx, S->nfk, S->s, (float)beta, S->p)); /* p = s + beta p */
+    }
+    *iters = it;
+    /* The recursively updated r drifts from y - A x in float: recompute it for the report and
+     * for the next outer iteration. */
+    if (moved)
+        CSI_TRY(csi_residual(S, y, x, &rn, rep));
+    *rnorm = rn;
+    return CSI_OK;
+}

@@ -1,0 +1,35 @@
+/* Sampling operator S (gather) and its adjoint S^T (scatter) on the fine grid.
+ * idx holds n distinct positions < k (checked on the host), so the scatter has no conflicts
+ * and needs no atomics; the zeros elsewhere come from a fill before the scatter. */
+
+/* y_i = f[idx_i]; `w` floats per element (1 real, 2 complex). */
+__kernel void sampling_gather(__global const float *f, __global const uint *idx, const uint n,
+                              const uint w, __global float *y)
+{
+    const size_t i = get_global_id(0);
+    if (i >= n)
+        return;
+    const size_t j = idx[i];
+    if (w == 2) {
+        y[2 * i] = f[2 * j];
+        y[2 * i + 1] = f[2 * j + 1];
+    } else {
+        y[i] = f[j];
+    }
+}
+
+/* f[idx_i] = y_i (f zeroed beforehand). */
+__kernel void sampling_scatter(__global const float *y, __global const uint *idx, const uint n,
+                               const uint w, __global float *f)
+{
+    const size_t i = get_global_id(0);
+    if (i >= n)
+        return;
+    const size_t j = idx[i];
+    if (w == 2) {
+        f[2 * j] = y[2 * i];
+        f[2 * j + 1] = y[2 * i + 1];
+    } else {
+        f[j] = y[i];
+    }
+}
