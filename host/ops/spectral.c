@@ -10,6 +10,8 @@
  * the memory layout of the squeezed array is the same), so 16 x 1 x 8 is planned as 16 x 8. */
 #include "csi/spectral.h"
 
+#include "fft_filter.h"
+
 #include <clFFT.h>
 #include <math.h>
 #include <stdlib.h>
@@ -172,6 +174,7 @@ typedef struct {
     cl_mem g[3];               /* per-axis Gaussian gains over the half spectrum's index ranges */
     cl_uint wiener;
     float lambda;
+    csi_fft_filter *native;    /* csi's own FFT kernels (kernels/fft.cl); NULL = clFFT path */
 } filter_state;
 
 static csi_status filter_apply(const csi_linop *op, cl_mem x, cl_mem y)
@@ -180,6 +183,8 @@ static csi_status filter_apply(const csi_linop *op, cl_mem x, cl_mem y)
     csi_ctx *ctx = op->ctx;
     if (x == y)
         return csi_fail(CSI_ERR_ARG, "%s: input and output must be different buffers", op->name);
+    if (s->native)
+        return csi_fft_filter_run(s->native, x, y);
     CSI_TRY(run_plan(ctx, s->fwd, CLFFT_FORWARD, x, s->spec, s->tmp_f));
     cl_kernel k;
     CSI_TRY(csi_kernel(ctx, "spectral", "csi_spectral_gain", &k));
@@ -200,6 +205,7 @@ static void filter_destroy(csi_linop *op)
     filter_state *s = op->state;
     if (!s)
         return;
+    csi_fft_filter_free(s->native);
     if (s->fwd)
         clfftDestroyPlan(&s->fwd);
     if (s->bwd)
@@ -214,10 +220,23 @@ static void filter_destroy(csi_linop *op)
 }
 
 static csi_status filter_build(csi_ctx *ctx, csi_linop *op, filter_state *s, const size_t dims[3],
-                               const double sigma_phi[3], const char *what)
+                               const double sigma_phi[3], csi_fft_backend backend, const char *what)
 {
     int map[3];
     int nd = squeeze(dims, s->c, map);
+    if (backend != CSI_FFT_CLFFT) {
+        if (csi_fft_filter_supported(s->c, nd)) {
+            double sig[3] = {0, 0, 0};
+            for (int a = 0; a < nd; a++)
+                sig[a] = sigma_phi[map[a]];
+            return csi_fft_filter_create(ctx, s->c, nd, sig, s->wiener, s->lambda, &s->native);
+        }
+        if (backend == CSI_FFT_NATIVE)
+            return csi_fail(CSI_ERR_ARG,
+                            "%s: size %zu x %zu x %zu: csi's FFT needs an even length along the "
+                            "first axis longer than 1 (clFFT can do this size)",
+                            what, dims[0], dims[1], dims[2]);
+    }
     s->h0 = s->c[0] / 2 + 1;
     size_t nspec = s->h0 * s->c[1] * s->c[2], n = s->c[0] * s->c[1] * s->c[2];
     CSI_TRY(csi_buffer(ctx, nspec * 8, CL_MEM_READ_WRITE, "the filter's half spectrum", &s->spec));
@@ -255,6 +274,13 @@ static csi_status filter_build(csi_ctx *ctx, csi_linop *op, filter_state *s, con
 csi_status csi_filter_create(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
                              csi_filter_kind kind, float lambda, csi_linop **out)
 {
+    return csi_filter_create_backend(ctx, dims, sigma_phi, kind, lambda, CSI_FFT_AUTO, out);
+}
+
+csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
+                                     csi_filter_kind kind, float lambda, csi_fft_backend backend,
+                                     csi_linop **out)
+{
     if (!out)
         return csi_fail(CSI_ERR_ARG, "csi_filter_create: no output pointer");
     *out = NULL;
@@ -291,7 +317,11 @@ csi_status csi_filter_create(csi_ctx *ctx, const size_t dims[3], const double si
     op->adjoint = filter_apply; /* real symmetric: G is real and even in each frequency index */
     op->destroy = filter_destroy;
     op->state = s;
-    csi_status st = filter_build(ctx, op, s, dims, sigma_phi, what);
+    if (backend != CSI_FFT_AUTO && backend != CSI_FFT_CLFFT && backend != CSI_FFT_NATIVE) {
+        csi_linop_free(op);
+        return csi_fail(CSI_ERR_ARG, "%s: unknown FFT backend %d", what, (int)backend);
+    }
+    csi_status st = filter_build(ctx, op, s, dims, sigma_phi, backend, what);
     if (st != CSI_OK) {
         csi_linop_free(op);
         return st;

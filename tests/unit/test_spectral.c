@@ -82,21 +82,38 @@ static void test_references(csi_ctx *ctx)
         float *x = test_npy_f32(&ax), *wg = test_npy_f32(&ag), *ww = test_npy_f32(&aw);
         float *y = malloc(n * sizeof *y), *y2 = malloc(n * sizeof *y2);
 
+        /* Both implementations: clFFT and csi's own kernels (AUTO falls back to clFFT for the
+         * odd 45 x 30, which NATIVE refuses). Each against numpy, and against each other. */
+        float *yc = malloc(n * sizeof *yc), *wc = malloc(n * sizeof *wc);
+        for (int be = 0; be < 2; be++) {
+        const csi_fft_backend backend = be == 0 ? CSI_FFT_CLFFT : CSI_FFT_AUTO;
+        const char *bname = be == 0 ? "clFFT" : "auto";
         csi_linop *g = NULL, *w = NULL;
-        CHECK_OK(csi_filter_create(ctx, fc->dims, fc->sigma, CSI_FILTER_GAUSS, 0.0f, &g));
-        CHECK_OK(csi_filter_create(ctx, fc->dims, fc->sigma, CSI_FILTER_WIENER, fc->lambda, &w));
+        CHECK_OK(csi_filter_create_backend(ctx, fc->dims, fc->sigma, CSI_FILTER_GAUSS, 0.0f, backend, &g));
+        CHECK_OK(csi_filter_create_backend(ctx, fc->dims, fc->sigma, CSI_FILTER_WIENER, fc->lambda, backend, &w));
         if (g && w) {
             CHECK(g->rows == n && g->cols == n && !g->complex_valued, "%s: shape", fc->name);
             run_op(g, x, y, false);
-            double eg = test_rel_l2(y, wg, n);
-            CHECK(eg < 2e-5, "%s gauss vs numpy: rel L2 %.3g", fc->name, eg);
+            double eg = test_rel_l2(y, wg, n), egc = 0, ewc = 0;
+            CHECK(eg < 2e-5, "%s %s gauss vs numpy: rel L2 %.3g", fc->name, bname, eg);
+            if (be == 0)
+                memcpy(yc, y, n * sizeof *y);
+            else
+                egc = test_rel_l2(y, yc, n);
             /* Determinism: same input, same bits. */
             run_op(g, x, y2, false);
-            CHECK(memcmp(y, y2, n * sizeof *y) == 0, "%s: gauss repeatable", fc->name);
+            CHECK(memcmp(y, y2, n * sizeof *y) == 0, "%s %s: gauss repeatable", fc->name, bname);
             run_op(w, x, y, false);
             double ew = test_rel_l2(y, ww, n);
-            CHECK(ew < 4e-5, "%s wiener vs numpy: rel L2 %.3g", fc->name, ew);
-            printf("%-9s gauss rel L2 %.2e  wiener rel L2 %.2e\n", fc->name, eg, ew);
+            CHECK(ew < 4e-5, "%s %s wiener vs numpy: rel L2 %.3g", fc->name, bname, ew);
+            if (be == 0)
+                memcpy(wc, y, n * sizeof *y);
+            else
+                ewc = test_rel_l2(y, wc, n);
+            /* Two float32 FFT implementations each within ~2e-7 of float64: 2x the bounds. */
+            CHECK(egc < 4e-5 && ewc < 8e-5, "%s: csi FFT vs clFFT: %.3g %.3g", fc->name, egc, ewc);
+            printf("%-9s %-5s gauss rel L2 %.2e  wiener rel L2 %.2e  (vs clFFT %.2e %.2e)\n",
+                   fc->name, bname, eg, ew, egc, ewc);
 
             /* Self-adjoint: <Phi a, b> = <a, Phi b> for random a, b; both sides are sums of n
              * products of O(1) terms with FFT roundoff ~1e-6 relative, so 1e-5 of |a||b|. */
@@ -121,6 +138,9 @@ static void test_references(csi_ctx *ctx)
         }
         csi_linop_free(g);
         csi_linop_free(w);
+        }
+        free(yc);
+        free(wc);
         free(x);
         free(wg);
         free(ww);
@@ -324,6 +344,10 @@ static void test_bad_input(csi_ctx *ctx)
     CHECK(st == CSI_ERR_ARG && strstr(csi_last_error(), "sigma"), "%s", csi_last_error());
     st = csi_filter_create(ctx, ok, sig, (csi_filter_kind)7, 0.3f, &op);
     CHECK(st == CSI_ERR_ARG, "kind: %s", csi_last_error());
+    /* csi's own FFT needs an even first axis: NATIVE refuses 45 x 30, naming the size. */
+    size_t odd[3] = {45, 30, 1};
+    st = csi_filter_create_backend(ctx, odd, sig, CSI_FILTER_GAUSS, 0.0f, CSI_FFT_NATIVE, &op);
+    CHECK(st == CSI_ERR_ARG && strstr(csi_last_error(), "45"), "%s", csi_last_error());
     /* Aliasing input and output is refused, not computed wrongly. */
     CHECK_OK(csi_filter_create(ctx, ok, sig, CSI_FILTER_GAUSS, 0.0f, &op));
     if (op) {

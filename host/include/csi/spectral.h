@@ -46,10 +46,19 @@ typedef enum { CSI_FILTER_GAUSS, CSI_FILTER_WIENER } csi_filter_kind;
  *           lambda must be finite and > 0 (the largest gain is (1 + lambda) / (2 sqrt(lambda)),
  *           e.g. about 500 at lambda = 1e-6). For GAUSS lambda is ignored.
  * sigma_phi per axis: spatial standard deviation in grid cells; 0 on an axis = no filtering
- * along it; must be finite and >= 0. Implemented with clFFT real-to-complex / complex-to-real
- * transforms (plans baked here), the gain multiply in kernels/spectral.cl. */
+ * along it; must be finite and >= 0. Real-to-complex / complex-to-real transforms: csi's own FFT
+ * kernels where the size allows, else clFFT (plans baked here); see csi_filter_create_backend. */
 csi_status csi_filter_create(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
                              csi_filter_kind kind, float lambda, csi_linop **out);
+
+/* Which FFT implementation a filter uses. AUTO (what csi_filter_create does): csi's own
+ * Stockham kernels (kernels/fft.cl, written for CPU OpenCL; several times faster than clFFT on
+ * PoCL) when the first axis longer than 1 has even length, else clFFT. CLFFT: always clFFT (the
+ * reference the tests check the native kernels against). NATIVE: csi's kernels or CSI_ERR_ARG. */
+typedef enum { CSI_FFT_AUTO, CSI_FFT_CLFFT, CSI_FFT_NATIVE } csi_fft_backend;
+csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
+                                     csi_filter_kind kind, float lambda, csi_fft_backend backend,
+                                     csi_linop **out);
 
 /* Orthonormal Fourier basis over dims (1-D, 2-D or 3-D; complex operator, rows = cols =
  * product): apply = F^H (coefficients -> signal, unitary inverse DFT), adjoint = F (unitary
