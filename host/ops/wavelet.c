@@ -129,10 +129,10 @@ static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
         cl_mem src = l == 0 ? img : coef;
         CSI_TRY(CSI_ARGS(s->fwd_x, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
                          CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->fwd_x, n / 2, m));
+        CSI_TRY(run2(op->ctx, s->fwd_x, (n / 2 + 7) / 8, m)); /* 8 outputs per item */
         CSI_TRY(CSI_ARGS(s->fwd_y, CSI_MEM(s->tmp), CSI_MEM(coef), CSI_ARG(stride), CSI_ARG(n),
                          CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->fwd_y, n, m / 2));
+        CSI_TRY(run2(op->ctx, s->fwd_y, (n + 15) / 16, m / 2)); /* 16 columns per item */
     }
     return CSI_OK;
 }
@@ -148,10 +148,10 @@ static csi_status wavelet_synthesis(const csi_linop *op, cl_mem coef, cl_mem img
         cl_mem approx = l == s->levels ? coef : img;
         CSI_TRY(CSI_ARGS(s->inv_x, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp), CSI_ARG(stride),
                          CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows)));
-        CSI_TRY(run2(op->ctx, s->inv_x, n / 2, m));
+        CSI_TRY(run2(op->ctx, s->inv_x, (n / 2 + 7) / 8, m));
         CSI_TRY(CSI_ARGS(s->inv_y, CSI_MEM(s->tmp), CSI_MEM(img), CSI_ARG(stride), CSI_ARG(n),
                          CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->inv_y, n, m / 2));
+        CSI_TRY(run2(op->ctx, s->inv_y, (n + 15) / 16, m / 2));
     }
     return CSI_OK;
 }
