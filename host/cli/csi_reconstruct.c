@@ -29,6 +29,9 @@ static void usage(FILE *f)
 "      --frames DIR          grid_t > 1: also every reconstructed frame (DIR/frame_NNNN.exr/.png)\n"
 "      --stats FILE.json     timings, iterations and residuals as JSON\n"
 "method:\n"
+"      --estimator cs|mean|gauss  cs: compressive (default); baselines: mean = per-pixel sample\n"
+"                            mean (Monte Carlo), gauss = Gaussian normalized convolution\n"
+"      --gauss-sigma S       width of the gauss baseline in grid cells (default 0.5 (k/N)^(1/d))\n"
 "      --solver romp|sparsa  default: sparsa (measured best; docs/BENCHMARKS.md)\n"
 "      --wavelet db4|db8     Alg. 1 basis (db4: 8 taps, db8: 16 taps), default db4\n"
 "      --levels L            wavelet levels (default: as many as the grid allows, up to 5)\n"
@@ -67,7 +70,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION };
+           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -76,7 +79,8 @@ int main(int argc, char **argv)
         {"sigma-scale", required_argument, 0, O_SIGMA}, {"integrate", required_argument, 0, O_INTEGRATE},
         {"tol", required_argument, 0, O_TOL}, {"max-iter", required_argument, 0, O_MAXIT},
         {"tau", required_argument, 0, O_TAU}, {"drop-invalid", no_argument, 0, O_DROP},
-        {"device", required_argument, 0, O_DEVICE}, {"quiet", no_argument, 0, 'q'},
+        {"device", required_argument, 0, O_DEVICE}, {"estimator", required_argument, 0, O_EST},
+        {"gauss-sigma", required_argument, 0, O_GSIGMA}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     csi_recon_options opt;
@@ -134,6 +138,15 @@ int main(int argc, char **argv)
             if (!cli_parse_double(optarg, 1e-12, 1, &d))
                 return cli_error(prog, CSI_ERR_ARG, "--tau: '%s' is not a number in [1e-12, 1]", optarg);
             opt.tau_rel = d;
+            break;
+        case O_EST:
+            if (csi_estimator_parse(optarg, &opt.estimator) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--estimator: %s", csi_last_error());
+            break;
+        case O_GSIGMA:
+            if (!cli_parse_double(optarg, 1e-3, 1e4, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--gauss-sigma: '%s' is not a number in [0.001, 1e4]", optarg);
+            opt.gauss_sigma = d;
             break;
         case O_DROP: drop = true; break;
         case O_DEVICE: device = optarg; break;
@@ -201,13 +214,17 @@ int main(int argc, char **argv)
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", in, csi_last_error());
     } else {
-        s = cli_write_images(&outs, &opt, &res, dump.grid.t > 1 ? "motion (Alg. 2)" : "antialias (Alg. 1)");
+        const char *method = opt.estimator == CSI_EST_MEAN ? "sample mean (Monte Carlo)"
+                             : opt.estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
+                             : dump.grid.t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)";
+        s = cli_write_images(&outs, &opt, &res, method);
         if (s == CSI_OK && outs.stats) {
             csi_json *j = NULL;
             s = csi_json_new(&j);
             if (s == CSI_OK) {
                 csi_json_str(j, "tool", "csi-reconstruct");
                 csi_json_str(j, "input", in);
+                csi_json_str(j, "estimator", csi_estimator_name(opt.estimator));
                 csi_json_str(j, "device", csi_ctx_device_name(ctx));
                 csi_json_int(j, "grid_w", dump.grid.w);
                 csi_json_int(j, "grid_h", dump.grid.h);
@@ -234,7 +251,7 @@ int main(int argc, char **argv)
                 }
             fprintf(stderr, "%s: %ux%u from %zu samples of a %ux%ux%u grid (%s) in %.2f s%s\n", prog,
                     res.out_w, res.out_h, res.n, dump.grid.w, dump.grid.h, dump.grid.t,
-                    csi_solver_kind_name(res.solver), cli_now() - t0, all ? "" : " (not converged)");
+                    opt.estimator == CSI_EST_CS ? csi_solver_kind_name(res.solver) : csi_estimator_name(opt.estimator), cli_now() - t0, all ? "" : " (not converged)");
         }
         csi_recon_result_free(&res);
     }

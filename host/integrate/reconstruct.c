@@ -3,6 +3,7 @@
 #include "csi/reconstruct.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -49,6 +50,35 @@ csi_status csi_aa_output_parse(const char *s, csi_aa_output *out)
         return csi_fail(CSI_ERR_ARG, "unknown integration target '%s' (expected filtered or sharp)",
                         s ? s : "");
     return CSI_OK;
+}
+
+const char *csi_estimator_name(csi_estimator e)
+{
+    switch (e) {
+    case CSI_EST_MEAN: return "mean";
+    case CSI_EST_GAUSS: return "gauss";
+    default: return "cs";
+    }
+}
+
+csi_status csi_estimator_parse(const char *s, csi_estimator *out)
+{
+    if (s && !strcasecmp(s, "cs"))
+        *out = CSI_EST_CS;
+    else if (s && !strcasecmp(s, "mean"))
+        *out = CSI_EST_MEAN;
+    else if (s && !strcasecmp(s, "gauss"))
+        *out = CSI_EST_GAUSS;
+    else
+        return csi_fail(CSI_ERR_ARG, "unknown estimator '%s' (expected cs, mean or gauss)", s ? s : "");
+    return CSI_OK;
+}
+
+double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims)
+{
+    if (n == 0 || k == 0 || dims < 1)
+        return 1.0;
+    return 0.5 * pow((double)k / (double)n, 1.0 / dims);
 }
 
 void csi_recon_defaults(csi_recon_options *o)
@@ -178,6 +208,10 @@ static csi_status finish_nan_check(const float *a, size_t n, const char *what)
     return CSI_OK;
 }
 
+static csi_status integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol, uint32_t c,
+                                   const csi_recon_options *opt, csi_recon_result *res,
+                                   cl_mem scratch_wh, cl_mem out);
+
 /* Alg. 1. */
 static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
@@ -288,12 +322,10 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the real volume", &st->tmp));
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, (np > wh ? np : wh) * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
-    cl_mem mean = NULL, slice = NULL, real_y = NULL;
+    cl_mem mean = NULL, real_y = NULL;
     csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "the time mean", &mean);
     if (s == CSI_OK)
         s = csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the real measurements", &real_y);
-    if (s == CSI_OK && opt->frames)
-        s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "a frame", &slice);
     st->plane = malloc(n * sizeof(float));
     if (s == CSI_OK && !st->plane)
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
@@ -331,22 +363,10 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK)
             s = csi_run1d(ctx, c2r, k);
         if (s == CSI_OK)
-            s = csi_time_mean(ctx, st->tmp, g->w, g->h, g->t, 1, mean);
-        if (s == CSI_OK)
-            s = csi_box_integrate(ctx, mean, g->w, g->h, 1, g->out_w, g->out_h, st->out);
-        if (s == CSI_OK)
-            s = csi_read(ctx, st->out, 0, np * 4, res->image + (size_t)c * np);
-        for (size_t t = 0; opt->frames && t < T && s == CSI_OK; t++) {
-            s = csi_copy(ctx, slice, 0, st->tmp, t * wh * 4, wh * 4);
-            if (s == CSI_OK)
-                s = csi_box_integrate(ctx, slice, g->w, g->h, 1, g->out_w, g->out_h, st->out);
-            if (s == CSI_OK)
-                s = csi_read(ctx, st->out, 0, np * 4, res->frames + (t * channels + c) * np);
-        }
+            s = integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         t_int += now_s() - t1;
     }
     csi_buffer_release(&mean);
-    csi_buffer_release(&slice);
     csi_buffer_release(&real_y);
     CSI_TRY(s);
     res->t_solve = t_solve;
@@ -354,6 +374,122 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     CSI_TRY(finish_nan_check(res->image, np * channels, "image"));
     if (opt->frames)
         CSI_TRY(finish_nan_check(res->frames, np * channels * T, "frames"));
+    return CSI_OK;
+}
+
+/* Integrates one channel's real volume `vol` (w x h x T) into the result: the image plane is the
+ * box integral of its mean over t; frames (if asked for) the box integral of each slice.
+ * scratch_wh: w*h floats; out: out_w*out_h floats. */
+static csi_status integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol, uint32_t c,
+                                   const csi_recon_options *opt, csi_recon_result *res,
+                                   cl_mem scratch_wh, cl_mem out)
+{
+    const size_t wh = (size_t)g->w * g->h, np = (size_t)g->out_w * g->out_h;
+    const uint32_t channels = res->channels;
+    if (g->t == 1) {
+        CSI_TRY(csi_box_integrate(ctx, vol, g->w, g->h, 1, g->out_w, g->out_h, out));
+        return csi_read(ctx, out, 0, np * 4, res->image + (size_t)c * np);
+    }
+    CSI_TRY(csi_time_mean(ctx, vol, g->w, g->h, g->t, 1, scratch_wh));
+    CSI_TRY(csi_box_integrate(ctx, scratch_wh, g->w, g->h, 1, g->out_w, g->out_h, out));
+    CSI_TRY(csi_read(ctx, out, 0, np * 4, res->image + (size_t)c * np));
+    for (size_t t = 0; opt->frames && t < g->t; t++) {
+        CSI_TRY(csi_copy(ctx, scratch_wh, 0, vol, t * wh * 4, wh * 4));
+        CSI_TRY(csi_box_integrate(ctx, scratch_wh, g->w, g->h, 1, g->out_w, g->out_h, out));
+        CSI_TRY(csi_read(ctx, out, 0, np * 4, res->frames + (t * channels + c) * np));
+    }
+    return CSI_OK;
+}
+
+/* Baseline: normalized convolution with a Gaussian of the same width on every axis. */
+static csi_status gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                           const csi_sample_pos *pos, const float *values, size_t n,
+                           const csi_recon_options *opt, csi_recon_result *res, recon_state *st)
+{
+    const size_t k = (size_t)g->w * g->h * g->t, wh = (size_t)g->w * g->h;
+    const size_t dims[3] = {g->w, g->h, g->t};
+    const int nd = g->t > 1 ? 3 : 2;
+    const double sigma = opt->gauss_sigma > 0 ? opt->gauss_sigma : csi_gauss_nc_default_sigma(k, n, nd);
+    const double sphi[3] = {sigma, sigma, g->t > 1 ? sigma : 0};
+    st->idx = malloc(n * sizeof *st->idx);
+    st->plane = malloc(n * sizeof(float));
+    if (!st->idx || !st->plane)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+    for (size_t i = 0; i < n; i++)
+        st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
+    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, false, &st->S));
+    CSI_TRY(csi_filter_create(ctx, dims, sphi, CSI_FILTER_GAUSS, 1.0f, &st->inner));
+    const size_t np = (size_t)g->out_w * g->out_h;
+    CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the measurements", &st->y));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the scattered samples", &st->x));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered samples", &st->f));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered density", &st->tmp));
+    CSI_TRY(csi_buffer(ctx, (np > wh ? np : wh) * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
+    cl_mem scratch = NULL, den = NULL;
+    csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "a frame", &scratch);
+    if (s == CSI_OK)
+        s = csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the density", &den);
+    cl_kernel div = NULL;
+    if (s == CSI_OK)
+        s = csi_kernel(ctx, "recon", "csi_nc_divide", &div);
+    /* Density: G * (S^T 1). Same for every channel. The threshold keeps cells no sample reaches
+     * (density below 1e-6 of a single sample's peak contribution) at 0 instead of 0/0. */
+    for (size_t i = 0; i < n && s == CSI_OK; i++)
+        st->plane[i] = 1.0f;
+    if (s == CSI_OK)
+        s = csi_write(ctx, st->y, 0, n * 4, st->plane);
+    if (s == CSI_OK)
+        s = csi_linop_adjoint(st->S, st->y, st->x);
+    if (s == CSI_OK)
+        s = csi_linop_apply(st->inner, st->x, den);
+    res->t_setup = now_s();
+    double t0 = now_s();
+    const float eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, nd));
+    for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
+        for (size_t i = 0; i < n; i++)
+            st->plane[i] = values[i * channels + c];
+        cl_uint nk = (cl_uint)k;
+        s = csi_write(ctx, st->y, 0, n * 4, st->plane);
+        if (s == CSI_OK)
+            s = csi_linop_adjoint(st->S, st->y, st->x);
+        if (s == CSI_OK)
+            s = csi_linop_apply(st->inner, st->x, st->f);
+        if (s == CSI_OK)
+            s = CSI_ARGS(div, CSI_MEM(st->f), CSI_MEM(den), CSI_MEM(st->tmp), CSI_ARG(nk), CSI_ARG(eps));
+        if (s == CSI_OK)
+            s = csi_run1d(ctx, div, k);
+        if (s == CSI_OK)
+            s = integrate_volume(ctx, g, st->tmp, c, opt, res, scratch, st->out);
+        if (s == CSI_OK) {
+            csi_solve_report *r = &res->report[c];
+            r->converged = true;
+            snprintf(r->message, sizeof r->message, "Gaussian normalized convolution, sigma %.3g cells", sigma);
+        }
+    }
+    res->t_integrate = now_s() - t0;
+    csi_buffer_release(&scratch);
+    csi_buffer_release(&den);
+    return s;
+}
+
+/* Baseline: the per-pixel sample mean (Monte Carlo). */
+static csi_status sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                              const csi_sample_pos *pos, const float *values, size_t n,
+                              csi_recon_result *res, recon_state *st)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    CSI_TRY(csi_buffer(ctx, np * channels * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
+    res->t_setup = now_s();
+    double t0 = now_s();
+    size_t empty = 0;
+    CSI_TRY(csi_splat_mean(ctx, g, channels, pos, values, n, st->out, &empty));
+    CSI_TRY(csi_read(ctx, st->out, 0, np * channels * 4, res->image));
+    res->t_integrate = now_s() - t0;
+    for (uint32_t c = 0; c < channels; c++) {
+        res->report[c].converged = true;
+        snprintf(res->report[c].message, sizeof res->report[c].message,
+                 "per-pixel sample mean; %zu of %zu pixels had no sample (left 0)", empty, np);
+    }
     return CSI_OK;
 }
 
@@ -381,7 +517,7 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     out->n = n;
     out->solver = opt.solver != CSI_SOLVER_DEFAULT ? opt.solver : CSI_SOLVER_SPARSA;
     out->image = calloc(np * channels, sizeof(float));
-    if (grid->t > 1 && opt.frames) {
+    if (grid->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN) {
         out->nframes = grid->t;
         out->frames = calloc(np * channels * grid->t, sizeof(float));
     }
@@ -393,8 +529,15 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     memset(&st, 0, sizeof st);
     double t0 = now_s();
     report_progress(&opt, "setup");
-    csi_status s = grid->t == 1 ? antialias(ctx, grid, channels, pos, values, n, &opt, out, &st)
-                                : motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
+    csi_status s;
+    if (opt.estimator == CSI_EST_MEAN)
+        s = sample_mean(ctx, grid, channels, pos, values, n, out, &st);
+    else if (opt.estimator == CSI_EST_GAUSS)
+        s = gauss_nc(ctx, grid, channels, pos, values, n, &opt, out, &st);
+    else if (grid->t == 1)
+        s = antialias(ctx, grid, channels, pos, values, n, &opt, out, &st);
+    else
+        s = motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
     out->t_setup = out->t_setup > t0 ? out->t_setup - t0 : 0;
     state_free(&st);
     if (s != CSI_OK)

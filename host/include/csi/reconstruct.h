@@ -39,7 +39,23 @@ typedef enum {
 const char *csi_aa_output_name(csi_aa_output o);
 csi_status csi_aa_output_parse(const char *s, csi_aa_output *out);
 
+/* The estimator: csi's compressive method, or one of the baselines it is measured against. */
+typedef enum {
+    CSI_EST_CS = 0, /* compressive: Alg. 1 (grid.t = 1) or Alg. 2 (grid.t > 1) */
+    CSI_EST_MEAN,   /* Monte Carlo: each pixel is the mean of its samples (all t); no frames */
+    CSI_EST_GAUSS,  /* normalized convolution with a 2-D / 3-D Gaussian (the paper's linear
+                       baseline, Sec. 6.1): f = G*(S^T y) / G*(S^T 1), then integrated like CS */
+} csi_estimator;
+const char *csi_estimator_name(csi_estimator e);
+csi_status csi_estimator_parse(const char *s, csi_estimator *out);
+
+/* The Gaussian baseline's default width (grid cells, every axis): the spacing of N samples
+ * spread evenly over k cells in d dimensions, (k/N)^(1/d), times 0.5. */
+double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims);
+
 typedef struct csi_recon_options {
+    csi_estimator estimator;      /* default CSI_EST_CS */
+    double gauss_sigma;           /* CSI_EST_GAUSS: width in grid cells; 0: the default rule */
     csi_solver_kind solver;       /* DEFAULT: the measured best per method (docs/BENCHMARKS.md) */
     csi_wavelet_family wavelet;   /* Alg. 1 basis, default db4 */
     int levels;                   /* 0: csi_wavelet_default_levels */
