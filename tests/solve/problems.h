@@ -10,6 +10,7 @@
 #include "csi/linop.h"
 #include "csi/sampling.h"
 #include "csi/solve.h"
+#include "csi/vec.h"
 #include "testlib.h"
 
 typedef struct {

@@ -297,14 +297,16 @@ static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double ta
         } else {
             hist[0] = phi;
         }
-        alpha = dx2 > 0 ? As2 / dx2 : 1e-30;
+        if (dx2 > 0 && As2 > 0)
+            alpha = As2 / dx2;
         alpha = fmin(fmax(alpha, 1e-30), 1e30);
         double hr = 0;
         for (size_t j = 0; j < M->k; j++)
             hr = fmax(hr, M->cplx ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
         double sc = hr > tau ? tau / hr : 1.0;
         double dual = -0.5 * sc * sc * rn2 + sc * ref_dot(r, y, nN);
-        if ((phi - dual) / phi <= tol)
+        /* the same float32 rounding floor on the gap as the device (csi/solve.h) */
+        if (phi - dual <= tol * phi + 32.0 * 0x1.0p-24 * ref_dot(y, y, nN))
             break;
     }
     free(r);

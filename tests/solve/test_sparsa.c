@@ -1,0 +1,334 @@
+/* SpaRSA: the iterate sequence against a plain-C double reference (real and complex), the
+ * monotone variant never increasing the objective and the safeguarded variant meeting its
+ * acceptance test at every accepted step (both re-evaluated here in double from the iterates),
+ * exact recovery (20 seeds) with debiasing, non-convergence reported below the bound, tau above
+ * ||A^H y||_inf returning 0 at once, multi-channel solves.
+ *
+ * Tolerances. Sequence: float32 iterates follow the double reference to the rounding of the
+ * data (A and y are the same floats) amplified by the iteration (BB steps feed rounding back
+ * into the step length); phi within 5e-4 relative and x_k within 1e-3 relative over the first
+ * 40 steps, step counts within 2 (measured worst: phi 7.6e-5, x 8.4e-5, counts equal).
+ * Objective checks re-evaluate phi in double from the float iterate; the device's objective
+ * has relative error ~1e-6 (reductions, csi/vec.h), so comparisons allow 1e-5 * phi. */
+#include "problems.h"
+#include "ref_solvers.h"
+
+typedef struct {
+    const problem *P;
+    int n, cap;
+    double *phi, *alpha, *xs; /* device trace, per accepted step */
+    /* property checking, in double */
+    int memory;
+    double sigma;
+    double hist[64];
+    int nh, hpos, stage;
+    double *xprev;
+    int monotone_bad, accept_bad, steps;
+    double worst_excess;
+} trace_state;
+
+static double phi_double(const problem *P, const double *x, double tau)
+{
+    size_t w = P->w;
+    double rn2 = 0, l1 = 0;
+    for (size_t i = 0; i < P->N; i++) {
+        double sr = 0, si = 0;
+        for (size_t j = 0; j < P->k; j++) {
+            if (w == 2) {
+                double ar = P->Ad[2 * (i * P->k + j)], ai = P->Ad[2 * (i * P->k + j) + 1];
+                sr += ar * x[2 * j] - ai * x[2 * j + 1];
+                si += ar * x[2 * j + 1] + ai * x[2 * j];
+            } else {
+                sr += P->Ad[i * P->k + j] * x[j];
+            }
+        }
+        rn2 += (P->y[i * w] - sr) * (P->y[i * w] - sr);
+        if (w == 2)
+            rn2 += (P->y[2 * i + 1] - si) * (P->y[2 * i + 1] - si);
+    }
+    for (size_t j = 0; j < P->k; j++)
+        l1 += w == 2 ? hypot(x[2 * j], x[2 * j + 1]) : fabs(x[j]);
+    return 0.5 * rn2 + tau * l1;
+}
+
+static void on_step(void *user, const csi_sparsa_step *st)
+{
+    trace_state *T = user;
+    const problem *P = T->P;
+    size_t nk = P->k * P->w;
+    float *xf = malloc(nk * 4);
+    test_download(st->x, xf, nk * 4);
+    double *x = malloc(nk * sizeof *x);
+    for (size_t i = 0; i < nk; i++)
+        x[i] = xf[i];
+    if (T->n < T->cap) {
+        T->phi[T->n] = st->phi;
+        T->alpha[T->n] = st->alpha;
+        memcpy(T->xs + (size_t)T->n * nk, x, nk * sizeof *x);
+    }
+    T->n++;
+    /* Independent re-evaluation of the acceptance test in double. A new stage (new tau)
+     * restarts the history from the objective of the previous iterate under the new tau. */
+    if (st->stage != T->stage) {
+        T->stage = st->stage;
+        T->nh = 1;
+        T->hpos = 0;
+        T->hist[0] = phi_double(P, T->xprev, st->tau);
+    }
+    double ref = T->hist[0];
+    for (int i = 1; i < T->nh; i++)
+        ref = fmax(ref, T->hist[i]);
+    double phi = phi_double(P, x, st->tau), dx2 = 0;
+    for (size_t i = 0; i < nk; i++)
+        dx2 += (x[i] - T->xprev[i]) * (x[i] - T->xprev[i]);
+    double excess = phi - (ref - 0.5 * T->sigma * st->alpha * dx2);
+    double slack = 1e-5 * fabs(ref);
+    if (excess > slack)
+        T->accept_bad++;
+    if (excess / fabs(ref) > T->worst_excess)
+        T->worst_excess = excess / fabs(ref);
+    if (T->memory == 0 && phi > T->hist[0] + slack)
+        T->monotone_bad++;
+    if (T->memory > 0) {
+        T->hpos = (T->hpos + 1) % (T->memory + 1);
+        T->hist[T->hpos] = phi;
+        if (T->nh < T->memory + 1)
+            T->nh++;
+    } else {
+        T->hist[0] = phi;
+    }
+    memcpy(T->xprev, x, nk * sizeof *x);
+    T->steps++;
+    free(xf);
+    free(x);
+}
+
+static trace_state trace_new(const problem *P, int cap, int memory, double sigma)
+{
+    trace_state T = {0};
+    T.P = P;
+    T.cap = cap;
+    T.phi = calloc((size_t)cap, sizeof(double));
+    T.alpha = calloc((size_t)cap, sizeof(double));
+    T.xs = calloc((size_t)cap * P->k * P->w, sizeof(double));
+    T.xprev = calloc(P->k * P->w, sizeof(double));
+    T.memory = memory;
+    T.sigma = sigma;
+    return T;
+}
+
+static void trace_free(trace_state *T)
+{
+    free(T->phi);
+    free(T->alpha);
+    free(T->xs);
+    free(T->xprev);
+}
+
+static void test_sequence(test_rng *r, size_t N, size_t k, size_t s, bool cplx)
+{
+    problem P = problem_make(r, N, k, s, cplx, !cplx, false);
+    size_t w = P.w, nk = k * w;
+    /* tau from ||A^H y||_inf computed in double */
+    double *yd = malloc(N * w * sizeof *yd), *h = malloc(nk * sizeof *h), *xr = malloc(nk * sizeof *xr);
+    for (size_t i = 0; i < N * w; i++)
+        yd[i] = P.y[i];
+    ref_mat M = {N, k, cplx, P.Ad};
+    ref_adjoint(&M, yd, h);
+    double hmax = 0;
+    for (size_t j = 0; j < k; j++)
+        hmax = fmax(hmax, cplx ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
+    const double tau = 0.02 * hmax, tol = 1e-6;
+    const int cap = 400;
+    ref_sparsa_result R = ref_sparsa(&M, yd, tau, 5, 0.01, tol, cap, xr);
+
+    csi_sparsa_options o;
+    csi_sparsa_defaults(&o);
+    o.tau = tau;
+    o.continuation = false;
+    o.debias = false;
+    o.tol = tol;
+    o.max_iter = cap;
+    trace_state T = trace_new(&P, cap, 5, 0.01);
+    o.trace = on_step;
+    o.user = &T;
+    csi_solve_report rep;
+    CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+    int n = T.n < R.iterations ? T.n : R.iterations;
+    if (n > 40)
+        n = 40;
+    double wphi = 0, wx = 0;
+    for (int i = 0; i < n; i++) {
+        wphi = fmax(wphi, fabs(T.phi[i] - R.phi[i]) / R.phi[i]);
+        double num = 0, den = 0;
+        for (size_t j = 0; j < nk; j++) {
+            double d = T.xs[(size_t)i * nk + j] - R.xs[(size_t)i * nk + j];
+            num += d * d;
+            den += R.xs[(size_t)i * nk + j] * R.xs[(size_t)i * nk + j];
+        }
+        wx = fmax(wx, den > 0 ? sqrt(num / den) : sqrt(num));
+    }
+    printf("SpaRSA sequence %s k=%zu N=%zu: %d vs %d steps; first %d: phi rel diff %.2g, x rel diff %.2g\n",
+           cplx ? "complex" : "real", k, N, T.n, R.iterations, n, wphi, wx);
+    CHECK(n >= 10, "enough steps to compare (%d)", n);
+    CHECK(wphi < 5e-4, "objective sequence differs from the reference by %g", wphi);
+    CHECK(wx < 1e-3, "iterates differ from the reference by %g", wx);
+    CHECK(abs(T.n - R.iterations) <= 2, "step counts %d vs %d", T.n, R.iterations);
+    CHECK(T.accept_bad == 0, "acceptance test failed %d times (worst excess %g)", T.accept_bad, T.worst_excess);
+    float *xo = malloc(nk * 4);
+    test_download(P.dx, xo, nk * 4);
+    double num = 0, den = 0;
+    for (size_t j = 0; j < nk; j++) {
+        num += (xo[j] - xr[j]) * (xo[j] - xr[j]);
+        den += xr[j] * xr[j];
+    }
+    CHECK(sqrt(num / den) < 1e-3, "final x differs from the reference by %g", sqrt(num / den));
+    free(xo);
+    trace_free(&T);
+    ref_sparsa_free(&R);
+    free(yd);
+    free(h);
+    free(xr);
+    problem_free(&P);
+}
+
+static void test_properties(test_rng *r, int memory, bool cplx)
+{
+    problem P = problem_make(r, 120, 400, 10, cplx, false, false);
+    csi_sparsa_options o;
+    csi_sparsa_defaults(&o);
+    o.memory = memory;
+    o.tau_rel = 1e-3;
+    trace_state T = trace_new(&P, 1, memory, o.sigma);
+    o.trace = on_step;
+    o.user = &T;
+    csi_solve_report rep;
+    CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+    printf("SpaRSA M=%d %s: %d steps, %d stages, worst acceptance excess %.2g\n", memory,
+           cplx ? "complex" : "real", T.steps, rep.stages, T.worst_excess);
+    CHECK(T.steps > 5, "steps taken: %d", T.steps);
+    CHECK(T.accept_bad == 0, "M=%d: acceptance test failed at %d steps", memory, T.accept_bad);
+    if (memory == 0)
+        CHECK(T.monotone_bad == 0, "monotone SpaRSA increased the objective %d times", T.monotone_bad);
+    trace_free(&T);
+    problem_free(&P);
+}
+
+int main(void)
+{
+    test_rng r;
+    test_rng_seed(&r, 11);
+    test_sequence(&r, 100, 256, 8, false);
+    test_sequence(&r, 200, 1024, 15, false);
+    test_sequence(&r, 80, 256, 6, true);
+
+    test_rng_seed(&r, 12);
+    test_properties(&r, 0, false);
+    test_properties(&r, 5, false);
+    test_properties(&r, 0, true);
+    test_properties(&r, 5, true);
+
+    /* Exact recovery, 20 seeds, real (k = 1024, s = 12, N = 2 s ln(k/s)) and complex. */
+    for (int cplx = 0; cplx <= 1; cplx++) {
+        const size_t k = cplx ? 512 : 1024, s = 12;
+        const size_t N = (size_t)ceil(2.0 * s * log((double)k / s));
+        int ok = 0, conv = 0;
+        double worst = 0;
+        float *xo = malloc(k * 2 * 4);
+        int iters = 0;
+        for (uint64_t seed = 500; seed < 520; seed++) {
+            test_rng_seed(&r, seed);
+            problem P = problem_make(&r, N, k, s, cplx, false, false);
+            csi_sparsa_options o;
+            csi_sparsa_defaults(&o);
+            csi_solve_report rep;
+            CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+            double e = problem_error(&P, xo);
+            if (e < 1e-4)
+                ok++;
+            else
+                printf("  seed %llu: error %.3g, %s\n", (unsigned long long)seed, e, rep.message);
+            worst = fmax(worst, e < 1e-4 ? e : 0);
+            conv += rep.converged;
+            iters += rep.iterations;
+            CHECK(!rep.converged || e < 1e-3, "converged but error %g: %s", e, rep.message);
+            problem_free(&P);
+        }
+        printf("SpaRSA %s k=%zu s=%zu N=%zu: %d/20 recovered (worst %.2g), %d converged, %.1f steps\n",
+               cplx ? "complex" : "real", k, s, N, ok, worst, conv, iters / 20.0);
+        CHECK(ok >= 19, "SpaRSA recovered %d of 20", ok);
+        free(xo);
+    }
+
+    /* Below the bound: N well under 2s -> NOT_IDENTIFIABLE or not converged, never silent. */
+    for (uint64_t seed = 600; seed < 604; seed++) {
+        test_rng_seed(&r, seed);
+        problem P = problem_make(&r, 40, 512, 30, seed & 1, false, false);
+        csi_solve_report rep;
+        CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, NULL, &rep));
+        CHECK(!rep.converged, "below the bound claimed convergence: %s", rep.message);
+        problem_free(&P);
+    }
+
+    /* tau >= ||A^H y||_inf: zero at once, no iteration. */
+    {
+        test_rng_seed(&r, 700);
+        problem P = problem_make(&r, 60, 256, 5, false, false, false);
+        csi_sparsa_options o;
+        csi_sparsa_defaults(&o);
+        o.tau = 1e6;
+        csi_solve_report rep;
+        CHECK_OK(csi_vec_fill(test_ctx(), P.dx, 256, 3.0f));
+        CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+        float xo[256];
+        test_download(P.dx, xo, sizeof xo);
+        CHECK(rep.reason == CSI_SOLVE_ZERO && rep.converged && rep.iterations == 0 && rep.applies == 0 &&
+                  test_max_abs(xo, 256) == 0, "tau above max: %s", rep.message);
+        problem_free(&P);
+    }
+
+    /* Multi-channel: one workspace, bitwise equal to separate solves. */
+    {
+        test_rng_seed(&r, 800);
+        problem P = problem_make(&r, 100, 512, 8, true, false, false);
+        cl_mem ys[3], xs[3];
+        for (int c = 0; c < 3; c++) {
+            for (size_t j = 0; j < 512 * 2; j++)
+                P.x[j] = c == 0 ? P.x[j] : P.x[(j + 2 * 37 * c) % 1024];
+            problem_measure(&P);
+            ys[c] = test_upload(P.y, 100 * 2 * 4);
+            xs[c] = test_alloc(512 * 2 * 4);
+        }
+        csi_solve_report reps[3], one;
+        CHECK_OK(csi_sparsa_multi(P.op, 3, ys, xs, NULL, reps));
+        float *a = malloc(1024 * 4), *b = malloc(1024 * 4);
+        for (int c = 0; c < 3; c++) {
+            CHECK_OK(csi_sparsa(P.op, ys[c], P.dx, NULL, &one));
+            test_download(xs[c], a, 1024 * 4);
+            test_download(P.dx, b, 1024 * 4);
+            CHECK(memcmp(a, b, 1024 * 4) == 0 && reps[c].converged, "channel %d: %s", c, reps[c].message);
+            csi_buffer_release(&ys[c]);
+            csi_buffer_release(&xs[c]);
+        }
+        free(a);
+        free(b);
+        problem_free(&P);
+    }
+
+    /* Bad options are refused with a message. */
+    {
+        test_rng_seed(&r, 900);
+        problem P = problem_make(&r, 20, 64, 3, false, false, false);
+        csi_sparsa_options o;
+        csi_sparsa_defaults(&o);
+        o.sigma = 1.5;
+        csi_solve_report rep;
+        CHECK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep) == CSI_ERR_ARG && strstr(csi_last_error(), "sigma"),
+              "%s", csi_last_error());
+        csi_sparsa_defaults(&o);
+        o.memory = 1000;
+        CHECK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep) == CSI_ERR_ARG, "memory cap");
+        problem_free(&P);
+    }
+    return test_done();
+}
