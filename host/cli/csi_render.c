@@ -1,0 +1,417 @@
+/* csi-render: renders a scene with the Embree tracer at host-chosen sample positions and
+ * reconstructs in the same process (compressive, or a Monte Carlo baseline). See --help. */
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common.h"
+#include "csi/dump.h"
+#include "csi/positions.h"
+#include "csi/reconstruct.h"
+#include "csi/runtime.h"
+#include "csi/stats.h"
+#include "csi_tracer.h"
+#include "outputs.h"
+
+static const char *prog = "csi-render";
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+"usage: csi-render SCENE -o OUT.exr [options]\n"
+"       csi-render --plan SCENE\n"
+"\n"
+"Renders SCENE (docs/scene-format.md) with Embree at sample positions on a fine grid and\n"
+"reconstructs the image in-process. Only what the scene calls for is simulated: a static\n"
+"scene has no time axis (antialiasing, Alg. 1); a moving one is sampled in x, y, t (motion\n"
+"blur, Alg. 2). --plan prints that decision as JSON.\n"
+"\n"
+"outputs:\n"
+"  -o, --output FILE.exr     float32 EXR with the run's parameters as header attributes\n"
+"      --png FILE.png        8-bit sRGB preview\n"
+"      --frames DIR          moving scenes: every reconstructed frame (DIR/frame_NNNN.exr/.png)\n"
+"      --dump FILE.csid      the exact samples, for csi-reconstruct (bit-identical result)\n"
+"      --stats FILE.json     plan, ray counts, timings, iterations and residuals\n"
+"sampling:\n"
+"      --spp N               samples per pixel (over the whole shutter when moving), default 4\n"
+"      --method M            cs (compressive, Poisson-disk positions; default), stratified or\n"
+"                            random (Monte Carlo: per-pixel sample mean)\n"
+"      --grid K              fine-grid width in cells (a multiple of the image width); default\n"
+"                            4x the image width when static, 1x when moving\n"
+"      --time-steps T        frames of the volume for a moving scene (default: the plan's rule)\n"
+"      --reference SPP       render a stratified ground truth with SPP samples per pixel instead\n"
+"      --seed S              seed of positions and shading, default 1\n"
+"      --threads N           tracing threads, default: all cores\n"
+"reconstruction (as csi-reconstruct):\n"
+"      --solver romp|sparsa  --wavelet db4|db8  --levels L  --lambda L  --sigma-scale S\n"
+"      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
+"      --estimator cs|mean|gauss  --gauss-sigma S\n"
+"other:\n"
+"      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
+"  -q, --quiet               no progress on stderr\n"
+"  -h, --help                this text\n"
+"      --version             version\n"
+"exit status: 0 success, 2 bad input or usage, 1 other failure\n");
+}
+
+typedef struct {
+    cli_progress *bar;
+} prog_state;
+
+static void on_trace(uint64_t done, uint64_t total, void *user)
+{
+    prog_state *ps = user;
+    char detail[64];
+    snprintf(detail, sizeof detail, "%llu / %llu samples", (unsigned long long)done,
+             (unsigned long long)total);
+    cli_progress_update(ps->bar, "trace", total ? (double)done / (double)total : -1, detail);
+}
+
+static void on_solve(void *user, const char *phase, int iter, double res)
+{
+    prog_state *ps = user;
+    char detail[64] = "";
+    if (res >= 0)
+        snprintf(detail, sizeof detail, "iter %d  residual %.2e", iter, res);
+    cli_progress_update(ps->bar, phase, -1, detail);
+}
+
+int main(int argc, char **argv)
+{
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
+           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_SPP, O_METHOD, O_GRID, O_DUMP,
+           O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
+    static const struct option longopts[] = {
+        {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
+        {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
+        {"solver", required_argument, 0, O_SOLVER}, {"wavelet", required_argument, 0, O_WAVELET},
+        {"levels", required_argument, 0, O_LEVELS}, {"lambda", required_argument, 0, O_LAMBDA},
+        {"sigma-scale", required_argument, 0, O_SIGMA}, {"integrate", required_argument, 0, O_INTEGRATE},
+        {"tol", required_argument, 0, O_TOL}, {"max-iter", required_argument, 0, O_MAXIT},
+        {"tau", required_argument, 0, O_TAU}, {"device", required_argument, 0, O_DEVICE},
+        {"estimator", required_argument, 0, O_EST}, {"gauss-sigma", required_argument, 0, O_GSIGMA},
+        {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
+        {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
+        {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
+        {"threads", required_argument, 0, O_THREADS}, {"plan", no_argument, 0, O_PLAN},
+        {"time-steps", required_argument, 0, O_TSTEPS},
+        {"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'},
+        {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
+    cli_outputs outs = {0};
+    csi_recon_options opt;
+    csi_recon_defaults(&opt);
+    bool quiet = false, plan_only = false, est_given = false;
+    const char *device = NULL, *dump_path = NULL, *method = "cs";
+    uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
+    int c;
+    double d;
+    uint64_t u;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "o:qh", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'o': outs.exr = optarg; break;
+        case O_PNG: outs.png = optarg; break;
+        case O_FRAMES: outs.frames_dir = optarg; opt.frames = true; break;
+        case O_STATS: outs.stats = optarg; break;
+        case O_DUMP: dump_path = optarg; break;
+        case O_PLAN: plan_only = true; break;
+        case O_SOLVER:
+            if (csi_solver_kind_parse(optarg, &opt.solver) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--solver: %s", csi_last_error());
+            break;
+        case O_WAVELET:
+            if (csi_wavelet_parse(optarg, &opt.wavelet) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--wavelet: %s", csi_last_error());
+            break;
+        case O_LEVELS:
+            if (!cli_parse_u64(optarg, 1, 16, &u))
+                return cli_error(prog, CSI_ERR_ARG, "--levels: '%s' is not a whole number from 1 to 16", optarg);
+            opt.levels = (int)u;
+            break;
+        case O_LAMBDA:
+            if (!cli_parse_double(optarg, 1e-12, 1e6, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--lambda: '%s' is not a number in [1e-12, 1e6]", optarg);
+            opt.lambda = (float)d;
+            break;
+        case O_SIGMA:
+            if (!cli_parse_double(optarg, 1e-3, 100, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--sigma-scale: '%s' is not a number in [0.001, 100]", optarg);
+            opt.sigma_scale = d;
+            break;
+        case O_INTEGRATE:
+            if (csi_aa_output_parse(optarg, &opt.output) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--integrate: %s", csi_last_error());
+            break;
+        case O_TOL:
+            if (!cli_parse_double(optarg, 1e-12, 1, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--tol: '%s' is not a number in [1e-12, 1]", optarg);
+            opt.tol = d;
+            break;
+        case O_MAXIT:
+            if (!cli_parse_u64(optarg, 1, 1000000, &u))
+                return cli_error(prog, CSI_ERR_ARG, "--max-iter: '%s' is not a whole number from 1 to 1e6", optarg);
+            opt.max_iter = (int)u;
+            break;
+        case O_TAU:
+            if (!cli_parse_double(optarg, 1e-12, 1, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--tau: '%s' is not a number in [1e-12, 1]", optarg);
+            opt.tau_rel = d;
+            break;
+        case O_EST:
+            if (csi_estimator_parse(optarg, &opt.estimator) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--estimator: %s", csi_last_error());
+            est_given = true;
+            break;
+        case O_GSIGMA:
+            if (!cli_parse_double(optarg, 1e-3, 1e4, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--gauss-sigma: '%s' is not a number in [0.001, 1e4]", optarg);
+            opt.gauss_sigma = d;
+            break;
+        case O_SPP:
+            if (!cli_parse_u64(optarg, 1, 65536, &spp))
+                return cli_error(prog, CSI_ERR_ARG, "--spp: '%s' is not a whole number from 1 to 65536", optarg);
+            break;
+        case O_METHOD:
+            if (strcmp(optarg, "cs") && strcmp(optarg, "stratified") && strcmp(optarg, "random"))
+                return cli_error(prog, CSI_ERR_ARG, "--method: '%s' (expected cs, stratified or random)", optarg);
+            method = optarg;
+            break;
+        case O_GRID:
+            if (!cli_parse_u64(optarg, 1, 1u << 16, &grid_k))
+                return cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to 65536", optarg);
+            break;
+        case O_REF:
+            if (!cli_parse_u64(optarg, 1, 65536, &ref_spp))
+                return cli_error(prog, CSI_ERR_ARG, "--reference: '%s' is not a whole number from 1 to 65536", optarg);
+            break;
+        case O_SEED:
+            if (!cli_parse_u64(optarg, 0, UINT64_MAX, &seed))
+                return cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
+            break;
+        case O_THREADS:
+            if (!cli_parse_u64(optarg, 1, 256, &threads))
+                return cli_error(prog, CSI_ERR_ARG, "--threads: '%s' is not a whole number from 1 to 256", optarg);
+            break;
+        case O_TSTEPS:
+            if (!cli_parse_u64(optarg, 2, 4096, &tsteps))
+                return cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 2 to 4096", optarg);
+            break;
+        case O_DEVICE: device = optarg; break;
+        case 'q': quiet = true; break;
+        case 'h': usage(stdout); return 0;
+        case O_VERSION: printf("csi-render %s\n", CSI_VERSION); return 0;
+        default:
+            return cli_error(prog, CSI_ERR_ARG, "unknown or incomplete option '%s' (see --help)",
+                             argv[optind - 1]);
+        }
+    }
+    if (optind != argc - 1)
+        return cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no scene given (see --help)"
+                                                          : "more than one scene given (see --help)");
+    const char *scene_path = argv[optind];
+    csi_scene *scene = NULL;
+    csi_status s = csi_scene_load(scene_path, &scene);
+    if (s != CSI_OK)
+        return cli_error(prog, s, "%s", csi_last_error());
+    csi_plan plan;
+    csi_plan_overrides ov = {.frames = (uint32_t)tsteps};
+    s = csi_plan_make(scene, &ov, &plan);
+    if (s != CSI_OK) {
+        csi_scene_free(scene);
+        return cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+    }
+    int rc = 0;
+    csi_ctx *ctx = NULL;
+    csi_tracer *tr = NULL;
+    csi_sample_pos *pos = NULL;
+    float *rgb = NULL;
+    csi_recon_result res;
+    memset(&res, 0, sizeof res);
+    if (plan_only) {
+        s = csi_plan_json(scene, &plan, stdout);
+        if (s != CSI_OK)
+            rc = cli_error(prog, s, "%s", csi_last_error());
+        goto done;
+    }
+    if (!outs.exr && !outs.png) {
+        rc = cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
+        goto done;
+    }
+    if (tsteps && !plan.motion && !quiet)
+        fprintf(stderr, "%s: warning: %s has no motion in the shutter: --time-steps ignored (T = 1)\n",
+                prog, scene_path);
+    if (opt.frames && !plan.motion && !quiet)
+        fprintf(stderr, "%s: warning: %s has no motion: --frames writes nothing\n", prog, scene_path);
+
+    /* The grid: the image is W x H; the fine grid K x K*H/W, T frames from the plan. */
+    const bool reference = ref_spp > 0;
+    csi_grid grid = {.out_w = plan.width, .out_h = plan.height, .t = plan.frames};
+    uint64_t factor;
+    if (reference) {
+        factor = (uint64_t)ceil(sqrt((double)ref_spp) - 1e-9);
+        if (plan.frames > 1)
+            factor = 1;
+    } else if (grid_k) {
+        if (grid_k % plan.width) {
+            rc = cli_error(prog, CSI_ERR_ARG, "--grid %llu is not a multiple of the image width %u",
+                           (unsigned long long)grid_k, plan.width);
+            goto done;
+        }
+        factor = grid_k / plan.width;
+    } else {
+        factor = plan.frames > 1 ? 1 : 4;
+    }
+    if ((uint64_t)plan.width * factor > 65536 || (uint64_t)plan.height * factor > 65536) {
+        rc = cli_error(prog, CSI_ERR_ARG, "fine grid %llux%llu is too large",
+                       (unsigned long long)(plan.width * factor), (unsigned long long)(plan.height * factor));
+        goto done;
+    }
+    grid.w = (uint32_t)(plan.width * factor);
+    grid.h = (uint32_t)(plan.height * factor);
+
+    csi_pos_opts popts = {0};
+    popts.spp = (uint32_t)(reference ? ref_spp : spp);
+    popts.seed = seed;
+    popts.method = reference || !strcmp(method, "stratified") ? CSI_POS_STRATIFIED
+                   : !strcmp(method, "random")              ? CSI_POS_RANDOM
+                                                            : CSI_POS_POISSON;
+    if (reference || strcmp(method, "cs")) {
+        if (!est_given)
+            opt.estimator = CSI_EST_MEAN;
+    }
+    s = cli_outputs_check(&outs);
+    if (s == CSI_OK && dump_path) {
+        cli_outputs dchk = {.exr = dump_path};
+        s = cli_outputs_check(&dchk);
+    }
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s", csi_last_error());
+        goto done;
+    }
+    size_t n = 0;
+    csi_pos_info pinfo;
+    s = csi_positions(&grid, &popts, &pos, &n, &pinfo);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        goto done;
+    }
+    /* Device first: a missing OpenCL device should fail before minutes of tracing. */
+    s = csi_ctx_create(&ctx, device);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s", csi_last_error());
+        goto done;
+    }
+    s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        goto done;
+    }
+    rgb = malloc(n * 3 * sizeof(float));
+    if (!rgb) {
+        rc = cli_error(prog, CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+        goto done;
+    }
+    cli_progress bar;
+    cli_progress_init(&bar, quiet);
+    prog_state ps = {&bar};
+    double t0 = cli_now();
+    s = csi_tracer_eval(tr, &grid, pos, n, seed, rgb, on_trace, &ps);
+    double t_render = cli_now() - t0;
+    cli_progress_end(&bar);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        goto done;
+    }
+    if (dump_path) {
+        csi_dump dump = {.grid = grid, .channels = 3, .seed = seed, .count = n, .pos = pos, .values = rgb};
+        s = csi_dump_write(dump_path, &dump);
+        if (s != CSI_OK) {
+            rc = cli_error(prog, s, "%s", csi_last_error());
+            goto done;
+        }
+    }
+    opt.progress = on_solve;
+    opt.user = &ps;
+    double t1 = cli_now();
+    s = csi_reconstruct(ctx, &grid, 3, pos, rgb, n, &opt, &res);
+    double t_recon = cli_now() - t1;
+    cli_progress_end(&bar);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        goto done;
+    }
+    char mdesc[96];
+    snprintf(mdesc, sizeof mdesc, "%s%s, %s positions", reference ? "reference " : "",
+             opt.estimator == CSI_EST_CS ? (plan.frames > 1 ? "compressive motion (Alg. 2)"
+                                                            : "compressive antialias (Alg. 1)")
+             : opt.estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
+                                              : "sample mean (Monte Carlo)",
+             csi_pos_method_name(popts.method));
+    s = cli_write_images(&outs, &opt, &res, mdesc);
+    if (s == CSI_OK && outs.stats) {
+        csi_json *j = NULL;
+        s = csi_json_new(&j);
+        if (s == CSI_OK) {
+            csi_tracer_counters cnt;
+            csi_tracer_counters_get(tr, &cnt);
+            csi_tracer_info info;
+            csi_tracer_info_get(tr, &info);
+            csi_json_str(j, "tool", "csi-render");
+            csi_json_str(j, "scene", scene_path);
+            csi_json_str(j, "device", csi_ctx_device_name(ctx));
+            csi_json_str(j, "method", reference ? "reference" : method);
+            csi_json_str(j, "estimator", csi_estimator_name(opt.estimator));
+            csi_json_str(j, "positions", csi_pos_method_name(popts.method));
+            csi_json_int(j, "spp", popts.spp);
+            csi_json_int(j, "seed", (int64_t)seed);
+            csi_json_int(j, "grid_w", grid.w);
+            csi_json_int(j, "grid_h", grid.h);
+            csi_json_int(j, "grid_t", grid.t);
+            csi_json_int(j, "out_w", grid.out_w);
+            csi_json_int(j, "out_h", grid.out_h);
+            csi_json_int(j, "samples", (int64_t)n);
+            csi_json_num(j, "t_render_s", t_render);
+            csi_json_num(j, "t_reconstruct_s", t_recon);
+            csi_json_num(j, "t_per_sample_us", n ? 1e6 * t_render / (double)n : 0);
+            csi_json_begin(j, "rays");
+            csi_json_int(j, "primary", (int64_t)cnt.primary_rays);
+            csi_json_int(j, "secondary", (int64_t)cnt.secondary_rays);
+            csi_json_int(j, "shadow", (int64_t)cnt.shadow_rays);
+            csi_json_int(j, "ambient_occlusion", (int64_t)cnt.ao_rays);
+            csi_json_int(j, "timed", (int64_t)cnt.timed_rays);
+            csi_json_int(j, "texture_lookups", (int64_t)cnt.texture_lookups);
+            csi_json_int(j, "checker_lookups", (int64_t)cnt.checker_lookups);
+            csi_json_end(j);
+            csi_json_int(j, "embree_geometries", info.geometries);
+            csi_json_int(j, "embree_motion_geometries", info.motion_geometries);
+            csi_json_int(j, "threads", info.threads);
+            csi_json_begin(j, "reconstruction");
+            cli_stats_recon(j, &opt, &res);
+            csi_json_end(j);
+            s = csi_json_write(j, outs.stats);
+            csi_json_free(j);
+        }
+    }
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s", csi_last_error());
+        goto done;
+    }
+    if (!quiet) {
+        for (uint32_t ch = 0; ch < res.channels; ch++)
+            if (!res.report[ch].converged)
+                fprintf(stderr, "%s: warning: channel %u: %s\n", prog, ch, res.report[ch].message);
+        fprintf(stderr, "%s: %ux%u%s from %zu samples (%s) : render %.2f s, reconstruct %.2f s\n", prog,
+                grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, mdesc, t_render, t_recon);
+    }
+done:
+    csi_recon_result_free(&res);
+    free(rgb);
+    free(pos);
+    csi_tracer_free(tr);
+    csi_ctx_release(ctx);
+    csi_plan_free(&plan);
+    csi_scene_free(scene);
+    return rc;
+}
