@@ -461,6 +461,18 @@ static bool occluded(tctx *cx, const double o[3], const double d[3], double tfar
     return r.tfar < 0;
 }
 
+/* true if something lies between the (offset) point o and the light point q */
+static bool shadowed(tctx *cx, const double o[3], const double q[3], double s)
+{
+    double d[3] = {q[0] - o[0], q[1] - o[1], q[2] - o[2]};
+    double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(dl > 0))
+        return false;
+    for (int i = 0; i < 3; i++)
+        d[i] /= dl;
+    return occluded(cx, o, d, dl * (1 - 1e-6), s);
+}
+
 static void tex_fetch(const tr_texture *tx, double u, double v, float out[3])
 {
     /* bilinear, repeating; texel centres at (i + 0.5) / w */
@@ -551,8 +563,9 @@ static void direct(tctx *cx, const shit *h, const float alb[3], double s, rng *r
     for (size_t li = 0; li < sc->n_lights; li++) {
         const tr_light *Lt = &sc->lights[li];
         if (Lt->kind == LIGHT_POINT) {
-            double d[3] = {Lt->position[0] - o[0], Lt->position[1] - o[1],
-                           Lt->position[2] - o[2]};
+            /* geometry from the surface point; only the shadow ray starts at the offset one */
+            double d[3] = {Lt->position[0] - h->p[0], Lt->position[1] - h->p[1],
+                           Lt->position[2] - h->p[2]};
             double d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], dl = sqrt(d2);
             if (!(dl > 0))
                 continue;
@@ -562,7 +575,7 @@ static void direct(tctx *cx, const shit *h, const float alb[3], double s, rng *r
             if (cs <= 0)
                 continue;
             cx->c.shadow_rays++;
-            if (occluded(cx, o, d, dl * (1 - 1e-6), s))
+            if (shadowed(cx, o, Lt->position, s))
                 continue;
             double f = cs / (d2 * M_PI);
             for (int c = 0; c < 3; c++)
@@ -585,7 +598,7 @@ static void direct(tctx *cx, const shit *h, const float alb[3], double s, rng *r
                 double q[3], d[3];
                 for (int i = 0; i < 3; i++) {
                     q[i] = Lt->corner[i] + a * Lt->eu[i] + b * Lt->ev[i];
-                    d[i] = q[i] - o[i];
+                    d[i] = q[i] - h->p[i];
                 }
                 double d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], dl = sqrt(d2);
                 if (!(dl > 0))
@@ -597,7 +610,7 @@ static void direct(tctx *cx, const shit *h, const float alb[3], double s, rng *r
                 if (cs <= 0 || cl <= 0)
                     continue;
                 cx->c.shadow_rays++;
-                if (occluded(cx, o, d, dl * (1 - 1e-6), s))
+                if (shadowed(cx, o, q, s))
                     continue;
                 acc += cs * cl / d2;
             }
