@@ -516,11 +516,12 @@ static csi_status parse_material(parser *p)
         return perr(p, &nametok, "material '%s' is declared twice", nametok.text);
     if (strlen(nametok.text) >= 64)
         return perr(p, &nametok, "material name longer than 63 characters");
+    /* checked above: fits */
     lex_next(p);
     CSI_TRY(open_block(p, "material"));
     tr_material m;
     memset(&m, 0, sizeof m);
-    snprintf(m.name, sizeof m.name, "%s", nametok.text);
+    snprintf(m.name, sizeof m.name, "%.63s", nametok.text);
     m.kind = MAT_DIFFUSE;
     m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.8f;
     m.uv_scale[0] = m.uv_scale[1] = 1;
