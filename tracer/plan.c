@@ -71,6 +71,7 @@ static uint32_t object_steps(const csi_scene *sc, const tr_motion *mo)
 
 typedef struct cam_frame {
     double pos[3], f[3], r[3], u[3], th;
+    bool ok; /* view direction defined and not parallel to up */
 } cam_frame;
 
 static void camera_frame(const csi_scene *sc, double s, cam_frame *cf)
@@ -94,6 +95,8 @@ static void camera_frame(const csi_scene *sc, double s, cam_frame *cf)
     cf->r[2] = cf->f[0] * up[1] - cf->f[1] * up[0];
     for (int i = 0; i < 3; i++)
         rl += cf->r[i] * cf->r[i];
+    double ul = up[0] * up[0] + up[1] * up[1] + up[2] * up[2];
+    cf->ok = fl > 0 && rl > 1e-18 * ul && isfinite(rl);
     for (int i = 0; i < 3; i++)
         cf->r[i] /= sqrt(rl);
     cf->u[0] = cf->r[1] * cf->f[2] - cf->r[2] * cf->f[1];
@@ -182,6 +185,36 @@ csi_status csi_plan_make(const csi_scene *sc, const csi_plan_overrides *ov, csi_
     pl->object_time_steps = calloc(sc->n_objects ? sc->n_objects : 1, sizeof(uint32_t));
     if (!pl->object_time_steps)
         return csi_fail(CSI_ERR_NOMEM, "out of memory (plan)");
+    /* Motion must not collapse an object (scale through zero) or the camera (up along the
+     * view direction) anywhere in the shutter: checked at 257 times and at every key. */
+    for (size_t i = 0; i <= sc->n_objects; i++) {
+        const tr_motion *mo = i < sc->n_objects ? &sc->objects[i].motion : &sc->camera.motion;
+        if (!tr_motion_moves(mo))
+            continue;
+        for (int k = 0; k <= 256; k++) {
+            double s = k / 256.0;
+            tr_xform x, inv;
+            tr_motion_eval(sc, mo, s, &x);
+            bool bad = !tr_xform_invert(&x, &inv);
+            if (!bad && i == sc->n_objects) {
+                cam_frame cf;
+                camera_frame(sc, s, &cf);
+                bad = !cf.ok;
+            }
+            if (bad) {
+                free(pl->object_time_steps);
+                pl->object_time_steps = NULL;
+                double t = sc->shutter_open + s * (sc->shutter_close - sc->shutter_open);
+                if (i == sc->n_objects)
+                    return csi_fail(CSI_ERR_SCENE,
+                                    "%s: camera motion makes the view degenerate at time %g",
+                                    sc->name, t);
+                return csi_fail(CSI_ERR_SCENE,
+                                "%s:%d: %s motion collapses it (zero scale) at time %g",
+                                sc->name, sc->objects[i].line, sc->objects[i].what, t);
+            }
+        }
+    }
     for (size_t i = 0; i < sc->n_objects; i++) {
         const tr_object *o = &sc->objects[i];
         if (tr_motion_moves(&o->motion)) {

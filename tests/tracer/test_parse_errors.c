@@ -109,6 +109,29 @@ int main(void)
                          "}\n",
                  CSI_ERR_SCENE, "'scale' must not be zero", "zero scale");
 
+    /* motion that collapses an object or the camera's view is refused by the plan */
+    {
+        const char *bad[2] = {
+            CAM MAT "shutter 0 2\nsphere { center 0 0 0 radius 1 material m motion { key 0 { scale "
+                    "1 } key 2 { scale -1 } } }\n",
+            "camera { position 0 0 -5 target 0 0 0 motion { key 0 { } key 1 { scale -1 } } }\n"};
+        const char *want[2] = {"test.scene:4: sphere motion collapses it (zero scale) at time 1",
+                               "camera motion makes the view degenerate at time 0.5"};
+        for (int k = 0; k < 2; k++) {
+            csi_scene *bs;
+            CHECK_OK(csi_scene_parse(bad[k], "test.scene", NULL, &bs));
+            if (!bs)
+                continue;
+            csi_plan pl;
+            csi_status pst = csi_plan_make(bs, NULL, &pl);
+            CHECK(pst == CSI_ERR_SCENE && strstr(csi_last_error(), want[k]),
+                  "collapsing motion %d: %s %s", k, csi_status_name(pst), csi_last_error());
+            if (pst == CSI_OK)
+                csi_plan_free(&pl);
+            csi_scene_free(bs);
+        }
+    }
+
     /* missing scene file: CSI_ERR_IO naming the path */
     csi_scene *sc;
     csi_status st = csi_scene_load(CSI_SOURCE_DIR "/tests/tracer/data/no-such.scene", &sc);
@@ -127,6 +150,43 @@ int main(void)
         free(js);
         csi_plan_free(&pl);
         csi_scene_free(sc);
+    }
+    /* robustness: every truncation and 3000 random byte changes of a bundled scene give
+     * either a scene or an error with a message, never a crash (run under ASan too) */
+    {
+        FILE *f = fopen(CSI_SOURCE_DIR "/data/scenes/billiards.scene", "rb");
+        char *text = calloc(1, 1 << 16);
+        size_t len = f ? fread(text, 1, (1 << 16) - 1, f) : 0;
+        if (f)
+            fclose(f);
+        CHECK(len > 100, "cannot read billiards.scene");
+        char *cp = malloc(len + 1);
+        size_t ok = 0, failed_with_msg = 0, total = 0;
+        test_rng r;
+        test_rng_seed(&r, 3);
+        const char pool[] = "{}\"#.-+0123456789eabcxyz \n\t";
+        for (size_t cut = 0; cut < len + 3000; cut += cut < len ? 7 : 1) {
+            memcpy(cp, text, len + 1);
+            if (cut < len) {
+                cp[cut] = '\0';
+            } else {
+                for (int m = 0; m < 3; m++)
+                    cp[test_rng_u64(&r) % len] = pool[test_rng_u64(&r) % (sizeof pool - 1)];
+            }
+            csi_clear_error();
+            csi_status st2 = csi_scene_parse(cp, "fuzz.scene", CSI_SOURCE_DIR "/data/scenes", &sc);
+            total++;
+            if (st2 == CSI_OK) {
+                ok++;
+                csi_scene_free(sc);
+            } else if (csi_last_error()[0] && sc == NULL) {
+                failed_with_msg++;
+            }
+        }
+        CHECK(ok + failed_with_msg == total, "%zu of %zu mutated scenes ended without a message",
+              total - ok - failed_with_msg, total);
+        free(cp);
+        free(text);
     }
     /* every bundled scene parses and plans */
     const char *names[] = {"triangle", "checkerboard", "billiards", "train", "garden"};
