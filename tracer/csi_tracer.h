@@ -134,8 +134,12 @@ csi_status csi_tracer_create(const csi_scene *scene, const csi_plan *plan, unsig
 void csi_tracer_free(csi_tracer *tr);
 
 /* Evaluates radiance (linear RGB, rgb[3*i..3*i+2]) at the centres of the grid cells pos[0..n).
- * grid->t must equal plan->frames; positions must lie inside the grid. The random numbers of
- * sample i depend only on (seed, i): same inputs give the same bits for any thread count. */
+ * grid->t must equal plan->frames; positions must lie inside the grid (grid->out_w/out_h are
+ * not used: the image spans the whole grid). The random numbers of sample i depend only on
+ * (seed, i): same inputs give the same bits for any thread count. The index restarts at 0 in
+ * every call, so a caller that splits one set of samples into several calls must give each
+ * call its own seed (e.g. seed + batch) or the batches share their noise. One call at a time
+ * per tracer (the tracer runs its own threads). */
 csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sample_pos *pos,
                            size_t n, uint64_t seed, float *rgb, csi_progress_fn progress,
                            void *user);
@@ -149,8 +153,10 @@ void csi_tracer_counters_get(const csi_tracer *tr, csi_tracer_counters *c);
 void csi_tracer_counters_reset(csi_tracer *tr);
 void csi_tracer_info_get(const csi_tracer *tr, csi_tracer_info *info);
 
-/* One closest-hit query (for tests and tools): hit = false on a miss. normal is the unit
- * geometric normal facing against dir; object is the scene object index. Not counted. */
+/* One closest-hit query (for tests and tools) from org along dir (unit length, so distance is
+ * a length) at shutter fraction s (ignored for a static plan): hit = false on a miss. normal
+ * is the unit geometric normal facing against dir; object is the scene object index. Not
+ * counted. */
 typedef struct csi_hit {
     bool hit;
     double distance;
