@@ -6,13 +6,16 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The tracer names its progress callback like the solvers' one: keep them apart here. */
+#define csi_progress_fn csi_tracer_progress_fn
+#include "csi_tracer.h"
+#undef csi_progress_fn
 #include "common.h"
 #include "csi/dump.h"
 #include "csi/positions.h"
 #include "csi/reconstruct.h"
 #include "csi/runtime.h"
 #include "csi/stats.h"
-#include "csi_tracer.h"
 #include "outputs.h"
 
 static const char *prog = "csi-render";
