@@ -292,7 +292,40 @@ inline void dft7(float *xr, float *xi, float sgn)
         PASS_BODY(R, ROW_LD, ROW_ST, NOSCALE)                                                  \
     }
 
-#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R)
+/* A pass along contiguous rows once p >= 8: dimension 0 = k (< p), dimension 1 = block g
+ * (< T/p), dimension 2 = row. With i = g p + k both the loads (i + r T) and the stores
+ * (g p R + k + r p) are contiguous in k, so PoCL vectorises them as plain vector accesses; the
+ * i-indexed form above needs scatters for its stores (stride R). Twiddles come from a per-pass
+ * table twp[twoff + (r - 1) p + k] = exp(-2 pi i r k / (p R)), also contiguous in k. */
+#define ROWK_PASS(R)                                                                            \
+    __kernel void csi_fft_rowk_r##R(__global const float *restrict in,                        \
+                                    __global float *restrict out,                             \
+                                    __global const float *restrict twp, const uint twoff,      \
+                                    const uint L_, const uint p_, const uint rs,               \
+                                    const float sgn)                                           \
+    {                                                                                          \
+        const size_t k = get_global_id(0), g = get_global_id(1), row = get_global_id(2);       \
+        const size_t T = (size_t)L_ / R, p = p_;                                               \
+        const size_t base = row * (size_t)rs, i = g * p + k;                                   \
+        float xr[R], xi[R];                                                                    \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            const size_t e_ = base + i + (size_t)r * T;                                        \
+            xr[r] = in[2 * e_];                                                                \
+            xi[r] = in[2 * e_ + 1];                                                            \
+        }                                                                                      \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            const size_t m_ = (size_t)twoff + (size_t)(r - 1) * p + k;                         \
+            CMUL(xr[r], xi[r], xr[r], xi[r], twp[2 * m_], -sgn * twp[2 * m_ + 1]);             \
+        }                                                                                      \
+        dft##R(xr, xi, sgn);                                                                   \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            const size_t e_ = base + g * p * R + k + (size_t)r * p;                            \
+            out[2 * e_] = xr[r];                                                               \
+            out[2 * e_ + 1] = xi[r];                                                           \
+        }                                                                                      \
+    }
+
+#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
 ALL_PASSES(4)

@@ -28,6 +28,8 @@ typedef struct {
     int np;
     int radix[MAX_PASSES];
     cl_mem tw; /* exp(-2 pi i m / L), m < L */
+    cl_mem twp; /* per-pass tables exp(-2 pi i r k / (p R)) at [(r - 1) p + k], rows only */
+    size_t twoff[MAX_PASSES]; /* element offset of each pass's table in twp */
 } axis_plan;
 
 struct csi_fft_filter {
@@ -129,12 +131,45 @@ static csi_status gains(csi_ctx *ctx, size_t n, size_t count, size_t alloc, doub
     return st;
 }
 
+/* The row passes' per-pass twiddle tables (see csi_fft_rowk_r* in kernels/fft.cl). */
+static csi_status pass_twiddles(csi_ctx *ctx, axis_plan *a)
+{
+    size_t total = 0, p = 1;
+    for (int i = 0; i < a->np; i++) {
+        a->twoff[i] = total;
+        total += (size_t)(a->radix[i] - 1) * p;
+        p *= (size_t)a->radix[i];
+    }
+    if (total == 0)
+        total = 1;
+    float *t = calloc(2 * total, sizeof *t);
+    if (!t)
+        return csi_fail(CSI_ERR_NOMEM, "FFT twiddles: out of host memory");
+    p = 1;
+    for (int i = 0; i < a->np; i++) {
+        size_t R = (size_t)a->radix[i];
+        for (size_t r = 1; r < R; r++)
+            for (size_t k = 0; k < p; k++) {
+                double ang = -2.0 * PI_ * (double)(r * k) / (double)(p * R);
+                size_t at = a->twoff[i] + (r - 1) * p + k;
+                t[2 * at] = (float)cos(ang);
+                t[2 * at + 1] = (float)sin(ang);
+            }
+        p *= R;
+    }
+    csi_status st = upload_table(ctx, t, 2 * total * sizeof *t, "FFT twiddles", &a->twp);
+    free(t);
+    return st;
+}
+
 void csi_fft_filter_free(csi_fft_filter *f)
 {
     if (!f)
         return;
-    for (int a = 0; a < 3; a++)
+    for (int a = 0; a < 3; a++) {
         csi_buffer_release(&f->ax[a].tw);
+        csi_buffer_release(&f->ax[a].twp);
+    }
     csi_buffer_release(&f->wn);
     csi_buffer_release(&f->P);
     csi_buffer_release(&f->Q);
@@ -162,12 +197,19 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     for (int a = 0; a < f->nd; a++) {
         plan_radices(&f->ax[a]);
         CSI_TRY(twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw));
+        if (a == 0)
+            CSI_TRY(pass_twiddles(ctx, &f->ax[a]));
         /* Build every kernel now so that the first run pays no compile. */
         for (int p = 0; p < f->ax[a].np; p++) {
             cl_kernel k;
-            CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(a == 0 ? "row" : "col", f->ax[a].radix[p]), &k));
-            if (a > 0)
-                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", f->ax[a].radix[p]), &k));
+            int R = f->ax[a].radix[p];
+            if (a == 0) {
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row", R), &k));
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
+            } else {
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", R), &k));
+            }
         }
     }
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
@@ -233,6 +275,16 @@ static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_
 {
     int R = a->radix[pass];
     cl_kernel k;
+    if (p >= 8) {
+        /* k-indexed form: contiguous loads and stores (see kernels/fft.cl) */
+        CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("rowk", R), &k));
+        cl_uint L = (cl_uint)a->L, rs = (cl_uint)f->M, twoff = (cl_uint)a->twoff[pass];
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->twp), CSI_ARG(twoff), CSI_ARG(L),
+                         CSI_ARG(p), CSI_ARG(rs), CSI_ARG(sgn)));
+        size_t lk = pow2_dividing(p, 16);
+        size_t global[3] = {p, a->L / ((size_t)R * p), f->rows}, local[3] = {lk, 1, 1};
+        return csi_run(f->ctx, k, 3, global, local);
+    }
     CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("row", R), &k));
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)f->rows,
             rs = (cl_uint)f->M;
