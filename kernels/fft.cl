@@ -18,216 +18,314 @@
  * Twiddles come from a table tw[m] = exp(-2 pi i m / L) computed in double on the host; the
  * index r k L / (p R) is below L. sgn = -1 forward, +1 inverse (conjugated twiddles). */
 
-inline float2 cmul(float2 a, float2 b) { return (float2)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
-/* exp(sgn i pi/2) v: -i v forward, +i v inverse */
-inline float2 rot90(float2 v, float sgn) { return (float2)(-sgn * v.y, sgn * v.x); }
-/* table twiddle, conjugated for the inverse */
-inline float2 twid(float2 w, float sgn) { return (float2)(w.x, -sgn * w.y); }
 
-#define BF2(a, b)                                                                              \
+/* Complex values are kept as separate re / im floats, indices as size_t, and buffers restrict:
+ * PoCL (LLVM 15) only vectorises the work-item loop when the body has no float2 vector types and
+ * no 32-bit index arithmetic that may wrap (checked in the generated code: with float2 or uint
+ * indices the passes compiled to scalar code and ran 2-3x slower). */
+
+/* t = a * b (complex) */
+#define CMUL(tr, ti, ar, ai, br, bi)                                                            \
     do {                                                                                       \
-        float2 t_ = a;                                                                         \
-        a = t_ + b;                                                                            \
-        b = t_ - b;                                                                            \
+        float ar_ = (ar), ai_ = (ai), br_ = (br), bi_ = (bi);                                  \
+        tr = ar_ * br_ - ai_ * bi_;                                                            \
+        ti = ar_ * bi_ + ai_ * br_;                                                            \
     } while (0)
 
-inline void dft2(float2 *u, float sgn) { BF2(u[0], u[1]); }
-
-/* 4-point DFT in place, natural order in and out. */
-inline void dft4(float2 *u, float sgn)
+/* 4-point DFT in place, natural order in and out; sgn = -1 forward, +1 inverse. */
+inline void dft4(float *xr, float *xi, float sgn)
 {
-    float2 a0 = u[0] + u[2], a1 = u[0] - u[2], a2 = u[1] + u[3], a3 = rot90(u[1] - u[3], sgn);
-    u[0] = a0 + a2;
-    u[2] = a0 - a2;
-    u[1] = a1 + a3;
-    u[3] = a1 - a3;
+    float a0r = xr[0] + xr[2], a0i = xi[0] + xi[2], a1r = xr[0] - xr[2], a1i = xi[0] - xi[2];
+    float a2r = xr[1] + xr[3], a2i = xi[1] + xi[3], dr = xr[1] - xr[3], di = xi[1] - xi[3];
+    float a3r = -sgn * di, a3i = sgn * dr; /* sgn i (x1 - x3) */
+    xr[0] = a0r + a2r;
+    xi[0] = a0i + a2i;
+    xr[2] = a0r - a2r;
+    xi[2] = a0i - a2i;
+    xr[1] = a1r + a3r;
+    xi[1] = a1i + a3i;
+    xr[3] = a1r - a3r;
+    xi[3] = a1i - a3i;
 }
 
-/* 8-point DFT: two 4-point DFTs of the even and odd samples, then radix-2 with w8^k. */
-inline void dft8(float2 *u, float sgn)
+inline void dft2(float *xr, float *xi, float sgn)
+{
+    float tr = xr[0] - xr[1], ti = xi[0] - xi[1];
+    xr[0] += xr[1];
+    xi[0] += xi[1];
+    xr[1] = tr;
+    xi[1] = ti;
+}
+
+/* 8-point DFT: 4-point DFTs of the even and odd samples, then radix 2 with w8^k,
+ * w8 = exp(sgn 2 pi i / 8). */
+inline void dft8(float *xr, float *xi, float sgn)
 {
     const float h = 0.70710678118654752f;
-    float2 e[4] = {u[0], u[2], u[4], u[6]}, o[4] = {u[1], u[3], u[5], u[7]};
-    dft4(e, sgn);
-    dft4(o, sgn);
-    /* w8^1 = (1 + sgn i) h, w8^2 = sgn i, w8^3 = (-1 + sgn i) h */
-    float2 o1 = (float2)(h * (o[1].x - sgn * o[1].y), h * (o[1].y + sgn * o[1].x));
-    float2 o2 = rot90(o[2], sgn);
-    float2 o3 = (float2)(h * (-o[3].x - sgn * o[3].y), h * (-o[3].y + sgn * o[3].x));
-    u[0] = e[0] + o[0];
-    u[4] = e[0] - o[0];
-    u[1] = e[1] + o1;
-    u[5] = e[1] - o1;
-    u[2] = e[2] + o2;
-    u[6] = e[2] - o2;
-    u[3] = e[3] + o3;
-    u[7] = e[3] - o3;
+    float er[4] = {xr[0], xr[2], xr[4], xr[6]}, ei[4] = {xi[0], xi[2], xi[4], xi[6]};
+    float or_[4] = {xr[1], xr[3], xr[5], xr[7]}, oi[4] = {xi[1], xi[3], xi[5], xi[7]};
+    dft4(er, ei, sgn);
+    dft4(or_, oi, sgn);
+    /* w8^1 = h (1 + sgn i), w8^2 = sgn i, w8^3 = h (-1 + sgn i) */
+    float t1r = h * (or_[1] - sgn * oi[1]), t1i = h * (oi[1] + sgn * or_[1]);
+    float t2r = -sgn * oi[2], t2i = sgn * or_[2];
+    float t3r = h * (-or_[3] - sgn * oi[3]), t3i = h * (-oi[3] + sgn * or_[3]);
+    xr[0] = er[0] + or_[0];
+    xi[0] = ei[0] + oi[0];
+    xr[4] = er[0] - or_[0];
+    xi[4] = ei[0] - oi[0];
+    xr[1] = er[1] + t1r;
+    xi[1] = ei[1] + t1i;
+    xr[5] = er[1] - t1r;
+    xi[5] = ei[1] - t1i;
+    xr[2] = er[2] + t2r;
+    xi[2] = ei[2] + t2i;
+    xr[6] = er[2] - t2r;
+    xi[6] = ei[2] - t2i;
+    xr[3] = er[3] + t3r;
+    xi[3] = ei[3] + t3i;
+    xr[7] = er[3] - t3r;
+    xi[7] = ei[3] - t3i;
 }
 
-/* 16-point DFT: 4 x 4 (four 4-point DFTs, twiddles w16^(q s), four 4-point DFTs). */
-inline void dft16(float2 *u, float sgn)
+/* 16-point DFT as 4 x 4: input index q + 4 m, output s + 4 t:
+ * X[s + 4t] = sum_q w4^(q t) w16^(q s) sum_m x[q + 4m] w4^(m s). */
+inline void dft16(float *xr, float *xi, float sgn)
 {
     const float c1 = 0.92387953251128676f, s1 = 0.38268343236508977f, h = 0.70710678118654752f;
-    float2 a[4][4];
-    for (int q = 0; q < 4; q++) {
-        float2 t[4] = {u[q], u[q + 4], u[q + 8], u[q + 12]};
-        dft4(t, sgn);
-        for (int s = 0; s < 4; s++)
-            a[q][s] = t[s];
-    }
-    /* w16^m for m = q s, m in {0..9}: (cos(2 pi m/16), sgn sin(2 pi m/16)) */
+    /* w16^m = (wc[m], sgn ws[m]), m = q s in 0..9 */
     const float wc[10] = {1.0f, c1, h, s1, 0.0f, -s1, -h, -c1, -1.0f, -c1};
     const float ws[10] = {0.0f, s1, h, c1, 1.0f, c1, h, s1, 0.0f, -s1};
-    for (int q = 1; q < 4; q++)
-        for (int s = 1; s < 4; s++)
-            a[q][s] = cmul(a[q][s], (float2)(wc[q * s], sgn * ws[q * s]));
+    float ar[16], ai[16]; /* a[q * 4 + s] */
+#pragma unroll
+    for (int q = 0; q < 4; q++) {
+        float tr[4] = {xr[q], xr[q + 4], xr[q + 8], xr[q + 12]};
+        float ti[4] = {xi[q], xi[q + 4], xi[q + 8], xi[q + 12]};
+        dft4(tr, ti, sgn);
+#pragma unroll
+        for (int s = 0; s < 4; s++) {
+            if (q == 0 || s == 0) {
+                ar[q * 4 + s] = tr[s];
+                ai[q * 4 + s] = ti[s];
+            } else {
+                CMUL(ar[q * 4 + s], ai[q * 4 + s], tr[s], ti[s], wc[q * s], sgn * ws[q * s]);
+            }
+        }
+    }
+#pragma unroll
     for (int s = 0; s < 4; s++) {
-        float2 t[4] = {a[0][s], a[1][s], a[2][s], a[3][s]};
-        dft4(t, sgn);
-        for (int q = 0; q < 4; q++)
-            u[s + 4 * q] = t[q];
+        float tr[4] = {ar[s], ar[4 + s], ar[8 + s], ar[12 + s]};
+        float ti[4] = {ai[s], ai[4 + s], ai[8 + s], ai[12 + s]};
+        dft4(tr, ti, sgn);
+#pragma unroll
+        for (int t = 0; t < 4; t++) {
+            xr[s + 4 * t] = tr[t];
+            xi[s + 4 * t] = ti[t];
+        }
     }
 }
 
-/* Odd radices: direct DFT with exact constants, u'[q] = sum_r u[r] exp(sgn 2 pi i q r / R). */
-inline void dft3(float2 *u, float sgn)
+/* Odd radices: x'[q] = sum_r x[r] exp(sgn 2 pi i q r / R), with a_r = x_r + x_(R-r),
+ * b_r = x_r - x_(R-r): x'[q], x'[R-q] = x0 + sum a_r cos(2 pi q r/R) +- sgn i sum b_r sin(...). */
+inline void dft3(float *xr, float *xi, float sgn)
 {
     const float c = -0.5f, s = 0.86602540378443865f;
-    float2 t1 = u[1] + u[2], t2 = u[1] - u[2];
-    float2 m = u[0] + c * t1;
-    float2 r = rot90(t2, sgn) * s; /* sgn i s (u1 - u2) */
-    u[0] = u[0] + t1;
-    u[1] = m + r;
-    u[2] = m - r;
+    float ar = xr[1] + xr[2], ai = xi[1] + xi[2], br = xr[1] - xr[2], bi = xi[1] - xi[2];
+    float mr = xr[0] + c * ar, mi = xi[0] + c * ai;
+    float rr = -sgn * s * bi, ri = sgn * s * br;
+    xr[0] += ar;
+    xi[0] += ai;
+    xr[1] = mr + rr;
+    xi[1] = mi + ri;
+    xr[2] = mr - rr;
+    xi[2] = mi - ri;
 }
 
-inline void dft5(float2 *u, float sgn)
+inline void dft5(float *xr, float *xi, float sgn)
 {
     const float c1 = 0.30901699437494742f, c2 = -0.80901699437494742f;
     const float s1 = 0.95105651629515357f, s2 = 0.58778525229247313f;
-    float2 a1 = u[1] + u[4], b1 = u[1] - u[4], a2 = u[2] + u[3], b2 = u[2] - u[3];
-    float2 m1 = u[0] + c1 * a1 + c2 * a2, m2 = u[0] + c2 * a1 + c1 * a2;
-    float2 r1 = rot90(s1 * b1 + s2 * b2, sgn), r2 = rot90(s2 * b1 - s1 * b2, sgn);
-    u[0] = u[0] + a1 + a2;
-    u[1] = m1 + r1;
-    u[4] = m1 - r1;
-    u[2] = m2 + r2;
-    u[3] = m2 - r2;
+    float a1r = xr[1] + xr[4], a1i = xi[1] + xi[4], b1r = xr[1] - xr[4], b1i = xi[1] - xi[4];
+    float a2r = xr[2] + xr[3], a2i = xi[2] + xi[3], b2r = xr[2] - xr[3], b2i = xi[2] - xi[3];
+    float m1r = xr[0] + c1 * a1r + c2 * a2r, m1i = xi[0] + c1 * a1i + c2 * a2i;
+    float m2r = xr[0] + c2 * a1r + c1 * a2r, m2i = xi[0] + c2 * a1i + c1 * a2i;
+    float v1r = s1 * b1r + s2 * b2r, v1i = s1 * b1i + s2 * b2i;
+    float v2r = s2 * b1r - s1 * b2r, v2i = s2 * b1i - s1 * b2i;
+    float r1r = -sgn * v1i, r1i = sgn * v1r, r2r = -sgn * v2i, r2i = sgn * v2r;
+    xr[0] += a1r + a2r;
+    xi[0] += a1i + a2i;
+    xr[1] = m1r + r1r;
+    xi[1] = m1i + r1i;
+    xr[4] = m1r - r1r;
+    xi[4] = m1i - r1i;
+    xr[2] = m2r + r2r;
+    xi[2] = m2i + r2i;
+    xr[3] = m2r - r2r;
+    xi[3] = m2i - r2i;
 }
 
-inline void dft7(float2 *u, float sgn)
+inline void dft7(float *xr, float *xi, float sgn)
 {
     const float c1 = 0.62348980185873353f, c2 = -0.22252093395631440f, c3 = -0.90096886790241913f;
     const float s1 = 0.78183148246802981f, s2 = 0.97492791218182361f, s3 = 0.43388373911755812f;
-    float2 a1 = u[1] + u[6], b1 = u[1] - u[6], a2 = u[2] + u[5], b2 = u[2] - u[5];
-    float2 a3 = u[3] + u[4], b3 = u[3] - u[4];
-    float2 m1 = u[0] + c1 * a1 + c2 * a2 + c3 * a3;
-    float2 m2 = u[0] + c2 * a1 + c3 * a2 + c1 * a3;
-    float2 m3 = u[0] + c3 * a1 + c1 * a2 + c2 * a3;
-    float2 r1 = rot90(s1 * b1 + s2 * b2 + s3 * b3, sgn);
-    float2 r2 = rot90(s2 * b1 - s3 * b2 - s1 * b3, sgn);
-    float2 r3 = rot90(s3 * b1 - s1 * b2 + s2 * b3, sgn);
-    u[0] = u[0] + a1 + a2 + a3;
-    u[1] = m1 + r1;
-    u[6] = m1 - r1;
-    u[2] = m2 + r2;
-    u[5] = m2 - r2;
-    u[3] = m3 + r3;
-    u[4] = m3 - r3;
+    float a1r = xr[1] + xr[6], a1i = xi[1] + xi[6], b1r = xr[1] - xr[6], b1i = xi[1] - xi[6];
+    float a2r = xr[2] + xr[5], a2i = xi[2] + xi[5], b2r = xr[2] - xr[5], b2i = xi[2] - xi[5];
+    float a3r = xr[3] + xr[4], a3i = xi[3] + xi[4], b3r = xr[3] - xr[4], b3i = xi[3] - xi[4];
+    float m1r = xr[0] + c1 * a1r + c2 * a2r + c3 * a3r, m1i = xi[0] + c1 * a1i + c2 * a2i + c3 * a3i;
+    float m2r = xr[0] + c2 * a1r + c3 * a2r + c1 * a3r, m2i = xi[0] + c2 * a1i + c3 * a2i + c1 * a3i;
+    float m3r = xr[0] + c3 * a1r + c1 * a2r + c2 * a3r, m3i = xi[0] + c3 * a1i + c1 * a2i + c2 * a3i;
+    float v1r = s1 * b1r + s2 * b2r + s3 * b3r, v1i = s1 * b1i + s2 * b2i + s3 * b3i;
+    float v2r = s2 * b1r - s3 * b2r - s1 * b3r, v2i = s2 * b1i - s3 * b2i - s1 * b3i;
+    float v3r = s3 * b1r - s1 * b2r + s2 * b3r, v3i = s3 * b1i - s1 * b2i + s2 * b3i;
+    xr[0] += a1r + a2r + a3r;
+    xi[0] += a1i + a2i + a3i;
+    xr[1] = m1r - sgn * v1i;
+    xi[1] = m1i + sgn * v1r;
+    xr[6] = m1r + sgn * v1i;
+    xi[6] = m1i - sgn * v1r;
+    xr[2] = m2r - sgn * v2i;
+    xi[2] = m2i + sgn * v2r;
+    xr[5] = m2r + sgn * v2i;
+    xi[5] = m2i - sgn * v2r;
+    xr[3] = m3r - sgn * v3i;
+    xi[3] = m3i + sgn * v3r;
+    xr[4] = m3r + sgn * v3i;
+    xi[4] = m3i - sgn * v3r;
 }
 
-/* One pass along a strided axis ("column" pass): dimension 0 = x index c (< nc, consecutive
- * work-items touch consecutive addresses), dimension 1 = butterfly i (< L/R), dimension 2 =
- * batch b (< nb). Element at position q of line (c, b): base + q * sa, base = c + b * sb.
- * ts = L / (p R). */
-#define COL_PASS(R)                                                                             \
-    __kernel void csi_fft_col_r##R(__global const float2 *in, __global float2 *out,           \
-                                   __global const float2 *tw, const uint L, const uint p,      \
-                                   const uint ts, const uint sa, const uint nc, const uint nb,  \
-                                   const uint sb, const float sgn)                             \
-    {                                                                                          \
-        const uint c = (uint)get_global_id(0), i = (uint)get_global_id(1),                     \
-                   b = (uint)get_global_id(2);                                                 \
-        const uint T = L / R;                                                                  \
-        if (c >= nc || i >= T || b >= nb)                                                      \
-            return;                                                                            \
-        const size_t base = (size_t)c + (size_t)b * sb;                                        \
-        float2 u[R];                                                                           \
-        for (uint r = 0; r < R; r++)                                                           \
-            u[r] = in[base + (size_t)(i + r * T) * sa];                                        \
-        const uint k = i % p;                                                                  \
-        for (uint r = 1; r < R; r++)                                                           \
-            u[r] = cmul(u[r], twid(tw[k * r * ts], sgn));                                      \
-        dft##R(u, sgn);                                                                        \
-        const uint j = (i - k) * R + k;                                                        \
-        for (uint r = 0; r < R; r++)                                                           \
-            out[base + (size_t)(j + r * p) * sa] = u[r];                                       \
+/* The pass kernels have no bounds checks: the host launches them with global sizes that are
+ * exact multiples of the local sizes (column passes run over the padded row length hs, a
+ * multiple of 16, and the padding columns are scratch). With a bounds check PoCL vectorised the
+ * loads and stores as masked gathers and scatters, several times slower. */
+
+/* Twiddle, load, store and DFT of one Stockham pass; in/out are float arrays of interleaved
+ * (re, im) pairs, complex element e at 2e. `ld(r)` / `st(r)` give the complex element index of
+ * the r-th input / output. The table tw holds exp(-2 pi i m / L); conjugated for sgn = +1. */
+#define PASS_BODY(R, LD, ST, SCALE)                                                             \
+    float xr[R], xi[R];                                                                        \
+    _Pragma("unroll") for (int r = 0; r < R; r++) {                                            \
+        const size_t e_ = LD(r);                                                               \
+        xr[r] = in[2 * e_] * SCALE(r);                                                         \
+        xi[r] = in[2 * e_ + 1] * SCALE(r);                                                     \
+    }                                                                                          \
+    const size_t k = i % p;                                                                    \
+    if (p > 1) {                                                                               \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            const size_t m_ = k * (size_t)r * ts;                                              \
+            CMUL(xr[r], xi[r], xr[r], xi[r], tw[2 * m_], -sgn * tw[2 * m_ + 1]);               \
+        }                                                                                      \
+    }                                                                                          \
+    dft##R(xr, xi, sgn);                                                                       \
+    const size_t j = (i - k) * R + k;                                                          \
+    _Pragma("unroll") for (int r = 0; r < R; r++) {                                            \
+        const size_t e_ = ST(r);                                                               \
+        out[2 * e_] = xr[r];                                                                   \
+        out[2 * e_ + 1] = xi[r];                                                               \
     }
 
-/* The same pass with the filter gain applied to its input: the first inverse pass along the
- * last axis reads the spectrum in natural order (p = 1), so position q = i + r T is the
- * frequency index along the axis, c the x index and b the middle index. The gain is
- * G = gx[c] gb[b] ga[q] (separable Gaussian), turned into the Wiener inverse
- * (1 + lambda) G / (G^2 + lambda) when wiener != 0, times the transform's normalisation. */
-#define COL_PASS_GAIN(R)                                                                        \
-    __kernel void csi_fft_col_gain_r##R(__global const float2 *in, __global float2 *out,      \
-                                        __global const float2 *tw, const uint L,               \
-                                        const uint p, const uint ts, const uint sa,            \
-                                        const uint nc, const uint nb, const uint sb,           \
-                                        const float sgn, __global const float *gx,             \
-                                        __global const float *gb, __global const float *ga,    \
-                                        const uint wiener, const float lambda,                 \
-                                        const float scale)                                     \
+#define NOSCALE(r) 1.0f
+
+/* One pass along a strided axis ("column" pass): launch dimension 0 = x index c (< nc;
+ * consecutive work-items touch consecutive addresses), dimension 1 = butterfly i (< L/R),
+ * dimension 2 = batch b (< nb). Element q of line (c, b) is at base + q sa, base = c + b sb.
+ * ts = L / (p R). */
+#define COL_LD(r) (base + (i + (size_t)(r) * T) * sa)
+#define COL_ST(r) (base + (j + (size_t)(r) * p) * sa)
+#define COL_PASS(R)                                                                             \
+    __kernel void csi_fft_col_r##R(__global const float *restrict in,                         \
+                                   __global float *restrict out,                              \
+                                   __global const float *restrict tw, const uint L_,           \
+                                   const uint p_, const uint ts_, const uint sa_,              \
+                                   const uint nc, const uint nb, const uint sb_, const float sgn) \
     {                                                                                          \
-        const uint c = (uint)get_global_id(0), i = (uint)get_global_id(1),                     \
-                   b = (uint)get_global_id(2);                                                 \
-        const uint T = L / R;                                                                  \
-        if (c >= nc || i >= T || b >= nb)                                                      \
-            return;                                                                            \
-        const size_t base = (size_t)c + (size_t)b * sb;                                        \
+        const size_t c = get_global_id(0), i = get_global_id(1), b = get_global_id(2);         \
+        const size_t T = (size_t)L_ / R, p = p_, ts = ts_, sa = sa_;                           \
+        const size_t base = c + b * (size_t)sb_;                                               \
+        PASS_BODY(R, COL_LD, COL_ST, NOSCALE)                                                  \
+    }
+
+/* The same pass with the filter gain applied to its input. It is the first inverse pass along
+ * the last axis, which reads the spectrum in natural order (p = 1): position q = i + r T is the
+ * frequency index along that axis, c the x index and b the middle one. The gain is
+ * G = gx[c] gb[b] ga[q] (the separable Gaussian), turned into the Wiener inverse
+ * (1 + lambda) G / (G^2 + lambda) when wiener != 0, times the normalisation `scale`. */
+#define GAIN_SCALE(r) g_[r]
+#define COL_PASS_GAIN(R)                                                                        \
+    __kernel void csi_fft_col_gain_r##R(__global const float *restrict in,                    \
+                                        __global float *restrict out,                         \
+                                        __global const float *restrict tw, const uint L_,      \
+                                        const uint p_, const uint ts_, const uint sa_,         \
+                                        const uint nc, const uint nb, const uint sb_,          \
+                                        const float sgn, __global const float *restrict gx,    \
+                                        __global const float *restrict gb,                     \
+                                        __global const float *restrict ga, const uint wiener,  \
+                                        const float lambda, const float scale)                 \
+    {                                                                                          \
+        const size_t c = get_global_id(0), i = get_global_id(1), b = get_global_id(2);         \
+        const size_t T = (size_t)L_ / R, p = p_, ts = ts_, sa = sa_;                           \
+        const size_t base = c + b * (size_t)sb_;                                               \
         const float gcb = gx[c] * gb[b];                                                       \
-        float2 u[R];                                                                           \
-        for (uint r = 0; r < R; r++) {                                                         \
-            float g = gcb * ga[i + r * T];                                                     \
+        float g_[R];                                                                           \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            float g = gcb * ga[i + (size_t)r * T];                                             \
             if (wiener)                                                                        \
                 g = (1.0f + lambda) * g / (g * g + lambda);                                    \
-            u[r] = in[base + (size_t)(i + r * T) * sa] * (g * scale);                          \
+            g_[r] = g * scale;                                                                 \
         }                                                                                      \
-        const uint k = i % p;                                                                  \
-        for (uint r = 1; r < R; r++)                                                           \
-            u[r] = cmul(u[r], twid(tw[k * r * ts], sgn));                                      \
-        dft##R(u, sgn);                                                                        \
-        const uint j = (i - k) * R + k;                                                        \
-        for (uint r = 0; r < R; r++)                                                           \
-            out[base + (size_t)(j + r * p) * sa] = u[r];                                       \
+        PASS_BODY(R, COL_LD, COL_ST, GAIN_SCALE)                                               \
     }
 
 /* One pass along contiguous rows: dimension 0 = butterfly i (< L/R), dimension 1 = row
- * (< nrows); row n starts at n * rs. */
+ * (< nrows); row n starts at element n rs. */
+#define ROW_LD(r) (base + i + (size_t)(r) * T)
+#define ROW_ST(r) (base + j + (size_t)(r) * p)
 #define ROW_PASS(R)                                                                             \
-    __kernel void csi_fft_row_r##R(__global const float2 *in, __global float2 *out,           \
-                                   __global const float2 *tw, const uint L, const uint p,      \
-                                   const uint ts, const uint nrows, const uint rs,             \
-                                   const float sgn)                                            \
+    __kernel void csi_fft_row_r##R(__global const float *restrict in,                         \
+                                   __global float *restrict out,                              \
+                                   __global const float *restrict tw, const uint L_,           \
+                                   const uint p_, const uint ts_, const uint nrows,            \
+                                   const uint rs, const float sgn)                             \
     {                                                                                          \
-        const uint i = (uint)get_global_id(0), row = (uint)get_global_id(1);                   \
-        const uint T = L / R;                                                                  \
-        if (i >= T || row >= nrows)                                                            \
-            return;                                                                            \
-        const size_t base = (size_t)row * rs;                                                  \
-        float2 u[R];                                                                           \
-        for (uint r = 0; r < R; r++)                                                           \
-            u[r] = in[base + i + r * T];                                                       \
-        const uint k = i % p;                                                                  \
-        for (uint r = 1; r < R; r++)                                                           \
-            u[r] = cmul(u[r], twid(tw[k * r * ts], sgn));                                      \
-        dft##R(u, sgn);                                                                        \
-        const uint j = (i - k) * R + k;                                                        \
-        for (uint r = 0; r < R; r++)                                                           \
-            out[base + j + r * p] = u[r];                                                      \
+        const size_t i = get_global_id(0), row = get_global_id(1);                             \
+        const size_t T = (size_t)L_ / R, p = p_, ts = ts_;                                     \
+        const size_t base = row * (size_t)rs;                                                  \
+        PASS_BODY(R, ROW_LD, ROW_ST, NOSCALE)                                                  \
     }
 
-#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R)
+/* A pass along contiguous rows once p >= 8: dimension 0 = k (< p), dimension 1 = block g
+ * (< T/p), dimension 2 = row. With i = g p + k both the loads (i + r T) and the stores
+ * (g p R + k + r p) are contiguous in k, so PoCL vectorises them as plain vector accesses; the
+ * i-indexed form above needs scatters for its stores (stride R). Twiddles come from a per-pass
+ * table twp[twoff + (r - 1) p + k] = exp(-2 pi i r k / (p R)), also contiguous in k. */
+#define ROWK_PASS(R)                                                                            \
+    __kernel void csi_fft_rowk_r##R(__global const float *restrict in,                        \
+                                    __global float *restrict out,                             \
+                                    __global const float *restrict twp, const uint twoff,      \
+                                    const uint L_, const uint p_, const uint rs,               \
+                                    const float sgn)                                           \
+    {                                                                                          \
+        const size_t k = get_global_id(0), g = get_global_id(1), row = get_global_id(2);       \
+        const size_t T = (size_t)L_ / R, p = p_;                                               \
+        const size_t base = row * (size_t)rs, i = g * p + k;                                   \
+        float xr[R], xi[R];                                                                    \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            const size_t e_ = base + i + (size_t)r * T;                                        \
+            xr[r] = in[2 * e_];                                                                \
+            xi[r] = in[2 * e_ + 1];                                                            \
+        }                                                                                      \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            const size_t m_ = (size_t)twoff + (size_t)(r - 1) * p + k;                         \
+            CMUL(xr[r], xi[r], xr[r], xi[r], twp[2 * m_], -sgn * twp[2 * m_ + 1]);             \
+        }                                                                                      \
+        dft##R(xr, xi, sgn);                                                                   \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            const size_t e_ = base + g * p * R + k + (size_t)r * p;                            \
+            out[2 * e_] = xr[r];                                                               \
+            out[2 * e_ + 1] = xi[r];                                                           \
+        }                                                                                      \
+    }
+
+#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
 ALL_PASSES(4)
@@ -240,57 +338,78 @@ ALL_PASSES(16)
  * row x of n = 2M samples read as M complex z[m] = x[2m] + i x[2m+1] has Z = DFT_M(z), and
  *     E[k] = (Z[k] + conj Z[M-k]) / 2,  O[k] = -i (Z[k] - conj Z[M-k]) / 2,
  *     X[k] = E[k] + W^k O[k],  W = exp(-2 pi i / n),  k = 0 .. M  (Z[M] = Z[0]).
- * Z rows have M values, X rows hs >= M + 1 values; wn[k] = W^k. */
-__kernel void csi_fft_r2c_post(__global const float2 *Z, __global float2 *X,
-                               __global const float2 *wn, const uint M, const uint hs,
+ * Z rows have M complex values, X rows hs >= M + 1; wn[k] = W^k. */
+__kernel void csi_fft_r2c_post(__global const float *restrict Z, __global float *restrict X,
+                               __global const float *restrict wn, const uint M_, const uint hs,
                                const uint nrows)
 {
-    const uint k = (uint)get_global_id(0), row = (uint)get_global_id(1);
-    if (k > M || row >= nrows)
+    /* Launched over k < M with exact sizes and no bounds check (so PoCL vectorises it; the
+     * mirrored read M - k becomes a reversed vector load). k = 0 reads one element past its row
+     * (the buffers have room) and is overwritten by csi_fft_r2c_edges with X[0] and X[M]. */
+    const size_t k = get_global_id(0), row = get_global_id(1), M = M_;
+    const size_t a = row * M + k, b = row * M + M - k;
+    float zr = Z[2 * a], zi = Z[2 * a + 1], mr = Z[2 * b], mi = -Z[2 * b + 1]; /* m = conj */
+    float er = 0.5f * (zr + mr), ei = 0.5f * (zi + mi);
+    float dr = zr - mr, di = zi - mi;
+    float or_ = 0.5f * di, oi = -0.5f * dr; /* -i d / 2 */
+    float tr, ti;
+    CMUL(tr, ti, wn[2 * k], wn[2 * k + 1], or_, oi);
+    const size_t o = row * (size_t)hs + k;
+    X[2 * o] = er + tr;
+    X[2 * o + 1] = ei + ti;
+}
+
+/* X[0] = Re Z[0] + Im Z[0] and X[M] = Re Z[0] - Im Z[0] (the formula above at k = 0, M). */
+__kernel void csi_fft_r2c_edges(__global const float *restrict Z, __global float *restrict X,
+                                const uint M_, const uint hs, const uint nrows)
+{
+    const size_t row = get_global_id(0), M = M_;
+    if (row >= nrows)
         return;
-    const size_t zb = (size_t)row * M;
-    float2 zk = Z[zb + (k == M ? 0 : k)];
-    float2 zm = Z[zb + (k == 0 ? 0 : M - k)];
-    float2 zmc = (float2)(zm.x, -zm.y);
-    float2 e = 0.5f * (zk + zmc);
-    float2 d = zk - zmc;
-    float2 o = 0.5f * (float2)(d.y, -d.x);
-    X[(size_t)row * hs + k] = e + cmul(wn[k], o);
+    float zr = Z[2 * row * M], zi = Z[2 * row * M + 1];
+    const size_t o = row * (size_t)hs;
+    X[2 * o] = zr + zi;
+    X[2 * o + 1] = 0.0f;
+    X[2 * (o + M)] = zr - zi;
+    X[2 * (o + M) + 1] = 0.0f;
 }
 
 /* Complex-to-real packing, the inverse of the above for a Hermitian half spectrum X[0..M]:
  *     E[k] = (X[k] + conj X[M-k]) / 2,  O[k] = (X[k] - conj X[M-k]) conj(W^k) / 2,
  *     Z[k] = E[k] + i O[k],  k = 0 .. M-1;
- * an unnormalised inverse DFT_M of Z then gives M (y[2m] + i y[2m+1]), y = IDFT_n(X) / n
- * scaled; the host folds the constants into the gain. */
-__kernel void csi_fft_c2r_pre(__global const float2 *X, __global float2 *Z,
-                              __global const float2 *wn, const uint M, const uint hs,
+ * an unnormalised inverse DFT_M of Z then gives M (y[2m] + i y[2m+1]) for y = IDFT_n(X) / n;
+ * the host folds that factor into the gain. */
+__kernel void csi_fft_c2r_pre(__global const float *restrict X, __global float *restrict Z,
+                              __global const float *restrict wn, const uint M_, const uint hs,
                               const uint nrows)
 {
-    const uint k = (uint)get_global_id(0), row = (uint)get_global_id(1);
-    if (k >= M || row >= nrows)
-        return;
-    const size_t xb = (size_t)row * hs;
-    float2 xk = X[xb + k], xm = X[xb + M - k];
-    float2 xmc = (float2)(xm.x, -xm.y);
-    float2 e = 0.5f * (xk + xmc);
-    float2 w = wn[k];
-    float2 o = 0.5f * cmul(xk - xmc, (float2)(w.x, -w.y));
-    Z[(size_t)row * M + k] = e + (float2)(-o.y, o.x);
+    /* Exact launch over k < M, no bounds check (vectorised; M - k is a reversed load). */
+    const size_t k = get_global_id(0), row = get_global_id(1), M = M_;
+    const size_t xb = row * (size_t)hs;
+    const size_t a = xb + k, b = xb + M - k;
+    float xr = X[2 * a], xi = X[2 * a + 1], mr = X[2 * b], mi = -X[2 * b + 1];
+    float er = 0.5f * (xr + mr), ei = 0.5f * (xi + mi);
+    float or_, oi;
+    CMUL(or_, oi, xr - mr, xi - mi, wn[2 * k], -wn[2 * k + 1]);
+    const size_t o = row * M + k;
+    Z[2 * o] = er - 0.5f * oi; /* E + i O */
+    Z[2 * o + 1] = ei + 0.5f * or_;
 }
 
 /* Gain on a half spectrum of rows of hs values (1-D filters, which have no column pass to fuse
  * the gain into): X[row, k] *= scale * gain(gx[k] gr[row]). */
-__kernel void csi_fft_gain_rows(__global float2 *X, __global const float *gx,
-                                __global const float *gr, const uint h0, const uint hs,
-                                const uint nrows, const uint wiener, const float lambda,
-                                const float scale)
+__kernel void csi_fft_gain_rows(__global float *restrict X, __global const float *restrict gx,
+                                __global const float *restrict gr, const uint h0,
+                                const uint hs, const uint nrows, const uint wiener,
+                                const float lambda, const float scale)
 {
-    const uint k = (uint)get_global_id(0), row = (uint)get_global_id(1);
+    const size_t k = get_global_id(0), row = get_global_id(1);
     if (k >= h0 || row >= nrows)
         return;
     float g = gx[k] * gr[row];
     if (wiener)
         g = (1.0f + lambda) * g / (g * g + lambda);
-    X[(size_t)row * hs + k] *= g * scale;
+    const size_t o = row * (size_t)hs + k;
+    X[2 * o] *= g * scale;
+    X[2 * o + 1] *= g * scale;
 }

@@ -28,6 +28,8 @@ typedef struct {
     int np;
     int radix[MAX_PASSES];
     cl_mem tw; /* exp(-2 pi i m / L), m < L */
+    cl_mem twp; /* per-pass tables exp(-2 pi i r k / (p R)) at [(r - 1) p + k], rows only */
+    size_t twoff[MAX_PASSES]; /* element offset of each pass's table in twp */
 } axis_plan;
 
 struct csi_fft_filter {
@@ -53,7 +55,9 @@ static int factor_ok(size_t n)
 
 bool csi_fft_filter_supported(const size_t c[3], int nd)
 {
-    if (nd < 1 || c[0] < 2 || c[0] % 2)
+    /* c[0] >= 4: at least one pass along x, so the unpacking reads a scratch buffer (which has
+     * room for its one-past-the-end read), never the caller's input. */
+    if (nd < 1 || c[0] < 4 || c[0] % 2)
         return false;
     if (!factor_ok(c[0] / 2))
         return false;
@@ -64,8 +68,10 @@ bool csi_fft_filter_supported(const size_t c[3], int nd)
     return (c[0] / 2 + 16) * c[1] * c[2] < ((size_t)1 << 31);
 }
 
-/* Radices for a length L: the power of two 2^e in ceil(e/4) passes of near-equal radix (at most
- * 16), then one pass per factor 3, 5, 7. */
+/* Radices for a length L: the power of two 2^e in ceil(e/3) passes of near-equal radix (at most
+ * 8), then one pass per factor 3, 5, 7. Radix 16 exists in kernels/fft.cl but PoCL's 16-wide
+ * vectorisation of it spills registers: measured 1.8 ms per 1024 x 1024 pass against 0.36 ms
+ * for radix 8, so two radix-8 passes beat one radix-16 pass. */
 static void plan_radices(axis_plan *a)
 {
     size_t n = a->L;
@@ -75,7 +81,7 @@ static void plan_radices(axis_plan *a)
         e++;
     }
     a->np = 0;
-    int passes = (e + 3) / 4;
+    int passes = (e + 2) / 3;
     for (int i = 0; i < passes; i++) {
         int bits = e / (passes - i);
         if (e % (passes - i))
@@ -125,12 +131,45 @@ static csi_status gains(csi_ctx *ctx, size_t n, size_t count, size_t alloc, doub
     return st;
 }
 
+/* The row passes' per-pass twiddle tables (see csi_fft_rowk_r* in kernels/fft.cl). */
+static csi_status pass_twiddles(csi_ctx *ctx, axis_plan *a)
+{
+    size_t total = 0, p = 1;
+    for (int i = 0; i < a->np; i++) {
+        a->twoff[i] = total;
+        total += (size_t)(a->radix[i] - 1) * p;
+        p *= (size_t)a->radix[i];
+    }
+    if (total == 0)
+        total = 1;
+    float *t = calloc(2 * total, sizeof *t);
+    if (!t)
+        return csi_fail(CSI_ERR_NOMEM, "FFT twiddles: out of host memory");
+    p = 1;
+    for (int i = 0; i < a->np; i++) {
+        size_t R = (size_t)a->radix[i];
+        for (size_t r = 1; r < R; r++)
+            for (size_t k = 0; k < p; k++) {
+                double ang = -2.0 * PI_ * (double)(r * k) / (double)(p * R);
+                size_t at = a->twoff[i] + (r - 1) * p + k;
+                t[2 * at] = (float)cos(ang);
+                t[2 * at + 1] = (float)sin(ang);
+            }
+        p *= R;
+    }
+    csi_status st = upload_table(ctx, t, 2 * total * sizeof *t, "FFT twiddles", &a->twp);
+    free(t);
+    return st;
+}
+
 void csi_fft_filter_free(csi_fft_filter *f)
 {
     if (!f)
         return;
-    for (int a = 0; a < 3; a++)
+    for (int a = 0; a < 3; a++) {
         csi_buffer_release(&f->ax[a].tw);
+        csi_buffer_release(&f->ax[a].twp);
+    }
     csi_buffer_release(&f->wn);
     csi_buffer_release(&f->P);
     csi_buffer_release(&f->Q);
@@ -158,16 +197,24 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     for (int a = 0; a < f->nd; a++) {
         plan_radices(&f->ax[a]);
         CSI_TRY(twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw));
+        if (a == 0)
+            CSI_TRY(pass_twiddles(ctx, &f->ax[a]));
         /* Build every kernel now so that the first run pays no compile. */
         for (int p = 0; p < f->ax[a].np; p++) {
             cl_kernel k;
-            CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(a == 0 ? "row" : "col", f->ax[a].radix[p]), &k));
-            if (a > 0)
-                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", f->ax[a].radix[p]), &k));
+            int R = f->ax[a].radix[p];
+            if (a == 0) {
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row", R), &k));
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
+            } else {
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", R), &k));
+            }
         }
     }
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
-    size_t spec = f->hs * f->rows * 8, packed = M * f->rows * 8;
+    /* + 1 element: csi_fft_r2c_post at k = 0 reads one past the last packed row. */
+    size_t spec = f->hs * f->rows * 8, packed = (M * f->rows + 1) * 8;
     size_t bytes = spec > packed ? spec : packed;
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
@@ -178,6 +225,7 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     CSI_TRY(upload_table(ctx, &one, sizeof one, "filter gains", &f->one));
     cl_kernel k;
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_gain_rows", &k));
     return CSI_OK;
@@ -213,10 +261,11 @@ csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const 
     return CSI_OK;
 }
 
-static size_t pow2_at_most(size_t n, size_t cap)
+/* The largest power of two <= cap that divides n. */
+static size_t pow2_dividing(size_t n, size_t cap)
 {
     size_t p = 1;
-    while (p * 2 <= cap && p < n)
+    while (p * 2 <= cap && n % (p * 2) == 0)
         p *= 2;
     return p;
 }
@@ -226,15 +275,24 @@ static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_
 {
     int R = a->radix[pass];
     cl_kernel k;
+    if (p >= 8) {
+        /* k-indexed form: contiguous loads and stores (see kernels/fft.cl) */
+        CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("rowk", R), &k));
+        cl_uint L = (cl_uint)a->L, rs = (cl_uint)f->M, twoff = (cl_uint)a->twoff[pass];
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->twp), CSI_ARG(twoff), CSI_ARG(L),
+                         CSI_ARG(p), CSI_ARG(rs), CSI_ARG(sgn)));
+        size_t lk = pow2_dividing(p, 16);
+        size_t global[3] = {p, a->L / ((size_t)R * p), f->rows}, local[3] = {lk, 1, 1};
+        return csi_run(f->ctx, k, 3, global, local);
+    }
     CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("row", R), &k));
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)f->rows,
             rs = (cl_uint)f->M;
     CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p), CSI_ARG(ts),
                      CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn)));
+    /* Exact launch (the kernel has no bounds check): local sizes divide the global ones. */
     size_t T = a->L / (size_t)R;
-    size_t lx = pow2_at_most(T, 64), ly = 64 / lx;
-    if (ly > f->rows)
-        ly = pow2_at_most(f->rows, ly);
+    size_t lx = pow2_dividing(T, 64), ly = pow2_dividing(f->rows, 64 / lx);
     size_t global[2] = {T, f->rows}, local[2] = {lx, ly};
     return csi_run(f->ctx, k, 2, global, local);
 }
@@ -249,7 +307,9 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
     CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name(gain ? "col_gain" : "col", R), &k));
     size_t hs = f->hs, c1 = f->c[1];
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
-    cl_uint nc = (cl_uint)(f->M + 1), sa, nb, sb;
+    /* All hs columns (a multiple of 16, the padding ones are scratch): the kernel has no bounds
+     * check, so the launch must be exact. */
+    cl_uint nc = (cl_uint)hs, sa, nb, sb;
     if (axis == 1) { /* along y: lines (x, z) */
         sa = (cl_uint)hs;
         nb = (cl_uint)f->c[2];
@@ -271,7 +331,7 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
         CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
                          CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
     }
-    size_t global[3] = {nc, a->L / (size_t)R, nb}, local[3] = {32, 1, 1};
+    size_t global[3] = {nc, a->L / (size_t)R, nb}, local[3] = {16, 1, 1};
     return csi_run(f->ctx, k, 3, global, local);
 }
 
@@ -293,7 +353,7 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
     csi_ctx *ctx = f->ctx;
     const axis_plan *ax = &f->ax[0];
     cl_uint M = (cl_uint)f->M, hs = (cl_uint)f->hs, nrows = (cl_uint)f->rows;
-    size_t lx = 32, ly = 2;
+    const size_t lx = 32;
 
     /* 1. forward along x on the real rows read as M complex values */
     cl_mem cur = x;
@@ -311,8 +371,12 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
         CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(f->wn), CSI_ARG(M), CSI_ARG(hs),
                          CSI_ARG(nrows)));
-        size_t global[2] = {f->M + 1, f->rows}, local[2] = {lx, ly};
+        size_t ex = pow2_dividing(f->M, 64), ey = pow2_dividing(f->rows, 64 / ex);
+        size_t global[2] = {f->M, f->rows}, local[2] = {ex, ey};
         CSI_TRY(csi_run(ctx, k, 2, global, local));
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+        CSI_TRY(csi_run1d(ctx, k, f->rows));
         cur = dst;
     }
     /* 3, 4: forward along y, z; inverse along z, y with the gain in the first inverse pass */
@@ -340,7 +404,8 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
         CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(f->wn), CSI_ARG(M), CSI_ARG(hs),
                          CSI_ARG(nrows)));
-        size_t global[2] = {f->M, f->rows}, local[2] = {lx, ly};
+        size_t ex = pow2_dividing(f->M, 64), ey = pow2_dividing(f->rows, 64 / ex);
+        size_t global[2] = {f->M, f->rows}, local[2] = {ex, ey};
         CSI_TRY(csi_run(ctx, k, 2, global, local));
         cur = dst;
     }

@@ -12,7 +12,7 @@
 
 typedef struct csi_fft_filter csi_fft_filter;
 
-/* True if c[0] is even and every length (c[0]/2, c[1], c[2]) factors into 2, 3, 5, 7. */
+/* True if c[0] >= 4 is even and every length (c[0]/2, c[1], c[2]) factors into 2, 3, 5, 7. */
 bool csi_fft_filter_supported(const size_t c[3], int nd);
 
 /* sigma[a] is the spatial sigma along squeezed axis a (0 = no filtering along it). */
