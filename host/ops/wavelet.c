@@ -26,7 +26,9 @@ typedef struct {
     size_t w, h;
     int levels;
     cl_mem tmp; /* one w x h scratch image */
-    cl_kernel fwd_x, fwd_y, inv_x, inv_y;
+    /* Per pass an interior kernel (16-wide, no edge branch) and an edge kernel (scalar,
+     * periodic wrap) for the outputs the interior one does not cover. */
+    cl_kernel fwd_x, fwd_xe, fwd_y, fwd_ye, inv_x, inv_xe, inv_y, inv_ye;
 } wavelet_state;
 
 const char *csi_wavelet_name(csi_wavelet_family f)
@@ -119,20 +121,83 @@ static csi_status run2(csi_ctx *ctx, cl_kernel k, size_t g0, size_t g1)
     return csi_run(ctx, k, 2, global, local);
 }
 
+/* Split of one x pass over a band of nh outputs: `items` 16-wide interior items starting at
+ * output `first`, and the edge outputs [0, lo) and [hi, nh) for the scalar kernel. `reach` is the
+ * largest allowed start of an item (its input window must lie inside the band). */
+typedef struct {
+    cl_uint first, items, lo, hi, edges;
+} xsplit;
+
+static xsplit split_x(long nh, long first, long reach)
+{
+    xsplit x = {0};
+    long last = reach < nh - 16 ? reach : nh - 16;
+    if (last >= first) {
+        x.first = (cl_uint)first;
+        x.items = (cl_uint)((last - first) / 16 + 1);
+        x.lo = (cl_uint)first;
+        x.hi = (cl_uint)(first + 16 * (long)x.items);
+    } else {
+        x.lo = x.hi = (cl_uint)nh; /* all edge */
+    }
+    x.edges = x.lo + ((cl_uint)nh - x.hi);
+    return x;
+}
+
+/* One y pass over a region cols wide and n high (n/2 outputs or pairs per column), with kernel
+ * `vec` for the interior rows [F/4, n/2 - F/4) of full 16-column groups, and `edge` for the edge
+ * rows of every column and the leftover columns of interior rows. Both passes (analysis and
+ * synthesis) have the same interior: analysis output o reads rows 2o + F/2 - j (j < F), synthesis
+ * pair p reads p - F/4 + k (k <= F/2) of each half. */
+static csi_status run_y(csi_ctx *ctx, cl_kernel vec, cl_kernel edge, cl_mem src, cl_mem dst,
+                        cl_uint stride, cl_uint cols, cl_uint n, cl_uint F)
+{
+    const cl_uint nh = n / 2, groups = cols / 16;
+    const cl_uint r0 = F / 4, r1 = nh > F / 4 ? nh - F / 4 : 0;
+    const cl_uint inner = r1 > r0 ? r1 - r0 : 0;
+    if (inner && groups) {
+        CSI_TRY(CSI_ARGS(vec, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(stride), CSI_ARG(n), CSI_ARG(groups),
+                         CSI_ARG(r0), CSI_ARG(inner)));
+        CSI_TRY(run2(ctx, vec, groups, inner));
+    }
+    /* Edge rows, all columns (all rows when there is no interior). */
+    const cl_uint x0 = 0, lo = inner ? r0 : nh, hi = inner ? r1 : nh, count = nh - inner;
+    CSI_TRY(CSI_ARGS(edge, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(stride), CSI_ARG(n), CSI_ARG(x0),
+                     CSI_ARG(cols), CSI_ARG(lo), CSI_ARG(hi), CSI_ARG(count)));
+    CSI_TRY(run2(ctx, edge, cols, count));
+    /* Interior rows of the columns past the last full group: i maps to row r0 + i. */
+    const cl_uint tx = 16 * groups, tw = cols - tx, zero = 0;
+    if (inner && tw) {
+        CSI_TRY(CSI_ARGS(edge, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(stride), CSI_ARG(n), CSI_ARG(tx),
+                         CSI_ARG(tw), CSI_ARG(zero), CSI_ARG(r0), CSI_ARG(inner)));
+        CSI_TRY(run2(ctx, edge, tw, inner));
+    }
+    return CSI_OK;
+}
+
 /* adjoint: image y -> coefficients x (forward DWT). */
 static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
 {
     wavelet_state *s = state_of(op);
     const cl_uint stride = (cl_uint)s->w;
+    const long F = csi_wavelet_taps(s->family);
     for (int l = 0; l < s->levels; l++) {
         const cl_uint n = (cl_uint)(s->w >> l), m = (cl_uint)(s->h >> l);
         cl_mem src = l == 0 ? img : coef;
-        CSI_TRY(CSI_ARGS(s->fwd_x, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
-                         CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->fwd_x, (n / 2 + 7) / 8, m)); /* 8 outputs per item */
-        CSI_TRY(CSI_ARGS(s->fwd_y, CSI_MEM(s->tmp), CSI_MEM(coef), CSI_ARG(stride), CSI_ARG(n),
-                         CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->fwd_y, (n + 15) / 16, m / 2)); /* 16 columns per item */
+        /* Output o reads row[2o + F/2 - j], j < F; an item of 16 outputs from o0 reads the 48
+         * samples from 2 o0 - F/2: inside the row for o0 >= F/4 and 2 o0 - F/2 + 48 <= n. */
+        const xsplit x = split_x(n / 2, F / 4, ((long)n + F / 2 - 48) / 2);
+        if (x.items) {
+            CSI_TRY(CSI_ARGS(s->fwd_x, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
+                             CSI_ARG(m), CSI_ARG(x.first), CSI_ARG(x.items)));
+            CSI_TRY(run2(op->ctx, s->fwd_x, x.items, m));
+        }
+        if (x.edges) {
+            CSI_TRY(CSI_ARGS(s->fwd_xe, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
+                             CSI_ARG(m), CSI_ARG(x.lo), CSI_ARG(x.hi)));
+            CSI_TRY(run2(op->ctx, s->fwd_xe, x.edges, m));
+        }
+        CSI_TRY(run_y(op->ctx, s->fwd_y, s->fwd_ye, s->tmp, coef, stride, n, m, (cl_uint)F));
     }
     return CSI_OK;
 }
@@ -142,16 +207,27 @@ static csi_status wavelet_synthesis(const csi_linop *op, cl_mem coef, cl_mem img
 {
     wavelet_state *s = state_of(op);
     const cl_uint stride = (cl_uint)s->w;
+    const long F = csi_wavelet_taps(s->family);
     for (int l = s->levels; l >= 1; l--) {
         const cl_uint n = (cl_uint)(s->w >> (l - 1)), m = (cl_uint)(s->h >> (l - 1));
         const cl_uint arows = m / 2;
         cl_mem approx = l == s->levels ? coef : img;
-        CSI_TRY(CSI_ARGS(s->inv_x, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp), CSI_ARG(stride),
-                         CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows)));
-        CSI_TRY(run2(op->ctx, s->inv_x, (n / 2 + 7) / 8, m));
-        CSI_TRY(CSI_ARGS(s->inv_y, CSI_MEM(s->tmp), CSI_MEM(img), CSI_ARG(stride), CSI_ARG(n),
-                         CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->inv_y, (n + 15) / 16, m / 2));
+        /* Pair p reads coefficients p - F/4 + k, k <= F/2; an item of 16 pairs from p0 reads
+         * the 24 from p0 - F/4: inside the band for p0 >= F/4 and p0 - F/4 + 24 <= n/2. */
+        const xsplit x = split_x(n / 2, F / 4, (long)n / 2 + F / 4 - 24);
+        if (x.items) {
+            CSI_TRY(CSI_ARGS(s->inv_x, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+                             CSI_ARG(stride), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(x.first),
+                             CSI_ARG(x.items)));
+            CSI_TRY(run2(op->ctx, s->inv_x, x.items, m));
+        }
+        if (x.edges) {
+            CSI_TRY(CSI_ARGS(s->inv_xe, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+                             CSI_ARG(stride), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(x.lo),
+                             CSI_ARG(x.hi)));
+            CSI_TRY(run2(op->ctx, s->inv_xe, x.edges, m));
+        }
+        CSI_TRY(run_y(op->ctx, s->inv_y, s->inv_ye, s->tmp, img, stride, n, m, (cl_uint)F));
     }
     return CSI_OK;
 }
@@ -212,15 +288,15 @@ csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size
     char what[96];
     snprintf(what, sizeof what, "the %s wavelet's scratch image (%zux%zu)", name, w, h);
     csi_status st = csi_buffer(ctx, w * h * sizeof(float), CL_MEM_READ_WRITE, what, &s->tmp);
-    const int db8 = f == CSI_WAVELET_DB8;
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_fwd_x_db8" : "csi_wavelet_fwd_x_db4", &s->fwd_x);
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_fwd_y_db8" : "csi_wavelet_fwd_y_db4", &s->fwd_y);
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_inv_x_db8" : "csi_wavelet_inv_x_db4", &s->inv_x);
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_inv_y_db8" : "csi_wavelet_inv_y_db4", &s->inv_y);
+    static const char *const stems[8] = {"fwd_x", "fwd_xe", "fwd_y", "fwd_ye",
+                                         "inv_x", "inv_xe", "inv_y", "inv_ye"};
+    cl_kernel *slots[8] = {&s->fwd_x, &s->fwd_xe, &s->fwd_y, &s->fwd_ye,
+                           &s->inv_x, &s->inv_xe, &s->inv_y, &s->inv_ye};
+    for (int i = 0; i < 8 && st == CSI_OK; i++) {
+        char kname[64];
+        snprintf(kname, sizeof kname, "csi_wavelet_%s_%s", stems[i], name);
+        st = csi_kernel(ctx, "wavelet", kname, slots[i]);
+    }
     if (st != CSI_OK) {
         csi_linop_free(op);
         return st;
