@@ -148,63 +148,92 @@ inline int wrap(int i, int n)
         if (o >= nh || y >= (int)rows)                                                             \
             return;                                                                                \
         __global const float *row = src + (size_t)y * stride;                                     \
-        const int top = 2 * o + F / 2; /* taps read row[top - j] */                                \
+        /* Taps read row[top - j], top = 2o + F/2: one remainder, then step down with a wrap. */  \
+        int k = wrap(2 * o + F / 2, (int)n);                                                       \
         float a = 0.0f, d = 0.0f;                                                                  \
         for (int j = 0; j < F; j++) {                                                              \
-            const float v = row[wrap(top - j, (int)n)];                                            \
+            const float v = row[k];                                                                \
             a = fma(LO[j], v, a);                                                                  \
             d = fma(HI[j], v, d);                                                                  \
+            k = k == 0 ? (int)n - 1 : k - 1;                                                       \
         }                                                                                          \
         __global float *out = dst + (size_t)y * stride;                                           \
         out[o] = a;                                                                                \
         out[nh + o] = d;                                                                           \
     }
 
-/* Analysis along y, interior: work-item (g, i) computes columns [16g, 16g + 16) of output row
- * o = o0 + i, for rows whose taps (input rows 2o + F/2 - j) lie inside the band (o0 = F/4,
- * o < n/2 - F/4: the host's split). No edge branch, as for the x pass. */
+/* Analysis along y, interior: work-item (g, i) computes columns [16g, 16g + 16) of output rows
+ * o and o + 1, o = o0 + 2i, for rows whose taps (input rows 2o + F/2 - j) lie inside the band
+ * (the host's split: o0 = F/4, o + 1 < n/2 - F/4). No edge branch, as for the x pass. Two
+ * output rows per item share F - 2 of their F + 2 input rows and give four independent fma
+ * chains instead of two (the chains' latency, not the loads, bounded the one-row version). */
 #define CSI_FWD_Y(NAME, F, LO, HI)                                                                 \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
                        const uint stride, const uint n, const uint groups, const uint o0,         \
-                       const uint count)                                                           \
+                       const uint pairs)                                                           \
     {                                                                                              \
         const int g = (int)get_global_id(0), i = (int)get_global_id(1);                          \
-        if (g >= (int)groups || i >= (int)count)                                                   \
+        if (g >= (int)groups || i >= (int)pairs)                                                   \
             return;                                                                                \
-        const int nh = (int)(n >> 1), o = (int)o0 + i, x0 = 16 * g;                               \
-        __global const float *col = src + (size_t)(2 * o + F / 2) * stride + x0;                  \
-        float16 a = 0.0f, d = 0.0f;                                                                \
+        const int nh = (int)(n >> 1), o = (int)o0 + 2 * i, x0 = 16 * g;                           \
+        /* Row 2o + F/2 + 2 - r for r = 0 .. F+1: output o uses r = 2 + j, output o+1 r = j. */   \
+        __global const float *col = src + (size_t)(2 * o + F / 2 + 2) * stride + x0;              \
+        float16 a0 = 0.0f, d0 = 0.0f, a1 = 0.0f, d1 = 0.0f;                                        \
         for (int j = 0; j < F; j++) {                                                              \
             const float16 v = vload16(0, col - (size_t)j * stride);                               \
-            a = fma(LO[j], v, a);                                                                  \
-            d = fma(HI[j], v, d);                                                                  \
+            a1 = fma(LO[j], v, a1);                                                                \
+            d1 = fma(HI[j], v, d1);                                                                \
+            const float16 u = vload16(0, col - (size_t)(j + 2) * stride);                         \
+            a0 = fma(LO[j], u, a0);                                                                \
+            d0 = fma(HI[j], u, d0);                                                                \
         }                                                                                          \
-        vstore16(a, 0, dst + (size_t)o * stride + x0);                                             \
-        vstore16(d, 0, dst + (size_t)(nh + o) * stride + x0);                                      \
+        vstore16(a0, 0, dst + (size_t)o * stride + x0);                                            \
+        vstore16(a1, 0, dst + (size_t)(o + 1) * stride + x0);                                      \
+        vstore16(d0, 0, dst + (size_t)(nh + o) * stride + x0);                                     \
+        vstore16(d1, 0, dst + (size_t)(nh + o + 1) * stride + x0);                                 \
     }
 
-/* Analysis along y, edges and leftover columns: one output per work-item (c, i), column
- * x = x0 + c (c < width), output row o = i for i < lo, o = hi + (i - lo) after (i < count), taps
- * wrapped periodically. */
+/* Analysis along y, edge rows and leftover columns: work-item (c, i) handles output row
+ * o = i for i < lo, o = hi + (i - lo) after (i < count), and columns x0 + 16c .. (16 of them, or
+ * fewer at x0 + width), taps wrapped periodically: a 16-wide vector when the 16 columns are
+ * there, else one column at a time. */
 #define CSI_FWD_Y_EDGE(NAME, F, LO, HI)                                                            \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
                        const uint stride, const uint n, const uint x0, const uint width,          \
                        const uint lo, const uint hi, const uint count)                             \
     {                                                                                              \
         const int c = (int)get_global_id(0), i = (int)get_global_id(1);                          \
-        if (c >= (int)width || i >= (int)count)                                                    \
+        if (16 * c >= (int)width || i >= (int)count)                                               \
             return;                                                                                \
-        const int nh = (int)(n >> 1), x = (int)x0 + c;                                            \
+        const int nh = (int)(n >> 1), x = (int)x0 + 16 * c;                                       \
         const int o = i < (int)lo ? i : (int)hi + (i - (int)lo);                                  \
-        const int top = 2 * o + F / 2;                                                             \
-        float a = 0.0f, d = 0.0f;                                                                  \
-        for (int j = 0; j < F; j++) {                                                              \
-            const float v = src[(size_t)wrap(top - j, (int)n) * stride + x];                      \
-            a = fma(LO[j], v, a);                                                                  \
-            d = fma(HI[j], v, d);                                                                  \
+        const int k0 = wrap(2 * o + F / 2, (int)n); /* input row of tap 0, then down, wrapped */ \
+        __global float *outa = dst + (size_t)o * stride, *outd = dst + (size_t)(nh + o) * stride; \
+        if (16 * c + 16 <= (int)width) {                                                           \
+            float16 a = 0.0f, d = 0.0f;                                                            \
+            int k = k0;                                                                            \
+            for (int j = 0; j < F; j++) {                                                          \
+                const float16 v = vload16(0, src + (size_t)k * stride + x);                       \
+                a = fma(LO[j], v, a);                                                              \
+                d = fma(HI[j], v, d);                                                              \
+                k = k == 0 ? (int)n - 1 : k - 1;                                                   \
+            }                                                                                      \
+            vstore16(a, 0, outa + x);                                                              \
+            vstore16(d, 0, outd + x);                                                              \
+            return;                                                                                \
         }                                                                                          \
-        dst[(size_t)o * stride + x] = a;                                                           \
-        dst[(size_t)(nh + o) * stride + x] = d;                                                    \
+        for (int xx = x; xx < (int)(x0 + width); xx++) {                                           \
+            float a = 0.0f, d = 0.0f;                                                              \
+            int k = k0;                                                                            \
+            for (int j = 0; j < F; j++) {                                                          \
+                const float v = src[(size_t)k * stride + xx];                                      \
+                a = fma(LO[j], v, a);                                                              \
+                d = fma(HI[j], v, d);                                                              \
+                k = k == 0 ? (int)n - 1 : k - 1;                                                   \
+            }                                                                                      \
+            outa[xx] = a;                                                                          \
+            outd[xx] = d;                                                                          \
+        }                                                                                          \
     }
 
 /* Synthesis along x, interior: work-item (q, y) writes samples [2 p0, 2 p0 + 32) of row y
@@ -247,11 +276,14 @@ inline int wrap(int i, int n)
             return;                                                                                \
         __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * stride;       \
         __global const float *d = coef + (size_t)y * stride + nh;                                 \
+        /* Coefficients p - F/4 + k: one remainder, then step up with a wrap. */                  \
+        int i0 = wrap(p - F / 4, nh);                                                              \
         float e = 0.0f, od = 0.0f;                                                                 \
         for (int k = 0; k < F / 2; k++) {                                                          \
-            const int i0 = wrap(p - F / 4 + k, nh), i1 = wrap(p - F / 4 + k + 1, nh);             \
+            const int i1 = i0 + 1 == nh ? 0 : i0 + 1;                                              \
             e = fma(LO[2 * k], a[i0], fma(HI[2 * k], d[i0], e));                                   \
             od = fma(LO[2 * k + 1], a[i1], fma(HI[2 * k + 1], d[i1], od));                         \
+            i0 = i1;                                                                               \
         }                                                                                          \
         __global float *out = dst + (size_t)y * stride;                                           \
         out[2 * p] = e;                                                                            \
@@ -259,51 +291,79 @@ inline int wrap(int i, int n)
     }
 
 /* Synthesis along y, interior: work-item (g, i) writes columns [16g, 16g + 16) of output rows
- * 2p and 2p + 1, p = p0 + i, for pairs whose coefficient rows p - F/4 + k (k <= F/2) lie inside
- * the band (p0 = F/4, p < n/2 - F/4). */
+ * 2p .. 2p + 3 (pairs p and p + 1), p = p0 + 2i, for pairs whose coefficient rows p - F/4 + k
+ * (k <= F/2 + 1) lie inside the band (p0 = F/4, p + 1 < n/2 - F/4). Two pairs per item for
+ * independent fma chains, as in the analysis. */
 #define CSI_INV_Y(NAME, F, LO, HI)                                                                 \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
                        const uint stride, const uint n, const uint groups, const uint p0,         \
-                       const uint count)                                                           \
+                       const uint pairs)                                                           \
     {                                                                                              \
         const int g = (int)get_global_id(0), i = (int)get_global_id(1);                          \
-        if (g >= (int)groups || i >= (int)count)                                                   \
+        if (g >= (int)groups || i >= (int)pairs)                                                   \
             return;                                                                                \
-        const int nh = (int)(n >> 1), p = (int)p0 + i, x0 = 16 * g;                               \
+        const int nh = (int)(n >> 1), p = (int)p0 + 2 * i, x0 = 16 * g;                           \
         __global const float *a = src + (size_t)(p - F / 4) * stride + x0;                       \
         __global const float *d = a + (size_t)nh * stride;                                        \
-        float16 e = 0.0f, od = 0.0f;                                                               \
+        float16 e0 = 0.0f, o0 = 0.0f, e1 = 0.0f, o1 = 0.0f;                                        \
         for (int k = 0; k < F / 2; k++) {                                                          \
-            const size_t r0 = (size_t)k * stride, r1 = r0 + stride;                               \
-            e = fma(LO[2 * k], vload16(0, a + r0), fma(HI[2 * k], vload16(0, d + r0), e));        \
-            od = fma(LO[2 * k + 1], vload16(0, a + r1), fma(HI[2 * k + 1], vload16(0, d + r1), od)); \
+            const size_t r0 = (size_t)k * stride, r1 = r0 + stride, r2 = r1 + stride;            \
+            const float16 a0 = vload16(0, a + r0), a1 = vload16(0, a + r1), a2 = vload16(0, a + r2); \
+            const float16 b0 = vload16(0, d + r0), b1 = vload16(0, d + r1), b2 = vload16(0, d + r2); \
+            e0 = fma(LO[2 * k], a0, fma(HI[2 * k], b0, e0));                                       \
+            o0 = fma(LO[2 * k + 1], a1, fma(HI[2 * k + 1], b1, o0));                               \
+            e1 = fma(LO[2 * k], a1, fma(HI[2 * k], b1, e1));                                       \
+            o1 = fma(LO[2 * k + 1], a2, fma(HI[2 * k + 1], b2, o1));                               \
         }                                                                                          \
-        vstore16(e, 0, dst + (size_t)(2 * p) * stride + x0);                                       \
-        vstore16(od, 0, dst + (size_t)(2 * p + 1) * stride + x0);                                  \
+        __global float *out = dst + (size_t)(2 * p) * stride + x0;                                \
+        vstore16(e0, 0, out);                                                                      \
+        vstore16(o0, 0, out + stride);                                                             \
+        vstore16(e1, 0, out + 2 * (size_t)stride);                                                 \
+        vstore16(o1, 0, out + 3 * (size_t)stride);                                                 \
     }
 
-/* Synthesis along y, edges and leftover columns: one pair per work-item (c, i), column
- * x = x0 + c, pair p = i for i < lo, p = hi + (i - lo) after (i < count), wrapped periodically. */
+/* Synthesis along y, edge rows and leftover columns: work-item (c, i) handles pair p = i for
+ * i < lo, p = hi + (i - lo) after (i < count), columns as in the analysis edge kernel. */
 #define CSI_INV_Y_EDGE(NAME, F, LO, HI)                                                            \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
                        const uint stride, const uint n, const uint x0, const uint width,          \
                        const uint lo, const uint hi, const uint count)                             \
     {                                                                                              \
         const int c = (int)get_global_id(0), i = (int)get_global_id(1);                          \
-        if (c >= (int)width || i >= (int)count)                                                    \
+        if (16 * c >= (int)width || i >= (int)count)                                               \
             return;                                                                                \
-        const int nh = (int)(n >> 1), x = (int)x0 + c;                                            \
+        const int nh = (int)(n >> 1), x = (int)x0 + 16 * c;                                       \
         const int p = i < (int)lo ? i : (int)hi + (i - (int)lo);                                  \
-        __global const float *a = src + x, *d = src + (size_t)nh * stride + x;                    \
-        float e = 0.0f, od = 0.0f;                                                                 \
-        for (int k = 0; k < F / 2; k++) {                                                          \
-            const size_t r0 = (size_t)wrap(p - F / 4 + k, nh) * stride;                           \
-            const size_t r1 = (size_t)wrap(p - F / 4 + k + 1, nh) * stride;                       \
-            e = fma(LO[2 * k], a[r0], fma(HI[2 * k], d[r0], e));                                   \
-            od = fma(LO[2 * k + 1], a[r1], fma(HI[2 * k + 1], d[r1], od));                         \
+        const int k0 = wrap(p - F / 4, nh); /* first coefficient row, then up, wrapped */         \
+        __global const float *a = src, *d = src + (size_t)nh * stride;                            \
+        __global float *oute = dst + (size_t)(2 * p) * stride, *outo = oute + stride;             \
+        if (16 * c + 16 <= (int)width) {                                                           \
+            float16 e = 0.0f, od = 0.0f;                                                           \
+            int i0 = k0;                                                                           \
+            for (int k = 0; k < F / 2; k++) {                                                      \
+                const int i1 = i0 + 1 == nh ? 0 : i0 + 1;                                          \
+                const size_t r0 = (size_t)i0 * stride + x, r1 = (size_t)i1 * stride + x;          \
+                e = fma(LO[2 * k], vload16(0, a + r0), fma(HI[2 * k], vload16(0, d + r0), e));    \
+                od = fma(LO[2 * k + 1], vload16(0, a + r1), fma(HI[2 * k + 1], vload16(0, d + r1), od)); \
+                i0 = i1;                                                                           \
+            }                                                                                      \
+            vstore16(e, 0, oute + x);                                                              \
+            vstore16(od, 0, outo + x);                                                             \
+            return;                                                                                \
         }                                                                                          \
-        dst[(size_t)(2 * p) * stride + x] = e;                                                     \
-        dst[(size_t)(2 * p + 1) * stride + x] = od;                                                \
+        for (int xx = x; xx < (int)(x0 + width); xx++) {                                           \
+            float e = 0.0f, od = 0.0f;                                                             \
+            int i0 = k0;                                                                           \
+            for (int k = 0; k < F / 2; k++) {                                                      \
+                const int i1 = i0 + 1 == nh ? 0 : i0 + 1;                                          \
+                const size_t r0 = (size_t)i0 * stride + xx, r1 = (size_t)i1 * stride + xx;       \
+                e = fma(LO[2 * k], a[r0], fma(HI[2 * k], d[r0], e));                               \
+                od = fma(LO[2 * k + 1], a[r1], fma(HI[2 * k + 1], d[r1], od));                     \
+                i0 = i1;                                                                           \
+            }                                                                                      \
+            oute[xx] = e;                                                                          \
+            outo[xx] = od;                                                                         \
+        }                                                                                          \
     }
 
 CSI_FWD_X(csi_wavelet_fwd_x_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)

@@ -153,24 +153,25 @@ static csi_status run_y(csi_ctx *ctx, cl_kernel vec, cl_kernel edge, cl_mem src,
                         cl_uint stride, cl_uint cols, cl_uint n, cl_uint F)
 {
     const cl_uint nh = n / 2, groups = cols / 16;
-    const cl_uint r0 = F / 4, r1 = nh > F / 4 ? nh - F / 4 : 0;
-    const cl_uint inner = r1 > r0 ? r1 - r0 : 0;
-    if (inner && groups) {
+    /* The interior kernel takes rows two at a time; an odd last row goes to the edge kernel. */
+    const cl_uint r0 = F / 4, avail = nh > F / 2 ? nh - F / 2 : 0;
+    const cl_uint pairs = avail / 2, inner = 2 * pairs, r1 = r0 + inner;
+    if (pairs && groups) {
         CSI_TRY(CSI_ARGS(vec, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(stride), CSI_ARG(n), CSI_ARG(groups),
-                         CSI_ARG(r0), CSI_ARG(inner)));
-        CSI_TRY(run2(ctx, vec, groups, inner));
+                         CSI_ARG(r0), CSI_ARG(pairs)));
+        CSI_TRY(run2(ctx, vec, groups, pairs));
     }
     /* Edge rows, all columns (all rows when there is no interior). */
     const cl_uint x0 = 0, lo = inner ? r0 : nh, hi = inner ? r1 : nh, count = nh - inner;
     CSI_TRY(CSI_ARGS(edge, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(stride), CSI_ARG(n), CSI_ARG(x0),
                      CSI_ARG(cols), CSI_ARG(lo), CSI_ARG(hi), CSI_ARG(count)));
-    CSI_TRY(run2(ctx, edge, cols, count));
+    CSI_TRY(run2(ctx, edge, (cols + 15) / 16, count)); /* 16 columns per item */
     /* Interior rows of the columns past the last full group: i maps to row r0 + i. */
     const cl_uint tx = 16 * groups, tw = cols - tx, zero = 0;
     if (inner && tw) {
         CSI_TRY(CSI_ARGS(edge, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(stride), CSI_ARG(n), CSI_ARG(tx),
                          CSI_ARG(tw), CSI_ARG(zero), CSI_ARG(r0), CSI_ARG(inner)));
-        CSI_TRY(run2(ctx, edge, tw, inner));
+        CSI_TRY(run2(ctx, edge, (tw + 15) / 16, inner));
     }
     return CSI_OK;
 }
