@@ -15,8 +15,10 @@
  *     x[2p]   = sum_k lo[2k]   a[p+k-F/4]   + hi[2k]   d[p+k-F/4]
  *     x[2p+1] = sum_k lo[2k+1] a[p+k+1-F/4] + hi[2k+1] d[p+k+1-F/4]      (indices mod n/2).
  *
- * Every kernel has a fast path for items whose taps stay inside the band and a modular path for
- * the few near the edges (and for bands shorter than the filter).
+ * Each pass has two kernels: an interior kernel, 16 outputs per work-item with no edge test,
+ * launched only over items whose taps stay inside the band, and an edge kernel with periodic
+ * wrap for the rest (a few outputs at each end of a band, leftover columns, and whole bands
+ * shorter than the filter). The host (host/ops/wavelet.c) makes that split.
  *
  * One level of the 2-D transform is an x pass (rows) then a y pass (columns) over the top-left
  * region of the array still holding the approximation; `stride` is the full image width. */
@@ -54,16 +56,16 @@ inline int wrap(int i, int n)
 }
 
 /* Vectorisation. PoCL's CPU back end vectorises across work-items only when a kernel has no
- * data-dependent control flow, and the periodic edges need some; measured at 1024x1024 an edge
- * branch made a pass 7x slower. So each work-item computes one 16-wide vector explicitly: 16
- * consecutive outputs of a row in the x passes (three float16 loads split into even and odd
- * samples, then shifted 16-wide windows of those), 16 adjacent columns in the y passes (one
- * float16 load per tap row). The few items whose taps cross the band's edge, and partial vectors
- * at the end of a band, take a scalar path with wrap(); their branch is per work-item and cheap.
+ * data-dependent control flow; measured at 1024x1024, a one-output-per-item kernel with an edge
+ * branch was 7x slower than the same without it. So each interior work-item computes 16-wide
+ * vectors explicitly: 16 consecutive outputs of a row in the x passes (three float16 loads split
+ * into even and odd samples, then shifted 16-wide windows of those), 16 adjacent columns in the
+ * y passes (one float16 load per tap row). Even then an edge path inside the same kernel, never
+ * taken, made PoCL's code 3x slower, hence the separate edge kernels.
  *
  * WIN(A, B, K) is elements K .. K+15 of the 32-vector A:B. With clang (PoCL) it is
  * __builtin_shufflevector, one permute instruction; PoCL's shuffle2() with the same constant mask
- * measured 4x slower (the mask is not folded), so shuffle2 is only the portable fallback. */
+ * measured 2-4x slower (the mask is not folded), so shuffle2 is only the portable fallback. */
 #if defined(__clang__)
 #define WIN(A, B, K)                                                                               \
     __builtin_shufflevector(A, B, K, K + 1, K + 2, K + 3, K + 4, K + 5, K + 6, K + 7, K + 8,      \
@@ -132,6 +134,36 @@ inline int wrap(int i, int n)
         const float16 E1 = (float16)(w2.even, w2.even), O1 = (float16)(w2.odd, w2.odd);           \
         float16 a = 0.0f, d = 0.0f;                                                                \
         TAPS(LO, HI)                                                                               \
+        vstore16(a, 0, out);                                                                       \
+        vstore16(d, 0, out + nh);                                                                  \
+    }
+
+/* Analysis along x, 16-output items whose window crosses the row's ends: work-item (i, y) does
+ * the item starting at o0 = 16c, c = i for i < lo, c = hi + (i - lo) after, with the 48-sample
+ * window gathered with periodic wrap (then the same taps as the interior kernel). */
+#define CSI_FWD_XW(NAME, F, LO, HI, TAPS)                                                          \
+    __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
+                       const uint stride, const uint n, const uint rows, const uint lo,           \
+                       const uint hi, const uint count)                                            \
+    {                                                                                              \
+        const int i = (int)get_global_id(0), y = (int)get_global_id(1);                          \
+        if (i >= (int)count || y >= (int)rows)                                                     \
+            return;                                                                                \
+        const int nh = (int)(n >> 1);                                                              \
+        const int o0 = 16 * (i < (int)lo ? i : (int)hi + (i - (int)lo));                          \
+        __global const float *row = src + (size_t)y * stride;                                     \
+        float win[48];                                                                             \
+        int k = wrap(2 * o0 - F / 2, (int)n);                                                      \
+        for (int t = 0; t < 48; t++) {                                                             \
+            win[t] = row[k];                                                                       \
+            k = k + 1 == (int)n ? 0 : k + 1;                                                       \
+        }                                                                                          \
+        const float16 w0 = vload16(0, win), w1 = vload16(1, win), w2 = vload16(2, win);            \
+        const float16 E0 = (float16)(w0.even, w1.even), O0 = (float16)(w0.odd, w1.odd);           \
+        const float16 E1 = (float16)(w2.even, w2.even), O1 = (float16)(w2.odd, w2.odd);           \
+        float16 a = 0.0f, d = 0.0f;                                                                \
+        TAPS(LO, HI)                                                                               \
+        __global float *out = dst + (size_t)y * stride + o0;                                      \
         vstore16(a, 0, out);                                                                       \
         vstore16(d, 0, out + nh);                                                                  \
     }
@@ -263,6 +295,39 @@ inline int wrap(int i, int n)
         vstore16(ZIP_HI(e, od), 1, out);                                                           \
     }
 
+/* Synthesis along x, 16-pair items whose coefficients cross the band's ends: work-item (i, y)
+ * does the item starting at p0 = 16c, c = i for i < lo, c = hi + (i - lo) after, with the 24
+ * coefficients of each half gathered with periodic wrap. */
+#define CSI_INV_XW(NAME, F, LO, HI, TAPS)                                                          \
+    __kernel void NAME(__global const float *approx, __global const float *coef,                  \
+                       __global float *restrict dst, const uint stride, const uint n,             \
+                       const uint rows, const uint arows, const uint lo, const uint hi,           \
+                       const uint count)                                                           \
+    {                                                                                              \
+        const int i = (int)get_global_id(0), y = (int)get_global_id(1);                          \
+        if (i >= (int)count || y >= (int)rows)                                                     \
+            return;                                                                                \
+        const int nh = (int)(n >> 1);                                                              \
+        const int p0 = 16 * (i < (int)lo ? i : (int)hi + (i - (int)lo));                          \
+        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * stride;       \
+        __global const float *d = coef + (size_t)y * stride + nh;                                 \
+        float wa[24], wd[24];                                                                      \
+        int k = wrap(p0 - F / 4, nh);                                                              \
+        for (int t = 0; t < 24; t++) {                                                             \
+            wa[t] = a[k];                                                                          \
+            wd[t] = d[k];                                                                          \
+            k = k + 1 == nh ? 0 : k + 1;                                                           \
+        }                                                                                          \
+        const float16 A0 = vload16(0, wa), D0 = vload16(0, wd);                                    \
+        const float8 a1 = vload8(2, wa), d1 = vload8(2, wd);                                       \
+        const float16 A1 = (float16)(a1, a1), D1 = (float16)(d1, d1);                              \
+        float16 e = 0.0f, od = 0.0f;                                                               \
+        TAPS(LO, HI)                                                                               \
+        __global float *out = dst + (size_t)y * stride + 2 * p0;                                  \
+        vstore16(ZIP_LO(e, od), 0, out);                                                           \
+        vstore16(ZIP_HI(e, od), 1, out);                                                           \
+    }
+
 /* Synthesis along x, edges: one coefficient pair p (two output samples) per work-item (i, y):
  * p = i for i < lo, p = hi + (i - lo) after, indices wrapped periodically. */
 #define CSI_INV_X_EDGE(NAME, F, LO, HI)                                                            \
@@ -367,18 +432,22 @@ inline int wrap(int i, int n)
     }
 
 CSI_FWD_X(csi_wavelet_fwd_x_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)
+CSI_FWD_XW(csi_wavelet_fwd_xw_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)
 CSI_FWD_X_EDGE(csi_wavelet_fwd_xe_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_FWD_Y(csi_wavelet_fwd_y_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_FWD_Y_EDGE(csi_wavelet_fwd_ye_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_INV_X(csi_wavelet_inv_x_db4, 8, csi_db4_lo, csi_db4_hi, INV_X_TAPS_8)
+CSI_INV_XW(csi_wavelet_inv_xw_db4, 8, csi_db4_lo, csi_db4_hi, INV_X_TAPS_8)
 CSI_INV_X_EDGE(csi_wavelet_inv_xe_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_INV_Y(csi_wavelet_inv_y_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_INV_Y_EDGE(csi_wavelet_inv_ye_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_FWD_X(csi_wavelet_fwd_x_db8, 16, csi_db8_lo, csi_db8_hi, FWD_X_TAPS_16)
+CSI_FWD_XW(csi_wavelet_fwd_xw_db8, 16, csi_db8_lo, csi_db8_hi, FWD_X_TAPS_16)
 CSI_FWD_X_EDGE(csi_wavelet_fwd_xe_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_FWD_Y(csi_wavelet_fwd_y_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_FWD_Y_EDGE(csi_wavelet_fwd_ye_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_INV_X(csi_wavelet_inv_x_db8, 16, csi_db8_lo, csi_db8_hi, INV_X_TAPS_16)
+CSI_INV_XW(csi_wavelet_inv_xw_db8, 16, csi_db8_lo, csi_db8_hi, INV_X_TAPS_16)
 CSI_INV_X_EDGE(csi_wavelet_inv_xe_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_INV_Y(csi_wavelet_inv_y_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_INV_Y_EDGE(csi_wavelet_inv_ye_db8, 16, csi_db8_lo, csi_db8_hi)

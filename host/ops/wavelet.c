@@ -28,7 +28,7 @@ typedef struct {
     cl_mem tmp; /* one w x h scratch image */
     /* Per pass an interior kernel (16-wide, no edge branch) and an edge kernel (scalar,
      * periodic wrap) for the outputs the interior one does not cover. */
-    cl_kernel fwd_x, fwd_xe, fwd_y, fwd_ye, inv_x, inv_xe, inv_y, inv_ye;
+    cl_kernel fwd_x, fwd_xw, fwd_xe, fwd_y, fwd_ye, inv_x, inv_xw, inv_xe, inv_y, inv_ye;
 } wavelet_state;
 
 const char *csi_wavelet_name(csi_wavelet_family f)
@@ -121,28 +121,38 @@ static csi_status run2(csi_ctx *ctx, cl_kernel k, size_t g0, size_t g1)
     return csi_run(ctx, k, 2, global, local);
 }
 
-/* Split of one x pass over a band of nh outputs: `items` 16-wide interior items starting at
- * output `first`, and the edge outputs [0, lo) and [hi, nh) for the scalar kernel. `reach` is the
- * largest allowed start of an item (its input window must lie inside the band). */
+/* Split of one x pass over a band of nh outputs (or coefficient pairs) into 16-wide chunks
+ * c (outputs [16c, 16c + 16)): chunks [clo, chi) whose input window lies inside the band go to
+ * the interior kernel; the other full chunks, [0, clo) and [chi, full), to the wrapped-window
+ * kernel; the last nh % 16 outputs to the scalar kernel. `reach` is the last chunk index whose
+ * window ends inside the band (may be negative). */
 typedef struct {
-    cl_uint first, items, lo, hi, edges;
+    cl_uint first, items;    /* interior: first output, number of chunks */
+    cl_uint lo, hi, wrapped; /* wrapped chunks: c < lo and c >= hi, `wrapped` of them */
+    cl_uint rest, nrest;     /* scalar outputs [rest, rest + nrest) */
 } xsplit;
 
-static xsplit split_x(long nh, long first, long reach)
+static xsplit split_x(long nh, long reach)
 {
     xsplit x = {0};
-    long last = reach < nh - 16 ? reach : nh - 16;
-    if (last >= first) {
-        x.first = (cl_uint)first;
-        x.items = (cl_uint)((last - first) / 16 + 1);
-        x.lo = (cl_uint)first;
-        x.hi = (cl_uint)(first + 16 * (long)x.items);
+    const long full = nh / 16, clo = 1; /* chunk 0 starts left of the band for F <= 64 */
+    const long chi = reach + 1 < full ? reach + 1 : full;
+    if (chi > clo) {
+        x.first = (cl_uint)(16 * clo);
+        x.items = (cl_uint)(chi - clo);
+        x.lo = (cl_uint)clo;
+        x.hi = (cl_uint)chi;
     } else {
-        x.lo = x.hi = (cl_uint)nh; /* all edge */
+        x.lo = x.hi = (cl_uint)full;
     }
-    x.edges = x.lo + ((cl_uint)nh - x.hi);
+    x.wrapped = x.lo + ((cl_uint)full - x.hi);
+    x.rest = (cl_uint)(16 * full);
+    x.nrest = (cl_uint)(nh - 16 * full);
     return x;
 }
+
+/* Floor division for a possibly negative numerator. */
+static long floor_div(long a, long b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
 /* One y pass over a region cols wide and n high (n/2 outputs or pairs per column), with kernel
  * `vec` for the interior rows [F/4, n/2 - F/4) of full 16-column groups, and `edge` for the edge
@@ -185,18 +195,24 @@ static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
     for (int l = 0; l < s->levels; l++) {
         const cl_uint n = (cl_uint)(s->w >> l), m = (cl_uint)(s->h >> l);
         cl_mem src = l == 0 ? img : coef;
-        /* Output o reads row[2o + F/2 - j], j < F; an item of 16 outputs from o0 reads the 48
-         * samples from 2 o0 - F/2: inside the row for o0 >= F/4 and 2 o0 - F/2 + 48 <= n. */
-        const xsplit x = split_x(n / 2, F / 4, ((long)n + F / 2 - 48) / 2);
+        /* Output o reads row[2o + F/2 - j], j < F; chunk c (outputs from 16c) reads the 48
+         * samples from 32c - F/2: inside the row for c >= 1 and 32c - F/2 + 48 <= n. */
+        const xsplit x = split_x(n / 2, floor_div((long)n + F / 2 - 48, 32));
+        const cl_uint zero = 0;
         if (x.items) {
             CSI_TRY(CSI_ARGS(s->fwd_x, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
                              CSI_ARG(m), CSI_ARG(x.first), CSI_ARG(x.items)));
             CSI_TRY(run2(op->ctx, s->fwd_x, x.items, m));
         }
-        if (x.edges) {
+        if (x.wrapped) {
+            CSI_TRY(CSI_ARGS(s->fwd_xw, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
+                             CSI_ARG(m), CSI_ARG(x.lo), CSI_ARG(x.hi), CSI_ARG(x.wrapped)));
+            CSI_TRY(run2(op->ctx, s->fwd_xw, x.wrapped, m));
+        }
+        if (x.nrest) {
             CSI_TRY(CSI_ARGS(s->fwd_xe, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
-                             CSI_ARG(m), CSI_ARG(x.lo), CSI_ARG(x.hi)));
-            CSI_TRY(run2(op->ctx, s->fwd_xe, x.edges, m));
+                             CSI_ARG(m), CSI_ARG(zero), CSI_ARG(x.rest)));
+            CSI_TRY(run2(op->ctx, s->fwd_xe, x.nrest, m));
         }
         CSI_TRY(run_y(op->ctx, s->fwd_y, s->fwd_ye, s->tmp, coef, stride, n, m, (cl_uint)F));
     }
@@ -213,20 +229,27 @@ static csi_status wavelet_synthesis(const csi_linop *op, cl_mem coef, cl_mem img
         const cl_uint n = (cl_uint)(s->w >> (l - 1)), m = (cl_uint)(s->h >> (l - 1));
         const cl_uint arows = m / 2;
         cl_mem approx = l == s->levels ? coef : img;
-        /* Pair p reads coefficients p - F/4 + k, k <= F/2; an item of 16 pairs from p0 reads
-         * the 24 from p0 - F/4: inside the band for p0 >= F/4 and p0 - F/4 + 24 <= n/2. */
-        const xsplit x = split_x(n / 2, F / 4, (long)n / 2 + F / 4 - 24);
+        /* Pair p reads coefficients p - F/4 + k, k <= F/2; chunk c (pairs from 16c) reads the
+         * 24 from 16c - F/4: inside the band for c >= 1 and 16c - F/4 + 24 <= n/2. */
+        const xsplit x = split_x(n / 2, floor_div((long)n / 2 + F / 4 - 24, 16));
+        const cl_uint zero = 0;
         if (x.items) {
             CSI_TRY(CSI_ARGS(s->inv_x, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
                              CSI_ARG(stride), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(x.first),
                              CSI_ARG(x.items)));
             CSI_TRY(run2(op->ctx, s->inv_x, x.items, m));
         }
-        if (x.edges) {
-            CSI_TRY(CSI_ARGS(s->inv_xe, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+        if (x.wrapped) {
+            CSI_TRY(CSI_ARGS(s->inv_xw, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
                              CSI_ARG(stride), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(x.lo),
-                             CSI_ARG(x.hi)));
-            CSI_TRY(run2(op->ctx, s->inv_xe, x.edges, m));
+                             CSI_ARG(x.hi), CSI_ARG(x.wrapped)));
+            CSI_TRY(run2(op->ctx, s->inv_xw, x.wrapped, m));
+        }
+        if (x.nrest) {
+            CSI_TRY(CSI_ARGS(s->inv_xe, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+                             CSI_ARG(stride), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(zero),
+                             CSI_ARG(x.rest)));
+            CSI_TRY(run2(op->ctx, s->inv_xe, x.nrest, m));
         }
         CSI_TRY(run_y(op->ctx, s->inv_y, s->inv_ye, s->tmp, img, stride, n, m, (cl_uint)F));
     }
@@ -289,11 +312,11 @@ csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size
     char what[96];
     snprintf(what, sizeof what, "the %s wavelet's scratch image (%zux%zu)", name, w, h);
     csi_status st = csi_buffer(ctx, w * h * sizeof(float), CL_MEM_READ_WRITE, what, &s->tmp);
-    static const char *const stems[8] = {"fwd_x", "fwd_xe", "fwd_y", "fwd_ye",
-                                         "inv_x", "inv_xe", "inv_y", "inv_ye"};
-    cl_kernel *slots[8] = {&s->fwd_x, &s->fwd_xe, &s->fwd_y, &s->fwd_ye,
-                           &s->inv_x, &s->inv_xe, &s->inv_y, &s->inv_ye};
-    for (int i = 0; i < 8 && st == CSI_OK; i++) {
+    static const char *const stems[10] = {"fwd_x", "fwd_xw", "fwd_xe", "fwd_y", "fwd_ye",
+                                          "inv_x", "inv_xw", "inv_xe", "inv_y", "inv_ye"};
+    cl_kernel *slots[10] = {&s->fwd_x, &s->fwd_xw, &s->fwd_xe, &s->fwd_y, &s->fwd_ye,
+                            &s->inv_x, &s->inv_xw, &s->inv_xe, &s->inv_y, &s->inv_ye};
+    for (int i = 0; i < 10 && st == CSI_OK; i++) {
         char kname[64];
         snprintf(kname, sizeof kname, "csi_wavelet_%s_%s", stems[i], name);
         st = csi_kernel(ctx, "wavelet", kname, slots[i]);
