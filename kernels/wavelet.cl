@@ -21,7 +21,9 @@
  * shorter than the filter). The host (host/ops/wavelet.c) makes that split.
  *
  * One level of the 2-D transform is an x pass (rows) then a y pass (columns) over the top-left
- * region of the array still holding the approximation; `stride` is the full image width. */
+ * region of the array still holding the approximation; `sstride` and `dstride` are the row
+ * strides of source and destination in floats: the image width for the image and coefficient
+ * arrays, a padded width for the scratch image (see host/ops/wavelet.c). */
 
 /* Daubechies' extremal-phase orthonormal filters: Daubechies, "Ten Lectures on Wavelets" (SIAM
  * 1992), Table 6.1, in the order and sign convention of PyWavelets 1.8 (pywt.Wavelet('db4').dec_lo,
@@ -120,15 +122,15 @@ inline int wrap(int i, int n)
  * slower). src and dst are distinct buffers. */
 #define CSI_FWD_X(NAME, F, LO, HI, TAPS)                                                           \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint rows, const uint first,        \
+                       const uint sstride, const uint dstride, const uint n, const uint rows, const uint first,        \
                        const uint items)                                                           \
     {                                                                                              \
         const int q = (int)get_global_id(0), y = (int)get_global_id(1);                          \
         if (q >= (int)items || y >= (int)rows)                                                     \
             return;                                                                                \
         const int nh = (int)(n >> 1), o0 = (int)first + 16 * q, base = 2 * o0 - F / 2;           \
-        __global const float *row = src + (size_t)y * stride + base;                              \
-        __global float *out = dst + (size_t)y * stride + o0;                                      \
+        __global const float *row = src + (size_t)y * sstride + base;                              \
+        __global float *out = dst + (size_t)y * dstride + o0;                                      \
         const float16 w0 = vload16(0, row), w1 = vload16(1, row), w2 = vload16(2, row);            \
         const float16 E0 = (float16)(w0.even, w1.even), O0 = (float16)(w0.odd, w1.odd);           \
         const float16 E1 = (float16)(w2.even, w2.even), O1 = (float16)(w2.odd, w2.odd);           \
@@ -143,7 +145,7 @@ inline int wrap(int i, int n)
  * window gathered with periodic wrap (then the same taps as the interior kernel). */
 #define CSI_FWD_XW(NAME, F, LO, HI, TAPS)                                                          \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint rows, const uint lo,           \
+                       const uint sstride, const uint dstride, const uint n, const uint rows, const uint lo,           \
                        const uint hi, const uint count)                                            \
     {                                                                                              \
         const int i = (int)get_global_id(0), y = (int)get_global_id(1);                          \
@@ -151,7 +153,7 @@ inline int wrap(int i, int n)
             return;                                                                                \
         const int nh = (int)(n >> 1);                                                              \
         const int o0 = 16 * (i < (int)lo ? i : (int)hi + (i - (int)lo));                          \
-        __global const float *row = src + (size_t)y * stride;                                     \
+        __global const float *row = src + (size_t)y * sstride;                                     \
         float win[48];                                                                             \
         int k = wrap(2 * o0 - F / 2, (int)n);                                                      \
         for (int t = 0; t < 48; t++) {                                                             \
@@ -163,7 +165,7 @@ inline int wrap(int i, int n)
         const float16 E1 = (float16)(w2.even, w2.even), O1 = (float16)(w2.odd, w2.odd);           \
         float16 a = 0.0f, d = 0.0f;                                                                \
         TAPS(LO, HI)                                                                               \
-        __global float *out = dst + (size_t)y * stride + o0;                                      \
+        __global float *out = dst + (size_t)y * dstride + o0;                                      \
         vstore16(a, 0, out);                                                                       \
         vstore16(d, 0, out + nh);                                                                  \
     }
@@ -172,14 +174,14 @@ inline int wrap(int i, int n)
  * does not cover: o = i for i < lo, o = hi + (i - lo) after, taps wrapped periodically. */
 #define CSI_FWD_X_EDGE(NAME, F, LO, HI)                                                            \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint rows, const uint lo,           \
+                       const uint sstride, const uint dstride, const uint n, const uint rows, const uint lo,           \
                        const uint hi)                                                              \
     {                                                                                              \
         const int i = (int)get_global_id(0), y = (int)get_global_id(1);                          \
         const int nh = (int)(n >> 1), o = i < (int)lo ? i : (int)hi + (i - (int)lo);              \
         if (o >= nh || y >= (int)rows)                                                             \
             return;                                                                                \
-        __global const float *row = src + (size_t)y * stride;                                     \
+        __global const float *row = src + (size_t)y * sstride;                                     \
         /* Taps read row[top - j], top = 2o + F/2: one remainder, then step down with a wrap. */  \
         int k = wrap(2 * o + F / 2, (int)n);                                                       \
         float a = 0.0f, d = 0.0f;                                                                  \
@@ -189,7 +191,7 @@ inline int wrap(int i, int n)
             d = fma(HI[j], v, d);                                                                  \
             k = k == 0 ? (int)n - 1 : k - 1;                                                       \
         }                                                                                          \
-        __global float *out = dst + (size_t)y * stride;                                           \
+        __global float *out = dst + (size_t)y * dstride;                                           \
         out[o] = a;                                                                                \
         out[nh + o] = d;                                                                           \
     }
@@ -201,7 +203,7 @@ inline int wrap(int i, int n)
  * chains instead of two (the chains' latency, not the loads, bounded the one-row version). */
 #define CSI_FWD_Y(NAME, F, LO, HI)                                                                 \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint groups, const uint o0,         \
+                       const uint sstride, const uint dstride, const uint n, const uint groups, const uint o0,         \
                        const uint pairs)                                                           \
     {                                                                                              \
         const int g = (int)get_global_id(0), i = (int)get_global_id(1);                          \
@@ -209,20 +211,20 @@ inline int wrap(int i, int n)
             return;                                                                                \
         const int nh = (int)(n >> 1), o = (int)o0 + 2 * i, x0 = 16 * g;                           \
         /* Row 2o + F/2 + 2 - r for r = 0 .. F+1: output o uses r = 2 + j, output o+1 r = j. */   \
-        __global const float *col = src + (size_t)(2 * o + F / 2 + 2) * stride + x0;              \
+        __global const float *col = src + (size_t)(2 * o + F / 2 + 2) * sstride + x0;              \
         float16 a0 = 0.0f, d0 = 0.0f, a1 = 0.0f, d1 = 0.0f;                                        \
         for (int j = 0; j < F; j++) {                                                              \
-            const float16 v = vload16(0, col - (size_t)j * stride);                               \
+            const float16 v = vload16(0, col - (size_t)j * sstride);                               \
             a1 = fma(LO[j], v, a1);                                                                \
             d1 = fma(HI[j], v, d1);                                                                \
-            const float16 u = vload16(0, col - (size_t)(j + 2) * stride);                         \
+            const float16 u = vload16(0, col - (size_t)(j + 2) * sstride);                         \
             a0 = fma(LO[j], u, a0);                                                                \
             d0 = fma(HI[j], u, d0);                                                                \
         }                                                                                          \
-        vstore16(a0, 0, dst + (size_t)o * stride + x0);                                            \
-        vstore16(a1, 0, dst + (size_t)(o + 1) * stride + x0);                                      \
-        vstore16(d0, 0, dst + (size_t)(nh + o) * stride + x0);                                     \
-        vstore16(d1, 0, dst + (size_t)(nh + o + 1) * stride + x0);                                 \
+        vstore16(a0, 0, dst + (size_t)o * dstride + x0);                                            \
+        vstore16(a1, 0, dst + (size_t)(o + 1) * dstride + x0);                                      \
+        vstore16(d0, 0, dst + (size_t)(nh + o) * dstride + x0);                                     \
+        vstore16(d1, 0, dst + (size_t)(nh + o + 1) * dstride + x0);                                 \
     }
 
 /* Analysis along y, edge rows and leftover columns: work-item (c, i) handles output row
@@ -231,7 +233,7 @@ inline int wrap(int i, int n)
  * there, else one column at a time. */
 #define CSI_FWD_Y_EDGE(NAME, F, LO, HI)                                                            \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint x0, const uint width,          \
+                       const uint sstride, const uint dstride, const uint n, const uint x0, const uint width,          \
                        const uint lo, const uint hi, const uint count)                             \
     {                                                                                              \
         const int c = (int)get_global_id(0), i = (int)get_global_id(1);                          \
@@ -240,12 +242,12 @@ inline int wrap(int i, int n)
         const int nh = (int)(n >> 1), x = (int)x0 + 16 * c;                                       \
         const int o = i < (int)lo ? i : (int)hi + (i - (int)lo);                                  \
         const int k0 = wrap(2 * o + F / 2, (int)n); /* input row of tap 0, then down, wrapped */ \
-        __global float *outa = dst + (size_t)o * stride, *outd = dst + (size_t)(nh + o) * stride; \
+        __global float *outa = dst + (size_t)o * dstride, *outd = dst + (size_t)(nh + o) * dstride; \
         if (16 * c + 16 <= (int)width) {                                                           \
             float16 a = 0.0f, d = 0.0f;                                                            \
             int k = k0;                                                                            \
             for (int j = 0; j < F; j++) {                                                          \
-                const float16 v = vload16(0, src + (size_t)k * stride + x);                       \
+                const float16 v = vload16(0, src + (size_t)k * sstride + x);                       \
                 a = fma(LO[j], v, a);                                                              \
                 d = fma(HI[j], v, d);                                                              \
                 k = k == 0 ? (int)n - 1 : k - 1;                                                   \
@@ -258,7 +260,7 @@ inline int wrap(int i, int n)
             float a = 0.0f, d = 0.0f;                                                              \
             int k = k0;                                                                            \
             for (int j = 0; j < F; j++) {                                                          \
-                const float v = src[(size_t)k * stride + xx];                                      \
+                const float v = src[(size_t)k * sstride + xx];                                      \
                 a = fma(LO[j], v, a);                                                              \
                 d = fma(HI[j], v, d);                                                              \
                 k = k == 0 ? (int)n - 1 : k - 1;                                                   \
@@ -276,21 +278,21 @@ inline int wrap(int i, int n)
  * approximation just rebuilt in the output, with no copy of the details. */
 #define CSI_INV_X(NAME, F, LO, HI, TAPS)                                                           \
     __kernel void NAME(__global const float *approx, __global const float *coef,                  \
-                       __global float *restrict dst, const uint stride, const uint n,             \
+                       __global float *restrict dst, const uint sstride, const uint dstride, const uint n,             \
                        const uint rows, const uint arows, const uint first, const uint items)     \
     {                                                                                              \
         const int q = (int)get_global_id(0), y = (int)get_global_id(1);                          \
         if (q >= (int)items || y >= (int)rows)                                                     \
             return;                                                                                \
         const int nh = (int)(n >> 1), p0 = (int)first + 16 * q, w = p0 - F / 4;                  \
-        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * stride + w;   \
-        __global const float *d = coef + (size_t)y * stride + nh + w;                             \
+        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * sstride + w;   \
+        __global const float *d = coef + (size_t)y * sstride + nh + w;                             \
         const float16 A0 = vload16(0, a), D0 = vload16(0, d);                                      \
         const float8 a1 = vload8(2, a), d1 = vload8(2, d);                                         \
         const float16 A1 = (float16)(a1, a1), D1 = (float16)(d1, d1);                              \
         float16 e = 0.0f, od = 0.0f;                                                               \
         TAPS(LO, HI)                                                                               \
-        __global float *out = dst + (size_t)y * stride + 2 * p0;                                  \
+        __global float *out = dst + (size_t)y * dstride + 2 * p0;                                  \
         vstore16(ZIP_LO(e, od), 0, out);                                                           \
         vstore16(ZIP_HI(e, od), 1, out);                                                           \
     }
@@ -300,7 +302,7 @@ inline int wrap(int i, int n)
  * coefficients of each half gathered with periodic wrap. */
 #define CSI_INV_XW(NAME, F, LO, HI, TAPS)                                                          \
     __kernel void NAME(__global const float *approx, __global const float *coef,                  \
-                       __global float *restrict dst, const uint stride, const uint n,             \
+                       __global float *restrict dst, const uint sstride, const uint dstride, const uint n,             \
                        const uint rows, const uint arows, const uint lo, const uint hi,           \
                        const uint count)                                                           \
     {                                                                                              \
@@ -309,8 +311,8 @@ inline int wrap(int i, int n)
             return;                                                                                \
         const int nh = (int)(n >> 1);                                                              \
         const int p0 = 16 * (i < (int)lo ? i : (int)hi + (i - (int)lo));                          \
-        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * stride;       \
-        __global const float *d = coef + (size_t)y * stride + nh;                                 \
+        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * sstride;       \
+        __global const float *d = coef + (size_t)y * sstride + nh;                                 \
         float wa[24], wd[24];                                                                      \
         int k = wrap(p0 - F / 4, nh);                                                              \
         for (int t = 0; t < 24; t++) {                                                             \
@@ -323,7 +325,7 @@ inline int wrap(int i, int n)
         const float16 A1 = (float16)(a1, a1), D1 = (float16)(d1, d1);                              \
         float16 e = 0.0f, od = 0.0f;                                                               \
         TAPS(LO, HI)                                                                               \
-        __global float *out = dst + (size_t)y * stride + 2 * p0;                                  \
+        __global float *out = dst + (size_t)y * dstride + 2 * p0;                                  \
         vstore16(ZIP_LO(e, od), 0, out);                                                           \
         vstore16(ZIP_HI(e, od), 1, out);                                                           \
     }
@@ -332,15 +334,15 @@ inline int wrap(int i, int n)
  * p = i for i < lo, p = hi + (i - lo) after, indices wrapped periodically. */
 #define CSI_INV_X_EDGE(NAME, F, LO, HI)                                                            \
     __kernel void NAME(__global const float *approx, __global const float *coef,                  \
-                       __global float *restrict dst, const uint stride, const uint n,             \
+                       __global float *restrict dst, const uint sstride, const uint dstride, const uint n,             \
                        const uint rows, const uint arows, const uint lo, const uint hi)           \
     {                                                                                              \
         const int i = (int)get_global_id(0), y = (int)get_global_id(1);                          \
         const int nh = (int)(n >> 1), p = i < (int)lo ? i : (int)hi + (i - (int)lo);              \
         if (p >= nh || y >= (int)rows)                                                             \
             return;                                                                                \
-        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * stride;       \
-        __global const float *d = coef + (size_t)y * stride + nh;                                 \
+        __global const float *a = ((y < (int)arows) ? approx : coef) + (size_t)y * sstride;       \
+        __global const float *d = coef + (size_t)y * sstride + nh;                                 \
         /* Coefficients p - F/4 + k: one remainder, then step up with a wrap. */                  \
         int i0 = wrap(p - F / 4, nh);                                                              \
         float e = 0.0f, od = 0.0f;                                                                 \
@@ -350,7 +352,7 @@ inline int wrap(int i, int n)
             od = fma(LO[2 * k + 1], a[i1], fma(HI[2 * k + 1], d[i1], od));                         \
             i0 = i1;                                                                               \
         }                                                                                          \
-        __global float *out = dst + (size_t)y * stride;                                           \
+        __global float *out = dst + (size_t)y * dstride;                                           \
         out[2 * p] = e;                                                                            \
         out[2 * p + 1] = od;                                                                       \
     }
@@ -361,18 +363,18 @@ inline int wrap(int i, int n)
  * independent fma chains, as in the analysis. */
 #define CSI_INV_Y(NAME, F, LO, HI)                                                                 \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint groups, const uint p0,         \
+                       const uint sstride, const uint dstride, const uint n, const uint groups, const uint p0,         \
                        const uint pairs)                                                           \
     {                                                                                              \
         const int g = (int)get_global_id(0), i = (int)get_global_id(1);                          \
         if (g >= (int)groups || i >= (int)pairs)                                                   \
             return;                                                                                \
         const int nh = (int)(n >> 1), p = (int)p0 + 2 * i, x0 = 16 * g;                           \
-        __global const float *a = src + (size_t)(p - F / 4) * stride + x0;                       \
-        __global const float *d = a + (size_t)nh * stride;                                        \
+        __global const float *a = src + (size_t)(p - F / 4) * sstride + x0;                       \
+        __global const float *d = a + (size_t)nh * sstride;                                        \
         float16 e0 = 0.0f, o0 = 0.0f, e1 = 0.0f, o1 = 0.0f;                                        \
         for (int k = 0; k < F / 2; k++) {                                                          \
-            const size_t r0 = (size_t)k * stride, r1 = r0 + stride, r2 = r1 + stride;            \
+            const size_t r0 = (size_t)k * sstride, r1 = r0 + sstride, r2 = r1 + sstride;            \
             const float16 a0 = vload16(0, a + r0), a1 = vload16(0, a + r1), a2 = vload16(0, a + r2); \
             const float16 b0 = vload16(0, d + r0), b1 = vload16(0, d + r1), b2 = vload16(0, d + r2); \
             e0 = fma(LO[2 * k], a0, fma(HI[2 * k], b0, e0));                                       \
@@ -380,18 +382,18 @@ inline int wrap(int i, int n)
             e1 = fma(LO[2 * k], a1, fma(HI[2 * k], b1, e1));                                       \
             o1 = fma(LO[2 * k + 1], a2, fma(HI[2 * k + 1], b2, o1));                               \
         }                                                                                          \
-        __global float *out = dst + (size_t)(2 * p) * stride + x0;                                \
+        __global float *out = dst + (size_t)(2 * p) * dstride + x0;                                \
         vstore16(e0, 0, out);                                                                      \
-        vstore16(o0, 0, out + stride);                                                             \
-        vstore16(e1, 0, out + 2 * (size_t)stride);                                                 \
-        vstore16(o1, 0, out + 3 * (size_t)stride);                                                 \
+        vstore16(o0, 0, out + dstride);                                                             \
+        vstore16(e1, 0, out + 2 * (size_t)dstride);                                                 \
+        vstore16(o1, 0, out + 3 * (size_t)dstride);                                                 \
     }
 
 /* Synthesis along y, edge rows and leftover columns: work-item (c, i) handles pair p = i for
  * i < lo, p = hi + (i - lo) after (i < count), columns as in the analysis edge kernel. */
 #define CSI_INV_Y_EDGE(NAME, F, LO, HI)                                                            \
     __kernel void NAME(__global const float *restrict src, __global float *restrict dst,          \
-                       const uint stride, const uint n, const uint x0, const uint width,          \
+                       const uint sstride, const uint dstride, const uint n, const uint x0, const uint width,          \
                        const uint lo, const uint hi, const uint count)                             \
     {                                                                                              \
         const int c = (int)get_global_id(0), i = (int)get_global_id(1);                          \
@@ -400,14 +402,14 @@ inline int wrap(int i, int n)
         const int nh = (int)(n >> 1), x = (int)x0 + 16 * c;                                       \
         const int p = i < (int)lo ? i : (int)hi + (i - (int)lo);                                  \
         const int k0 = wrap(p - F / 4, nh); /* first coefficient row, then up, wrapped */         \
-        __global const float *a = src, *d = src + (size_t)nh * stride;                            \
-        __global float *oute = dst + (size_t)(2 * p) * stride, *outo = oute + stride;             \
+        __global const float *a = src, *d = src + (size_t)nh * sstride;                            \
+        __global float *oute = dst + (size_t)(2 * p) * dstride, *outo = oute + dstride;             \
         if (16 * c + 16 <= (int)width) {                                                           \
             float16 e = 0.0f, od = 0.0f;                                                           \
             int i0 = k0;                                                                           \
             for (int k = 0; k < F / 2; k++) {                                                      \
                 const int i1 = i0 + 1 == nh ? 0 : i0 + 1;                                          \
-                const size_t r0 = (size_t)i0 * stride + x, r1 = (size_t)i1 * stride + x;          \
+                const size_t r0 = (size_t)i0 * sstride + x, r1 = (size_t)i1 * sstride + x;          \
                 e = fma(LO[2 * k], vload16(0, a + r0), fma(HI[2 * k], vload16(0, d + r0), e));    \
                 od = fma(LO[2 * k + 1], vload16(0, a + r1), fma(HI[2 * k + 1], vload16(0, d + r1), od)); \
                 i0 = i1;                                                                           \
@@ -421,7 +423,7 @@ inline int wrap(int i, int n)
             int i0 = k0;                                                                           \
             for (int k = 0; k < F / 2; k++) {                                                      \
                 const int i1 = i0 + 1 == nh ? 0 : i0 + 1;                                          \
-                const size_t r0 = (size_t)i0 * stride + xx, r1 = (size_t)i1 * stride + xx;       \
+                const size_t r0 = (size_t)i0 * sstride + xx, r1 = (size_t)i1 * sstride + xx;       \
                 e = fma(LO[2 * k], a[r0], fma(HI[2 * k], d[r0], e));                               \
                 od = fma(LO[2 * k + 1], a[r1], fma(HI[2 * k + 1], d[r1], od));                     \
                 i0 = i1;                                                                           \
