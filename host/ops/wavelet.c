@@ -4,15 +4,18 @@
  * (pywt/_extensions/c/convolution.template.c), so the same index formula reproduces it exactly,
  * including bands shorter than the filter where taps wrap around several times; the adjoint is
  * the same coefficients with transposed indices, orthonormal to float rounding by construction.
- * A lifting factorisation of db8 (Daubechies & Sweldens 1998) would save about half the
- * multiply-adds but has lifting coefficients of widely varying size (worse float rounding), and
- * on this memory-bound CPU device the cost is the passes over memory, which lifting does not
- * reduce.
+ * A lifting factorisation (Daubechies & Sweldens 1998) would save about half the multiply-adds,
+ * but its steps have coefficients of widely varying size (more float rounding for db8), it needs
+ * its own handling of wrap-around for short bands, and its in-place steps are sequential passes
+ * over memory. The filter kernels already run at roughly half of the CPU device's fma peak
+ * (docs/bench/wavelet.md).
  *
  * Per level: one x pass (rows) and one y pass (columns), out of place between the output and one
- * scratch image made at create. The forward transform reads the input only at level 1, so x and
- * the coefficient vector never alias; the inverse reads the coarsest approximation straight from
- * the coefficient vector and the details where they lie, so it needs no copy either. */
+ * scratch image made at create. The forward transform reads the input only in level 1's x pass
+ * and writes the output only from y passes, so it never writes its input and also works in
+ * place; the inverse reads the coarsest approximation straight from the coefficient vector and
+ * the details where they lie (no copy), and each level consumes the coefficients it overwrites
+ * before writing them, so it works in place too. */
 #include "csi/wavelet.h"
 
 #include <limits.h>
