@@ -4,15 +4,18 @@
  * (pywt/_extensions/c/convolution.template.c), so the same index formula reproduces it exactly,
  * including bands shorter than the filter where taps wrap around several times; the adjoint is
  * the same coefficients with transposed indices, orthonormal to float rounding by construction.
- * A lifting factorisation of db8 (Daubechies & Sweldens 1998) would save about half the
- * multiply-adds but has lifting coefficients of widely varying size (worse float rounding), and
- * on this memory-bound CPU device the cost is the passes over memory, which lifting does not
- * reduce.
+ * A lifting factorisation (Daubechies & Sweldens 1998) would save about half the multiply-adds,
+ * but its steps have coefficients of widely varying size (more float rounding for db8), it needs
+ * its own handling of wrap-around for short bands, and its in-place steps are sequential passes
+ * over memory. The filter kernels already run at roughly half of the CPU device's fma peak
+ * (docs/bench/wavelet.md).
  *
  * Per level: one x pass (rows) and one y pass (columns), out of place between the output and one
- * scratch image made at create. The forward transform reads the input only at level 1, so x and
- * the coefficient vector never alias; the inverse reads the coarsest approximation straight from
- * the coefficient vector and the details where they lie, so it needs no copy either. */
+ * scratch image made at create. The forward transform reads the input only in level 1's x pass
+ * and writes the output only from y passes, so it never writes its input and also works in
+ * place; the inverse reads the coarsest approximation straight from the coefficient vector and
+ * the details where they lie (no copy), and each level consumes the coefficients it overwrites
+ * before writing them, so it works in place too. */
 #include "csi/wavelet.h"
 
 #include <limits.h>
@@ -25,8 +28,11 @@ typedef struct {
     csi_wavelet_family family;
     size_t w, h;
     int levels;
-    cl_mem tmp; /* one w x h scratch image */
-    cl_kernel fwd_x, fwd_y, inv_x, inv_y;
+    size_t ts;  /* row stride of the scratch image, w + 16: see csi_wavelet_create */
+    cl_mem tmp; /* one ts x h scratch image */
+    /* Per pass an interior kernel (16-wide, no edge branch) and an edge kernel (scalar,
+     * periodic wrap) for the outputs the interior one does not cover. */
+    cl_kernel fwd_x, fwd_xw, fwd_xe, fwd_y, fwd_ye, inv_x, inv_xw, inv_xe, inv_y, inv_ye;
 } wavelet_state;
 
 const char *csi_wavelet_name(csi_wavelet_family f)
@@ -119,20 +125,100 @@ static csi_status run2(csi_ctx *ctx, cl_kernel k, size_t g0, size_t g1)
     return csi_run(ctx, k, 2, global, local);
 }
 
+/* Split of one x pass over a band of nh outputs (or coefficient pairs) into 16-wide chunks
+ * c (outputs [16c, 16c + 16)): chunks [clo, chi) whose input window lies inside the band go to
+ * the interior kernel; the other full chunks, [0, clo) and [chi, full), to the wrapped-window
+ * kernel; the last nh % 16 outputs to the scalar kernel. `reach` is the last chunk index whose
+ * window ends inside the band (may be negative). */
+typedef struct {
+    cl_uint first, items;    /* interior: first output, number of chunks */
+    cl_uint lo, hi, wrapped; /* wrapped chunks: c < lo and c >= hi, `wrapped` of them */
+    cl_uint rest, nrest;     /* scalar outputs [rest, rest + nrest) */
+} xsplit;
+
+static xsplit split_x(long nh, long reach)
+{
+    xsplit x = {0};
+    const long full = nh / 16, clo = 1; /* chunk 0 starts left of the band for F <= 64 */
+    const long chi = reach + 1 < full ? reach + 1 : full;
+    if (chi > clo) {
+        x.first = (cl_uint)(16 * clo);
+        x.items = (cl_uint)(chi - clo);
+        x.lo = (cl_uint)clo;
+        x.hi = (cl_uint)chi;
+    } else {
+        x.lo = x.hi = (cl_uint)full;
+    }
+    x.wrapped = x.lo + ((cl_uint)full - x.hi);
+    x.rest = (cl_uint)(16 * full);
+    x.nrest = (cl_uint)(nh - 16 * full);
+    return x;
+}
+
+/* Floor division for a possibly negative numerator. */
+static long floor_div(long a, long b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+/* One y pass over a region cols wide and n high (n/2 outputs or pairs per column), with kernel
+ * `vec` for the interior rows [F/4, n/2 - F/4) of full 16-column groups, and `edge` for the edge
+ * rows of every column and the leftover columns of interior rows. Both passes (analysis and
+ * synthesis) have the same interior: analysis output o reads rows 2o + F/2 - j (j < F), synthesis
+ * pair p reads p - F/4 + k (k <= F/2) of each half. */
+static csi_status run_y(csi_ctx *ctx, cl_kernel vec, cl_kernel edge, cl_mem src, cl_mem dst,
+                        cl_uint sstride, cl_uint dstride, cl_uint cols, cl_uint n, cl_uint F)
+{
+    const cl_uint nh = n / 2, groups = cols / 16;
+    /* The interior kernel takes rows two at a time; an odd last row goes to the edge kernel. */
+    const cl_uint r0 = F / 4, avail = nh > F / 2 ? nh - F / 2 : 0;
+    const cl_uint pairs = avail / 2, inner = 2 * pairs, r1 = r0 + inner;
+    if (pairs && groups) {
+        CSI_TRY(CSI_ARGS(vec, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(sstride), CSI_ARG(dstride), CSI_ARG(n), CSI_ARG(groups),
+                         CSI_ARG(r0), CSI_ARG(pairs)));
+        CSI_TRY(run2(ctx, vec, groups, pairs));
+    }
+    /* Edge rows, all columns (all rows when there is no interior). */
+    const cl_uint x0 = 0, lo = inner ? r0 : nh, hi = inner ? r1 : nh, count = nh - inner;
+    CSI_TRY(CSI_ARGS(edge, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(sstride), CSI_ARG(dstride), CSI_ARG(n), CSI_ARG(x0),
+                     CSI_ARG(cols), CSI_ARG(lo), CSI_ARG(hi), CSI_ARG(count)));
+    CSI_TRY(run2(ctx, edge, (cols + 15) / 16, count)); /* 16 columns per item */
+    /* Interior rows of the columns past the last full group: i maps to row r0 + i. */
+    const cl_uint tx = 16 * groups, tw = cols - tx, zero = 0;
+    if (inner && tw) {
+        CSI_TRY(CSI_ARGS(edge, CSI_MEM(src), CSI_MEM(dst), CSI_ARG(sstride), CSI_ARG(dstride), CSI_ARG(n), CSI_ARG(tx),
+                         CSI_ARG(tw), CSI_ARG(zero), CSI_ARG(r0), CSI_ARG(inner)));
+        CSI_TRY(run2(ctx, edge, (tw + 15) / 16, inner));
+    }
+    return CSI_OK;
+}
+
 /* adjoint: image y -> coefficients x (forward DWT). */
 static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
 {
     wavelet_state *s = state_of(op);
-    const cl_uint stride = (cl_uint)s->w;
+    const cl_uint stride = (cl_uint)s->w, ts = (cl_uint)s->ts;
+    const long F = csi_wavelet_taps(s->family);
     for (int l = 0; l < s->levels; l++) {
         const cl_uint n = (cl_uint)(s->w >> l), m = (cl_uint)(s->h >> l);
         cl_mem src = l == 0 ? img : coef;
-        CSI_TRY(CSI_ARGS(s->fwd_x, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(n),
-                         CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->fwd_x, (n / 2 + 7) / 8, m)); /* 8 outputs per item */
-        CSI_TRY(CSI_ARGS(s->fwd_y, CSI_MEM(s->tmp), CSI_MEM(coef), CSI_ARG(stride), CSI_ARG(n),
-                         CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->fwd_y, (n + 15) / 16, m / 2)); /* 16 columns per item */
+        /* Output o reads row[2o + F/2 - j], j < F; chunk c (outputs from 16c) reads the 48
+         * samples from 32c - F/2: inside the row for c >= 1 and 32c - F/2 + 48 <= n. */
+        const xsplit x = split_x(n / 2, floor_div((long)n + F / 2 - 48, 32));
+        const cl_uint zero = 0;
+        if (x.items) {
+            CSI_TRY(CSI_ARGS(s->fwd_x, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(ts), CSI_ARG(n),
+                             CSI_ARG(m), CSI_ARG(x.first), CSI_ARG(x.items)));
+            CSI_TRY(run2(op->ctx, s->fwd_x, x.items, m));
+        }
+        if (x.wrapped) {
+            CSI_TRY(CSI_ARGS(s->fwd_xw, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(ts), CSI_ARG(n),
+                             CSI_ARG(m), CSI_ARG(x.lo), CSI_ARG(x.hi), CSI_ARG(x.wrapped)));
+            CSI_TRY(run2(op->ctx, s->fwd_xw, x.wrapped, m));
+        }
+        if (x.nrest) {
+            CSI_TRY(CSI_ARGS(s->fwd_xe, CSI_MEM(src), CSI_MEM(s->tmp), CSI_ARG(stride), CSI_ARG(ts), CSI_ARG(n),
+                             CSI_ARG(m), CSI_ARG(zero), CSI_ARG(x.rest)));
+            CSI_TRY(run2(op->ctx, s->fwd_xe, x.nrest, m));
+        }
+        CSI_TRY(run_y(op->ctx, s->fwd_y, s->fwd_ye, s->tmp, coef, ts, stride, n, m, (cl_uint)F));
     }
     return CSI_OK;
 }
@@ -141,17 +227,35 @@ static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
 static csi_status wavelet_synthesis(const csi_linop *op, cl_mem coef, cl_mem img)
 {
     wavelet_state *s = state_of(op);
-    const cl_uint stride = (cl_uint)s->w;
+    const cl_uint stride = (cl_uint)s->w, ts = (cl_uint)s->ts;
+    const long F = csi_wavelet_taps(s->family);
     for (int l = s->levels; l >= 1; l--) {
         const cl_uint n = (cl_uint)(s->w >> (l - 1)), m = (cl_uint)(s->h >> (l - 1));
         const cl_uint arows = m / 2;
         cl_mem approx = l == s->levels ? coef : img;
-        CSI_TRY(CSI_ARGS(s->inv_x, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp), CSI_ARG(stride),
-                         CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows)));
-        CSI_TRY(run2(op->ctx, s->inv_x, (n / 2 + 7) / 8, m));
-        CSI_TRY(CSI_ARGS(s->inv_y, CSI_MEM(s->tmp), CSI_MEM(img), CSI_ARG(stride), CSI_ARG(n),
-                         CSI_ARG(m)));
-        CSI_TRY(run2(op->ctx, s->inv_y, (n + 15) / 16, m / 2));
+        /* Pair p reads coefficients p - F/4 + k, k <= F/2; chunk c (pairs from 16c) reads the
+         * 24 from 16c - F/4: inside the band for c >= 1 and 16c - F/4 + 24 <= n/2. */
+        const xsplit x = split_x(n / 2, floor_div((long)n / 2 + F / 4 - 24, 16));
+        const cl_uint zero = 0;
+        if (x.items) {
+            CSI_TRY(CSI_ARGS(s->inv_x, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+                             CSI_ARG(stride), CSI_ARG(ts), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(x.first),
+                             CSI_ARG(x.items)));
+            CSI_TRY(run2(op->ctx, s->inv_x, x.items, m));
+        }
+        if (x.wrapped) {
+            CSI_TRY(CSI_ARGS(s->inv_xw, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+                             CSI_ARG(stride), CSI_ARG(ts), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(x.lo),
+                             CSI_ARG(x.hi), CSI_ARG(x.wrapped)));
+            CSI_TRY(run2(op->ctx, s->inv_xw, x.wrapped, m));
+        }
+        if (x.nrest) {
+            CSI_TRY(CSI_ARGS(s->inv_xe, CSI_MEM(approx), CSI_MEM(coef), CSI_MEM(s->tmp),
+                             CSI_ARG(stride), CSI_ARG(ts), CSI_ARG(n), CSI_ARG(m), CSI_ARG(arows), CSI_ARG(zero),
+                             CSI_ARG(x.rest)));
+            CSI_TRY(run2(op->ctx, s->inv_xe, x.nrest, m));
+        }
+        CSI_TRY(run_y(op->ctx, s->inv_y, s->inv_ye, s->tmp, img, ts, stride, n, m, (cl_uint)F));
     }
     return CSI_OK;
 }
@@ -209,18 +313,27 @@ csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size
     op->destroy = wavelet_destroy;
     op->state = s;
 
+    /* The y passes read the scratch image down columns, F + 2 rows per item. With rows a power
+     * of two apart (4 KiB at w = 1024) those rows fall in one L1 cache set and evict each other;
+     * 16 floats of padding per row measured 25-30% faster y passes at 1024x1024. */
+    s->ts = w + 16;
     char what[96];
     snprintf(what, sizeof what, "the %s wavelet's scratch image (%zux%zu)", name, w, h);
-    csi_status st = csi_buffer(ctx, w * h * sizeof(float), CL_MEM_READ_WRITE, what, &s->tmp);
-    const int db8 = f == CSI_WAVELET_DB8;
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_fwd_x_db8" : "csi_wavelet_fwd_x_db4", &s->fwd_x);
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_fwd_y_db8" : "csi_wavelet_fwd_y_db4", &s->fwd_y);
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_inv_x_db8" : "csi_wavelet_inv_x_db4", &s->inv_x);
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "wavelet", db8 ? "csi_wavelet_inv_y_db8" : "csi_wavelet_inv_y_db4", &s->inv_y);
+    if (s->ts > INT_MAX / h) {
+        csi_linop_free(op);
+        return csi_fail(CSI_ERR_ARG, "wavelet %s: image size %zux%zu is too large for the kernels' "
+                        "32-bit indexing", name, w, h);
+    }
+    csi_status st = csi_buffer(ctx, s->ts * h * sizeof(float), CL_MEM_READ_WRITE, what, &s->tmp);
+    static const char *const stems[10] = {"fwd_x", "fwd_xw", "fwd_xe", "fwd_y", "fwd_ye",
+                                          "inv_x", "inv_xw", "inv_xe", "inv_y", "inv_ye"};
+    cl_kernel *slots[10] = {&s->fwd_x, &s->fwd_xw, &s->fwd_xe, &s->fwd_y, &s->fwd_ye,
+                            &s->inv_x, &s->inv_xw, &s->inv_xe, &s->inv_y, &s->inv_ye};
+    for (int i = 0; i < 10 && st == CSI_OK; i++) {
+        char kname[64];
+        snprintf(kname, sizeof kname, "csi_wavelet_%s_%s", stems[i], name);
+        st = csi_kernel(ctx, "wavelet", kname, slots[i]);
+    }
     if (st != CSI_OK) {
         csi_linop_free(op);
         return st;
