@@ -60,7 +60,8 @@ static uint32_t object_steps(const csi_scene *sc, const tr_motion *mo)
     double ang = swept_angle(sc, mo);
     uint32_t min_n = 2;
     if (ang > 1e-9) {
-        double need = ceil(ang / (5.0 * M_PI / 180.0)) + 1;
+        /* (the measured angle carries ~1e-9 rounding: do not round 72.0000001 up to 73) */
+        double need = ceil(ang / (5.0 * M_PI / 180.0) - 1e-6) + 1;
         min_n = need > CSI_MAX_TIME_STEPS ? CSI_MAX_TIME_STEPS : (uint32_t)need;
     }
     for (uint32_t n = min_n; n <= CSI_MAX_TIME_STEPS; n++)

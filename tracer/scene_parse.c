@@ -259,12 +259,12 @@ bool tr_motion_moves(const tr_motion *mo)
         for (int j = 0; j < 3; j++)
             if (a->translate[j] != b->translate[j] || a->scale[j] != b->scale[j])
                 return true;
-        double qa[4], qb[4];
-        aa_to_q(a->axis, a->angle, qa);
-        aa_to_q(b->axis, b->angle, qb);
-        for (int j = 0; j < 4; j++)
-            if (qa[j] != qb[j])
-                return true;
+        /* compare angle and axis, not quaternions: a whole turn between keys is motion */
+        if (a->angle != b->angle)
+            return true;
+        if (a->angle != 0 &&
+            (a->axis[0] != b->axis[0] || a->axis[1] != b->axis[1] || a->axis[2] != b->axis[2]))
+            return true;
     }
     return false;
 }

@@ -110,6 +110,19 @@ static void test_moving(void)
         csi_plan_free(&pl);
         csi_scene_free(sc);
     }
+    /* a whole turn between keys is motion (the end poses coincide, the path does not) */
+    CHECK_OK(csi_scene_parse(CAM "material m { diffuse 1 1 1 }\nbox { min 0 0 0 max 1 1 1 "
+                                 "material m motion { key 0 { } key 1 { rotate 0 1 0 360 } } }\n",
+                             "spin", NULL, &sc));
+    if (sc) {
+        csi_plan pl;
+        CHECK_OK(csi_plan_make(sc, NULL, &pl));
+        CHECK(pl.motion && pl.n_moving_objects == 1 && pl.object_time_steps[0] == 73,
+              "full turn: motion %d, %u steps (want 360/5 + 1 = 73)", pl.motion,
+              pl.object_time_steps[0]);
+        csi_plan_free(&pl);
+        csi_scene_free(sc);
+    }
     CHECK_OK(csi_scene_parse(CAM "material m { diffuse 1 1 1 }\nsphere { center 0 0 0 radius 1 "
                                  "material m motion { key 0 { translate 0 0 0 } key 1 { "
                                  "translate 0.001 0 0 } } }\n",
