@@ -201,6 +201,8 @@ int main(int argc, char **argv)
         return die("%s", "--frames needs --count T with T >= 2");
     if (!frames && have_count)
         return die("%s", "--count is only for --frames");
+    if (frames && (uint64_t)start + count > INT32_MAX)
+        return die("%s", "--start + --count is too large for a frame number");
     if (frames && !check_pattern(frames))
         return die("--frames \"%s\" needs exactly one integer conversion such as %%03d (and no other %%)", frames);
     csi_pos_method method;

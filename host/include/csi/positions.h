@@ -24,7 +24,9 @@
  *     pass ends with fewer than N samples, r shrinks by 0.9 and a new pass adds samples (the
  *     earlier ones are still >= r apart). If r would fall to 1 or below, the rest are chosen
  *     uniformly among free cells and r = 1 (distinct cells are always >= 1 apart). The final r
- *     is reported: every pair of samples is at least that far apart.
+ *     is reported: every pair of samples is at least that far apart. The distance test uses an
+ *     occupancy bitmap and the list of integer offsets closer than r when there are at most 128
+ *     of them (small radii, dense sampling), else a grid of buckets of side ceil(r).
  *   - CSI_POS_STRATIFIED: each output pixel's block (bw x bh x t cells) is split into spp
  *     strata, one uniformly chosen cell in each. The split is a x b x c (a along x, b along y,
  *     c along t; a*b*c = spp, a <= bw, b <= bh, c <= t) whose stratum extents (bw/a, bh/b, t/c)
