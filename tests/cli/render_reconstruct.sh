@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Command-line behaviour of csi-render and csi-reconstruct: help, plans, the dump contract
+# (csi-reconstruct on csi-render's --dump gives the same pixels, bit for bit), determinism, and
+# bad input (exit code 2, one line on stderr naming the file and the problem, no output left).
+# usage: render_reconstruct.sh BUILD_DIR SOURCE_DIR
+set -u
+B="$1"; S="$2"
+T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
+pass=0; fail=0
+ok()   { pass=$((pass + 1)); }
+bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
+check() { if eval "$1"; then ok; else bad "$2"; fi; }
+json() { sed -n "s/.*\"$2\": \"\\{0,1\\}\\([^\",]*\\).*/\\1/p" "$1" | head -1; }
+static="$S/tests/cli/scenes/small_triangle.scene"
+moving="$S/tests/cli/scenes/small_moving.scene"
+fast=(--max-iter 40 -q)
+
+# --- help and version --------------------------------------------------------------------------
+for p in csi-render csi-reconstruct; do
+    "$B/$p" --help > "$T/help" 2>&1; check "[[ $? == 0 ]] && grep -q usage '$T/help'" "$p --help"
+    "$B/$p" --version > "$T/ver" 2>&1; check "[[ $? == 0 ]] && grep -q '$p' '$T/ver'" "$p --version"
+done
+
+# --- the plan: only what the scene calls for -------------------------------------------------
+"$B/csi-render" --plan "$static" > "$T/plan_s.json"
+check "grep -q '\"frames\": 1,' '$T/plan_s.json' && grep -q '\"rays_carry_time\": false' '$T/plan_s.json' && grep -q '\"method\": \"2d-antialias\"' '$T/plan_s.json'" "static plan: $(cat "$T/plan_s.json")"
+"$B/csi-render" --plan "$moving" > "$T/plan_m.json"
+check "grep -q '\"frames\": 8,' '$T/plan_m.json' && grep -q '\"rays_carry_time\": true' '$T/plan_m.json' && grep -q '\"method\": \"3d-motion\"' '$T/plan_m.json'" "moving plan: $(cat "$T/plan_m.json")"
+
+# --- render, dump, reconstruct: same pixels --------------------------------------------------
+for sc in static moving; do
+    scene="${!sc}"
+    "$B/csi-render" "$scene" -o "$T/$sc.exr" --png "$T/$sc.png" --dump "$T/$sc.csid" --stats "$T/$sc.r.json" "${fast[@]}"
+    check "[[ $? == 0 && -s '$T/$sc.exr' && -s '$T/$sc.png' && -s '$T/$sc.csid' ]]" "$sc render outputs"
+    "$B/csi-reconstruct" "$T/$sc.csid" -o "$T/$sc.2.exr" --stats "$T/$sc.c.json" "${fast[@]}"
+    check "[[ $? == 0 && -s '$T/$sc.2.exr' ]]" "$sc reconstruct outputs"
+    h1="$(json "$T/$sc.r.json" image_fnv1a64)"; h2="$(json "$T/$sc.c.json" image_fnv1a64)"
+    check "[[ -n '$h1' && '$h1' == '$h2' ]]" "$sc: csi-render and csi-reconstruct pixels differ ($h1 vs $h2)"
+    "$B/csi-render" "$scene" -o "$T/$sc.3.exr" --stats "$T/$sc.r3.json" "${fast[@]}"
+    h3="$(json "$T/$sc.r3.json" image_fnv1a64)"
+    check "[[ '$h1' == '$h3' ]]" "$sc: two runs with the same seed differ"
+    "$B/csi-render" "$scene" -o "$T/$sc.4.exr" --stats "$T/$sc.r4.json" --seed 7 "${fast[@]}"
+    h4="$(json "$T/$sc.r4.json" image_fnv1a64)"
+    check "[[ '$h1' != '$h4' ]]" "$sc: another seed gives the same image"
+done
+# static scenes trace no time; moving ones do
+check "grep -q '\"timed\": 0,' '$T/static.r.json'" "static render traced rays with time"
+check "! grep -q '\"timed\": 0,' '$T/moving.r.json'" "moving render traced no rays with time"
+"$B/csi-render" "$moving" -o "$T/mf.exr" --frames "$T/frames" "${fast[@]}"
+check "[[ -s '$T/frames/frame_0000.exr' && -s '$T/frames/frame_0007.png' && ! -e '$T/frames/frame_0008.exr' ]]" "frames written"
+for m in stratified random; do
+    "$B/csi-render" "$static" --method $m -o "$T/$m.exr" --stats "$T/$m.json" -q
+    check "[[ $? == 0 ]] && grep -q '\"estimator\": \"mean\"' '$T/$m.json'" "--method $m"
+done
+
+# --- bad input: exit 2, one line naming the problem, no output file --------------------------
+expect_fail() { # name, expected-substring, command...
+    local name="$1" want="$2"; shift 2
+    rm -f "$T/out.exr"
+    "$@" > "$T/o" 2> "$T/e"; local rc=$?
+    local lines; lines=$(wc -l < "$T/e")
+    if [[ $rc == 2 && $lines == 1 ]] && grep -q -- "$want" "$T/e" && [[ ! -e "$T/out.exr" ]] && \
+       ! ls "$T" | grep -q '^\.out\.exr'; then ok; else bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"; fi
+}
+good="$T/static.csid"
+expect_fail "missing dump" "nonexistent.csid" "$B/csi-reconstruct" "$T/nonexistent.csid" -o "$T/out.exr"
+printf 'XXXX' | cat - <(tail -c +5 "$good") > "$T/magic.csid"
+expect_fail "wrong magic" "magic.csid" "$B/csi-reconstruct" "$T/magic.csid" -o "$T/out.exr"
+head -c 100 "$good" > "$T/trunc.csid"
+expect_fail "truncated" "trunc.csid" "$B/csi-reconstruct" "$T/trunc.csid" -o "$T/out.exr"
+head -c 40 "$good" > "$T/header.csid"
+expect_fail "truncated header" "header.csid" "$B/csi-reconstruct" "$T/header.csid" -o "$T/out.exr"
+cp "$good" "$T/nan.csid"; printf '\x00\x00\xc0\x7f' | dd of="$T/nan.csid" bs=1 seek=76 conv=notrunc 2>/dev/null
+expect_fail "NaN sample" "NaN" "$B/csi-reconstruct" "$T/nan.csid" -o "$T/out.exr"
+"$B/csi-reconstruct" "$T/nan.csid" -o "$T/out.exr" --drop-invalid "${fast[@]}"
+check "[[ $? == 0 && -s '$T/out.exr' ]]" "--drop-invalid reconstructs without the NaN record"
+cp "$good" "$T/ver.csid"; printf '\x09' | dd of="$T/ver.csid" bs=1 seek=4 conv=notrunc 2>/dev/null
+expect_fail "unknown version" "version" "$B/csi-reconstruct" "$T/ver.csid" -o "$T/out.exr"
+cp "$good" "$T/pos.csid"; printf '\xff\xff\x00\x00' | dd of="$T/pos.csid" bs=1 seek=64 conv=notrunc 2>/dev/null
+expect_fail "position outside the grid" "pos.csid" "$B/csi-reconstruct" "$T/pos.csid" -o "$T/out.exr"
+expect_fail "unwritable output" "no-such-dir" "$B/csi-reconstruct" "$good" -o "$T/no-such-dir/out.exr"
+expect_fail "unknown option" "--bogus" "$B/csi-reconstruct" "$good" -o "$T/out.exr" --bogus
+expect_fail "bad number" "--lambda" "$B/csi-reconstruct" "$good" -o "$T/out.exr" --lambda abc
+expect_fail "no output" "no output" "$B/csi-reconstruct" "$good"
+expect_fail "romp on a volume" "ROMP" "$B/csi-reconstruct" "$T/moving.csid" -o "$T/out.exr" --solver romp
+CSI_DEVICE=no-such-device expect_fail "missing OpenCL device" "no OpenCL device matches" \
+    "$B/csi-reconstruct" "$good" -o "$T/out.exr"
+printf 'camera { position 0 0 -2 target 0 0 0 up 0 1 0 fov 40 size 8 8 }\nbogus 1 2 3\n' > "$T/bad.scene"
+expect_fail "scene error" "bad.scene:2:1" "$B/csi-render" "$T/bad.scene" -o "$T/out.exr"
+expect_fail "missing scene" "nothere.scene" "$B/csi-render" "$T/nothere.scene" -o "$T/out.exr"
+expect_fail "grid not a multiple" "--grid" "$B/csi-render" "$static" -o "$T/out.exr" --grid 50
+CSI_DEVICE=no-such-device expect_fail "render without device" "no OpenCL device matches" \
+    "$B/csi-render" "$static" -o "$T/out.exr"
+
+echo "$pass passed, $fail failed"
+[[ $fail == 0 ]]
