@@ -125,7 +125,7 @@ typedef struct csi_tracer_info {
 
 /* Progress: done of total samples; called from the calling thread only, a few times a second
  * and once at the end with done == total. */
-typedef void (*csi_progress_fn)(uint64_t done, uint64_t total, void *user);
+typedef void (*csi_tracer_progress_fn)(uint64_t done, uint64_t total, void *user);
 
 /* Builds the Embree scene for the plan. threads = 0: one per online CPU. scene and plan must
  * outlive the tracer. */
@@ -141,13 +141,13 @@ void csi_tracer_free(csi_tracer *tr);
  * call its own seed (e.g. seed + batch) or the batches share their noise. One call at a time
  * per tracer (the tracer runs its own threads). */
 csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sample_pos *pos,
-                           size_t n, uint64_t seed, float *rgb, csi_progress_fn progress,
+                           size_t n, uint64_t seed, float *rgb, csi_tracer_progress_fn progress,
                            void *user);
 
 /* Same at continuous points: uvs[3*i..] = (u, v, s) with u, v in [0, 1] (image space, v down)
  * and s in [0, 1] (shutter time; ignored when the plan has no motion). For references. */
 csi_status csi_tracer_eval_points(csi_tracer *tr, const float *uvs, size_t n, uint64_t seed,
-                                  float *rgb, csi_progress_fn progress, void *user);
+                                  float *rgb, csi_tracer_progress_fn progress, void *user);
 
 void csi_tracer_counters_get(const csi_tracer *tr, csi_tracer_counters *c);
 void csi_tracer_counters_reset(csi_tracer *tr);

@@ -762,7 +762,7 @@ static void *worker(void *arg)
     return NULL;
 }
 
-static csi_status run_job(csi_tracer *tr, job *jb, csi_progress_fn progress, void *user)
+static csi_status run_job(csi_tracer *tr, job *jb, csi_tracer_progress_fn progress, void *user)
 {
     atomic_init(&jb->next, 0);
     atomic_init(&jb->done, 0);
@@ -811,7 +811,7 @@ static csi_status run_job(csi_tracer *tr, job *jb, csi_progress_fn progress, voi
 }
 
 csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sample_pos *pos,
-                           size_t n, uint64_t seed, float *rgb, csi_progress_fn progress,
+                           size_t n, uint64_t seed, float *rgb, csi_tracer_progress_fn progress,
                            void *user)
 {
     if (!tr || !grid || (n && (!pos || !rgb)))
@@ -841,7 +841,7 @@ csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sampl
 }
 
 csi_status csi_tracer_eval_points(csi_tracer *tr, const float *uvs, size_t n, uint64_t seed,
-                                  float *rgb, csi_progress_fn progress, void *user)
+                                  float *rgb, csi_tracer_progress_fn progress, void *user)
 {
     if (!tr || (n && (!uvs || !rgb)))
         return csi_fail(CSI_ERR_ARG, "csi_tracer_eval_points: NULL argument");

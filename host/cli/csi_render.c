@@ -6,10 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The tracer names its progress callback like the solvers' one: keep them apart here. */
-#define csi_progress_fn csi_tracer_progress_fn
 #include "csi_tracer.h"
-#undef csi_progress_fn
 #include "common.h"
 #include "csi/dump.h"
 #include "csi/positions.h"
