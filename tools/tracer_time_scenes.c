@@ -1,11 +1,7 @@
 /* Times the tracer on scenes: 256 x 256 images at 4 samples per pixel (262144 uniformly random
  * positions on a 512 x 512 x T fine grid, seed 1), with 1 and 2 threads; prints one JSON line
- * per run with the counters. Not built by CMake's globs (tools/bench_* link only libcsi);
- * build by hand after building csi_tracer:
- *   gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -Itracer -Ihost/include \
- *       tools/tracer_time_scenes.c build/libcsi_tracer.a build/libcsi_base.a \
- *       -lembree3 -lpng -lOpenEXRCore-3_1 -lpthread -lm -o build/tracer-time-scenes
- *   build/tracer-time-scenes data/scenes/triangle.scene data/scenes/garden.scene ... */
+ * per run with the counters. Built as build/csi-tracer-time-scenes (tools/tracer_*.c):
+ *   build/csi-tracer-time-scenes data/scenes/triangle.scene data/scenes/garden.scene ... */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
