@@ -270,7 +270,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
     rep->support = support;
     rep->rel_residual = rn / ynorm;
     rep->objective = 0.5 * rn * rn;
-    if (rep->reason == CSI_SOLVE_CONVERGED && 2 * support > S->N)
+    if (rep->reason == CSI_SOLVE_CONVERGED && 2 * support > S->N && S->N < S->k)
         csi_report_set(rep, CSI_SOLVE_NOT_IDENTIFIABLE, "ROMP fit y (residual %.3g) but with %zu "
                        "non-zeros from %zu measurements (> N/2): the answer is not unique",
                        rn / ynorm, support, S->N);

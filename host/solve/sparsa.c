@@ -13,6 +13,7 @@
 #include "internal.h"
 
 #define SPARSA_MAX_MEMORY 64
+#define SPARSA_STALL_STEPS 10
 
 void csi_sparsa_defaults(csi_sparsa_options *o)
 {
@@ -142,6 +143,8 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
         phi = 0.5 * rn2 + tau_k * l1;
         hist[0] = phi;
         bool stage_done = false;
+        double best_gap = INFINITY;
+        int since_best = 0;
         while (!stage_done) {
             if (it >= o.max_iter) {
                 reason = CSI_SOLVE_MAX_ITER;
@@ -231,12 +234,19 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                 double dual = -0.5 * sc * sc * rn2 + sc * ry;
                 double gap = phi - dual;
                 gap_rel = phi > 0 ? gap / phi : 0.0;
-                /* The gap comes from float32 vectors: r = y - A x carries errors
-                 * |dr_i| <= u (|y_i| + |(Ax)_i|), so Re<r, y> (and the gap) is uncertain by about
-                 * 2u ||y||^2. Gaps below gap_floor = 32 u ||y||^2 cannot be told from zero; without
-                 * the floor small tau would never stop (measured floors: 1e-4 .. 1e-3 of phi at
-                 * tau = 1e-4 ||A^H y||_inf). */
-                stage_done = gap <= stage_tol * phi + gap_floor;
+                /* The gap comes from float32 vectors: A x and so r = y - A x carry errors of
+                 * about u |y_i|, so the gap is uncertain by up to ~2u ||y||^2 and stagnates there
+                 * (measured: 1 .. 10 u ||y||^2, i.e. 1e-4 .. 1e-2 of phi at tau = 1e-4
+                 * ||A^H y||_inf). Below gap_floor = 32 u ||y||^2 the stage ends once the gap
+                 * has made no new minimum for STALL_STEPS steps: the float32 optimum. */
+                if (gap < best_gap) {
+                    best_gap = gap;
+                    since_best = 0;
+                } else {
+                    since_best++;
+                }
+                stage_done = gap <= stage_tol * phi ||
+                             (gap <= gap_floor && since_best >= SPARSA_STALL_STEPS);
             }
             if (stage_done && !last) {
                 /* Adaptive continuation: the next tau from the current correlations. */
@@ -275,7 +285,9 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     CSI_TRY(count_nonzeros(S, x, &nnz));
     rep->support = nnz;
     const double td = csi_solve_now();
-    if (2 * nnz > S->N) {
+    /* With N >= k a full-rank A determines x whatever its sparsity; with N < k a solution
+     * with more than N/2 non-zeros may have an equally sparse twin. */
+    if (2 * nnz > S->N && S->N < S->k) {
         if (rep->converged)
             csi_report_set(rep, CSI_SOLVE_NOT_IDENTIFIABLE, "SpaRSA's l1 minimiser has %zu non-zeros "
                            "from %zu measurements (> N/2): not a unique sparse solution, not debiased",

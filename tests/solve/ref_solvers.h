@@ -251,7 +251,8 @@ static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double ta
     ref_adjoint(M, r, h);
     double phi = 0.5 * ref_dot(r, r, nN), alpha = 1.0;
     double hist[64];
-    int nh = 1, hpos = 0;
+    int nh = 1, hpos = 0, since = 0;
+    double best_gap = INFINITY;
     hist[0] = phi;
     while (R.iterations < max_iter) {
         double ref = hist[0];
@@ -305,8 +306,16 @@ static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double ta
             hr = fmax(hr, M->cplx ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
         double sc = hr > tau ? tau / hr : 1.0;
         double dual = -0.5 * sc * sc * rn2 + sc * ref_dot(r, y, nN);
-        /* the same float32 rounding floor on the gap as the device (csi/solve.h) */
-        if (phi - dual <= tol * phi + 32.0 * 0x1.0p-24 * ref_dot(y, y, nN))
+        /* the device's float32 floor (csi/solve.h): below 32 u ||y||^2, stop after 10 steps
+         * without a new smallest gap */
+        double gap = phi - dual;
+        if (gap < best_gap) {
+            best_gap = gap;
+            since = 0;
+        } else {
+            since++;
+        }
+        if (gap <= tol * phi || (gap <= 32.0 * 0x1.0p-24 * ref_dot(y, y, nN) && since >= 10))
             break;
     }
     free(r);

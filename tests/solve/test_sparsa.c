@@ -138,7 +138,8 @@ static void test_sequence(test_rng *r, size_t N, size_t k, size_t s, bool cplx)
     double hmax = 0;
     for (size_t j = 0; j < k; j++)
         hmax = fmax(hmax, cplx ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
-    const double tau = 0.02 * hmax, tol = 1e-6;
+    /* tol 1e-4: a gap both float32 and double reach, so both stop by the same rule */
+    const double tau = 0.02 * hmax, tol = 1e-4;
     const int cap = 400;
     ref_sparsa_result R = ref_sparsa(&M, yd, tau, 5, 0.01, tol, cap, xr);
 
