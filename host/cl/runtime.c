@@ -47,6 +47,18 @@ struct csi_ctx {
 
 /* clFFT keeps one library state per process; count the contexts that use it. */
 static int csi_clfft_users;
+/* clFFT's repository is a C++ static destroyed by exit handlers registered when clfftSetup runs;
+ * a context released by an earlier-registered atexit handler (as the tests do) would then call
+ * clfftTeardown on a destroyed repository and crash. So the first setup registers its own exit
+ * handler (run before clFFT's destructor, exit handlers being LIFO) that tears down once. */
+static bool csi_clfft_down;
+static void csi_clfft_atexit(void)
+{
+    if (csi_clfft_users > 0 && !csi_clfft_down) {
+        clfftTeardown();
+        csi_clfft_down = true;
+    }
+}
 
 const char *csi_cl_error_name(cl_int err)
 {
@@ -301,7 +313,7 @@ void csi_ctx_release(csi_ctx *ctx)
         clReleaseKernel(ctx->kernels[i].kernel);
     for (int i = 0; i < ctx->nprograms; i++)
         clReleaseProgram(ctx->programs[i].program);
-    if (ctx->clfft && --csi_clfft_users == 0)
+    if (ctx->clfft && --csi_clfft_users == 0 && !csi_clfft_down)
         clfftTeardown();
     if (ctx->queue)
         clReleaseCommandQueue(ctx->queue);
@@ -524,6 +536,9 @@ csi_status csi_clfft_ready(csi_ctx *ctx)
             s = clfftSetup(&setup);
         if (s != CLFFT_SUCCESS)
             return csi_fail(CSI_ERR_CL, "clfftSetup failed with %s", csi_clfft_error_name(s));
+        static bool registered;
+        if (!registered)
+            registered = atexit(csi_clfft_atexit) == 0;
     }
     csi_clfft_users++;
     ctx->clfft = true;

@@ -1,0 +1,78 @@
+/* FFT-domain operators: the Gaussian filter Phi, its Wiener inverse, and the orthonormal
+ * Fourier basis (clFFT on the device).
+ *
+ * Sen & Darabi 2010, Sec. 4 and Alg. 1: Phi = F^H G F with G a Gaussian on the diagonal,
+ * sigma_G = k / (2 pi sigma_Phi), sigma_Phi = 1.1 * (1/4) * sqrt(k/p); the inverse is a linear
+ * Wiener filter G / (G^2 + lambda). Here everything is per axis: an axis of n samples that is
+ * reduced from `grid` to `out` cells gets sigma_Phi = 1.1 * (1/4) * (grid/out) and
+ * sigma_G = n / (2 pi sigma_Phi) in DFT-index units (the continuous Fourier pair
+ * exp(-x^2 / 2 s^2) <-> exp(-2 pi^2 s^2 f^2) with f = u / n cycles per sample).
+ *
+ * Layout: a signal of dims[0] x dims[1] x dims[2] floats, x fastest (dims[2] = 1 for 2-D, and
+ * dims[1] = dims[2] = 1 for 1-D). Every axis length must factor into 2, 3, 5 and 7 (clFFT's
+ * radices); other sizes are refused with CSI_ERR_ARG naming the size. */
+#ifndef CSI_SPECTRAL_H
+#define CSI_SPECTRAL_H
+
+#include <stddef.h>
+
+#include "csi/linop.h"
+#include "csi/runtime.h"
+#include "csi/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The paper's Alg. 1 step 2 for one axis: sigma_phi = 1.1 * (1/4) * (grid / out) (grid cells)
+ * and sigma_g_for_n = grid / (2 pi sigma_phi) (DFT-index units for an axis of `grid` samples).
+ * grid = 0 or out = 0 gives 0 for both (no filtering). Either output pointer may be NULL. */
+void csi_gauss_sigmas(size_t grid, size_t out, double *sigma_phi, double *sigma_g_for_n);
+
+/* Frequency response of one axis: exp(-u^2 / (2 sigma_G^2)) with sigma_G = n / (2 pi sigma_phi)
+ * and u the signed frequency index of DFT bin `k` (k < n/2 ... -> k, else k - n). sigma_phi = 0
+ * gives 1 (no filtering along the axis). Exposed for tests and for callers that want G. */
+double csi_gauss_gain_1d(size_t n, size_t k, double sigma_phi);
+
+typedef enum { CSI_FILTER_GAUSS, CSI_FILTER_WIENER } csi_filter_kind;
+
+/* Real, self-adjoint operator on a real signal of dims[0] x dims[1] x dims[2] (rows = cols =
+ * product; apply == adjoint).
+ *   GAUSS:  Phi = F^H G F, G(u) = prod over axes exp(-u_a^2 / (2 sigma_G,a^2)), u_a the signed
+ *           frequency index in [-n/2, n/2), sigma_G,a = n_a / (2 pi sigma_phi[a]).
+ *   WIENER: Phi^-1 = F^H ((1 + lambda) G / (G^2 + lambda)) F. The (1 + lambda) factor makes the
+ *           DC gain 1: as written in the paper the DC gain is 1 / (1 + lambda) and the image
+ *           comes out (1 + lambda) times too bright (a prototype measured 1.3x at lambda = 0.3).
+ *           lambda must be finite and > 0 (the largest gain is (1 + lambda) / (2 sqrt(lambda)),
+ *           e.g. about 500 at lambda = 1e-6). For GAUSS lambda is ignored.
+ * sigma_phi per axis: spatial standard deviation in grid cells; 0 on an axis = no filtering
+ * along it; must be finite and >= 0. Real-to-complex / complex-to-real transforms: csi's own FFT
+ * kernels where the size allows, else clFFT (plans baked here); see csi_filter_create_backend. */
+csi_status csi_filter_create(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
+                             csi_filter_kind kind, float lambda, csi_linop **out);
+
+/* Which FFT implementation a filter uses. AUTO (what csi_filter_create does): csi's own
+ * Stockham kernels (kernels/fft.cl, written for CPU OpenCL; several times faster than clFFT on
+ * PoCL) when the first axis longer than 1 has even length, else clFFT. CLFFT: always clFFT (the
+ * reference the tests check the native kernels against). NATIVE: csi's kernels or CSI_ERR_ARG. */
+typedef enum { CSI_FFT_AUTO, CSI_FFT_CLFFT, CSI_FFT_NATIVE } csi_fft_backend;
+csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
+                                     csi_filter_kind kind, float lambda, csi_fft_backend backend,
+                                     csi_linop **out);
+
+/* Orthonormal Fourier basis over dims (1-D, 2-D or 3-D; complex operator, rows = cols =
+ * product): apply = F^H (coefficients -> signal, unitary inverse DFT), adjoint = F (unitary
+ * forward DFT, 1/sqrt(N) scaling), so apply(adjoint(x)) = x and both preserve the 2-norm.
+ * Coefficient layout: numpy's fftn order (no shift): coefficient (u0, u1, u2) at
+ * u0 + dims[0] * (u1 + dims[1] * u2), matching np.fft.fftn(a, norm="ortho") of an array of
+ * shape (dims[2], dims[1], dims[0]). */
+csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **out);
+
+/* CSI_OK if clFFT can transform an axis of length n (n >= 1 and only factors 2, 3, 5, 7);
+ * otherwise CSI_ERR_ARG with a message naming `what` and the size. */
+csi_status csi_fft_check_size(const char *what, const size_t dims[3]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,355 @@
+/* The Gaussian / Wiener filter pass on csi's own Stockham FFT kernels (kernels/fft.cl).
+ *
+ * Pipeline for a real signal of n0 x n1 x n2 (x fastest, n0 = 2M even):
+ *   1. rows as M complex values (x[2m] + i x[2m+1]): radix passes along x      (P/Q ping-pong)
+ *   2. unpack to the Hermitian half spectrum, rows of hs >= M + 1 values (hs padded to 16 so
+ *      every row starts on a 128-byte boundary)
+ *   3. forward passes along y, then z ("column" passes: launch dimension 0 runs along x)
+ *   4. inverse passes along z, then y; the first one multiplies by the gain (Gaussian or Wiener)
+ *      and by the normalisation 2/N as it loads, so the gain costs no pass of its own
+ *   5. pack to M complex values per row, inverse passes along x, the last writing y.
+ * No transposes: the layout never changes between axes, which is what a filter allows (the
+ * spectrum is never seen outside). Every pass reads and writes the whole volume once, so the
+ * radices are as large as the kernels offer (16) to keep the number of passes small. */
+#include "fft_filter.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/spectral.h"
+
+#define PI_ 3.14159265358979323846
+#define MAX_PASSES 24
+
+typedef struct {
+    size_t L;
+    int np;
+    int radix[MAX_PASSES];
+    cl_mem tw; /* exp(-2 pi i m / L), m < L */
+} axis_plan;
+
+struct csi_fft_filter {
+    csi_ctx *ctx;
+    size_t c[3], M, hs, rows; /* rows = c1 * c2 */
+    int nd;
+    axis_plan ax[3];          /* ax[0] has length M */
+    cl_mem wn;                /* exp(-2 pi i k / n0), k <= M */
+    cl_mem P, Q;              /* ping-pong volumes */
+    cl_mem gx, g1, g2, one;   /* gains along x (hs entries), y, z; {1} */
+    cl_uint wiener;
+    float lambda, scale;
+};
+
+static int factor_ok(size_t n)
+{
+    static const size_t p[] = {2, 3, 5, 7};
+    for (int i = 0; i < 4; i++)
+        while (n % p[i] == 0)
+            n /= p[i];
+    return n == 1;
+}
+
+bool csi_fft_filter_supported(const size_t c[3], int nd)
+{
+    if (nd < 1 || c[0] < 2 || c[0] % 2)
+        return false;
+    if (!factor_ok(c[0] / 2))
+        return false;
+    for (int a = 1; a < nd; a++)
+        if (!factor_ok(c[a]))
+            return false;
+    /* Kernel indices are 32-bit. */
+    return (c[0] / 2 + 16) * c[1] * c[2] < ((size_t)1 << 31);
+}
+
+/* Radices for a length L: the power of two 2^e in ceil(e/4) passes of near-equal radix (at most
+ * 16), then one pass per factor 3, 5, 7. */
+static void plan_radices(axis_plan *a)
+{
+    size_t n = a->L;
+    int e = 0;
+    while (n % 2 == 0) {
+        n /= 2;
+        e++;
+    }
+    a->np = 0;
+    int passes = (e + 3) / 4;
+    for (int i = 0; i < passes; i++) {
+        int bits = e / (passes - i);
+        if (e % (passes - i))
+            bits++;
+        a->radix[a->np++] = 1 << bits;
+        e -= bits;
+    }
+    static const int odd[] = {3, 5, 7};
+    for (int i = 0; i < 3; i++)
+        while (n % (size_t)odd[i] == 0) {
+            n /= (size_t)odd[i];
+            a->radix[a->np++] = odd[i];
+        }
+}
+
+static csi_status upload_table(csi_ctx *ctx, const void *data, size_t bytes, const char *what, cl_mem *out)
+{
+    CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_ONLY, what, out));
+    return csi_write(ctx, *out, 0, bytes, data);
+}
+
+/* exp(-2 pi i m / n) for m < count, computed in double. */
+static csi_status twiddles(csi_ctx *ctx, size_t n, size_t count, cl_mem *out)
+{
+    float *t = malloc(2 * count * sizeof *t);
+    if (!t)
+        return csi_fail(CSI_ERR_NOMEM, "FFT twiddles: out of host memory");
+    for (size_t m = 0; m < count; m++) {
+        double ang = -2.0 * PI_ * (double)m / (double)n;
+        t[2 * m] = (float)cos(ang);
+        t[2 * m + 1] = (float)sin(ang);
+    }
+    csi_status st = upload_table(ctx, t, 2 * count * sizeof *t, "FFT twiddles", out);
+    free(t);
+    return st;
+}
+
+static csi_status gains(csi_ctx *ctx, size_t n, size_t count, size_t alloc, double sigma, cl_mem *out)
+{
+    float *g = calloc(alloc, sizeof *g);
+    if (!g)
+        return csi_fail(CSI_ERR_NOMEM, "filter gains: out of host memory");
+    for (size_t k = 0; k < count; k++)
+        g[k] = (float)csi_gauss_gain_1d(n, k, sigma);
+    csi_status st = upload_table(ctx, g, alloc * sizeof *g, "filter gains", out);
+    free(g);
+    return st;
+}
+
+void csi_fft_filter_free(csi_fft_filter *f)
+{
+    if (!f)
+        return;
+    for (int a = 0; a < 3; a++)
+        csi_buffer_release(&f->ax[a].tw);
+    csi_buffer_release(&f->wn);
+    csi_buffer_release(&f->P);
+    csi_buffer_release(&f->Q);
+    csi_buffer_release(&f->gx);
+    csi_buffer_release(&f->g1);
+    csi_buffer_release(&f->g2);
+    csi_buffer_release(&f->one);
+    free(f);
+}
+
+static const char *pass_kernel_name(const char *kind, int radix)
+{
+    static char buf[64];
+    snprintf(buf, sizeof buf, "csi_fft_%s_r%d", kind, radix);
+    return buf;
+}
+
+static csi_status build(csi_fft_filter *f, const double sigma[3])
+{
+    csi_ctx *ctx = f->ctx;
+    size_t M = f->M;
+    f->ax[0].L = M;
+    f->ax[1].L = f->c[1];
+    f->ax[2].L = f->c[2];
+    for (int a = 0; a < f->nd; a++) {
+        plan_radices(&f->ax[a]);
+        CSI_TRY(twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw));
+        /* Build every kernel now so that the first run pays no compile. */
+        for (int p = 0; p < f->ax[a].np; p++) {
+            cl_kernel k;
+            CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(a == 0 ? "row" : "col", f->ax[a].radix[p]), &k));
+            if (a > 0)
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", f->ax[a].radix[p]), &k));
+        }
+    }
+    CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
+    size_t spec = f->hs * f->rows * 8, packed = M * f->rows * 8;
+    size_t bytes = spec > packed ? spec : packed;
+    CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
+    CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
+    CSI_TRY(gains(ctx, 2 * M, M + 1, f->hs, sigma[0], &f->gx));
+    CSI_TRY(gains(ctx, f->c[1], f->c[1], f->c[1], f->nd > 1 ? sigma[1] : 0.0, &f->g1));
+    CSI_TRY(gains(ctx, f->c[2], f->c[2], f->c[2], f->nd > 2 ? sigma[2] : 0.0, &f->g2));
+    const float one = 1.0f;
+    CSI_TRY(upload_table(ctx, &one, sizeof one, "filter gains", &f->one));
+    cl_kernel k;
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_gain_rows", &k));
+    return CSI_OK;
+}
+
+csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const double sigma[3],
+                                 bool wiener, float lambda, csi_fft_filter **out)
+{
+    *out = NULL;
+    if (!csi_fft_filter_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "FFT filter: size %zu x %zu x %zu not supported by csi's FFT",
+                        c[0], c[1], c[2]);
+    csi_fft_filter *f = calloc(1, sizeof *f);
+    if (!f)
+        return csi_fail(CSI_ERR_NOMEM, "FFT filter: out of host memory");
+    f->ctx = ctx;
+    memcpy(f->c, c, sizeof f->c);
+    f->nd = nd;
+    f->M = c[0] / 2;
+    f->hs = (f->M + 1 + 15) / 16 * 16;
+    f->rows = c[1] * c[2];
+    f->wiener = wiener;
+    f->lambda = wiener ? lambda : 0.0f;
+    /* Unnormalised transforms both ways; the inverse along x works on M complex values, so
+     * the round trip multiplies by M c1 c2 = N / 2. */
+    f->scale = (float)(2.0 / ((double)c[0] * (double)c[1] * (double)c[2]));
+    csi_status st = build(f, sigma);
+    if (st != CSI_OK) {
+        csi_fft_filter_free(f);
+        return st;
+    }
+    *out = f;
+    return CSI_OK;
+}
+
+static size_t pow2_at_most(size_t n, size_t cap)
+{
+    size_t p = 1;
+    while (p * 2 <= cap && p < n)
+        p *= 2;
+    return p;
+}
+
+static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                           cl_uint p, float sgn)
+{
+    int R = a->radix[pass];
+    cl_kernel k;
+    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("row", R), &k));
+    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)f->rows,
+            rs = (cl_uint)f->M;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p), CSI_ARG(ts),
+                     CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn)));
+    size_t T = a->L / (size_t)R;
+    size_t lx = pow2_at_most(T, 64), ly = 64 / lx;
+    if (ly > f->rows)
+        ly = pow2_at_most(f->rows, ly);
+    size_t global[2] = {T, f->rows}, local[2] = {lx, ly};
+    return csi_run(f->ctx, k, 2, global, local);
+}
+
+/* A pass along axis a (1 = y, 2 = z) of the half spectrum; gain != 0 for the gain-fused one. */
+static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, int pass, cl_uint p,
+                           float sgn, bool gain)
+{
+    const axis_plan *a = &f->ax[axis];
+    int R = a->radix[pass];
+    cl_kernel k;
+    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name(gain ? "col_gain" : "col", R), &k));
+    size_t hs = f->hs, c1 = f->c[1];
+    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
+    cl_uint nc = (cl_uint)(f->M + 1), sa, nb, sb;
+    if (axis == 1) { /* along y: lines (x, z) */
+        sa = (cl_uint)hs;
+        nb = (cl_uint)f->c[2];
+        sb = (cl_uint)(hs * c1);
+    } else { /* along z: lines (x, y) */
+        sa = (cl_uint)(hs * c1);
+        nb = (cl_uint)c1;
+        sb = (cl_uint)hs;
+    }
+    if (gain) {
+        /* The last axis carries the gain; the middle index b is y for z passes (3-D) and
+         * absent (nb = 1) for y passes of a 2-D signal. */
+        cl_mem gb = axis == 2 ? f->g1 : f->one, ga = axis == 2 ? f->g2 : f->g1;
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                         CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn),
+                         CSI_MEM(f->gx), CSI_MEM(gb), CSI_MEM(ga), CSI_ARG(f->wiener),
+                         CSI_ARG(f->lambda), CSI_ARG(f->scale)));
+    } else {
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                         CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
+    }
+    size_t global[3] = {nc, a->L / (size_t)R, nb}, local[3] = {32, 1, 1};
+    return csi_run(f->ctx, k, 3, global, local);
+}
+
+static csi_status run_axis_cols(csi_fft_filter *f, cl_mem *cur, int axis, float sgn, bool gain_first)
+{
+    const axis_plan *a = &f->ax[axis];
+    cl_uint p = 1;
+    for (int i = 0; i < a->np; i++) {
+        cl_mem dst = *cur == f->P ? f->Q : f->P;
+        CSI_TRY(col_pass(f, *cur, dst, axis, i, p, sgn, gain_first && i == 0));
+        *cur = dst;
+        p *= (cl_uint)a->radix[i];
+    }
+    return CSI_OK;
+}
+
+csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
+{
+    csi_ctx *ctx = f->ctx;
+    const axis_plan *ax = &f->ax[0];
+    cl_uint M = (cl_uint)f->M, hs = (cl_uint)f->hs, nrows = (cl_uint)f->rows;
+    size_t lx = 32, ly = 2;
+
+    /* 1. forward along x on the real rows read as M complex values */
+    cl_mem cur = x;
+    cl_uint p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = cur == f->P ? f->Q : f->P;
+        CSI_TRY(row_pass(f, cur, dst, ax, i, p, -1.0f));
+        cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    /* 2. unpack to the half spectrum */
+    {
+        cl_mem dst = cur == f->P ? f->Q : f->P;
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(f->wn), CSI_ARG(M), CSI_ARG(hs),
+                         CSI_ARG(nrows)));
+        size_t global[2] = {f->M + 1, f->rows}, local[2] = {lx, ly};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        cur = dst;
+    }
+    /* 3, 4: forward along y, z; inverse along z, y with the gain in the first inverse pass */
+    if (f->nd >= 2)
+        CSI_TRY(run_axis_cols(f, &cur, 1, -1.0f, false));
+    if (f->nd == 3) {
+        CSI_TRY(run_axis_cols(f, &cur, 2, -1.0f, false));
+        CSI_TRY(run_axis_cols(f, &cur, 2, 1.0f, true));
+    }
+    if (f->nd >= 2)
+        CSI_TRY(run_axis_cols(f, &cur, 1, 1.0f, f->nd == 2));
+    if (f->nd == 1) {
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_gain_rows", &k));
+        cl_uint h0 = M + 1;
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(f->gx), CSI_MEM(f->one), CSI_ARG(h0), CSI_ARG(hs),
+                         CSI_ARG(nrows), CSI_ARG(f->wiener), CSI_ARG(f->lambda), CSI_ARG(f->scale)));
+        size_t global[2] = {f->M + 1, f->rows}, local[2] = {lx, 1};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+    }
+    /* 5. pack, inverse along x; the last pass writes y */
+    {
+        cl_mem dst = ax->np == 0 ? y : (cur == f->P ? f->Q : f->P);
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(f->wn), CSI_ARG(M), CSI_ARG(hs),
+                         CSI_ARG(nrows)));
+        size_t global[2] = {f->M, f->rows}, local[2] = {lx, ly};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        cur = dst;
+    }
+    p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = i == ax->np - 1 ? y : (cur == f->P ? f->Q : f->P);
+        CSI_TRY(row_pass(f, cur, dst, ax, i, p, 1.0f));
+        cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    return CSI_OK;
+}

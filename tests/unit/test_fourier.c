@@ -1,0 +1,163 @@
+/* Orthonormal Fourier basis (csi_fourier_create) under PoCL: against np.fft.fftn / ifftn with
+ * norm="ortho" (tools/gen_refs_spectral.py), unitarity (apply(adjoint(x)) = x, Parseval), the
+ * complex adjoint identity <A x, y> = <x, A^H y>, 1-D / 2-D / 3-D, non-square and 3 * 2^n sizes.
+ *
+ * Tolerances: a float32 FFT of N points has relative L2 error ~ c * eps * log2(N) (Higham,
+ * Accuracy and Stability of Numerical Algorithms, Sec. 24.1), eps = 6e-8, log2(8192) = 13: we
+ * allow 1e-5 (c ~ 12) for one transform and 2e-5 for a round trip; the references themselves are
+ * float64 results rounded to float32 (3e-8 relative). Parseval and the adjoint identity compare
+ * double sums of float products: 1e-5 relative. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/spectral.h"
+#include "testlib.h"
+
+struct ccase {
+    const char *name;
+    size_t dims[3];
+};
+
+static const struct ccase cases[] = {
+    {"c64x64", {64, 64, 1}},   {"c96x64", {96, 64, 1}},     {"c30x18", {30, 18, 1}},
+    {"c24x16x8", {24, 16, 8}}, {"c32x32x8", {32, 32, 8}}, {"c60", {60, 1, 1}},
+};
+
+/* out = op(x) or op^H(x) for n complex values; checks the input buffer is unchanged. */
+static void run(const csi_linop *op, const float *x, float *out, bool adjoint)
+{
+    size_t bytes = op->cols * 8;
+    cl_mem dx = test_upload(x, bytes), dy = test_alloc(bytes);
+    csi_status st = adjoint ? csi_linop_adjoint(op, dx, dy) : csi_linop_apply(op, dx, dy);
+    CHECK(st == CSI_OK, "%s: %s", op->name, csi_last_error());
+    test_download(dy, out, bytes);
+    float *back = malloc(bytes);
+    test_download(dx, back, bytes);
+    CHECK(memcmp(back, x, bytes) == 0, "%s %s left its input unchanged", op->name,
+          adjoint ? "adjoint" : "apply");
+    free(back);
+    csi_buffer_release(&dx);
+    csi_buffer_release(&dy);
+}
+
+/* Complex inner product <a, b> = sum conj(a_i) b_i, in double. */
+static void cdot(const float *a, const float *b, size_t n, double *re, double *im)
+{
+    double r = 0, i = 0;
+    for (size_t k = 0; k < n; k++) {
+        double ar = a[2 * k], ai = a[2 * k + 1], br = b[2 * k], bi = b[2 * k + 1];
+        r += ar * br + ai * bi;
+        i += ar * bi - ai * br;
+    }
+    *re = r;
+    *im = i;
+}
+
+static double cnorm(const float *a, size_t n)
+{
+    double r, i;
+    cdot(a, a, n, &r, &i);
+    return sqrt(r);
+}
+
+int main(void)
+{
+    csi_ctx *ctx = test_ctx();
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        const struct ccase *cc = &cases[c];
+        char path[128];
+        test_npy ax, af, ai;
+        snprintf(path, sizeof path, "spectral/%s_x.npy", cc->name);
+        bool ok = test_npy_load(path, &ax);
+        snprintf(path, sizeof path, "spectral/%s_fwd.npy", cc->name);
+        ok = ok && test_npy_load(path, &af);
+        snprintf(path, sizeof path, "spectral/%s_inv.npy", cc->name);
+        ok = ok && test_npy_load(path, &ai);
+        CHECK(ok, "reference files for %s", cc->name);
+        if (!ok)
+            continue;
+        size_t n = cc->dims[0] * cc->dims[1] * cc->dims[2];
+        CHECK(ax.count == n, "%s: reference size", cc->name);
+        float *x = test_npy_f32(&ax), *wf = test_npy_f32(&af), *wi = test_npy_f32(&ai);
+        float *y = malloc(2 * n * sizeof *y), *z = malloc(2 * n * sizeof *z);
+        csi_linop *F = NULL;
+        CHECK_OK(csi_fourier_create(ctx, cc->dims, &F));
+        if (F) {
+            CHECK(F->rows == n && F->cols == n && F->complex_valued, "%s: shape", cc->name);
+            /* adjoint = forward unitary DFT = fftn(norm="ortho") */
+            run(F, x, y, true);
+            double ef = test_rel_l2(y, wf, 2 * n);
+            CHECK(ef < 1e-5, "%s adjoint vs fftn ortho: rel L2 %.3g", cc->name, ef);
+            /* Parseval: the unitary DFT keeps the 2-norm. */
+            double nx = cnorm(x, n), ny = cnorm(y, n);
+            CHECK(fabs(ny - nx) <= 1e-5 * nx, "%s Parseval: %.9g vs %.9g", cc->name, ny, nx);
+            /* apply(adjoint(x)) = x */
+            run(F, y, z, false);
+            double er = test_rel_l2(z, x, 2 * n);
+            CHECK(er < 2e-5, "%s apply(adjoint(x)) = x: rel L2 %.3g", cc->name, er);
+            /* apply = inverse unitary DFT = ifftn(norm="ortho") */
+            run(F, x, y, false);
+            double ei = test_rel_l2(y, wi, 2 * n);
+            CHECK(ei < 1e-5, "%s apply vs ifftn ortho: rel L2 %.3g", cc->name, ei);
+            printf("%-9s fwd %.2e  inv %.2e  round trip %.2e\n", cc->name, ef, ei, er);
+
+            /* <A a, b> = <a, A^H b> for random complex a, b. */
+            test_rng r;
+            test_rng_seed(&r, 300 + c);
+            float *a = malloc(2 * n * sizeof *a), *b = malloc(2 * n * sizeof *b);
+            for (size_t k = 0; k < 2 * n; k++) {
+                a[k] = (float)test_rng_normal(&r);
+                b[k] = (float)test_rng_normal(&r);
+            }
+            run(F, a, y, false);
+            run(F, b, z, true);
+            double lr, li, rr, ri;
+            cdot(y, b, n, &lr, &li);
+            cdot(a, z, n, &rr, &ri);
+            double scale = cnorm(a, n) * cnorm(b, n);
+            CHECK(hypot(lr - rr, li - ri) <= 1e-5 * scale, "%s adjoint identity: (%.8g, %.8g) vs (%.8g, %.8g)",
+                  cc->name, lr, li, rr, ri);
+            free(a);
+            free(b);
+        }
+        csi_linop_free(F);
+        free(x);
+        free(wf);
+        free(wi);
+        free(y);
+        free(z);
+        test_npy_free(&ax);
+        test_npy_free(&af);
+        test_npy_free(&ai);
+    }
+
+    /* A unit impulse at the origin has the flat spectrum 1/sqrt(N) (closed form). */
+    {
+        size_t dims[3] = {24, 16, 8}, n = 24 * 16 * 8;
+        csi_linop *F = NULL;
+        CHECK_OK(csi_fourier_create(ctx, dims, &F));
+        if (F) {
+            float *x = calloc(2 * n, sizeof *x), *y = malloc(2 * n * sizeof *y);
+            x[0] = 1.0f;
+            run(F, x, y, true);
+            double worst = 0, want = 1.0 / sqrt((double)n);
+            for (size_t k = 0; k < n; k++)
+                worst = fmax(worst, hypot(y[2 * k] - want, y[2 * k + 1]));
+            CHECK(worst < 1e-6 * want * 13, "impulse spectrum off by %.3g", worst);
+            free(x);
+            free(y);
+            csi_linop_free(F);
+        }
+    }
+
+    /* Sizes clFFT cannot do: a clear error naming the size. */
+    csi_linop *F = (csi_linop *)1;
+    size_t d11[3] = {64, 44, 1};
+    csi_status st = csi_fourier_create(ctx, d11, &F);
+    CHECK(st == CSI_ERR_ARG && F == NULL && strstr(csi_last_error(), "44"), "%s", csi_last_error());
+    size_t d17[3] = {17, 1, 1};
+    st = csi_fourier_create(ctx, d17, &F);
+    CHECK(st == CSI_ERR_ARG && strstr(csi_last_error(), "17"), "%s", csi_last_error());
+    return test_done();
+}
