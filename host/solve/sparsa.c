@@ -237,8 +237,8 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                  * about u |y_i|, so the gap is uncertain by up to ~2u ||y||^2 and stagnates there
                  * (measured: 1 .. 10 u ||y||^2, i.e. 1e-4 .. 1e-2 of phi at tau = 1e-4
                  * ||A^H y||_inf). Below gap_floor = 32 u ||y||^2 the stage ends once the gap
-                 * has made no new minimum for STALL_STEPS steps: the float32 optimum. */
-                if (gap < best_gap) {
+                 * has not halved for STALL_STEPS steps: the float32 optimum. */
+                if (gap < 0.5 * best_gap) {
                     best_gap = gap;
                     since_best = 0;
                 } else {

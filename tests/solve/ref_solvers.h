@@ -307,9 +307,9 @@ static inline ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, do
         double sc = hr > tau ? tau / hr : 1.0;
         double dual = -0.5 * sc * sc * rn2 + sc * ref_dot(r, y, nN);
         /* the device's float32 floor (csi/solve.h): below 32 u ||y||^2, stop after 10 steps
-         * without a new smallest gap */
+         * in which the gap has not halved */
         double gap = phi - dual;
-        if (gap < best_gap) {
+        if (gap < 0.5 * best_gap) {
             best_gap = gap;
             since = 0;
         } else {

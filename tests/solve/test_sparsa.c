@@ -251,6 +251,8 @@ int main(void)
                 printf("  seed %llu: error %.3g, %s\n", (unsigned long long)seed, e, rep.message);
             worst = fmax(worst, e < 1e-4 ? e : 0);
             conv += rep.converged;
+            if (!rep.converged)
+                printf("  seed %llu not converged: %s (gap %.3g)\n", (unsigned long long)seed, rep.message, rep.rel_gap);
             iters += rep.iterations;
             CHECK(!rep.converged || e < 1e-3, "converged but error %g: %s", e, rep.message);
             problem_free(&P);

@@ -120,7 +120,7 @@ csi_status csi_romp_multi(const csi_linop *A, size_t nrhs, const cl_mem *y, cons
  * cont_tol, the last at tol. Stopping: STOP_OBJECTIVE, |phi_k - phi_{k-1}| / phi_{k-1} <= tol;
  * STOP_GAP, the duality gap (with the feasible dual point w = r min(1, tau / ||A^H r||_inf))
  * divided by phi <= tol, or the gap below its float32 rounding level 32 u ||y||^2 (u = 2^-24)
- * and no new smallest gap for 10 steps (float32 cannot resolve it further).
+ * and not halved for 10 steps (float32 cannot resolve it further).
  * Debiasing: CGLS on the non-zero set of x (skipped when it has more
  * than N/2 elements, reported NOT_IDENTIFIABLE). tau >= ||A^H y||_inf: x = 0 at once (ZERO). */
 typedef enum { CSI_SPARSA_STOP_GAP = 0, CSI_SPARSA_STOP_OBJECTIVE = 1 } csi_sparsa_stop;
