@@ -215,6 +215,23 @@ static void test_properties(test_rng *r, int memory, bool cplx)
     problem_free(&P);
 }
 
+static void progress_cb(void *user, const char *phase, int iter, double rel)
+{
+    struct {
+        int steps, debias, order_bad;
+        double last;
+    } *p = user;
+    if (strcmp(phase, "sparsa") == 0) {
+        p->order_bad += p->debias != 0 || iter != p->steps + 1;
+        p->steps++;
+    } else if (strcmp(phase, "debias") == 0) {
+        p->debias++;
+    } else {
+        p->order_bad++;
+    }
+    p->last = rel;
+}
+
 int main(void)
 {
     test_rng r;
@@ -315,6 +332,29 @@ int main(void)
         }
         free(a);
         free(b);
+        problem_free(&P);
+    }
+
+    /* Progress: one call per accepted step ("sparsa"), then one for the debiasing ("debias")
+     * with the final residual; phase times add up. */
+    {
+        test_rng_seed(&r, 850);
+        problem P = problem_make(&r, 120, 512, 8, false, false, false);
+        struct {
+            int steps, debias, order_bad;
+            double last;
+        } pg = {0, 0, 0, 0};
+        csi_sparsa_options o;
+        csi_sparsa_defaults(&o);
+        o.user = &pg;
+        o.progress = progress_cb;
+        csi_solve_report rep;
+        CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+        CHECK(pg.steps == rep.iterations && pg.debias == 1 && pg.order_bad == 0 && pg.last == rep.rel_residual,
+              "progress: %d steps for %d iterations, %d debias calls, last %g vs %g", pg.steps, rep.iterations,
+              pg.debias, pg.last, rep.rel_residual);
+        CHECK(rep.t_step > 0 && rep.t_debias > 0 && rep.t_step + rep.t_debias <= rep.t_total,
+              "phase times %g %g %g", rep.t_total, rep.t_step, rep.t_debias);
         problem_free(&P);
     }
 
