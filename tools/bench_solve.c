@@ -4,7 +4,8 @@
  *
  *   csi-bench-solve            everything (a few minutes on 2 cores)
  *   csi-bench-solve quick      fewer seeds
- *   csi-bench-solve wavelet    only the wavelet-problem tables */
+ *   csi-bench-solve wavelet    only the wavelet-problem tables
+ *   csi-bench-solve large      SpaRSA, partial Fourier k = 65536, 20 seeds */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -376,6 +377,12 @@ int main(int argc, char **argv)
     TRY(csi_ctx_create(&ctx, NULL));
     printf("Device: %s\n", csi_ctx_device_name(ctx));
     int seeds = quick ? 5 : 20;
+    if (argc > 1 && strcmp(argv[1], "large") == 0) {
+        const double f2[] = {2.0};
+        recovery_table(false, 65536, 200, f2, 1, 20);
+        csi_ctx_release(ctx);
+        return 0;
+    }
     if (argc > 1 && strcmp(argv[1], "wavelet") == 0) {
         wavelet_table(64, 24, 20);
         wavelet_table(256, 100, 5);

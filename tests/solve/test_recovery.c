@@ -1,6 +1,7 @@
 /* Exact recovery at the issue's sizes: SpaRSA on a random partial Fourier operator
  * A = S F^H (complex; F^H the unitary inverse DFT from csi_fourier_create, S random rows),
- * k = 4096 (20 seeds) and k = 65536 = 256 x 256 (4 seeds, for time), N = 2 s ln(k/s); ROMP
+ * k = 4096 (20 seeds), k = 65536 = 256 x 256 (4 seeds, for time) and a 3-D 32 x 32 x 16 volume
+ * (3 seeds), N = 2 s ln(k/s); ROMP
  * (real) on a dense Gaussian at k = 4096, N = 4 s ln(k/s) (20 seeds); both below the bound
  * must report non-convergence.
  * y = A x_true is made with the operator itself (the Fourier operator is checked against numpy
@@ -94,8 +95,12 @@ int main(void)
     CHECK(wrong == 0, "k=4096: %d wrong convergence claims", wrong);
     ok = run_fourier(d2, 200, 2.0, 4, &conv, &wrong, &secs, &steps);
     CHECK(ok >= 4, "k=65536: %d of 4 recovered", ok);
-    /* Below the bound: N = s ln(k/s) / 2 < s log: must not claim convergence. */
-    ok = run_fourier(d1, 200, 0.3, 3, &conv, &wrong, &secs, &steps);
+    /* 3-D (x, y, t) as in the motion-blur problem: 32 x 32 x 16. */
+    const size_t d3[3] = {32, 32, 16};
+    ok = run_fourier(d3, 80, 2.0, 3, &conv, &wrong, &secs, &steps);
+    CHECK(ok >= 3 && wrong == 0, "3-D k=16384: %d of 3 recovered", ok);
+    /* Below the bound: N = 0.3 s ln(k/s): must not claim convergence. */
+    ok = run_fourier(d1, 200, 0.3, 2, &conv, &wrong, &secs, &steps);
     CHECK(conv == 0 && wrong == 0, "below the bound: %d converged claims", conv);
 
     /* ROMP at k = 4096 on a dense Gaussian, N = 4 s ln(k/s). */
