@@ -29,6 +29,9 @@ struct csi_solver {
 
 double csi_solve_now(void);
 
+/* Checks the caller's y (N elements) and x (k elements): present, distinct, large enough. */
+csi_status csi_solver_check_io(const csi_solver *S, cl_mem y, cl_mem x, const char *who);
+
 /* Allocates ROMP's selection buffers if not yet there. */
 csi_status csi_solver_romp_buffers(csi_solver *S);
 

@@ -175,6 +175,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
     if (!(o.tol >= 0) || !(o.lsq_tol >= 0) || o.lsq_iter < 0 || o.max_iter < 0)
         return csi_fail(CSI_ERR_ARG, "ROMP options: tol %g, lsq_tol %g, lsq_iter %d, max_iter %d must "
                         "be non-negative", o.tol, o.lsq_tol, o.lsq_iter, o.max_iter);
+    CSI_TRY(csi_solver_check_io(S, y, x, "ROMP"));
     CSI_TRY(csi_solver_romp_buffers(S));
     size_t s = o.s ? o.s : csi_romp_default_s(S->N, S->k);
     if (s > S->k)

@@ -109,6 +109,26 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
     return CSI_OK;
 }
 
+static csi_status check_buf(cl_mem m, size_t need, const char *who, const char *what, size_t n)
+{
+    if (!m)
+        return csi_fail(CSI_ERR_ARG, "%s: no %s buffer given", who, what);
+    size_t have = 0;
+    CSI_TRY(CSI_CL(clGetMemObjectInfo(m, CL_MEM_SIZE, sizeof have, &have, NULL)));
+    if (have < need)
+        return csi_fail(CSI_ERR_ARG, "%s: the %s buffer holds %zu bytes, %zu elements need %zu", who, what,
+                        have, n, need);
+    return CSI_OK;
+}
+
+csi_status csi_solver_check_io(const csi_solver *S, cl_mem y, cl_mem x, const char *who)
+{
+    if (x == y && x)
+        return csi_fail(CSI_ERR_ARG, "%s: x and y must be different buffers", who);
+    CSI_TRY(check_buf(y, S->nfN * 4, who, "measurement (y)", S->N));
+    return check_buf(x, S->nfk * 4, who, "solution (x)", S->k);
+}
+
 csi_status csi_solver_romp_buffers(csi_solver *S)
 {
     if (S->sel)

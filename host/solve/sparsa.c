@@ -82,6 +82,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     else
         csi_sparsa_defaults(&o);
     CSI_TRY(check_options(&o));
+    CSI_TRY(csi_solver_check_io(S, y, x, "SpaRSA"));
     csi_ctx *ctx = S->ctx;
     const size_t nfN = S->nfN, nfk = S->nfk;
 

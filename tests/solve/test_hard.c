@@ -154,6 +154,24 @@ int main(void)
             CHECK(!rep.converged, "%s N < s: claims convergence: %s", name(), rep.message);
             problem_free(&P);
         }
+        /* x aliasing y, or a buffer too small: clear argument errors, nothing launched */
+        {
+            test_rng_seed(&r, 10);
+            problem P = problem_make(&r, 30, 128, 3, false, false, false);
+            cl_mem small = test_alloc(16);
+            cl_mem keep = P.dx;
+            P.dx = P.dy;
+            csi_status st = solve(&P, 3, &rep);
+            CHECK(st == CSI_ERR_ARG && strstr(csi_last_error(), "different"), "%s aliasing: %s", name(),
+                  csi_last_error());
+            P.dx = small;
+            st = solve(&P, 3, &rep);
+            CHECK(st == CSI_ERR_ARG && strstr(csi_last_error(), "solution (x)"), "%s small x: %s", name(),
+                  csi_last_error());
+            P.dx = keep;
+            csi_buffer_release(&small);
+            problem_free(&P);
+        }
         /* NaN in y: a clear argument error */
         {
             test_rng_seed(&r, 8);
