@@ -351,8 +351,20 @@ void vec_resid_sums(__global const float *y, __global const float *Az, __global 
     group_sum(sh, sl, l, 3, partial);
 }
 
+/* Keeps (bv, bi) or takes (v, i): NaN beats numbers, larger beats smaller, equal values go to
+ * the smaller index. */
+inline void amax_take(float *bv, uint *bi, const float v, const uint i)
+{
+    const bool take = (isnan(v) && !isnan(*bv)) || v > *bv || (v == *bv && i < *bi);
+    if (take) {
+        *bv = v;
+        *bi = i;
+    }
+}
+
 /* Max |x_i| per work-group and its smallest index (complex: cmag). NaN counts as larger than
- * everything so it surfaces in the result instead of hiding. */
+ * everything so it surfaces in the result instead of hiding. Four float4 lanes per work-item
+ * (elements 4b .. 4b+3 of block b), merged with amax_take; tail by global item 0. */
 __kernel __attribute__((reqd_work_group_size(VEC_LOCAL, 1, 1)))
 void vec_amax(__global const float *x, const uint n, const uint cplx, __global float *pval,
               __global uint *pidx)
@@ -360,28 +372,40 @@ void vec_amax(__global const float *x, const uint n, const uint cplx, __global f
     __local float sv[VEC_LOCAL];
     __local uint si[VEC_LOCAL];
     const uint l = get_local_id(0);
-    const size_t stride = get_global_size(0);
-    float best = -1.0f;
-    uint bi = 0xffffffffu;
-    for (size_t i = get_global_id(0); i < n; i += stride) {
-        const float v = cplx ? cmag(x[2 * i], x[2 * i + 1]) : fabs(x[i]);
-        if (v > best || (isnan(v) && !isnan(best))) {
-            best = v;
-            bi = (uint)i;
+    const size_t stride = get_global_size(0), nb = n / 4;
+    float4 best = (float4)(-1.0f);
+    uint4 bidx = (uint4)(0xffffffffu);
+    for (size_t b = get_global_id(0); b < nb; b += stride) {
+        float4 v;
+        if (cplx) {
+            const float8 z = vload8(b, x);
+            v = cmag4(z.even, z.odd);
+        } else {
+            v = fabs(vload4(b, x));
         }
+        /* within a lane indices only grow, so strict > keeps the first maximum */
+        const int4 take = isgreater(v, best) | (isnan(v) & ~isnan(best));
+        best = select(best, v, take);
+        bidx = select(bidx, (uint4)(4 * (uint)b) + (uint4)(0, 1, 2, 3), as_uint4(take));
     }
-    sv[l] = best;
+    float bv = best.x;
+    uint bi = bidx.x;
+    amax_take(&bv, &bi, best.y, bidx.y);
+    amax_take(&bv, &bi, best.z, bidx.z);
+    amax_take(&bv, &bi, best.w, bidx.w);
+    if (get_global_id(0) == 0)
+        for (size_t i = 4 * nb; i < n; i++)
+            amax_take(&bv, &bi, cplx ? cmag(x[2 * i], x[2 * i + 1]) : fabs(x[i]), (uint)i);
+    sv[l] = bv;
     si[l] = bi;
     barrier(CLK_LOCAL_MEM_FENCE);
     for (uint h = VEC_LOCAL / 2; h > 0; h >>= 1) {
         if (l < h) {
-            const float a = sv[l], b = sv[l + h];
-            const uint ia = si[l], ib = si[l + h];
-            const bool take_b = (isnan(b) && !isnan(a)) || b > a || (b == a && ib < ia);
-            if (take_b) {
-                sv[l] = b;
-                si[l] = ib;
-            }
+            float a = sv[l];
+            uint ia = si[l];
+            amax_take(&a, &ia, sv[l + h], si[l + h]);
+            sv[l] = a;
+            si[l] = ia;
         }
         barrier(CLK_LOCAL_MEM_FENCE);
     }
