@@ -11,19 +11,28 @@
 #define ROMP_BINS 4096
 #define ROMP_LOCAL 64
 
-inline uint romp_key(__global const float *u, __global const uchar *mask, const size_t i)
+/* The selection key of index i: |u_i|, or |u_i| / norm_i when column norms are given (use_norms;
+ * a zero norm means a column A cannot see: never selected). */
+inline uint romp_key(__global const float *u, __global const uchar *mask, __global const float *norms,
+                     const uint use_norms, const size_t i)
 {
     if (mask[i])
         return 0u;
-    const uint key = as_uint(fabs(u[i]));
+    float v = fabs(u[i]);
+    if (use_norms) {
+        const float c = norms[i];
+        v = c > 0.0f ? v / c : 0.0f;
+    }
+    const uint key = as_uint(v);
     return key < 0x7f800000u ? key : 0u; /* drop Inf and NaN */
 }
 
 /* hist[b] += #{i : key_i != 0, (key_i & pmask) == pval, ((key_i >> shift) & (ROMP_BINS-1)) == b}.
  * hist must be zeroed before the first group runs (the host fills it). */
 __kernel __attribute__((reqd_work_group_size(ROMP_LOCAL, 1, 1)))
-void romp_hist(__global const float *u, __global const uchar *mask, const uint n, const uint shift,
-               const uint pmask, const uint pval, __global uint *hist)
+void romp_hist(__global const float *u, __global const uchar *mask, __global const float *norms,
+               const uint use_norms, const uint n, const uint shift, const uint pmask, const uint pval,
+               __global uint *hist)
 {
     __local uint lh[ROMP_BINS];
     const uint l = get_local_id(0);
@@ -32,7 +41,7 @@ void romp_hist(__global const float *u, __global const uchar *mask, const uint n
     barrier(CLK_LOCAL_MEM_FENCE);
     const size_t stride = get_global_size(0);
     for (size_t i = get_global_id(0); i < n; i += stride) {
-        const uint key = romp_key(u, mask, i);
+        const uint key = romp_key(u, mask, norms, use_norms, i);
         if (key != 0u && (key & pmask) == pval)
             atomic_inc(&lh[(key >> shift) & (ROMP_BINS - 1)]);
     }
@@ -44,14 +53,15 @@ void romp_hist(__global const float *u, __global const uchar *mask, const uint n
 
 /* Appends (i, |u_i|) for every eligible key >= thr; count[0] is the running total (zeroed by
  * the host). Positions past cap are counted but not written. */
-__kernel void romp_collect(__global const float *u, __global const uchar *mask, const uint n,
+__kernel void romp_collect(__global const float *u, __global const uchar *mask,
+                           __global const float *norms, const uint use_norms, const uint n,
                            const uint thr, const uint cap, __global uint *count,
                            __global uint *idx, __global float *val)
 {
     const size_t i = get_global_id(0);
     if (i >= n)
         return;
-    const uint key = romp_key(u, mask, i);
+    const uint key = romp_key(u, mask, norms, use_norms, i);
     if (key != 0u && key >= thr) {
         const uint p = atomic_inc(count);
         if (p < cap) {
@@ -67,4 +77,23 @@ __kernel void romp_mark(__global uchar *mask, __global const uint *sel, const ui
     const size_t i = get_global_id(0);
     if (i < m)
         mask[sel[i]] = 1;
+}
+
+/* Column-norm estimation (csi_column_norms): acc_i += |v_i|^2 for one probe v = A^H z. */
+__kernel void romp_acc_sq(__global float *acc, __global const float *v, const uint n, const uint cplx)
+{
+    const size_t i = get_global_id(0);
+    if (i >= n)
+        return;
+    const float a = cplx ? v[2 * i] : v[i];
+    const float b = cplx ? v[2 * i + 1] : 0.0f;
+    acc[i] = acc[i] + (a * a + b * b);
+}
+
+/* norms_i = sqrt(acc_i * scale) */
+__kernel void romp_sqrt_scale(__global float *acc, const uint n, const float scale)
+{
+    const size_t i = get_global_id(0);
+    if (i < n)
+        acc[i] = sqrt(acc[i] * scale);
 }

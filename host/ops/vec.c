@@ -12,7 +12,7 @@
 struct csi_vec_ws {
     csi_ctx *ctx;
     cl_mem pval, pidx;
-    float hval[2 * VEC_MAX_GROUPS];
+    float hval[6 * VEC_MAX_GROUPS];
     cl_uint hidx[VEC_MAX_GROUPS];
 };
 
@@ -23,7 +23,7 @@ csi_status csi_vec_ws_create(csi_ctx *ctx, csi_vec_ws **out)
     if (!ws)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for a vector workspace");
     ws->ctx = ctx;
-    csi_status st = csi_buffer(ctx, 2 * VEC_MAX_GROUPS * sizeof(float), CL_MEM_READ_WRITE,
+    csi_status st = csi_buffer(ctx, 6 * VEC_MAX_GROUPS * sizeof(float), CL_MEM_READ_WRITE,
                                "reduction partials", &ws->pval);
     if (st == CSI_OK)
         st = csi_buffer(ctx, VEC_MAX_GROUPS * sizeof(cl_uint), CL_MEM_READ_WRITE,
@@ -131,24 +131,9 @@ csi_status csi_vec_soft(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, float t, cl
     if (!(t >= 0.0f) || isinf(t))
         return csi_fail(CSI_ERR_ARG, "soft threshold %g must be finite and >= 0", (double)t);
     cl_kernel k;
-    CSI_TRY(kern(ctx, "vec_soft", &k));
-    cl_uint nn = (cl_uint)n, c = cplx;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_ARG(nn), CSI_ARG(c), CSI_ARG(t), CSI_MEM(out)));
-    return run1(ctx, k, n);
-}
-
-csi_status csi_vec_prox_step(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_mem g, float cf,
-                             float t, cl_mem out)
-{
-    CSI_TRY(check_n(n, "vec_prox_step"));
-    if (!isfinite(cf) || !(t >= 0.0f) || isinf(t))
-        return csi_fail(CSI_ERR_ARG, "proximal step needs a finite factor and t >= 0 (c %g, t %g)",
-                        (double)cf, (double)t);
-    cl_kernel k;
-    CSI_TRY(kern(ctx, "vec_prox_step", &k));
-    cl_uint nn = (cl_uint)n, c = cplx;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(g), CSI_ARG(nn), CSI_ARG(c), CSI_ARG(cf), CSI_ARG(t),
-                     CSI_MEM(out)));
+    CSI_TRY(kern(ctx, cplx ? "vec_soft_c" : "vec_soft_r", &k));
+    cl_uint nn = (cl_uint)n;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_ARG(nn), CSI_ARG(t), CSI_MEM(out)));
     return run1(ctx, k, n);
 }
 
@@ -184,42 +169,51 @@ static size_t groups_for(size_t n)
     return g;
 }
 
-static csi_status reduce(csi_vec_ws *ws, cl_mem x, cl_mem y, size_t n, cl_uint what, double *out)
+/* Reads g groups' (hi, lo) partials of nout sums and finishes each in double (2g <= 128
+ * terms: at most 128 * 2^-53 relative). */
+static csi_status finish(csi_vec_ws *ws, size_t g, int nout, double *out)
+{
+    CSI_TRY(csi_read(ws->ctx, ws->pval, 0, 2 * g * (size_t)nout * sizeof(float), ws->hval));
+    for (int o = 0; o < nout; o++) {
+        double s = 0.0;
+        for (size_t i = 0; i < g; i++)
+            s += (double)ws->hval[(i * (size_t)nout + (size_t)o) * 2] +
+                 (double)ws->hval[(i * (size_t)nout + (size_t)o) * 2 + 1];
+        out[o] = s;
+    }
+    return CSI_OK;
+}
+
+static csi_status reduce(csi_vec_ws *ws, cl_mem x, cl_mem y, size_t n, const char *kname, double *out)
 {
     *out = 0.0;
     CSI_TRY(check_n(n, "vector reduction"));
     if (n == 0)
         return CSI_OK;
     cl_kernel k;
-    CSI_TRY(kern(ws->ctx, "vec_reduce", &k));
+    CSI_TRY(kern(ws->ctx, kname, &k));
     cl_uint nn = (cl_uint)n;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(y), CSI_ARG(nn), CSI_ARG(what), CSI_MEM(ws->pval)));
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(y), CSI_ARG(nn), CSI_MEM(ws->pval)));
     size_t g = groups_for(n), local = VEC_LOCAL, global = g * VEC_LOCAL;
     CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
-    CSI_TRY(csi_read(ws->ctx, ws->pval, 0, 2 * g * sizeof(float), ws->hval));
-    /* Finish in double: 2g <= 128 (hi, lo) partials, at most 128 * 2^-53 relative. */
-    double s = 0.0;
-    for (size_t i = 0; i < 2 * g; i++)
-        s += (double)ws->hval[i];
-    *out = s;
-    return CSI_OK;
+    return finish(ws, g, 1, out);
 }
 
 csi_status csi_vec_dot(csi_vec_ws *ws, size_t nf, cl_mem x, cl_mem y, double *out)
 {
-    return reduce(ws, x, y, nf, 0, out);
+    return reduce(ws, x, y, nf, "vec_red_dot", out);
 }
 
 csi_status csi_vec_cdot(csi_vec_ws *ws, size_t n, cl_mem x, cl_mem y, double out[2])
 {
-    CSI_TRY(reduce(ws, x, y, 2 * n, 0, &out[0]));
-    return reduce(ws, x, y, n, 5, &out[1]);
+    CSI_TRY(reduce(ws, x, y, 2 * n, "vec_red_dot", &out[0]));
+    return reduce(ws, x, y, n, "vec_red_cdot_im", &out[1]);
 }
 
 csi_status csi_vec_nrm2(csi_vec_ws *ws, size_t nf, cl_mem x, double *out)
 {
     double s;
-    CSI_TRY(reduce(ws, x, x, nf, 1, &s));
+    CSI_TRY(reduce(ws, x, x, nf, "vec_red_sumsq", &s));
     *out = sqrt(s > 0 ? s : 0.0);
     if (isnan(s))
         *out = s;
@@ -228,12 +222,57 @@ csi_status csi_vec_nrm2(csi_vec_ws *ws, size_t nf, cl_mem x, double *out)
 
 csi_status csi_vec_dist2(csi_vec_ws *ws, size_t nf, cl_mem x, cl_mem y, double *out)
 {
-    return reduce(ws, x, y, nf, 4, out);
+    return reduce(ws, x, y, nf, "vec_red_dist2", out);
 }
 
 csi_status csi_vec_asum(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, double *out)
 {
-    return reduce(ws, x, x, n, cplx ? 3 : 2, out);
+    return reduce(ws, x, x, n, cplx ? "vec_red_asum_c" : "vec_red_asum_r", out);
+}
+
+csi_status csi_vec_prox_sums(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, cl_mem g, float cf,
+                             float t, cl_mem out, double *l1, double *dx2)
+{
+    *l1 = *dx2 = 0.0;
+    CSI_TRY(check_n(n, "vec_prox_sums"));
+    if (!isfinite(cf) || !(t >= 0.0f) || isinf(t))
+        return csi_fail(CSI_ERR_ARG, "proximal step needs a finite factor and t >= 0 (c %g, t %g)",
+                        (double)cf, (double)t);
+    if (n == 0)
+        return CSI_OK;
+    cl_kernel k;
+    CSI_TRY(kern(ws->ctx, cplx ? "vec_prox_sums_c" : "vec_prox_sums_r", &k));
+    cl_uint nn = (cl_uint)n;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(g), CSI_ARG(nn), CSI_ARG(cf), CSI_ARG(t), CSI_MEM(out),
+                     CSI_MEM(ws->pval)));
+    size_t gr = groups_for(n), local = VEC_LOCAL, global = gr * VEC_LOCAL;
+    CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
+    double o[2];
+    CSI_TRY(finish(ws, gr, 2, o));
+    *l1 = o[0];
+    *dx2 = o[1];
+    return CSI_OK;
+}
+
+csi_status csi_vec_resid_sums(csi_vec_ws *ws, size_t nf, cl_mem y, cl_mem Az, cl_mem Ax, cl_mem r,
+                              double *rr, double *dd, double *ry)
+{
+    *rr = *dd = *ry = 0.0;
+    CSI_TRY(check_n(nf, "vec_resid_sums"));
+    if (nf == 0)
+        return CSI_OK;
+    cl_kernel k;
+    CSI_TRY(kern(ws->ctx, "vec_resid_sums", &k));
+    cl_uint nn = (cl_uint)nf;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(y), CSI_MEM(Az), CSI_MEM(Ax), CSI_ARG(nn), CSI_MEM(r), CSI_MEM(ws->pval)));
+    size_t gr = groups_for(nf), local = VEC_LOCAL, global = gr * VEC_LOCAL;
+    CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
+    double o[3];
+    CSI_TRY(finish(ws, gr, 3, o));
+    *rr = o[0];
+    *dd = o[1];
+    *ry = o[2];
+    return CSI_OK;
 }
 
 csi_status csi_vec_amax(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, double *val, size_t *idx)

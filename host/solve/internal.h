@@ -17,9 +17,10 @@ struct csi_solver {
     /* measurement side (N) */
     cl_mem r, q, Ax, Axn;
     /* coefficient side (k) */
-    cl_mem g, p, s, xn, xbest;
+    cl_mem g, p, s, xn;
     cl_mem mask;        /* k bytes: support (ROMP) / non-zero set (debiasing) */
-    /* ROMP selection */
+    /* ROMP selection: made on the first ROMP run (csi_solver_romp_buffers), so SpaRSA on a
+     * large volume does not pay for them */
     cl_mem hist, count, cand_idx, cand_val, sel;
     uint32_t *h_hist, *h_idx, *h_sel;
     float *h_val;
@@ -27,6 +28,12 @@ struct csi_solver {
 };
 
 double csi_solve_now(void);
+
+/* Checks the caller's y (N elements) and x (k elements): present, distinct, large enough. */
+csi_status csi_solver_check_io(const csi_solver *S, cl_mem y, cl_mem x, const char *who);
+
+/* Allocates ROMP's selection buffers if not yet there. */
+csi_status csi_solver_romp_buffers(csi_solver *S);
 
 /* CGLS (CG on A_I^H A_I z = A_I^H y, Hestenes & Stiefel 1952; Bjorck, "Numerical Methods for
  * Least Squares Problems", 1996, Alg. 7.4.1) with A_I = A restricted to mask (NULL: all of A).

@@ -52,8 +52,11 @@ static int cand_cmp(const void *a, const void *b)
 
 /* Candidates: the s largest |u_i| outside the support, 0 < |u_i| < inf, sorted by magnitude
  * (ties by index) into cands[0..*m). */
-static csi_status select_top(csi_solver *S, cl_mem u, size_t s, cand **cands, size_t *m)
+static csi_status select_top(csi_solver *S, cl_mem u, cl_mem norms, size_t s, cand **cands, size_t *m)
 {
+    const cl_uint use_norms = norms != NULL;
+    if (!norms)
+        norms = u; /* any valid buffer: not read */
     csi_ctx *ctx = S->ctx;
     *m = 0;
     *cands = NULL;
@@ -78,8 +81,8 @@ static csi_status select_top(csi_solver *S, cl_mem u, size_t s, cand **cands, si
     for (int pass = 0; pass < 3; pass++) {
         const cl_uint shift = shifts[pass], nb = 1u << widths[pass];
         CSI_TRY(csi_fill_zero(ctx, S->hist, ROMP_BINS * 4));
-        CSI_TRY(CSI_ARGS(kh, CSI_MEM(u), CSI_MEM(S->mask), CSI_ARG(n), CSI_ARG(shift), CSI_ARG(pmask),
-                         CSI_ARG(pval), CSI_MEM(S->hist)));
+        CSI_TRY(CSI_ARGS(kh, CSI_MEM(u), CSI_MEM(S->mask), CSI_MEM(norms), CSI_ARG(use_norms), CSI_ARG(n),
+                         CSI_ARG(shift), CSI_ARG(pmask), CSI_ARG(pval), CSI_MEM(S->hist)));
         CSI_TRY(csi_run(ctx, kh, 1, &hg, &hl));
         CSI_TRY(csi_read(ctx, S->hist, 0, nb * 4, S->h_hist));
         size_t cum = 0;
@@ -105,8 +108,9 @@ static csi_status select_top(csi_solver *S, cl_mem u, size_t s, cand **cands, si
     }
     CSI_TRY(csi_fill_zero(ctx, S->count, 4));
     const cl_uint cap = (cl_uint)S->k;
-    CSI_TRY(CSI_ARGS(kc, CSI_MEM(u), CSI_MEM(S->mask), CSI_ARG(n), CSI_ARG(thr), CSI_ARG(cap),
-                     CSI_MEM(S->count), CSI_MEM(S->cand_idx), CSI_MEM(S->cand_val)));
+    CSI_TRY(CSI_ARGS(kc, CSI_MEM(u), CSI_MEM(S->mask), CSI_MEM(norms), CSI_ARG(use_norms), CSI_ARG(n),
+                     CSI_ARG(thr), CSI_ARG(cap), CSI_MEM(S->count), CSI_MEM(S->cand_idx),
+                     CSI_MEM(S->cand_val)));
     const size_t cl = 64, cg = S->k;
     CSI_TRY(csi_run(ctx, kc, 1, &cg, &cl));
     cl_uint cnt = 0;
@@ -171,11 +175,15 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
     if (!(o.tol >= 0) || !(o.lsq_tol >= 0) || o.lsq_iter < 0 || o.max_iter < 0)
         return csi_fail(CSI_ERR_ARG, "ROMP options: tol %g, lsq_tol %g, lsq_iter %d, max_iter %d must "
                         "be non-negative", o.tol, o.lsq_tol, o.lsq_iter, o.max_iter);
+    CSI_TRY(csi_solver_check_io(S, y, x, "ROMP"));
+    CSI_TRY(csi_solver_romp_buffers(S));
     size_t s = o.s ? o.s : csi_romp_default_s(S->N, S->k);
     if (s > S->k)
         s = S->k;
-    size_t limit = 2 * s < S->k ? 2 * s : S->k;
-    int max_iter = o.max_iter > 0 ? o.max_iter : (int)(2 * s + 10);
+    size_t limit = o.max_support ? o.max_support : 2 * s;
+    if (limit > S->k)
+        limit = S->k;
+    int max_iter = o.max_iter > 0 ? o.max_iter : (int)(limit + 10);
     csi_ctx *ctx = S->ctx;
 
     double ynorm;
@@ -206,8 +214,8 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
         }
         if (support >= limit) {
             csi_report_set(rep, CSI_SOLVE_SUPPORT_LIMIT, "ROMP did not converge: support reached "
-                           "2s = %zu with residual %.3g > tol %.3g (too few measurements for "
-                           "sparsity %zu, or s too small)", limit, rn / ynorm, o.tol, s);
+                           "its limit %zu (s = %zu) with residual %.3g > tol %.3g (too few "
+                           "measurements for this sparsity, or s too small)", limit, s, rn / ynorm, o.tol);
             break;
         }
         if (it >= max_iter) {
@@ -224,7 +232,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
             return csi_fail(CSI_ERR_NUMERIC, "ROMP iteration %d: A^H r has NaN or Inf (max %g)", it, umax);
         cand *c;
         size_t m;
-        CSI_TRY(select_top(S, S->g, s, &c, &m));
+        CSI_TRY(select_top(S, S->g, o.col_norms, s, &c, &m));
         if (m == 0) {
             free(c);
             rep->t_select += csi_solve_now() - ts;
@@ -270,7 +278,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
     rep->support = support;
     rep->rel_residual = rn / ynorm;
     rep->objective = 0.5 * rn * rn;
-    if (rep->reason == CSI_SOLVE_CONVERGED && 2 * support > S->N)
+    if (rep->reason == CSI_SOLVE_CONVERGED && 2 * support > S->N && S->N < S->k)
         csi_report_set(rep, CSI_SOLVE_NOT_IDENTIFIABLE, "ROMP fit y (residual %.3g) but with %zu "
                        "non-zeros from %zu measurements (> N/2): the answer is not unique",
                        rn / ynorm, support, S->N);
@@ -301,5 +309,60 @@ csi_status csi_romp_multi(const csi_linop *A, size_t nrhs, const cl_mem *y, cons
             csi_fail_context(st, "channel %zu: ", c);
     }
     csi_solver_free(S);
+    return st;
+}
+
+csi_status csi_column_norms(const csi_linop *A, int probes, uint64_t seed, cl_mem norms)
+{
+    if (!A || probes < 1)
+        return csi_fail(CSI_ERR_ARG, "column norms: need an operator and at least one probe (%d)", probes);
+    csi_ctx *ctx = A->ctx;
+    const size_t N = A->rows, k = A->cols, w = A->complex_valued ? 2 : 1;
+    if (k > 0x7fffffffu || N > 0x7fffffffu)
+        return csi_fail(CSI_ERR_ARG, "column norms: operator too large (%zu x %zu)", N, k);
+    float *z = malloc(N * w * sizeof *z);
+    if (!z)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu probe entries", N * w);
+    cl_mem dz = NULL, dv = NULL;
+    cl_kernel ka, ks;
+    csi_status st = csi_buffer(ctx, N * w * 4, CL_MEM_READ_WRITE, "column-norm probe", &dz);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, k * w * 4, CL_MEM_READ_WRITE, "column-norm probe image", &dv);
+    if (st == CSI_OK)
+        st = csi_kernel(ctx, "romp", "romp_acc_sq", &ka);
+    if (st == CSI_OK)
+        st = csi_kernel(ctx, "romp", "romp_sqrt_scale", &ks);
+    if (st == CSI_OK)
+        st = csi_fill_zero(ctx, norms, k * 4);
+    uint64_t r = seed * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull;
+    const cl_uint nk = (cl_uint)k, cplx = A->complex_valued;
+    const size_t gl = k, ll = 64;
+    for (int p = 0; p < probes && st == CSI_OK; p++) {
+        /* Rademacher probe (complex: unit-modulus +-1 / sqrt2 in each part), splitmix64 */
+        for (size_t j = 0; j < N * w; j++) {
+            uint64_t q = (r += 0x9E3779B97F4A7C15ull);
+            q = (q ^ (q >> 30)) * 0xBF58476D1CE4E5B9ull;
+            q = (q ^ (q >> 27)) * 0x94D049BB133111EBull;
+            q ^= q >> 31;
+            z[j] = (q & 1) ? 1.0f : -1.0f;
+            if (w == 2)
+                z[j] *= 0.70710678f;
+        }
+        st = csi_write(ctx, dz, 0, N * w * 4, z);
+        if (st == CSI_OK)
+            st = csi_linop_adjoint(A, dz, dv);
+        if (st == CSI_OK)
+            st = CSI_ARGS(ka, CSI_MEM(norms), CSI_MEM(dv), CSI_ARG(nk), CSI_ARG(cplx));
+        if (st == CSI_OK)
+            st = csi_run(ctx, ka, 1, &gl, &ll);
+    }
+    float scale = 1.0f / (float)probes;
+    if (st == CSI_OK)
+        st = CSI_ARGS(ks, CSI_MEM(norms), CSI_ARG(nk), CSI_ARG(scale));
+    if (st == CSI_OK)
+        st = csi_run(ctx, ks, 1, &gl, &ll);
+    free(z);
+    csi_buffer_release(&dz);
+    csi_buffer_release(&dv);
     return st;
 }

@@ -49,8 +49,7 @@ void csi_solver_free(csi_solver *S)
 {
     if (!S)
         return;
-    cl_mem *bufs[] = {&S->r, &S->q, &S->Ax, &S->Axn, &S->g, &S->p, &S->s, &S->xn, &S->xbest,
-                      &S->mask, &S->hist, &S->count, &S->cand_idx, &S->cand_val, &S->sel};
+    cl_mem *bufs[] = {&S->r, &S->q, &S->Ax, &S->Axn, &S->g, &S->p, &S->s, &S->xn, &S->mask, &S->hist, &S->count, &S->cand_idx, &S->cand_val, &S->sel};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         csi_buffer_release(bufs[i]);
     csi_vec_ws_free(S->ws);
@@ -93,20 +92,13 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
         {&S->Ax, S->nfN * 4, "solver A x"},            {&S->Axn, S->nfN * 4, "solver A x (trial)"},
         {&S->g, S->nfk * 4, "solver gradient"},        {&S->p, S->nfk * 4, "solver direction"},
         {&S->s, S->nfk * 4, "solver coefficient scratch"}, {&S->xn, S->nfk * 4, "solver trial iterate"},
-        {&S->xbest, S->nfk * 4, "solver previous iterate"}, {&S->mask, S->k, "solver support mask"},
-        {&S->hist, ROMP_BINS * 4, "ROMP histogram"},   {&S->count, 4, "ROMP candidate count"},
-        {&S->cand_idx, S->k * 4, "ROMP candidates"},   {&S->cand_val, S->k * 4, "ROMP candidate values"},
-        {&S->sel, S->k * 4, "ROMP selection"},
+        {&S->mask, S->k, "solver support mask"},
     };
     for (size_t i = 0; st == CSI_OK && i < sizeof b / sizeof *b; i++)
         st = csi_buffer(S->ctx, b[i].bytes, CL_MEM_READ_WRITE, b[i].what, b[i].m);
     if (st == CSI_OK) {
-        S->h_hist = malloc(ROMP_BINS * sizeof *S->h_hist);
-        S->h_idx = malloc(S->k * sizeof *S->h_idx);
-        S->h_sel = malloc(S->k * sizeof *S->h_sel);
-        S->h_val = malloc(S->k * sizeof *S->h_val);
         S->h_mask = calloc(S->k, 1);
-        if (!S->h_hist || !S->h_idx || !S->h_sel || !S->h_val || !S->h_mask)
+        if (!S->h_mask)
             st = csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver over %zu unknowns", S->k);
     }
     if (st != CSI_OK) {
@@ -115,6 +107,63 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
     }
     *out = S;
     return CSI_OK;
+}
+
+static csi_status check_buf(cl_mem m, size_t need, const char *who, const char *what, size_t n)
+{
+    if (!m)
+        return csi_fail(CSI_ERR_ARG, "%s: no %s buffer given", who, what);
+    size_t have = 0;
+    CSI_TRY(CSI_CL(clGetMemObjectInfo(m, CL_MEM_SIZE, sizeof have, &have, NULL)));
+    if (have < need)
+        return csi_fail(CSI_ERR_ARG, "%s: the %s buffer holds %zu bytes, %zu elements need %zu", who, what,
+                        have, n, need);
+    return CSI_OK;
+}
+
+csi_status csi_solver_check_io(const csi_solver *S, cl_mem y, cl_mem x, const char *who)
+{
+    if (x == y && x)
+        return csi_fail(CSI_ERR_ARG, "%s: x and y must be different buffers", who);
+    CSI_TRY(check_buf(y, S->nfN * 4, who, "measurement (y)", S->N));
+    return check_buf(x, S->nfk * 4, who, "solution (x)", S->k);
+}
+
+csi_status csi_solver_romp_buffers(csi_solver *S)
+{
+    if (S->sel)
+        return CSI_OK;
+    struct {
+        cl_mem *m;
+        size_t bytes;
+        const char *what;
+    } b[] = {
+        {&S->hist, ROMP_BINS * 4, "ROMP histogram"},   {&S->count, 4, "ROMP candidate count"},
+        {&S->cand_idx, S->k * 4, "ROMP candidates"},   {&S->cand_val, S->k * 4, "ROMP candidate values"},
+        {&S->sel, S->k * 4, "ROMP selection"},
+    };
+    csi_status st = CSI_OK;
+    for (size_t i = 0; st == CSI_OK && i < sizeof b / sizeof *b; i++)
+        if (!*b[i].m)
+            st = csi_buffer(S->ctx, b[i].bytes, CL_MEM_READ_WRITE, b[i].what, b[i].m);
+    if (st == CSI_OK && !S->h_val) {
+        S->h_hist = malloc(ROMP_BINS * sizeof *S->h_hist);
+        S->h_idx = malloc(S->k * sizeof *S->h_idx);
+        S->h_sel = malloc(S->k * sizeof *S->h_sel);
+        S->h_val = malloc(S->k * sizeof *S->h_val);
+        if (!S->h_hist || !S->h_idx || !S->h_sel || !S->h_val) {
+            free(S->h_hist);
+            free(S->h_idx);
+            free(S->h_sel);
+            free(S->h_val);
+            S->h_hist = S->h_idx = S->h_sel = NULL;
+            S->h_val = NULL;
+            st = csi_fail(CSI_ERR_NOMEM, "out of host memory for ROMP over %zu unknowns", S->k);
+        }
+    }
+    if (st != CSI_OK)
+        csi_buffer_release(&S->sel); /* retried next time; the others are reused */
+    return st;
 }
 
 static csi_status apply(csi_solver *S, cl_mem x, cl_mem y, csi_solve_report *rep)

@@ -24,7 +24,7 @@ typedef struct {
 } problem;
 
 /* n distinct indices in [0, k) (partial Fisher-Yates). */
-static uint32_t *rand_subset(test_rng *r, size_t k, size_t n)
+static inline uint32_t *rand_subset(test_rng *r, size_t k, size_t n)
 {
     uint32_t *p = malloc(k * sizeof *p);
     for (size_t i = 0; i < k; i++)
@@ -39,7 +39,7 @@ static uint32_t *rand_subset(test_rng *r, size_t k, size_t n)
 }
 
 /* Fills y = A x (double accumulation) and uploads it. */
-static void problem_measure(problem *P)
+static inline void problem_measure(problem *P)
 {
     for (size_t i = 0; i < P->N; i++) {
         double sr = 0, si = 0;
@@ -66,7 +66,7 @@ static void problem_measure(problem *P)
  * its rows at random (the structure of the paper's A = S Psi), else a dense N x k Gaussian
  * (the same distribution, cheaper to apply). Signal: s-sparse, entries N(0,1) (or, with
  * unit_mag, random signs of magnitude 1: the hard case for greedy methods). */
-static problem problem_make(test_rng *r, size_t N, size_t k, size_t s, bool cplx, bool via_sampling,
+static inline problem problem_make(test_rng *r, size_t N, size_t k, size_t s, bool cplx, bool via_sampling,
                             bool unit_mag)
 {
     problem P = {0};
@@ -113,7 +113,7 @@ static problem problem_make(test_rng *r, size_t N, size_t k, size_t s, bool cplx
     return P;
 }
 
-static void problem_free(problem *P)
+static inline void problem_free(problem *P)
 {
     free(P->A);
     free(P->Ad);
@@ -125,13 +125,13 @@ static void problem_free(problem *P)
 }
 
 /* Relative error ||x_got - x_true|| / ||x_true|| of the solution on the device. */
-static double problem_error(const problem *P, float *xout)
+static inline double problem_error(const problem *P, float *xout)
 {
     test_download(P->dx, xout, P->k * P->w * 4);
     return test_rel_l2(xout, P->x, P->k * P->w);
 }
 
-static bool all_finite(const float *v, size_t n)
+static inline bool all_finite(const float *v, size_t n)
 {
     for (size_t i = 0; i < n; i++)
         if (!isfinite(v[i]))

@@ -19,7 +19,7 @@ typedef struct {
 } ref_mat;
 
 /* y = A x (w = 1 or 2 doubles per element) */
-static void ref_apply(const ref_mat *M, const double *x, double *y)
+static inline void ref_apply(const ref_mat *M, const double *x, double *y)
 {
     for (size_t i = 0; i < M->N; i++) {
         double sr = 0, si = 0;
@@ -42,7 +42,7 @@ static void ref_apply(const ref_mat *M, const double *x, double *y)
 }
 
 /* x = A^H y */
-static void ref_adjoint(const ref_mat *M, const double *y, double *x)
+static inline void ref_adjoint(const ref_mat *M, const double *y, double *x)
 {
     size_t w = M->cplx ? 2 : 1;
     memset(x, 0, M->k * w * sizeof *x);
@@ -58,7 +58,7 @@ static void ref_adjoint(const ref_mat *M, const double *y, double *x)
         }
 }
 
-static double ref_dot(const double *a, const double *b, size_t n)
+static inline double ref_dot(const double *a, const double *b, size_t n)
 {
     double s = 0;
     for (size_t i = 0; i < n; i++)
@@ -76,7 +76,7 @@ typedef struct {
 } ref_romp_result;
 
 /* Least squares on support I (size m) by Cholesky of A_I^T A_I; x zero elsewhere. */
-static bool ref_lsq(const ref_mat *M, const uint32_t *I, size_t m, const double *y, double *x)
+static inline bool ref_lsq(const ref_mat *M, const uint32_t *I, size_t m, const double *y, double *x)
 {
     double *G = calloc(m * m, sizeof *G), *b = calloc(m, sizeof *b);
     for (size_t a = 0; a < m; a++) {
@@ -136,7 +136,7 @@ typedef struct {
     uint32_t i;
 } ref_cand;
 
-static int ref_cand_cmp(const void *a, const void *b)
+static inline int ref_cand_cmp(const void *a, const void *b)
 {
     const ref_cand *x = a, *y = b;
     if (x->v != y->v)
@@ -144,7 +144,7 @@ static int ref_cand_cmp(const void *a, const void *b)
     return x->i < y->i ? -1 : (x->i > y->i);
 }
 
-static ref_romp_result ref_romp(const ref_mat *M, const double *y, size_t s, double tol,
+static inline ref_romp_result ref_romp(const ref_mat *M, const double *y, size_t s, double tol,
                                 int max_iter, double *x)
 {
     ref_romp_result res = {0};
@@ -217,7 +217,7 @@ typedef struct {
     double *xs;          /* iterates, iterations x (k w) */
 } ref_sparsa_result;
 
-static double ref_soft_apply(double *v, size_t n, bool cplx, double t)
+static inline double ref_soft_apply(double *v, size_t n, bool cplx, double t)
 {
     double l1 = 0;
     for (size_t i = 0; i < n; i++) {
@@ -236,7 +236,7 @@ static double ref_soft_apply(double *v, size_t n, bool cplx, double t)
     return l1;
 }
 
-static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double tau, int memory,
+static inline ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double tau, int memory,
                                     double sigma, double tol, int max_iter, double *x)
 {
     ref_sparsa_result R = {0};
@@ -251,7 +251,8 @@ static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double ta
     ref_adjoint(M, r, h);
     double phi = 0.5 * ref_dot(r, r, nN), alpha = 1.0;
     double hist[64];
-    int nh = 1, hpos = 0;
+    int nh = 1, hpos = 0, since = 0;
+    double best_gap = INFINITY;
     hist[0] = phi;
     while (R.iterations < max_iter) {
         double ref = hist[0];
@@ -305,8 +306,16 @@ static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double ta
             hr = fmax(hr, M->cplx ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
         double sc = hr > tau ? tau / hr : 1.0;
         double dual = -0.5 * sc * sc * rn2 + sc * ref_dot(r, y, nN);
-        /* the same float32 rounding floor on the gap as the device (csi/solve.h) */
-        if (phi - dual <= tol * phi + 32.0 * 0x1.0p-24 * ref_dot(y, y, nN))
+        /* the device's float32 floor (csi/solve.h): below 32 u ||y||^2, stop after 10 steps
+         * in which the gap has not halved */
+        double gap = phi - dual;
+        if (gap < 0.5 * best_gap) {
+            best_gap = gap;
+            since = 0;
+        } else {
+            since++;
+        }
+        if (gap <= tol * phi || (gap <= 32.0 * 0x1.0p-24 * ref_dot(y, y, nN) && since >= 10))
             break;
     }
     free(r);
@@ -317,7 +326,7 @@ static ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, double ta
     return R;
 }
 
-static void ref_sparsa_free(ref_sparsa_result *R)
+static inline void ref_sparsa_free(ref_sparsa_result *R)
 {
     free(R->phi);
     free(R->alpha);

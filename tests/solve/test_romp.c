@@ -64,6 +64,22 @@ static bool unique_indices(const uint32_t *v, size_t n, size_t k)
     return ok;
 }
 
+struct prog {
+    int calls, last_iter, bad;
+    double last_res;
+    char phase[16];
+};
+
+static void progress_cb(void *user, const char *phase, int iter, double rel)
+{
+    struct prog *p = user;
+    p->calls++;
+    p->bad += iter != p->last_iter + 1 || !(rel >= 0);
+    p->last_iter = iter;
+    p->last_res = rel;
+    snprintf(p->phase, sizeof p->phase, "%s", phase);
+}
+
 int main(void)
 {
     test_rng r;
@@ -176,7 +192,28 @@ int main(void)
         }
     }
 
-    /* 5. Options and operators it cannot take. */
+    /* 5. Progress callback: once per iteration, phase "romp", increasing counts, the last
+     * residual equal to the report's. */
+    {
+        test_rng_seed(&r, 350);
+        problem P = problem_make(&r, 160, 512, 10, false, false, false);
+        struct prog pg = {0, 0, 0, 0, ""};
+        csi_romp_options o;
+        csi_romp_defaults(&o);
+        o.s = 10;
+        o.user = &pg;
+        o.progress = progress_cb;
+        csi_solve_report rep;
+        CHECK_OK(csi_romp(P.op, P.dy, P.dx, &o, &rep));
+        CHECK(pg.calls == rep.iterations && pg.bad == 0 && pg.last_res == rep.rel_residual &&
+                  strcmp(pg.phase, "romp") == 0, "progress: %d calls for %d iterations, bad %d, %g vs %g",
+              pg.calls, rep.iterations, pg.bad, pg.last_res, rep.rel_residual);
+        CHECK(rep.t_total > 0 && rep.t_select > 0 && rep.t_lsq > 0 && rep.t_select + rep.t_lsq <= rep.t_total,
+              "phase times %g %g %g", rep.t_total, rep.t_select, rep.t_lsq);
+        problem_free(&P);
+    }
+
+    /* 6. Options and operators it cannot take. */
     {
         test_rng_seed(&r, 400);
         problem P = problem_make(&r, 20, 64, 3, true, false, false);

@@ -14,7 +14,7 @@
  *
  * Every call fills a csi_solve_report: a solver that stops without meeting its criterion, or
  * whose answer is not identifiable from the measurements (more non-zeros than N / 2, so another
- * equally sparse x fits y as well), says so in `converged` / `reason` / `message`: results below
+ * equally sparse x fits y as well; only checked when N < k), says so in `converged` / `reason` / `message`: results below
  * the recovery bound are never silently presented as converged.
  *
  * Multi-channel (RGB): make one csi_solver for the operator and call csi_romp_run /
@@ -81,18 +81,26 @@ void csi_solver_free(csi_solver *s);
  * selected twice: selection skips I, and the host checks); x = argmin ||y - A x|| over x
  * supported on I by CGLS (CG on the normal equations through A and A^H), warm-started from the
  * previous x, at most lsq_iter iterations; r = y - A x. Stops when ||r|| <= tol ||y||
- * (converged), when |I| >= 2s (SUPPORT_LIMIT), at max_iter (MAX_ITER) or when no candidate is
+ * (converged), when |I| >= 2s (SUPPORT_LIMIT; max_support overrides 2s), at max_iter (MAX_ITER) or when no candidate is
  * left (STALLED). A fit with |I| > N/2 is reported NOT_IDENTIFIABLE. */
 typedef struct csi_romp_options {
     size_t s;            /* sparsity level. 0: the largest s with 2 s ln(k/s) <= N and s <= N/4
                             (the sparsity N measurements support at twice the s log(k/s)
                             bound), at least 1 */
     double tol;          /* relative residual target, default 1e-5 (float32 data) */
-    int max_iter;        /* 0: 2s + 10 (each iteration adds >= 1 index, so 2s suffice) */
+    size_t max_support;  /* support size that ends the run; 0: 2s (the published rule) */
+    int max_iter;        /* 0: max_support + 10 (each iteration adds >= 1 index) */
     int lsq_iter;        /* CG iterations per least-squares solve, default 60 */
     double lsq_tol;      /* CG stops when ||A_I^H r|| falls by this factor, default 1e-6 */
     csi_progress_fn progress;
     void *user;
+    cl_mem col_norms;        /* optional (NULL): k floats, ||A e_i||. When given, selection ranks
+                                |u_i| / ||A e_i|| (ROMP on the column-normalised operator A D,
+                                D = diag(1/||A e_i||); x = D z, and the least squares are
+                                unchanged); a zero norm excludes index i. Operators whose columns
+                                differ in norm (point samples of wavelets: fine-scale wavelets on
+                                a sample dominate raw correlations) need this; see
+                                csi_column_norms and docs/bench/solve.md. */
     uint32_t *support_log;   /* optional: receives the selected indices in selection order */
     size_t support_log_cap;  /* its capacity (entries beyond it are not written) */
 } csi_romp_options;
@@ -109,6 +117,13 @@ csi_status csi_romp(const csi_linop *A, cl_mem y, cl_mem x, const csi_romp_optio
 csi_status csi_romp_multi(const csi_linop *A, size_t nrhs, const cl_mem *y, const cl_mem *x,
                           const csi_romp_options *o, csi_solve_report *rep);
 
+/* Estimates the column norms ||A e_i|| of any operator into norms (A->cols floats) from
+ * `probes` random sign vectors z: E |(A^H z)_i|^2 = ||A e_i||^2 (Hutchinson-style probing), with
+ * relative standard deviation at most sqrt(2 / probes) per column (18% at 64 probes: enough to
+ * rank correlations); columns A cannot see come out exactly 0. Costs `probes` adjoints.
+ * Deterministic for a given seed. */
+csi_status csi_column_norms(const csi_linop *A, int probes, uint64_t seed, cl_mem norms);
+
 /* ---- SpaRSA -------------------------------------------------------------------------------
  * Iteration (WNF09 Alg. 1 for the l1 regulariser): x+ = soft(x - g/alpha, tau/alpha) with
  * g = A^H (A x - y); alpha starts from the Barzilai-Borwein value ||A s||^2 / ||s||^2
@@ -119,7 +134,8 @@ csi_status csi_romp_multi(const csi_linop *A, size_t nrhs, const cl_mem *y, cons
  * each stage tau_{j+1} = max(cont_factor ||A^H r||_inf, tau); intermediate stages stop at
  * cont_tol, the last at tol. Stopping: STOP_OBJECTIVE, |phi_k - phi_{k-1}| / phi_{k-1} <= tol;
  * STOP_GAP, the duality gap (with the feasible dual point w = r min(1, tau / ||A^H r||_inf))
- * divided by phi <= tol, or the gap below its float32 rounding level 32 u ||y||^2 (u = 2^-24).
+ * divided by phi <= tol, or the gap below its float32 rounding level 32 u ||y||^2 (u = 2^-24)
+ * and not halved for 10 steps (float32 cannot resolve it further).
  * Debiasing: CGLS on the non-zero set of x (skipped when it has more
  * than N/2 elements, reported NOT_IDENTIFIABLE). tau >= ||A^H y||_inf: x = 0 at once (ZERO). */
 typedef enum { CSI_SPARSA_STOP_GAP = 0, CSI_SPARSA_STOP_OBJECTIVE = 1 } csi_sparsa_stop;

@@ -11,7 +11,7 @@
  * Reductions return double and have bounded rounding error: per work-item Kahan-compensated
  * sums (the pending correction kept), a pairwise tree of exact TwoSum additions inside each
  * work-group, (hi, lo) partials finished in double on the host. For a sum of terms v_i, each
- * formed with relative error <= u (u = 2^-24; 4 ulp for complex magnitudes, OpenCL's hypot),
+ * formed with relative error <= u (u = 2^-24; 8 ulp for complex magnitudes, see vec.cl),
  * the computed S^ satisfies |S^ - S| <= (3u + O(m u^2)) * sum |v_i|, m = terms per work-item
  * (about n / 4096): u for forming each term, 2u for Kahan (Higham, "Accuracy and Stability of
  * Numerical Algorithms", 2nd ed., Sec. 4.3), O(u^2) for the TwoSum tree and the double finish.
@@ -54,10 +54,6 @@ csi_status csi_vec_waxpby(csi_ctx *ctx, size_t nf, float a, cl_mem x, float b, c
 /* out = soft(x, t), t >= 0: real sign(x) max(|x| - t, 0); complex x max(|x| - t, 0) / |x| with
  * x = 0 giving 0 and t = 0 giving x unchanged (no 0/0). out may be x. */
 csi_status csi_vec_soft(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, float t, cl_mem out);
-/* out = soft(x + c g, t): the proximal gradient step of SpaRSA in one pass (c = -1/alpha on
- * the gradient, or +1/alpha on A^H r). c finite, t >= 0; out may not alias x or g. */
-csi_status csi_vec_prox_step(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_mem g, float c,
-                             float t, cl_mem out);
 /* x_i = 0 where mask_i == 0 (mask: n bytes). */
 csi_status csi_vec_mask(csi_ctx *ctx, size_t n, bool cplx, cl_mem mask, cl_mem x);
 /* mask_i = 1 where x_i != 0, else 0 (mask: n bytes). */
@@ -77,6 +73,17 @@ csi_status csi_vec_asum(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, double *o
 /* max |x_i| over n elements and the smallest index attaining it (idx may be NULL). n = 0 gives
  * 0 and index 0. A NaN anywhere is returned as the maximum. */
 csi_status csi_vec_amax(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, double *val, size_t *idx);
+
+/* ---- fused passes for SpaRSA (one kernel, one read-back each) ---- */
+/* out = soft(x + c g, t) over n elements (the proximal gradient step; c = -1/alpha on the
+ * gradient, +1/alpha on A^H r) and, in the same pass, *l1 = ||out||_1 and *dx2 = ||out - x||^2.
+ * c finite, t >= 0; out may not alias x or g. */
+csi_status csi_vec_prox_sums(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, cl_mem g, float c,
+                             float t, cl_mem out, double *l1, double *dx2);
+/* r = y - Az over nf floats and, in the same pass, *rr = ||r||^2, *dd = ||Az - Ax||^2 and
+ * *ry = sum r_i y_i (Re<r, y> for complex data). r may not alias the inputs. */
+csi_status csi_vec_resid_sums(csi_vec_ws *ws, size_t nf, cl_mem y, cl_mem Az, cl_mem Ax, cl_mem r,
+                              double *rr, double *dd, double *ry);
 
 #ifdef __cplusplus
 }
