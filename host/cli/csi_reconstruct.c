@@ -38,6 +38,12 @@ static void usage(FILE *f)
 "      --lambda L            Wiener regularisation of the inverse filter, default 0.3\n"
 "      --sigma-scale S       multiply the paper's Gaussian width, default 1\n"
 "      --integrate filtered|sharp  integrate f_b (the paper's) or Phi^-1 f_b, default filtered\n"
+"      --correct none|cv     correct each pixel with its own samples (control variate:\n"
+"                            box(g) + mean of the pixel's residuals y - g), default: see below\n"
+"      --cv-n0 N             shrink that correction by n_p / (n_p + N), n_p = samples in the pixel\n"
+"      --stop gap|objective|auto  SpaRSA stopping rule (relative duality gap or objective change)\n"
+"      --continuation on|off|auto  SpaRSA continuation on tau\n"
+"      --debias on|off|auto  SpaRSA's final least squares on the support\n"
 "      --tol T               solver tolerance (relative), default: the solver's\n"
 "      --max-iter N          solver iteration cap, default: the solver's\n"
 "      --tau T               SpaRSA: tau relative to ||A^H y||_inf\n"
@@ -70,7 +76,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA };
+           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_STOP, O_CONT, O_DEBIAS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -80,7 +86,10 @@ int main(int argc, char **argv)
         {"tol", required_argument, 0, O_TOL}, {"max-iter", required_argument, 0, O_MAXIT},
         {"tau", required_argument, 0, O_TAU}, {"drop-invalid", no_argument, 0, O_DROP},
         {"device", required_argument, 0, O_DEVICE}, {"estimator", required_argument, 0, O_EST},
-        {"gauss-sigma", required_argument, 0, O_GSIGMA}, {"quiet", no_argument, 0, 'q'},
+        {"gauss-sigma", required_argument, 0, O_GSIGMA},
+        {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
+        {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
+        {"debias", required_argument, 0, O_DEBIAS}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     csi_recon_options opt;
@@ -142,6 +151,27 @@ int main(int argc, char **argv)
         case O_EST:
             if (csi_estimator_parse(optarg, &opt.estimator) != CSI_OK)
                 return cli_error(prog, CSI_ERR_ARG, "--estimator: %s", csi_last_error());
+            break;
+        case O_CORRECT:
+            if (csi_aa_correct_parse(optarg, &opt.correct) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--correct: %s", csi_last_error());
+            break;
+        case O_CVN0:
+            if (!cli_parse_double(optarg, 0, 1e6, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--cv-n0: '%s' is not a number in [0, 1e6]", optarg);
+            opt.cv_n0 = d;
+            break;
+        case O_STOP:
+            if (csi_recon_stop_parse(optarg, &opt.stop) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--stop: %s", csi_last_error());
+            break;
+        case O_CONT:
+            if (csi_switch_parse(optarg, &opt.continuation) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--continuation: %s", csi_last_error());
+            break;
+        case O_DEBIAS:
+            if (csi_switch_parse(optarg, &opt.debias) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--debias: %s", csi_last_error());
             break;
         case O_GSIGMA:
             if (!cli_parse_double(optarg, 1e-3, 1e4, &d))
