@@ -37,6 +37,8 @@ static void usage(FILE *f)
 "      --levels L            wavelet levels (default: as many as the grid allows, up to 5)\n"
 "      --lambda L            Wiener regularisation of the inverse filter, default 0.3\n"
 "      --sigma-scale S       multiply the paper's Gaussian width, default 1\n"
+"      --sigma-spacing C     Gaussian width at least C times the sample spacing sqrt(k/N)\n"
+"                            (0: the paper's width only)\n"
 "      --integrate filtered|sharp  integrate f_b (the paper's) or Phi^-1 f_b, default filtered\n"
 "      --correct none|cv     correct each pixel with its own samples (control variate:\n"
 "                            box(g) + mean of the pixel's residuals y - g), default: see below\n"
@@ -76,7 +78,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_STOP, O_CONT, O_DEBIAS };
+           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -88,6 +90,7 @@ int main(int argc, char **argv)
         {"device", required_argument, 0, O_DEVICE}, {"estimator", required_argument, 0, O_EST},
         {"gauss-sigma", required_argument, 0, O_GSIGMA},
         {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
+        {"sigma-spacing", required_argument, 0, O_SPACING},
         {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
         {"debias", required_argument, 0, O_DEBIAS}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
@@ -160,6 +163,11 @@ int main(int argc, char **argv)
             if (!cli_parse_double(optarg, 0, 1e6, &d))
                 return cli_error(prog, CSI_ERR_ARG, "--cv-n0: '%s' is not a number in [0, 1e6]", optarg);
             opt.cv_n0 = d;
+            break;
+        case O_SPACING:
+            if (!cli_parse_double(optarg, 0, 100, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--sigma-spacing: '%s' is not a number in [0, 100]", optarg);
+            opt.sigma_spacing = d;
             break;
         case O_STOP:
             if (csi_recon_stop_parse(optarg, &opt.stop) != CSI_OK)

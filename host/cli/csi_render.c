@@ -49,6 +49,7 @@ static void usage(FILE *f)
 "      --threads N           tracing threads, default: all cores\n"
 "reconstruction (as csi-reconstruct):\n"
 "      --solver romp|sparsa  --wavelet db4|db8  --levels L  --lambda L  --sigma-scale S\n"
+"      --sigma-spacing C\n"
 "      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
 "      --estimator cs|mean|gauss  --gauss-sigma S  --correct none|cv  --cv-n0 N\n"
 "      --stop gap|objective|auto  --continuation on|off|auto  --debias on|off|auto\n"
@@ -85,7 +86,7 @@ static void on_solve(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_STOP, O_CONT, O_DEBIAS, O_SPP, O_METHOD, O_GRID, O_DUMP,
+           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_SPP, O_METHOD, O_GRID, O_DUMP,
            O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
@@ -97,6 +98,7 @@ int main(int argc, char **argv)
         {"tau", required_argument, 0, O_TAU}, {"device", required_argument, 0, O_DEVICE},
         {"estimator", required_argument, 0, O_EST}, {"gauss-sigma", required_argument, 0, O_GSIGMA},
         {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
+        {"sigma-spacing", required_argument, 0, O_SPACING},
         {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
         {"debias", required_argument, 0, O_DEBIAS},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
@@ -179,6 +181,11 @@ int main(int argc, char **argv)
             if (!cli_parse_double(optarg, 0, 1e6, &d))
                 return cli_error(prog, CSI_ERR_ARG, "--cv-n0: '%s' is not a number in [0, 1e6]", optarg);
             opt.cv_n0 = d;
+            break;
+        case O_SPACING:
+            if (!cli_parse_double(optarg, 0, 100, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--sigma-spacing: '%s' is not a number in [0, 100]", optarg);
+            opt.sigma_spacing = d;
             break;
         case O_STOP:
             if (csi_recon_stop_parse(optarg, &opt.stop) != CSI_OK)

@@ -144,6 +144,7 @@ void csi_recon_defaults(csi_recon_options *o)
     o->output = CSI_AA_FILTERED;
     o->correct = CSI_CORRECT_NONE;
     o->cv_n0 = -1.0;
+    o->sigma_spacing = -1.0;
 }
 
 void csi_recon_result_free(csi_recon_result *r)
@@ -281,6 +282,9 @@ static csi_status integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol, 
                                    const csi_recon_options *opt, csi_recon_result *res,
                                    cl_mem scratch_wh, cl_mem out);
 
+/* sigma_spacing when the caller leaves it (< 0). Measured: docs/bench/quality.md. */
+#define CSI_SIGMA_SPACING_DEFAULT 0.0
+
 /* The CV shrinkage when the caller leaves it (cv_n0 < 0). Measured: docs/bench/quality.md. */
 #define CSI_CV_N0_DEFAULT 0.0
 
@@ -334,6 +338,13 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_gauss_sigmas(h, g->out_h, &sphi[1], NULL);
     sphi[0] *= opt->sigma_scale;
     sphi[1] *= opt->sigma_scale;
+    /* The filter follows the sampling rate: below a few samples per pixel the paper's width
+     * (set by the output size alone) is narrower than the gaps between samples, and the
+     * reconstruction rings between them (docs/bench/quality.md). */
+    const double spacing = (opt->sigma_spacing >= 0 ? opt->sigma_spacing : CSI_SIGMA_SPACING_DEFAULT) *
+                           sqrt((double)k / (double)n);
+    sphi[0] = fmax(sphi[0], spacing);
+    sphi[1] = fmax(sphi[1], spacing);
     int levels = opt->levels > 0 ? opt->levels : csi_wavelet_default_levels(opt->wavelet, w, h);
     if (levels < 1)
         return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,

@@ -88,6 +88,9 @@ typedef struct csi_recon_options {
     int levels;                   /* 0: csi_wavelet_default_levels */
     float lambda;                 /* Wiener regularisation, default 0.3 (the paper's) */
     double sigma_scale;           /* multiplies the paper's sigma_Phi, default 1 */
+    double sigma_spacing;         /* Alg. 1: sigma_Phi is at least this times the sample spacing
+                                     sqrt(k/N) (csi's rule: the filter follows the sampling
+                                     rate); 0: the paper's width only; < 0: the default */
     csi_aa_output output;         /* default CSI_AA_FILTERED (the paper's) */
     csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS): default CSI_CORRECT_CV */
     double cv_n0;                 /* CV shrinkage (see csi_aa_correct); < 0: the default */
