@@ -51,7 +51,7 @@ static void usage(FILE *f)
 "      --solver romp|sparsa  --wavelet db4|db8  --levels L  --lambda L  --sigma-scale S\n"
 "      --sigma-spacing C\n"
 "      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
-"      --estimator cs|mean|gauss  --gauss-sigma S  --correct none|cv  --cv-n0 N\n"
+"      --estimator cs|mean|gauss  --gauss-sigma S  --correct auto|none|cv  --cv-n0 N\n"
 "      --stop gap|objective|auto  --continuation on|off|auto  --debias on|off|auto\n"
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"

@@ -50,7 +50,8 @@ csi_status csi_aa_output_parse(const char *s, csi_aa_output *out);
  * mean, as stratified sampling's is. cv_n0 > 0 shrinks the correction where a pixel has few
  * samples, where one residual is noisier than g's bias. Measurements: docs/bench/quality.md. */
 typedef enum {
-    CSI_CORRECT_NONE = 0, /* the image is box(g) */
+    CSI_CORRECT_AUTO = 0, /* CV for the compressive estimator, NONE for the Gaussian baseline */
+    CSI_CORRECT_NONE,     /* the image is box(g) */
     CSI_CORRECT_CV,       /* the control-variate correction above */
 } csi_aa_correct;
 const char *csi_aa_correct_name(csi_aa_correct c);
@@ -91,9 +92,10 @@ typedef struct csi_recon_options {
     double sigma_spacing;         /* Alg. 1: sigma_Phi is at least this times the sample spacing
                                      sqrt(k/N) (csi's rule: the filter follows the sampling
                                      rate); 0: the paper's width only; < 0: the default */
-    csi_aa_output output;         /* default CSI_AA_FILTERED (the paper's) */
-    csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS): default CSI_CORRECT_CV */
-    double cv_n0;                 /* CV shrinkage (see csi_aa_correct); < 0: the default */
+    csi_aa_output output;         /* default CSI_AA_SHARP (measured better at 1-16 spp; the
+                                     paper's is CSI_AA_FILTERED) */
+    csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS): default AUTO */
+    double cv_n0;                 /* CV shrinkage (see csi_aa_correct); < 0: the default, 8 */
     double tol;                   /* solver tolerance; 0: the method's default */
     int max_iter;                 /* 0: the method's default */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: default */
