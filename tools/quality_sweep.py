@@ -125,6 +125,24 @@ def parse_configs(s):
     return out
 
 
+def write_md(results, path, caption):
+    """Appends one table per image: rows spp, columns configurations, cells MSE (edge MSE) and,
+    for solvers, mean solve + integrate time."""
+    with open(path, "a") as f:
+        images = list(dict.fromkeys(r["image"] for r in results))
+        names = list(dict.fromkeys(r["config"] for r in results))
+        spps = sorted(set(r["spp"] for r in results))
+        for img in images:
+            f.write("\n**%s**, %s. MSE (edge-pixel MSE) [seconds]:\n\n" % (img, caption))
+            f.write("| spp | " + " | ".join(names) + " |\n|---|" + "---|" * len(names) + "\n")
+            for spp in spps:
+                cells = []
+                for n in names:
+                    r = [x for x in results if x["image"] == img and x["spp"] == spp and x["config"] == n]
+                    cells.append("%.2e (%.2e) [%.2f]" % (r[0]["mse"], r[0]["edge_mse"], r[0]["t"]) if r else "")
+                f.write("| %d | %s |\n" % (spp, " | ".join(cells)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -138,7 +156,13 @@ def main():
     ap.add_argument("--ss", type=int, default=8, help="supersampling per fine cell for the truth")
     ap.add_argument("--md", help="append the table in Markdown to this file")
     ap.add_argument("--json", help="write all results as JSON")
+    ap.add_argument("--from-json", help="only format a saved --json file as Markdown (to --md or stdout)")
+    ap.add_argument("--caption", default="", help="with --from-json: the tables' caption")
     a = ap.parse_args()
+    if a.from_json:
+        with open(a.from_json) as f:
+            write_md(json.load(f), a.md or "/dev/stdout", a.caption)
+        return 0
     os.environ.setdefault("CSI_CACHE_DIR", os.path.expanduser("~/.cache/csi"))
     mkdump = os.path.join(a.build, "csi-mkdump")
     recon = os.path.join(a.build, "csi-reconstruct")
@@ -190,16 +214,7 @@ def main():
         with open(a.json, "w") as f:
             json.dump(results, f, indent=1)
     if a.md:
-        with open(a.md, "a") as f:
-            names = [n for n, _ in configs]
-            for img in a.images.split(","):
-                f.write("\n%s, %dx%d grid -> %dx%d, seeds %s. MSE (edge-pixel MSE):\n\n"
-                        % (img, a.grid, a.grid, a.out, a.out, a.seeds))
-                f.write("| spp | " + " | ".join(names) + " |\n|---|" + "---|" * len(names) + "\n")
-                for spp in spps:
-                    row = [r for r in results if r["image"] == img and r["spp"] == spp]
-                    cells = ["%.2e (%.2e)" % (r["mse"], r["edge_mse"]) for r in row]
-                    f.write("| %d | %s |\n" % (spp, " | ".join(cells)))
+        write_md(results, a.md, "%dx%d grid -> %dx%d, seeds %s" % (a.grid, a.grid, a.out, a.out, a.seeds))
     return 0
 
 

@@ -34,7 +34,7 @@ static void usage(FILE *f)
 "      --gauss-sigma S       width of the gauss baseline in grid cells (default 0.5 (k/N)^(1/d))\n"
 "      --solver romp|sparsa  default: sparsa (measured best; docs/BENCHMARKS.md)\n"
 "      --wavelet db4|db8     Alg. 1 basis (db4: 8 taps, db8: 16 taps), default db4\n"
-"      --levels L            wavelet levels (default: as many as the grid allows, up to 5)\n"
+"      --levels L            wavelet levels (default: as many as the grid allows, at most 5)\n"
 "      --lambda L            Wiener regularisation of the inverse filter, default 0.3\n"
 "      --sigma-scale S       multiply the paper's Gaussian width, default 1\n"
 "      --sigma-spacing C     Gaussian width at least C times the sample spacing sqrt(k/N)\n"
