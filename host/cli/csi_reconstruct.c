@@ -34,13 +34,24 @@ static void usage(FILE *f)
 "      --gauss-sigma S       width of the gauss baseline in grid cells (default 0.5 (k/N)^(1/d))\n"
 "      --solver romp|sparsa  default: sparsa (measured best; docs/BENCHMARKS.md)\n"
 "      --wavelet db4|db8     Alg. 1 basis (db4: 8 taps, db8: 16 taps), default db4\n"
-"      --levels L            wavelet levels (default: as many as the grid allows, up to 5)\n"
+"      --levels L            wavelet levels (default: as many as the grid allows, at most 5)\n"
 "      --lambda L            Wiener regularisation of the inverse filter, default 0.3\n"
 "      --sigma-scale S       multiply the paper's Gaussian width, default 1\n"
-"      --integrate filtered|sharp  integrate f_b (the paper's) or Phi^-1 f_b, default filtered\n"
-"      --tol T               solver tolerance (relative), default: the solver's\n"
-"      --max-iter N          solver iteration cap, default: the solver's\n"
-"      --tau T               SpaRSA: tau relative to ||A^H y||_inf\n"
+"      --sigma-spacing C     Gaussian width at least C times the sample spacing sqrt(k/N)\n"
+"                            (0: the paper's width only), default 0.8\n"
+"      --integrate filtered|sharp  integrate f_b (the paper's) or Phi^-1 f_b, default sharp\n"
+"      --correct auto|none|cv  correct each pixel with its own samples (control variate:\n"
+"                            box(g) + mean of the pixel's residuals y - g); auto: cv for cs,\n"
+"                            none for the gauss baseline\n"
+"      --cv-n0 N             shrink that correction by n_p / (n_p + N), n_p = samples in the\n"
+"                            pixel; default 8\n"
+"      --stop gap|objective|auto  SpaRSA stopping rule (relative duality gap or objective change;\n"
+"                            auto: objective for images, gap for volumes)\n"
+"      --continuation on|off|auto  SpaRSA continuation on tau\n"
+"      --debias on|off|auto  SpaRSA's final least squares on the support (auto: off for images)\n"
+"      --tol T               solver tolerance (relative); default 3e-3 for images, else the solver's\n"
+"      --max-iter N          solver iteration cap; default 300 for images, else the solver's\n"
+"      --tau T               SpaRSA: tau relative to ||A^H y||_inf; default for images 3e-3 / spp\n"
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
 "other:\n"
@@ -70,7 +81,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA };
+           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -80,7 +91,11 @@ int main(int argc, char **argv)
         {"tol", required_argument, 0, O_TOL}, {"max-iter", required_argument, 0, O_MAXIT},
         {"tau", required_argument, 0, O_TAU}, {"drop-invalid", no_argument, 0, O_DROP},
         {"device", required_argument, 0, O_DEVICE}, {"estimator", required_argument, 0, O_EST},
-        {"gauss-sigma", required_argument, 0, O_GSIGMA}, {"quiet", no_argument, 0, 'q'},
+        {"gauss-sigma", required_argument, 0, O_GSIGMA},
+        {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
+        {"sigma-spacing", required_argument, 0, O_SPACING},
+        {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
+        {"debias", required_argument, 0, O_DEBIAS}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     csi_recon_options opt;
@@ -142,6 +157,32 @@ int main(int argc, char **argv)
         case O_EST:
             if (csi_estimator_parse(optarg, &opt.estimator) != CSI_OK)
                 return cli_error(prog, CSI_ERR_ARG, "--estimator: %s", csi_last_error());
+            break;
+        case O_CORRECT:
+            if (csi_aa_correct_parse(optarg, &opt.correct) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--correct: %s", csi_last_error());
+            break;
+        case O_CVN0:
+            if (!cli_parse_double(optarg, 0, 1e6, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--cv-n0: '%s' is not a number in [0, 1e6]", optarg);
+            opt.cv_n0 = d;
+            break;
+        case O_SPACING:
+            if (!cli_parse_double(optarg, 0, 100, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--sigma-spacing: '%s' is not a number in [0, 100]", optarg);
+            opt.sigma_spacing = d;
+            break;
+        case O_STOP:
+            if (csi_recon_stop_parse(optarg, &opt.stop) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--stop: %s", csi_last_error());
+            break;
+        case O_CONT:
+            if (csi_switch_parse(optarg, &opt.continuation) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--continuation: %s", csi_last_error());
+            break;
+        case O_DEBIAS:
+            if (csi_switch_parse(optarg, &opt.debias) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--debias: %s", csi_last_error());
             break;
         case O_GSIGMA:
             if (!cli_parse_double(optarg, 1e-3, 1e4, &d))

@@ -46,8 +46,10 @@ static void usage(FILE *f)
 "      --threads N           tracing threads, default: all cores\n"
 "reconstruction (as csi-reconstruct):\n"
 "      --solver romp|sparsa  --wavelet db4|db8  --levels L  --lambda L  --sigma-scale S\n"
+"      --sigma-spacing C\n"
 "      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
-"      --estimator cs|mean|gauss  --gauss-sigma S\n"
+"      --estimator cs|mean|gauss  --gauss-sigma S  --correct auto|none|cv  --cv-n0 N\n"
+"      --stop gap|objective|auto  --continuation on|off|auto  --debias on|off|auto\n"
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
 "  -q, --quiet               no progress on stderr\n"
@@ -81,7 +83,7 @@ static void on_solve(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_SPP, O_METHOD, O_GRID, O_DUMP,
+           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_SPP, O_METHOD, O_GRID, O_DUMP,
            O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
@@ -92,6 +94,10 @@ int main(int argc, char **argv)
         {"tol", required_argument, 0, O_TOL}, {"max-iter", required_argument, 0, O_MAXIT},
         {"tau", required_argument, 0, O_TAU}, {"device", required_argument, 0, O_DEVICE},
         {"estimator", required_argument, 0, O_EST}, {"gauss-sigma", required_argument, 0, O_GSIGMA},
+        {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
+        {"sigma-spacing", required_argument, 0, O_SPACING},
+        {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
+        {"debias", required_argument, 0, O_DEBIAS},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
@@ -163,6 +169,32 @@ int main(int argc, char **argv)
             if (csi_estimator_parse(optarg, &opt.estimator) != CSI_OK)
                 return cli_error(prog, CSI_ERR_ARG, "--estimator: %s", csi_last_error());
             est_given = true;
+            break;
+        case O_CORRECT:
+            if (csi_aa_correct_parse(optarg, &opt.correct) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--correct: %s", csi_last_error());
+            break;
+        case O_CVN0:
+            if (!cli_parse_double(optarg, 0, 1e6, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--cv-n0: '%s' is not a number in [0, 1e6]", optarg);
+            opt.cv_n0 = d;
+            break;
+        case O_SPACING:
+            if (!cli_parse_double(optarg, 0, 100, &d))
+                return cli_error(prog, CSI_ERR_ARG, "--sigma-spacing: '%s' is not a number in [0, 100]", optarg);
+            opt.sigma_spacing = d;
+            break;
+        case O_STOP:
+            if (csi_recon_stop_parse(optarg, &opt.stop) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--stop: %s", csi_last_error());
+            break;
+        case O_CONT:
+            if (csi_switch_parse(optarg, &opt.continuation) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--continuation: %s", csi_last_error());
+            break;
+        case O_DEBIAS:
+            if (csi_switch_parse(optarg, &opt.debias) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--debias: %s", csi_last_error());
             break;
         case O_GSIGMA:
             if (!cli_parse_double(optarg, 1e-3, 1e4, &d))

@@ -52,6 +52,61 @@ csi_status csi_aa_output_parse(const char *s, csi_aa_output *out)
     return CSI_OK;
 }
 
+const char *csi_aa_correct_name(csi_aa_correct c)
+{
+    return c == CSI_CORRECT_CV ? "cv" : c == CSI_CORRECT_NONE ? "none" : "auto";
+}
+
+csi_status csi_aa_correct_parse(const char *s, csi_aa_correct *out)
+{
+    if (s && !strcasecmp(s, "auto"))
+        *out = CSI_CORRECT_AUTO;
+    else if (s && !strcasecmp(s, "none"))
+        *out = CSI_CORRECT_NONE;
+    else if (s && !strcasecmp(s, "cv"))
+        *out = CSI_CORRECT_CV;
+    else
+        return csi_fail(CSI_ERR_ARG, "unknown correction '%s' (expected none, cv or auto)", s ? s : "");
+    return CSI_OK;
+}
+
+const char *csi_switch_name(csi_switch s)
+{
+    return s == CSI_SWITCH_ON ? "on" : s == CSI_SWITCH_OFF ? "off" : "auto";
+}
+
+csi_status csi_switch_parse(const char *s, csi_switch *out)
+{
+    if (s && !strcasecmp(s, "auto"))
+        *out = CSI_SWITCH_AUTO;
+    else if (s && !strcasecmp(s, "on"))
+        *out = CSI_SWITCH_ON;
+    else if (s && !strcasecmp(s, "off"))
+        *out = CSI_SWITCH_OFF;
+    else
+        return csi_fail(CSI_ERR_ARG, "'%s' is not on, off or auto", s ? s : "");
+    return CSI_OK;
+}
+
+const char *csi_recon_stop_name(csi_recon_stop s)
+{
+    return s == CSI_STOP_GAP ? "gap" : s == CSI_STOP_OBJECTIVE ? "objective" : "auto";
+}
+
+csi_status csi_recon_stop_parse(const char *s, csi_recon_stop *out)
+{
+    if (s && !strcasecmp(s, "auto"))
+        *out = CSI_STOP_AUTO;
+    else if (s && !strcasecmp(s, "gap"))
+        *out = CSI_STOP_GAP;
+    else if (s && !strcasecmp(s, "objective"))
+        *out = CSI_STOP_OBJECTIVE;
+    else
+        return csi_fail(CSI_ERR_ARG, "unknown stopping rule '%s' (expected gap, objective or auto)",
+                        s ? s : "");
+    return CSI_OK;
+}
+
 const char *csi_estimator_name(csi_estimator e)
 {
     switch (e) {
@@ -88,7 +143,10 @@ void csi_recon_defaults(csi_recon_options *o)
     o->wavelet = CSI_WAVELET_DB4;
     o->lambda = 0.3f;
     o->sigma_scale = 1.0;
-    o->output = CSI_AA_FILTERED;
+    o->output = CSI_AA_SHARP;
+    o->correct = CSI_CORRECT_AUTO;
+    o->cv_n0 = -1.0;
+    o->sigma_spacing = -1.0;
 }
 
 void csi_recon_result_free(csi_recon_result *r)
@@ -164,8 +222,28 @@ static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_s
     return CSI_OK;
 }
 
+/* SpaRSA settings for Alg. 1 (the image problem) where the caller left them to the method.
+ * Measured in docs/bench/quality.md. */
+static void image_sparsa_defaults(csi_sparsa_options *o, double spp)
+{
+    /* The image stops changing long before the duality gap closes (with continuation the
+     * default gap rule ran 2000 steps in an intermediate stage): stop on the relative change of
+     * the objective instead. 3e-3 stops after 15-55 steps with the MSE within a few % of 300. */
+    o->stop = CSI_SPARSA_STOP_OBJECTIVE;
+    o->tol = 3e-3;
+    o->max_iter = 300;
+    /* The final least squares on the support refits the samples exactly and cost up to 2x in
+     * MSE (e.g. 9.6e-4 against 4.6e-4, triangle 4 spp); without it never worse. */
+    o->debias = false;
+    /* The best tau falls with the samples per pixel, about 3e-3 / spp of ||A^H y||_inf
+     * (measured 1 to 16 spp, 4x4 and 8x8 cells per pixel): few samples want a smoother fit. */
+    o->tau_rel = fmin(3e-3, fmax(1e-5, 3e-3 / spp));
+}
+
+/* image_spp > 0: Alg. 1 with that many samples per output pixel (SpaRSA gets the image
+ * defaults where the caller left a setting open); 0: Alg. 2. */
 static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_recon_options *opt,
-                             const char *phase, csi_solve_report *rep)
+                             double image_spp, csi_solve_report *rep)
 {
     if (kind == CSI_SOLVER_ROMP) {
         csi_romp_options o;
@@ -178,11 +256,18 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
             o.s = opt->romp_s;
         o.progress = opt->progress;
         o.user = opt->user;
-        (void)phase;
         return csi_romp_run(st->solver, st->y, st->x, &o, rep);
     }
     csi_sparsa_options o;
     csi_sparsa_defaults(&o);
+    if (image_spp > 0)
+        image_sparsa_defaults(&o, image_spp);
+    if (opt->stop != CSI_STOP_AUTO)
+        o.stop = opt->stop == CSI_STOP_GAP ? CSI_SPARSA_STOP_GAP : CSI_SPARSA_STOP_OBJECTIVE;
+    if (opt->continuation != CSI_SWITCH_AUTO)
+        o.continuation = opt->continuation == CSI_SWITCH_ON;
+    if (opt->debias != CSI_SWITCH_AUTO)
+        o.debias = opt->debias == CSI_SWITCH_ON;
     if (opt->tol > 0)
         o.tol = opt->tol;
     if (opt->max_iter > 0)
@@ -212,6 +297,50 @@ static csi_status integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol, 
                                    const csi_recon_options *opt, csi_recon_result *res,
                                    cl_mem scratch_wh, cl_mem out);
 
+/* sigma_spacing when the caller leaves it (< 0). Measured: docs/bench/quality.md. */
+#define CSI_SIGMA_SPACING_DEFAULT 0.8
+
+/* The CV shrinkage when the caller leaves it (cv_n0 < 0). Measured: docs/bench/quality.md. */
+#define CSI_CV_N0_DEFAULT 8.0
+
+/* The control-variate correction of one channel (see csi_aa_correct in the header): gathers
+ * the fine estimate `fine` at the samples through S (into `gathered`, n floats on the device),
+ * then adds beta_p * (mean residual of pixel p) to plane[p] on the host, in double, in sample
+ * order (deterministic). values: sample-major, `channels` per sample; this is channel c. */
+static csi_status cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                             const csi_linop *S, cl_mem fine, cl_mem gathered, const float *values,
+                             uint32_t channels, uint32_t c, const csi_sample_pos *pos, size_t n,
+                             float *plane)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const double n0 = opt->cv_n0 >= 0 ? opt->cv_n0 : CSI_CV_N0_DEFAULT;
+    float *gs = malloc(n * sizeof *gs);
+    double *sum = calloc(np, sizeof *sum);
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    csi_status s = CSI_OK;
+    if (!gs || !sum || !cnt)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction");
+    if (s == CSI_OK)
+        s = csi_linop_apply(S, fine, gathered);
+    if (s == CSI_OK)
+        s = csi_read(ctx, gathered, 0, n * sizeof(float), gs);
+    if (s == CSI_OK) {
+        for (size_t i = 0; i < n; i++) {
+            size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+            sum[p] += (double)values[i * channels + c] - (double)gs[i];
+            cnt[p]++;
+        }
+        for (size_t p = 0; p < np; p++)
+            if (cnt[p])
+                plane[p] = (float)((double)plane[p] + sum[p] / ((double)cnt[p] + n0));
+    }
+    free(gs);
+    free(sum);
+    free(cnt);
+    return s;
+}
+
 /* Alg. 1. */
 static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
@@ -224,7 +353,23 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_gauss_sigmas(h, g->out_h, &sphi[1], NULL);
     sphi[0] *= opt->sigma_scale;
     sphi[1] *= opt->sigma_scale;
-    int levels = opt->levels > 0 ? opt->levels : csi_wavelet_default_levels(opt->wavelet, w, h);
+    /* The filter follows the sampling rate: below a few samples per pixel the paper's width
+     * (set by the output size alone) is narrower than the gaps between samples, and the
+     * reconstruction rings between them (docs/bench/quality.md). */
+    const double spacing = (opt->sigma_spacing >= 0 ? opt->sigma_spacing : CSI_SIGMA_SPACING_DEFAULT) *
+                           sqrt((double)k / (double)n);
+    sphi[0] = fmax(sphi[0], spacing);
+    sphi[1] = fmax(sphi[1], spacing);
+    /* Default: as many levels as the grid allows, at most 5. The tau rule (image_sparsa_defaults)
+     * is relative to ||A^H y||_inf, which the coarse band dominates and which doubles with each
+     * extra level; with 7 levels at 1024^2 the rule's tau was 2x off (MSE 8.5e-4 against 4.6e-4
+     * with 5 levels, texture 1 spp), while 5 against 6 levels at 512^2 differ by < 5%. */
+    int levels = opt->levels;
+    if (levels <= 0) {
+        levels = csi_wavelet_default_levels(opt->wavelet, w, h);
+        if (levels > 5)
+            levels = 5;
+    }
     if (levels < 1)
         return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,
                         csi_wavelet_name(opt->wavelet));
@@ -270,9 +415,8 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             st->plane[i] = values[i * channels + c];
         CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
         CSI_TRY(csi_fill_zero(ctx, st->x, k * sizeof(float)));
-        static const char *phase[4] = {"solve 1/", "solve 2/", "solve 3/", "solve 4/"};
         double t0 = now_s();
-        CSI_TRY(run_solver(st, res->solver, opt, phase[c], &res->report[c]));
+        CSI_TRY(run_solver(st, res->solver, opt, (double)n / (double)np, &res->report[c]));
         CSI_TRY(csi_finish(ctx));
         double t1 = now_s();
         t_solve += t1 - t0;
@@ -285,6 +429,9 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
         CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
         CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), res->image + (size_t)c * np));
+        if (opt->correct != CSI_CORRECT_NONE)
+            CSI_TRY(cv_correct(ctx, g, opt, st->S, src, st->y, values, channels, c, pos, n,
+                               res->image + (size_t)c * np));
         t_int += now_s() - t1;
     }
     res->t_solve = t_solve;
@@ -350,7 +497,7 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_fill_zero(ctx, st->x, k * 8);
         double t0 = now_s();
         if (s == CSI_OK)
-            s = run_solver(st, res->solver, opt, "solve", &res->report[c]);
+            s = run_solver(st, res->solver, opt, 0.0, &res->report[c]);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = now_s();
@@ -460,6 +607,9 @@ static csi_status gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_run1d(ctx, div, k);
         if (s == CSI_OK)
             s = integrate_volume(ctx, g, st->tmp, c, opt, res, scratch, st->out);
+        if (s == CSI_OK && g->t == 1 && opt->correct == CSI_CORRECT_CV)
+            s = cv_correct(ctx, g, opt, st->S, st->tmp, st->y, values, channels, c, pos, n,
+                           res->image + (size_t)c * np);
         if (s == CSI_OK) {
             csi_solve_report *r = &res->report[c];
             r->converged = true;

@@ -118,6 +118,22 @@ static const char *const exr_reserved[] = {"channels", "compression", "dataWindo
                                            "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth", "tiles",
                                            "type", "name", "version", "chunkCount"};
 
+/* OpenEXRCore up to 3.4.7 (Debian 12 ships 3.1.5) keeps the compressed chunk when zlib's output
+ * is exactly as long as the packed pixels, but readers take a chunk of that size for raw data
+ * and decode garbage (openexr issue #2306, fixed by PR #2307: the test became >=). Measured here:
+ * a 64 x 64 float image whose second 16-line chunk deflated to exactly 4096 bytes read back as
+ * NaN and +-3e38. The guard stores such a chunk raw, as the fixed library does. */
+static exr_result_t zip_guard(exr_encode_pipeline_t *enc)
+{
+    typedef exr_result_t (*compress_fn_t)(exr_encode_pipeline_t *);
+    compress_fn_t inner = (compress_fn_t)enc->encoding_user_data;
+    exr_result_t rv = inner(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes == enc->packed_bytes &&
+        enc->compressed_buffer != enc->packed_buffer && enc->compressed_buffer)
+        memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+    return rv;
+}
+
 csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr *attrs, size_t nattrs)
 {
     CSI_TRY(check_image(path, img));
@@ -211,6 +227,10 @@ csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr 
             ch->encode_from_ptr = (const uint8_t *)(img->data + ((size_t)c * img->h + (size_t)ci.start_y) * img->w);
         }
         EXR_STEP(exr_encoding_choose_default_routines(f, part, &enc), "exr_encoding_choose_default_routines");
+        if (enc.compress_fn && enc.compress_fn != zip_guard) {
+            enc.encoding_user_data = (void *)enc.compress_fn;
+            enc.compress_fn = zip_guard;
+        }
         EXR_STEP(exr_encoding_run(f, part, &enc), "encoding pixels");
     }
     if (enc_init)

@@ -3,8 +3,14 @@
  *
  *   grid.t == 1  Alg. 1: A = S Phi^-1 Psi (sampling, Wiener-inverted Gaussian, Daubechies
  *                wavelet synthesis); solve for the wavelet coefficients of the filtered image
- *                f_b; box-integrate f_b (the paper's estimator) or Phi^-1 f_b (csi's sharper
- *                option) over each output pixel.
+ *                f_b; box-integrate Phi^-1 f_b (default) or f_b (the paper's estimator) over
+ *                each output pixel, then (default) correct each pixel with its own samples.
+ *                The defaults differ from the paper where measurements showed it (sharp target,
+ *                Gaussian width following the sample spacing, SpaRSA stopped on the objective
+ *                with tau from the samples per pixel, no debiasing, control-variate correction,
+ *                at most 5 levels): docs/bench/quality.md has the figures. They beat stratified
+ *                sampling's MSE at 1 to 16 spp on the measured images; the paper's
+ *                configuration loses to it from 9 spp on.
  *   grid.t  > 1  Alg. 2: A = S F3^H (3-D orthonormal Fourier basis over x, y, t); solve for the
  *                complex coefficients; f = Re(F3^H x); the image is the mean of f over t, box-
  *                integrated to the output size; optionally every frame too (Sec. 6.1).
@@ -39,6 +45,34 @@ typedef enum {
 const char *csi_aa_output_name(csi_aa_output o);
 csi_status csi_aa_output_parse(const char *s, csi_aa_output *out);
 
+/* After integration, Alg. 1 can correct each pixel with its own samples (csi's addition, not
+ * the paper's). CV treats the fine estimate g (f_b, Phi^-1 f_b, or the Gaussian baseline's
+ * image) as a control variate of the pixel's Monte Carlo mean:
+ *     pixel = box(g) + beta_p * mean over the pixel's samples i of (y_i - g(x_i)),
+ *     beta_p = n_p / (n_p + cv_n0),  n_p = the number of samples in the pixel.
+ * With beta = 1 this is the stratified sample mean plus the term box(g) - mean_i g(x_i), which
+ * removes the part of the sample mean's error that g predicts: the bias of g (its blur)
+ * cancels, and when the samples cover every cell of the pixel the result is the exact cell
+ * mean, as stratified sampling's is. cv_n0 > 0 shrinks the correction where a pixel has few
+ * samples, where one residual is noisier than g's bias. Measurements: docs/bench/quality.md. */
+typedef enum {
+    CSI_CORRECT_AUTO = 0, /* CV for the compressive estimator, NONE for the Gaussian baseline */
+    CSI_CORRECT_NONE,     /* the image is box(g) */
+    CSI_CORRECT_CV,       /* the control-variate correction above */
+} csi_aa_correct;
+const char *csi_aa_correct_name(csi_aa_correct c);
+csi_status csi_aa_correct_parse(const char *s, csi_aa_correct *out);
+
+/* A setting that is on, off, or left to the method's measured default. */
+typedef enum { CSI_SWITCH_AUTO = 0, CSI_SWITCH_ON, CSI_SWITCH_OFF } csi_switch;
+csi_status csi_switch_parse(const char *s, csi_switch *out); /* "auto", "on", "off" */
+const char *csi_switch_name(csi_switch s);
+
+/* SpaRSA's stopping rule as a reconstruction option: AUTO lets the method choose. */
+typedef enum { CSI_STOP_AUTO = 0, CSI_STOP_GAP, CSI_STOP_OBJECTIVE } csi_recon_stop;
+csi_status csi_recon_stop_parse(const char *s, csi_recon_stop *out); /* "auto", "gap", "objective" */
+const char *csi_recon_stop_name(csi_recon_stop s);
+
 /* The estimator: csi's compressive method, or one of the baselines it is measured against. */
 typedef enum {
     CSI_EST_CS = 0, /* compressive: Alg. 1 (grid.t = 1) or Alg. 2 (grid.t > 1) */
@@ -61,10 +95,19 @@ typedef struct csi_recon_options {
     int levels;                   /* 0: csi_wavelet_default_levels */
     float lambda;                 /* Wiener regularisation, default 0.3 (the paper's) */
     double sigma_scale;           /* multiplies the paper's sigma_Phi, default 1 */
-    csi_aa_output output;         /* default CSI_AA_FILTERED (the paper's) */
-    double tol;                   /* solver tolerance; 0: the solver's default */
-    int max_iter;                 /* 0: the solver's default */
+    double sigma_spacing;         /* Alg. 1: sigma_Phi is at least this times the sample spacing
+                                     sqrt(k/N) (csi's rule: the filter follows the sampling
+                                     rate); 0: the paper's width only; < 0: the default */
+    csi_aa_output output;         /* default CSI_AA_SHARP (measured better at 1-16 spp; the
+                                     paper's is CSI_AA_FILTERED) */
+    csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS): default AUTO */
+    double cv_n0;                 /* CV shrinkage (see csi_aa_correct); < 0: the default, 8 */
+    double tol;                   /* solver tolerance; 0: the method's default */
+    int max_iter;                 /* 0: the method's default */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: default */
+    csi_recon_stop stop;          /* SpaRSA stopping rule; AUTO: the method's default */
+    csi_switch continuation;      /* SpaRSA continuation on tau; AUTO: the method's default */
+    csi_switch debias;            /* SpaRSA debiasing phase; AUTO: the method's default */
     size_t romp_s;                /* ROMP sparsity; 0: default from N */
     bool frames;                  /* grid.t > 1: also return every frame */
     csi_progress_fn progress;     /* phase names: "setup", "solve R" ..., "integrate" */
