@@ -325,7 +325,24 @@ inline void dft7(float *xr, float *xi, float sgn)
         }                                                                                      \
     }
 
-#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R)
+/* The first pass along rows (p = 1) of a complex-to-complex transform, with its inputs
+ * multiplied by `scale` (the 1/sqrt(N) of the orthonormal Fourier basis, fused here so that it
+ * costs no pass of its own). */
+#define USCALE(r) scale
+#define ROW_PASS_SCALED(R)                                                                      \
+    __kernel void csi_fft_row_s_r##R(__global const float *restrict in,                       \
+                                     __global float *restrict out,                            \
+                                     __global const float *restrict tw, const uint L_,         \
+                                     const uint p_, const uint ts_, const uint nrows,          \
+                                     const uint rs, const float sgn, const float scale)        \
+    {                                                                                          \
+        const size_t i = get_global_id(0), row = get_global_id(1);                             \
+        const size_t T = (size_t)L_ / R, p = p_, ts = ts_;                                     \
+        const size_t base = row * (size_t)rs;                                                  \
+        PASS_BODY(R, ROW_LD, ROW_ST, USCALE)                                                   \
+    }
+
+#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
 ALL_PASSES(4)

@@ -270,31 +270,61 @@ static size_t pow2_dividing(size_t n, size_t cap)
     return p;
 }
 
-static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_plan *a, int pass,
-                           cl_uint p, float sgn)
+/* One pass along contiguous rows: `rows` rows of a->L complex values, row n at element n rs.
+ * scale >= 0 selects the scaled variant of the p = 1 kernel (inputs multiplied by scale). */
+static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                             cl_uint p, float sgn, size_t rows, size_t rs_, float scale)
 {
     int R = a->radix[pass];
     cl_kernel k;
     if (p >= 8) {
         /* k-indexed form: contiguous loads and stores (see kernels/fft.cl) */
-        CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("rowk", R), &k));
-        cl_uint L = (cl_uint)a->L, rs = (cl_uint)f->M, twoff = (cl_uint)a->twoff[pass];
+        CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
+        cl_uint L = (cl_uint)a->L, rs = (cl_uint)rs_, twoff = (cl_uint)a->twoff[pass];
         CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->twp), CSI_ARG(twoff), CSI_ARG(L),
                          CSI_ARG(p), CSI_ARG(rs), CSI_ARG(sgn)));
         size_t lk = pow2_dividing(p, 16);
-        size_t global[3] = {p, a->L / ((size_t)R * p), f->rows}, local[3] = {lk, 1, 1};
-        return csi_run(f->ctx, k, 3, global, local);
+        size_t global[3] = {p, a->L / ((size_t)R * p), rows}, local[3] = {lk, 1, 1};
+        return csi_run(ctx, k, 3, global, local);
     }
-    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("row", R), &k));
-    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)f->rows,
-            rs = (cl_uint)f->M;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p), CSI_ARG(ts),
-                     CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn)));
+    const bool scaled = scale >= 0.0f;
+    CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(scaled ? "row_s" : "row", R), &k));
+    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)rows,
+            rs = (cl_uint)rs_;
+    if (scaled)
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                         CSI_ARG(ts), CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn), CSI_ARG(scale)));
+    else
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                         CSI_ARG(ts), CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn)));
     /* Exact launch (the kernel has no bounds check): local sizes divide the global ones. */
     size_t T = a->L / (size_t)R;
-    size_t lx = pow2_dividing(T, 64), ly = pow2_dividing(f->rows, 64 / lx);
-    size_t global[2] = {T, f->rows}, local[2] = {lx, ly};
-    return csi_run(f->ctx, k, 2, global, local);
+    size_t lx = pow2_dividing(T, 64), ly = pow2_dividing(rows, 64 / lx);
+    size_t global[2] = {T, rows}, local[2] = {lx, ly};
+    return csi_run(ctx, k, 2, global, local);
+}
+
+static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                           cl_uint p, float sgn)
+{
+    return launch_row(f->ctx, in, out, a, pass, p, sgn, f->rows, f->M, -1.0f);
+}
+
+/* One unscaled pass along a strided axis: lines (c, b), c < nc (contiguous), b < nb, element q
+ * of a line at c + b sb + q sa. */
+static csi_status launch_col(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                             cl_uint p, float sgn, size_t nc_, size_t sa_, size_t nb_, size_t sb_)
+{
+    int R = a->radix[pass];
+    cl_kernel k;
+    CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
+    cl_uint nc = (cl_uint)nc_, sa = (cl_uint)sa_, nb = (cl_uint)nb_, sb = (cl_uint)sb_;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                     CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
+    /* Exact launch: the local size divides nc (the kernel has no bounds check). */
+    size_t global[3] = {nc_, a->L / (size_t)R, nb_}, local[3] = {pow2_dividing(nc_, 16), 1, 1};
+    return csi_run(ctx, k, 3, global, local);
 }
 
 /* A pass along axis a (1 = y, 2 = z) of the half spectrum; gain != 0 for the gain-fused one. */
@@ -415,6 +445,123 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
         CSI_TRY(row_pass(f, cur, dst, ax, i, p, 1.0f));
         cur = dst;
         p *= (cl_uint)ax->radix[i];
+    }
+    return CSI_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Complex-to-complex transforms (the orthonormal Fourier basis)                               */
+
+struct csi_fft_c2c {
+    csi_ctx *ctx;
+    size_t c[3], n;
+    int nd;
+    axis_plan ax[3];
+    cl_mem Q;       /* scratch volume, n complex values */
+    float scale;
+};
+
+bool csi_fft_c2c_supported(const size_t c[3], int nd)
+{
+    if (nd < 1 || nd > 3)
+        return false;
+    size_t n = 1;
+    for (int a = 0; a < nd; a++) {
+        if (c[a] < 2 || !factor_ok(c[a]))
+            return false;
+        n *= c[a];
+    }
+    /* Kernel arguments (lengths, strides) are 32-bit; element indices are size_t. */
+    return n < ((size_t)1 << 32);
+}
+
+void csi_fft_c2c_free(csi_fft_c2c *f)
+{
+    if (!f)
+        return;
+    for (int a = 0; a < 3; a++) {
+        csi_buffer_release(&f->ax[a].tw);
+        csi_buffer_release(&f->ax[a].twp);
+    }
+    csi_buffer_release(&f->Q);
+    free(f);
+}
+
+csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                              csi_fft_c2c **out)
+{
+    *out = NULL;
+    if (!csi_fft_c2c_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "FFT: size %zu x %zu x %zu not supported by csi's FFT", c[0],
+                        c[1], c[2]);
+    csi_fft_c2c *f = calloc(1, sizeof *f);
+    if (!f)
+        return csi_fail(CSI_ERR_NOMEM, "FFT: out of host memory");
+    f->ctx = ctx;
+    f->nd = nd;
+    f->scale = scale;
+    f->n = 1;
+    for (int a = 0; a < 3; a++) {
+        f->c[a] = a < nd ? c[a] : 1;
+        f->n *= f->c[a];
+    }
+    csi_status st = CSI_OK;
+    for (int a = 0; a < nd && st == CSI_OK; a++) {
+        f->ax[a].L = f->c[a];
+        plan_radices(&f->ax[a]);
+        st = twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw);
+        if (st == CSI_OK && a == 0)
+            st = pass_twiddles(ctx, &f->ax[a]);
+        for (int p = 0; p < f->ax[a].np && st == CSI_OK; p++) {
+            cl_kernel k;
+            int R = f->ax[a].radix[p];
+            if (a == 0) {
+                st = csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? "row_s" : "row", R), &k);
+                if (st == CSI_OK)
+                    st = csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k);
+            } else {
+                st = csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k);
+            }
+        }
+    }
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, f->n * 8, CL_MEM_READ_WRITE, "the FFT's scratch volume", &f->Q);
+    if (st != CSI_OK) {
+        csi_fft_c2c_free(f);
+        return st;
+    }
+    *out = f;
+    return CSI_OK;
+}
+
+csi_status csi_fft_c2c_run(csi_fft_c2c *f, cl_mem x, cl_mem y, int sign)
+{
+    if (x == y || x == f->Q || y == f->Q)
+        return csi_fail(CSI_ERR_ARG, "FFT: input, output and scratch must be different buffers");
+    const float sgn = sign < 0 ? -1.0f : 1.0f;
+    int total = 0;
+    for (int a = 0; a < f->nd; a++)
+        total += f->ax[a].np;
+    /* Stockham passes are out of place: alternate between y and the scratch Q so that the last
+     * pass lands in y (pass i writes y when total - 1 - i is even); x is only read. */
+    cl_mem cur = x;
+    int i = 0;
+    const size_t c0 = f->c[0], c1 = f->c[1], c2 = f->c[2];
+    for (int a = 0; a < f->nd; a++) {
+        const axis_plan *ax = &f->ax[a];
+        cl_uint p = 1;
+        for (int q = 0; q < ax->np; q++, i++) {
+            cl_mem dst = ((total - 1 - i) % 2 == 0) ? y : f->Q;
+            if (a == 0)
+                CSI_TRY(launch_row(f->ctx, cur, dst, ax, q, p, sgn, c1 * c2, c0,
+                                   i == 0 ? f->scale : -1.0f));
+            else if (a == 1) /* along y: lines (x, z) */
+                CSI_TRY(launch_col(f->ctx, cur, dst, ax, q, p, sgn, c0, c0, c2, c0 * c1));
+            else /* along z: lines (x, y) */
+                CSI_TRY(launch_col(f->ctx, cur, dst, ax, q, p, sgn, c0, c0 * c1, c1, c0));
+            cur = dst;
+            p *= (cl_uint)ax->radix[q];
+        }
     }
     return CSI_OK;
 }

@@ -1,6 +1,9 @@
-/* Orthonormal Fourier basis (csi_fourier_create) under PoCL: against np.fft.fftn / ifftn with
- * norm="ortho" (tools/gen_refs_spectral.py), unitarity (apply(adjoint(x)) = x, Parseval), the
- * complex adjoint identity <A x, y> = <x, A^H y>, 1-D / 2-D / 3-D, non-square and 3 * 2^n sizes.
+/* Orthonormal Fourier basis (csi_fourier_create) under PoCL, on both FFT implementations (csi's
+ * own Stockham kernels and clFFT): against np.fft.fftn / ifftn with norm="ortho"
+ * (tools/gen_refs_spectral.py), unitarity (apply(adjoint(x)) = x, Parseval), the complex adjoint
+ * identity <A x, y> = <x, A^H y>, 1-D / 2-D / 3-D, non-square and 3 * 2^n sizes; then native
+ * against clFFT on sizes that exercise every radix (2..8, 3, 5, 7), odd lengths, the k-indexed
+ * row passes (p >= 8) and squeezed axes of length 1.
  *
  * Tolerances: a float32 FFT of N points has relative L2 error ~ c * eps * log2(N) (Higham,
  * Accuracy and Stability of Numerical Algorithms, Sec. 24.1), eps = 6e-8, log2(8192) = 13: we
@@ -61,11 +64,48 @@ static double cnorm(const float *a, size_t n)
     return sqrt(r);
 }
 
+static const csi_fft_backend backends[2] = {CSI_FFT_NATIVE, CSI_FFT_CLFFT};
+static const char *backend_names[2] = {"native", "clFFT"};
+
+/* Native vs clFFT on random complex data, both directions. Both are float32 FFTs with error
+ * ~ c eps log2(N) against the exact DFT (see above), so they differ by at most twice the
+ * single-transform bound: 2e-5. */
+static void cross_check(csi_ctx *ctx, const size_t dims[3], unsigned seed)
+{
+    size_t n = dims[0] * dims[1] * dims[2];
+    csi_linop *Fn = NULL, *Fc = NULL;
+    CHECK_OK(csi_fourier_create_backend(ctx, dims, CSI_FFT_NATIVE, &Fn));
+    CHECK_OK(csi_fourier_create_backend(ctx, dims, CSI_FFT_CLFFT, &Fc));
+    if (Fn && Fc) {
+        test_rng r;
+        test_rng_seed(&r, seed);
+        float *x = malloc(2 * n * sizeof *x), *a = malloc(2 * n * sizeof *a),
+              *b = malloc(2 * n * sizeof *b);
+        for (size_t k = 0; k < 2 * n; k++)
+            x[k] = (float)test_rng_normal(&r);
+        for (int adj = 0; adj < 2; adj++) {
+            run(Fn, x, a, adj);
+            run(Fc, x, b, adj);
+            double e = test_rel_l2(a, b, 2 * n);
+            CHECK(e < 2e-5, "%zux%zux%zu %s native vs clFFT: rel L2 %.3g", dims[0], dims[1],
+                  dims[2], adj ? "adjoint" : "apply", e);
+            printf("%zux%zux%zu %-7s native vs clFFT %.2e\n", dims[0], dims[1], dims[2],
+                   adj ? "adjoint" : "apply", e);
+        }
+        free(x);
+        free(a);
+        free(b);
+    }
+    csi_linop_free(Fn);
+    csi_linop_free(Fc);
+}
+
 int main(void)
 {
     csi_ctx *ctx = test_ctx();
-    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        const struct ccase *cc = &cases[c];
+    for (size_t c = 0; c < 2 * sizeof cases / sizeof cases[0]; c++) {
+        const int be = (int)(c % 2);
+        const struct ccase *cc = &cases[c / 2];
         char path[128];
         test_npy ax, af, ai;
         snprintf(path, sizeof path, "spectral/%s_x.npy", cc->name);
@@ -82,7 +122,7 @@ int main(void)
         float *x = test_npy_f32(&ax), *wf = test_npy_f32(&af), *wi = test_npy_f32(&ai);
         float *y = malloc(2 * n * sizeof *y), *z = malloc(2 * n * sizeof *z);
         csi_linop *F = NULL;
-        CHECK_OK(csi_fourier_create(ctx, cc->dims, &F));
+        CHECK_OK(csi_fourier_create_backend(ctx, cc->dims, backends[be], &F));
         if (F) {
             CHECK(F->rows == n && F->cols == n && F->complex_valued, "%s: shape", cc->name);
             /* adjoint = forward unitary DFT = fftn(norm="ortho") */
@@ -100,11 +140,12 @@ int main(void)
             run(F, x, y, false);
             double ei = test_rel_l2(y, wi, 2 * n);
             CHECK(ei < 1e-5, "%s apply vs ifftn ortho: rel L2 %.3g", cc->name, ei);
-            printf("%-9s fwd %.2e  inv %.2e  round trip %.2e\n", cc->name, ef, ei, er);
+            printf("%-9s %-6s fwd %.2e  inv %.2e  round trip %.2e\n", cc->name, backend_names[be],
+                   ef, ei, er);
 
             /* <A a, b> = <a, A^H b> for random complex a, b. */
             test_rng r;
-            test_rng_seed(&r, 300 + c);
+            test_rng_seed(&r, 300 + c / 2);
             float *a = malloc(2 * n * sizeof *a), *b = malloc(2 * n * sizeof *b);
             for (size_t k = 0; k < 2 * n; k++) {
                 a[k] = (float)test_rng_normal(&r);
@@ -130,6 +171,19 @@ int main(void)
         test_npy_free(&ax);
         test_npy_free(&af);
         test_npy_free(&ai);
+    }
+
+    {
+        static const size_t sizes[][3] = {
+            {56, 20, 9},  /* radices 8 x 7, 4 x 5, 9 = 3 x 3 */
+            {512, 4, 2},  /* 8 x 8 x 8 along x: the k-indexed row passes (p >= 8) */
+            {1, 25, 14},  /* x of length 1 (squeezed), 5 x 5, 2 x 7 */
+            {15, 1, 6},   /* odd x (local size 1 launches), middle axis squeezed */
+            {2, 3, 5},    /* the smallest lengths of each radix */
+            {128, 1, 1},  /* 1-D */
+        };
+        for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++)
+            cross_check(ctx, sizes[i], 700 + (unsigned)i);
     }
 
     /* A unit impulse at the origin has the flat spectrum 1/sqrt(N) (closed form). */

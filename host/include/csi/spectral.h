@@ -68,6 +68,14 @@ csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const d
  * shape (dims[2], dims[1], dims[0]). */
 csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **out);
 
+/* The same basis on a chosen FFT implementation. AUTO (what csi_fourier_create does): csi's own
+ * Stockham kernels (kernels/fft.cl; every size csi_fft_check_size accepts, below 2^32 points),
+ * else clFFT. CLFFT: always clFFT (the reference the tests check the native path against).
+ * NATIVE: csi's kernels or CSI_ERR_ARG. Device memory: the native path holds one scratch
+ * volume (8 N bytes) besides small twiddle tables; clFFT whatever its plan asks for. */
+csi_status csi_fourier_create_backend(csi_ctx *ctx, const size_t dims[3], csi_fft_backend backend,
+                                      csi_linop **out);
+
 /* CSI_OK if clFFT can transform an axis of length n (n >= 1 and only factors 2, 3, 5, 7);
  * otherwise CSI_ERR_ARG with a message naming `what` and the size. */
 csi_status csi_fft_check_size(const char *what, const size_t dims[3]);
