@@ -28,7 +28,9 @@
 
 #include "csi/positions.h"
 #include "csi/reconstruct.h"
+#include "csi/sampling.h"
 #include "csi/spectral.h"
+#include "csi/vec.h"
 
 #define PI_ 3.14159265358979323846
 
@@ -187,6 +189,8 @@ typedef struct {
     int runs;
     double tau_rel, tol;
     int max_iter;
+    double wexp, wf0;
+    double resid; /* -2: library default */
     int cont; /* -1 default, 0 off, 1 on */
     double gauss;
     const char *scenes, *rates;
@@ -258,6 +262,117 @@ static void bench_fft(csi_ctx *ctx, const bench_opts *o)
     csi_buffer_release(&y);
 }
 
+/* ---- vec: the solver's per-iteration vector work at the volume's size ------------------- */
+
+static void bench_vec(csi_ctx *ctx, const bench_opts *o)
+{
+    size_t k = o->w * o->h * o->T, nf = 2 * k;
+    cl_mem a, b, c;
+    OK(csi_buffer(ctx, nf * 4, CL_MEM_READ_WRITE, "a", &a));
+    OK(csi_buffer(ctx, nf * 4, CL_MEM_READ_WRITE, "b", &b));
+    OK(csi_buffer(ctx, nf * 4, CL_MEM_READ_WRITE, "c", &c));
+    OK(csi_vec_fill(ctx, a, nf, 0.5f));
+    OK(csi_vec_fill(ctx, b, nf, 0.25f));
+    OK(csi_vec_fill(ctx, c, nf, 0.0f));
+    csi_vec_ws *ws;
+    OK(csi_vec_ws_create(ctx, &ws));
+    double r;
+    const char *names[] = {"copy (csi_copy)", "fill_zero", "prox_step", "asum (cplx)", "dist2", "amax (cplx)", "dot", "nrm2"};
+    for (int op = 0; op < 8; op++) {
+        double t[7];
+        for (int rep = 0; rep < 4; rep++) {
+            double t0 = now();
+            switch (op) {
+            case 0: OK(csi_copy(ctx, c, 0, a, 0, nf * 4)); break;
+            case 1: OK(csi_fill_zero(ctx, c, nf * 4)); break;
+            case 2: OK(csi_vec_prox_step(ctx, k, true, a, b, -0.5f, 0.01f, c)); break;
+            case 3: OK(csi_vec_asum(ws, k, true, a, &r)); break;
+            case 4: OK(csi_vec_dist2(ws, nf, a, b, &r)); break;
+            case 5: OK(csi_vec_amax(ws, k, true, a, &r, NULL)); break;
+            case 6: OK(csi_vec_dot(ws, nf, a, b, &r)); break;
+            case 7: OK(csi_vec_nrm2(ws, nf, a, &r)); break;
+            }
+            OK(csi_finish(ctx));
+            t[rep] = now() - t0;
+        }
+        printf("| %s | %.1f ms |\n", names[op], 1e3 * median(t + 1, 3));
+    }
+    csi_vec_ws_free(ws);
+    csi_buffer_release(&a);
+    csi_buffer_release(&b);
+    csi_buffer_release(&c);
+}
+
+/* ---- vecproto: the same vector work written the way PoCL's CPU device runs fast --------- *
+ * Built from source here (not part of the library): evidence for docs/bench/motion.md of what
+ * kernels/vec.cl's element-wise and reduction kernels could cost. Differences: no bounds check
+ * (exact launches), sqrt(re^2 + im^2) instead of hypot, and reductions where each work-item
+ * sums a contiguous chunk (vec_reduce's work-items stride by the global size, and PoCL runs a
+ * group's work-items one after another, so each cache line is fetched once per work-item that
+ * touches it, 16 times). Same Kahan + pairwise scheme otherwise. */
+static const char *proto_src =
+    "#pragma OPENCL FP_CONTRACT OFF\n"
+    "__kernel void prox(__global const float *restrict x, __global const float *restrict g, const float c,\n"
+    "                   const float t, __global float *restrict out) {\n"
+    "  const size_t i = get_global_id(0);\n"
+    "  const float re = x[2*i] + c * g[2*i], im = x[2*i+1] + c * g[2*i+1];\n"
+    "  const float mag = sqrt(re * re + im * im), m = mag - t;\n"
+    "  const float f = m > 0.0f ? m / mag : 0.0f;\n"
+    "  out[2*i] = re * f; out[2*i+1] = im * f; }\n"
+    "__kernel void asum(__global const float *restrict x, const ulong chunk, __global float *restrict part) {\n"
+    "  const size_t j = get_global_id(0); const size_t b = j * chunk;\n"
+    "  float s = 0.0f, c = 0.0f;\n"
+    "  for (size_t i = b; i < b + chunk; i++) { const float re = x[2*i], im = x[2*i+1];\n"
+    "    const float v = sqrt(re * re + im * im) - c; const float t = s + v; c = (t - s) - v; s = t; }\n"
+    "  part[2*j] = s; part[2*j+1] = -c; }\n";
+
+static void bench_vecproto(csi_ctx *ctx, const bench_opts *o)
+{
+    size_t k = o->w * o->h * o->T, nf = 2 * k;
+    cl_int err;
+    cl_context cc = csi_ctx_context(ctx);
+    cl_device_id dev = csi_ctx_device(ctx);
+    cl_program prog = clCreateProgramWithSource(cc, 1, &proto_src, NULL, &err);
+    if (err || clBuildProgram(prog, 1, &dev, "", NULL, NULL))
+        DIE("prototype kernels did not build");
+    cl_kernel kp = clCreateKernel(prog, "prox", &err), ka = clCreateKernel(prog, "asum", &err);
+    cl_mem a, b, c, part;
+    OK(csi_buffer(ctx, nf * 4, CL_MEM_READ_WRITE, "a", &a));
+    OK(csi_buffer(ctx, nf * 4, CL_MEM_READ_WRITE, "b", &b));
+    OK(csi_buffer(ctx, nf * 4, CL_MEM_READ_WRITE, "c", &c));
+    size_t G = 4096;
+    OK(csi_buffer(ctx, 2 * G * 4, CL_MEM_READ_WRITE, "partials", &part));
+    OK(csi_vec_fill(ctx, a, nf, 0.5f));
+    OK(csi_vec_fill(ctx, b, nf, 0.25f));
+    float cf = -0.5f, tf = 0.01f;
+    cl_ulong chunk = k / G;
+    OK(CSI_ARGS(kp, CSI_MEM(a), CSI_MEM(b), CSI_ARG(cf), CSI_ARG(tf), CSI_MEM(c)));
+    OK(CSI_ARGS(ka, CSI_MEM(a), CSI_ARG(chunk), CSI_MEM(part)));
+    for (int op = 0; op < 2; op++) {
+        double t[4];
+        for (int rep = 0; rep < 4; rep++) {
+            double t0 = now();
+            size_t gl = op == 0 ? k : G, lo = 64;
+            OK(csi_run(ctx, op == 0 ? kp : ka, 1, &gl, &lo));
+            if (op == 1) {
+                float h[2 * 4096];
+                OK(csi_read(ctx, part, 0, sizeof h, h));
+            }
+            OK(csi_finish(ctx));
+            t[rep] = now() - t0;
+        }
+        printf("| prototype %s | %.1f ms |\n", op == 0 ? "prox_step" : "asum (cplx, contiguous chunks)",
+               1e3 * median(t + 1, 3));
+    }
+    clReleaseKernel(kp);
+    clReleaseKernel(ka);
+    clReleaseProgram(prog);
+    csi_buffer_release(&a);
+    csi_buffer_release(&b);
+    csi_buffer_release(&c);
+    csi_buffer_release(&part);
+}
+
 /* ---- solve ------------------------------------------------------------------------------- */
 
 typedef struct {
@@ -290,6 +405,12 @@ static void apply_solver_opts(csi_recon_options *ro, const bench_opts *o)
         ro->tol = o->tol;
     if (o->max_iter > 0)
         ro->max_iter = o->max_iter;
+    if (o->wexp > 0) {
+        ro->motion_wexp = o->wexp;
+        ro->motion_wf0 = o->wf0;
+    }
+    if (o->resid > -2)
+        ro->motion_resid_sigma = o->resid;
 }
 
 static void bench_solve(csi_ctx *ctx, const bench_opts *o)
@@ -375,6 +496,8 @@ typedef struct {
     const char *label;
     double tau_rel, tol;
     int max_iter;
+    double wexp, wf0;
+    double resid; /* motion_resid_sigma; -2 = the library's default */
 } setting;
 
 static void bench_quality(csi_ctx *ctx, const bench_opts *o)
@@ -383,11 +506,17 @@ static void bench_quality(csi_ctx *ctx, const bench_opts *o)
     char scenes[256], rates[256];
     snprintf(scenes, sizeof scenes, "%s", o->scenes);
     snprintf(rates, sizeof rates, "%s", o->rates);
-    static const setting defaults_only[] = {{"defaults", 0, 0, 0}};
+    static const setting defaults_only[] = {{"defaults", 0, 0, 0, 0, 0, -2}};
     static const setting sweep[] = {
-        {"tau 1e-2", 1e-2, 0, 0},      {"tau 3e-3", 3e-3, 0, 0},      {"tau 1e-3", 1e-3, 0, 0},
-        {"tau 3e-4", 3e-4, 0, 0},      {"tau 1e-4", 1e-4, 0, 0},      {"tau 1e-3 it50", 1e-3, 0, 50},
-        {"tau 1e-3 it100", 1e-3, 0, 100}, {"tau 3e-4 it100", 3e-4, 0, 100}, {"tau 1e-3 tol1e-3", 1e-3, 1e-3, 0},
+        {"tau 1e-3", 1e-3, 0, 0, 0, 0, -1},
+        {"tau 1e-2", 1e-2, 0, 0, 0, 0, -1},
+        {"tau 3e-3 + resid NC", 3e-3, 0, 0, 0, 0, 0},
+        {"tau 1e-2 + resid NC", 1e-2, 0, 0, 0, 0, 0},
+        {"tau 2e-2 + resid NC", 2e-2, 0, 0, 0, 0, 0},
+        {"tau 3e-2 + resid NC", 3e-2, 0, 0, 0, 0, 0},
+        {"tau 1e-2 + resid NC 0.8x", 1e-2, 0, 0, 0, 0, -0.8},
+        {"tau 2e-2 + resid NC 0.8x", 2e-2, 0, 0, 0, 0, -0.8},
+        {"tau 2e-2 + resid NC 1.25x", 2e-2, 0, 0, 0, 0, -1.25},
     };
     const setting *set = o->sweep ? sweep : defaults_only;
     size_t nset = o->sweep ? sizeof sweep / sizeof *sweep : 1;
@@ -424,6 +553,14 @@ static void bench_quality(csi_ctx *ctx, const bench_opts *o)
                     so.tol = set[s].tol;
                 if (set[s].max_iter > 0)
                     so.max_iter = set[s].max_iter;
+                if (set[s].wexp > 0) {
+                    so.wexp = set[s].wexp;
+                    so.wf0 = set[s].wf0;
+                }
+                if (set[s].resid > -2)
+                    so.resid = set[s].resid;
+                if (set[s].resid < -0.5 && set[s].resid > -2 && set[s].resid != -1) /* -m: m x default */
+                    so.resid = -set[s].resid * csi_gauss_nc_default_sigma(g.w * (size_t)g.h * g.t, n, 3);
                 apply_solver_opts(&ro, &so);
                 ro.frames = true;
                 csi_recon_result res;
@@ -451,7 +588,7 @@ int main(int argc, char **argv)
     if (argc < 2 || !strcmp(argv[1], "--help"))
         DIE("usage: csi-bench-motion fft|solve|quality [options] (see tools/bench_motion.c)");
     const char *mode = argv[1];
-    bench_opts o = {512, 512, 128, 0.01, 0, "disc", 1, 5, 0, 0, 0, -1, -1, "disc,pan,balls", "0.1,spp1", 0};
+    bench_opts o = {512, 512, 128, 0.01, 0, "disc", 1, 5, 0, 0, 0, 0, 0.05, -2, -1, -1, "disc,pan,balls", "0.1,spp1", 0};
     if (!strcmp(mode, "quality"))
         parse_size("64x64x32", &o);
     for (int i = 2; i < argc; i++) {
@@ -481,6 +618,12 @@ int main(int argc, char **argv)
             o.tol = atof(NEXT());
         else if (!strcmp(a, "--max-iter"))
             o.max_iter = atoi(NEXT());
+        else if (!strcmp(a, "--wexp"))
+            o.wexp = atof(NEXT());
+        else if (!strcmp(a, "--wf0"))
+            o.wf0 = atof(NEXT());
+        else if (!strcmp(a, "--resid"))
+            o.resid = atof(NEXT());
         else if (!strcmp(a, "--gauss"))
             o.gauss = atof(NEXT());
         else if (!strcmp(a, "--sweep"))
@@ -494,6 +637,11 @@ int main(int argc, char **argv)
     fprintf(stderr, "device: %s\n", csi_ctx_device_name(ctx));
     if (!strcmp(mode, "fft"))
         bench_fft(ctx, &o);
+    else if (!strcmp(mode, "vec")) {
+        printf("| vector op, %zu x %zu x %zu complex | median of 3 |\n|---|---|\n", o.w, o.h, o.T);
+        bench_vec(ctx, &o);
+        bench_vecproto(ctx, &o);
+    }
     else if (!strcmp(mode, "solve")) {
         printf("| scene | size | rate | iterations | stages | s / iteration | setup s | solve s | integrate s | total s | image PSNR | frame PSNR | peak RSS MiB |\n");
         printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");

@@ -89,6 +89,7 @@ void csi_recon_defaults(csi_recon_options *o)
     o->lambda = 0.3f;
     o->sigma_scale = 1.0;
     o->output = CSI_AA_FILTERED;
+    o->motion_resid_sigma = -1.0;
 }
 
 void csi_recon_result_free(csi_recon_result *r)
@@ -292,6 +293,64 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     return finish_nan_check(res->image, np * channels, "image");
 }
 
+/* Alg. 2's residual correction (csi_recon_options.motion_resid_sigma): f += NC(y - S f), the
+ * normalized convolution G*(S^T r) / G*(S^T 1) of the samples' residual with a 3-D Gaussian. */
+typedef struct {
+    csi_linop *S, *G;
+    cl_mem den, b, fs;
+    float eps;
+} resid_nc;
+
+static void resid_nc_free(resid_nc *r)
+{
+    csi_linop_free(r->S);
+    csi_linop_free(r->G);
+    csi_buffer_release(&r->den);
+    csi_buffer_release(&r->b);
+    csi_buffer_release(&r->fs);
+}
+
+/* scratch: k floats (a buffer the caller is done with); ones: n floats of host scratch. */
+static csi_status resid_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
+                                double sigma, cl_mem yscratch, cl_mem scratch, float *ones, resid_nc *r)
+{
+    const size_t k = (size_t)g->w * g->h * g->t;
+    const size_t dims[3] = {g->w, g->h, g->t};
+    const double sphi[3] = {sigma, sigma, sigma};
+    CSI_TRY(csi_sampling_create(ctx, k, idx, n, false, &r->S));
+    CSI_TRY(csi_filter_create(ctx, dims, sphi, CSI_FILTER_GAUSS, 1.0f, &r->G));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the residual's sample density", &r->den));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered residual", &r->b));
+    CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the estimate at the samples", &r->fs));
+    /* Same threshold as the Gaussian baseline: cells no sample reaches stay uncorrected. */
+    r->eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, 3));
+    for (size_t i = 0; i < n; i++)
+        ones[i] = 1.0f;
+    CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, ones));
+    CSI_TRY(csi_linop_adjoint(r->S, yscratch, scratch));
+    return csi_linop_apply(r->G, scratch, r->den);
+}
+
+/* f += NC(y - S f). y: the channel's n samples on the host; yscratch: n floats, scratch: k
+ * floats of device scratch; host: n floats of host scratch. */
+static csi_status resid_nc_apply(csi_ctx *ctx, resid_nc *r, const float *y, size_t n, size_t k,
+                                 cl_mem f, cl_mem yscratch, cl_mem scratch, float *host)
+{
+    CSI_TRY(csi_linop_apply(r->S, f, r->fs));
+    CSI_TRY(csi_read(ctx, r->fs, 0, n * 4, host));
+    for (size_t i = 0; i < n; i++)
+        host[i] = y[i] - host[i];
+    CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, host));
+    CSI_TRY(csi_linop_adjoint(r->S, yscratch, scratch));
+    CSI_TRY(csi_linop_apply(r->G, scratch, r->b));
+    cl_kernel div;
+    CSI_TRY(csi_kernel(ctx, "recon", "csi_nc_divide", &div));
+    cl_uint nk = (cl_uint)k;
+    CSI_TRY(CSI_ARGS(div, CSI_MEM(r->b), CSI_MEM(r->den), CSI_MEM(scratch), CSI_ARG(nk), CSI_ARG(r->eps)));
+    CSI_TRY(csi_run1d(ctx, div, k));
+    return csi_vec_axpy(ctx, k, 1.0f, scratch, f);
+}
+
 /* Alg. 2 and Sec. 6.1. */
 static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                          const csi_sample_pos *pos, const float *values, size_t n,
@@ -309,7 +368,32 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
 
     csi_linop *F = NULL;
-    CSI_TRY(csi_fourier_create(ctx, dims, &F));
+    if (opt->motion_wexp > 0) {
+        if (!(opt->motion_wf0 > 0) || !isfinite(opt->motion_wf0) || !isfinite(opt->motion_wexp))
+            return csi_fail(CSI_ERR_ARG, "Fourier weights: knee %g and exponent %g must be finite "
+                            "and > 0", opt->motion_wf0, opt->motion_wexp);
+        float *w[3] = {NULL, NULL, NULL};
+        csi_status ws = CSI_OK;
+        for (int a = 0; a < 3 && ws == CSI_OK; a++) {
+            w[a] = malloc(dims[a] * sizeof(float));
+            if (!w[a]) {
+                ws = csi_fail(CSI_ERR_NOMEM, "out of host memory for Fourier weights");
+                break;
+            }
+            for (size_t u = 0; u < dims[a]; u++) {
+                /* signed frequency in cycles per cell, numpy's fftfreq order */
+                double f = (u < (dims[a] + 1) / 2 ? (double)u : (double)u - (double)dims[a]) / (double)dims[a];
+                w[a][u] = (float)pow(1.0 + fabs(f) / opt->motion_wf0, -opt->motion_wexp);
+            }
+        }
+        if (ws == CSI_OK)
+            ws = csi_fourier_weighted_create(ctx, dims, (const float *const *)w, &F);
+        for (int a = 0; a < 3; a++)
+            free(w[a]);
+        CSI_TRY(ws);
+    } else {
+        CSI_TRY(csi_fourier_create(ctx, dims, &F));
+    }
     st->inner = F;
     st->Psi = F;
     CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, true, &st->S));
@@ -335,6 +419,21 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_complex_real", &c2r);
     res->t_setup = now_s();
+
+    resid_nc rnc;
+    memset(&rnc, 0, sizeof rnc);
+    float *yhost = NULL;
+    const bool correct = opt->motion_resid_sigma >= 0;
+    if (s == CSI_OK && correct) {
+        yhost = malloc(n * sizeof *yhost);
+        if (!yhost)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+        const double sig = opt->motion_resid_sigma > 0 ? opt->motion_resid_sigma
+                                                        : csi_gauss_nc_default_sigma(k, n, 3);
+        /* st->f (k complex) is free until the first solve ends: scratch for the density. */
+        if (s == CSI_OK)
+            s = resid_nc_init(ctx, g, st->idx, n, sig, real_y, st->f, yhost, &rnc);
+    }
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
@@ -362,10 +461,15 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = CSI_ARGS(c2r, CSI_MEM(st->f), CSI_MEM(st->tmp), CSI_ARG(nk));
         if (s == CSI_OK)
             s = csi_run1d(ctx, c2r, k);
+        /* real_y and st->f are free now: scratch for the correction */
+        if (s == CSI_OK && correct)
+            s = resid_nc_apply(ctx, &rnc, st->plane, n, k, st->tmp, real_y, st->f, yhost);
         if (s == CSI_OK)
             s = integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         t_int += now_s() - t1;
     }
+    resid_nc_free(&rnc);
+    free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);
     CSI_TRY(s);

@@ -67,6 +67,17 @@ typedef struct csi_recon_options {
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: default */
     size_t romp_s;                /* ROMP sparsity; 0: default from N */
     bool frames;                  /* grid.t > 1: also return every frame */
+    /* Alg. 2 prior (csi's extension; 0 = the paper's plain l1 on the 3-D Fourier coefficients):
+     * coefficient u is penalised by tau / w(u) with the separable weight
+     * w(u) = prod over axes (1 + |f_a| / motion_wf0)^-motion_wexp, f_a = the signed frequency of
+     * u along axis a in cycles per grid cell (|f_a| <= 1/2). */
+    double motion_wexp;           /* exponent p >= 0 */
+    double motion_wf0;            /* knee frequency f0 > 0 (cycles per cell) */
+    /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
+     * r = y - S f is interpolated by Gaussian normalized convolution and added to f, so that
+     * what the sparse Fourier model misses near the samples (edges, small movers) comes back.
+     * < 0: off (the paper's); 0: width csi_gauss_nc_default_sigma; > 0: width in grid cells. */
+    double motion_resid_sigma;
     csi_progress_fn progress;     /* phase names: "setup", "solve R" ..., "integrate" */
     void *user;
 } csi_recon_options;
