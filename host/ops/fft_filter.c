@@ -565,3 +565,205 @@ csi_status csi_fft_c2c_run(csi_fft_c2c *f, cl_mem x, cl_mem y, int sign)
     }
     return CSI_OK;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Half-spectrum transforms of real signals (the real Fourier basis of Alg. 2)                 */
+
+struct csi_fft_half {
+    csi_ctx *ctx;
+    size_t c[3], M, hs, rows;
+    int nd;
+    axis_plan ax[3];
+    cl_mem wn, P, Q;
+    float scale;
+};
+
+void csi_fft_half_free(csi_fft_half *h)
+{
+    if (!h)
+        return;
+    for (int a = 0; a < 3; a++) {
+        csi_buffer_release(&h->ax[a].tw);
+        csi_buffer_release(&h->ax[a].twp);
+    }
+    csi_buffer_release(&h->wn);
+    csi_buffer_release(&h->P);
+    csi_buffer_release(&h->Q);
+    free(h);
+}
+
+size_t csi_fft_half_stride(const csi_fft_half *h) { return h->hs; }
+size_t csi_fft_half_count(const csi_fft_half *h) { return h->hs * h->rows; }
+
+csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                               csi_fft_half **out)
+{
+    *out = NULL;
+    if (!csi_fft_filter_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "FFT: size %zu x %zu x %zu not supported by csi's real FFT "
+                        "(the first axis must be even, >= 4, its half a product of 2, 3, 5, 7)",
+                        c[0], c[1], c[2]);
+    csi_fft_half *h = calloc(1, sizeof *h);
+    if (!h)
+        return csi_fail(CSI_ERR_NOMEM, "FFT: out of host memory");
+    h->ctx = ctx;
+    h->nd = nd;
+    h->scale = scale;
+    for (int a = 0; a < 3; a++)
+        h->c[a] = a < nd ? c[a] : 1;
+    h->M = h->c[0] / 2;
+    h->hs = (h->M + 1 + 15) / 16 * 16;
+    h->rows = h->c[1] * h->c[2];
+    csi_status st = CSI_OK;
+    h->ax[0].L = h->M;
+    h->ax[1].L = h->c[1];
+    h->ax[2].L = h->c[2];
+    for (int a = 0; a < nd && st == CSI_OK; a++) {
+        plan_radices(&h->ax[a]);
+        st = twiddles(ctx, h->ax[a].L, h->ax[a].L, &h->ax[a].tw);
+        if (st == CSI_OK && a == 0)
+            st = pass_twiddles(ctx, &h->ax[a]);
+        for (int p = 0; p < h->ax[a].np && st == CSI_OK; p++) {
+            cl_kernel k;
+            int R = h->ax[a].radix[p];
+            if (a == 0) {
+                st = csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? "row_s" : "row", R), &k);
+                if (st == CSI_OK)
+                    st = csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k);
+            } else {
+                st = csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k);
+            }
+        }
+    }
+    if (st == CSI_OK)
+        st = twiddles(ctx, 2 * h->M, h->M + 1, &h->wn);
+    /* + 1 element: csi_fft_r2c_post at k = 0 reads one past the last packed row. */
+    size_t spec = h->hs * h->rows * 8, packed = (h->M * h->rows + 1) * 8;
+    size_t bytes = spec > packed ? spec : packed;
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's spectrum", &h->P);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's scratch", &h->Q);
+    static const char *extra[] = {"csi_fft_r2c_post", "csi_fft_r2c_edges", "csi_fft_zero_pad",
+                                  "csi_fft_c2r_pre_half"};
+    for (size_t i = 0; i < 4 && st == CSI_OK; i++) {
+        cl_kernel k;
+        st = csi_kernel(ctx, "fft", extra[i], &k);
+    }
+    if (st != CSI_OK) {
+        csi_fft_half_free(h);
+        return st;
+    }
+    *out = h;
+    return CSI_OK;
+}
+
+/* The next buffer of a ping-pong between P and Q (the output when `last`). */
+static cl_mem half_next(const csi_fft_half *h, cl_mem cur, cl_mem out, bool last)
+{
+    if (last)
+        return out;
+    return cur == h->P ? h->Q : h->P;
+}
+
+/* Passes along the strided axes of the half spectrum (lines of hs columns). */
+static csi_status half_cols(csi_fft_half *h, cl_mem *cur, cl_mem out, int axis, float sgn,
+                            bool last_stage)
+{
+    const axis_plan *a = &h->ax[axis];
+    const size_t hs = h->hs, c1 = h->c[1], c2 = h->c[2];
+    cl_uint p = 1;
+    for (int i = 0; i < a->np; i++) {
+        cl_mem dst = half_next(h, *cur, out, last_stage && i == a->np - 1);
+        if (axis == 1)
+            CSI_TRY(launch_col(h->ctx, *cur, dst, a, i, p, sgn, hs, hs, c2, hs * c1));
+        else
+            CSI_TRY(launch_col(h->ctx, *cur, dst, a, i, p, sgn, hs, hs * c1, c1, hs));
+        *cur = dst;
+        p *= (cl_uint)a->radix[i];
+    }
+    return CSI_OK;
+}
+
+csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
+{
+    if (f == z || f == h->P || f == h->Q || z == h->P || z == h->Q)
+        return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
+    csi_ctx *ctx = h->ctx;
+    const axis_plan *ax = &h->ax[0];
+    const bool cols = h->nd > 1;
+    cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
+    /* 1. rows as M complex values, scaled by `scale` in the first pass */
+    cl_mem cur = f;
+    cl_uint p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = half_next(h, cur, z, false);
+        CSI_TRY(launch_row(ctx, cur, dst, ax, i, p, -1.0f, h->rows, h->M, i == 0 ? h->scale : -1.0f));
+        cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    /* 2. unpack to the half spectrum, zero the padding */
+    {
+        cl_mem dst = half_next(h, cur, z, !cols);
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
+                         CSI_ARG(nrows)));
+        size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
+        size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+        CSI_TRY(csi_run1d(ctx, k, h->rows));
+        cl_uint npad = (cl_uint)(h->hs - h->M - 1);
+        if (npad > 0) {
+            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_zero_pad", &k));
+            CSI_TRY(CSI_ARGS(k, CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows), CSI_ARG(npad)));
+            size_t g2[2] = {npad, h->rows}, l2[2] = {16, 4};
+            CSI_TRY(csi_run(ctx, k, 2, g2, l2));
+        }
+        cur = dst;
+    }
+    /* 3. forward along y, then z */
+    if (h->nd >= 2)
+        CSI_TRY(half_cols(h, &cur, z, 1, -1.0f, h->nd == 2));
+    if (h->nd == 3)
+        CSI_TRY(half_cols(h, &cur, z, 2, -1.0f, true));
+    return CSI_OK;
+}
+
+csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f)
+{
+    if (f == z || f == h->P || f == h->Q || z == h->P || z == h->Q)
+        return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
+    csi_ctx *ctx = h->ctx;
+    const axis_plan *ax = &h->ax[0];
+    cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
+    cl_mem cur = z;
+    /* 1. inverse along z, then y (never the last stage: the x passes follow) */
+    if (h->nd == 3)
+        CSI_TRY(half_cols(h, &cur, f, 2, 1.0f, false));
+    if (h->nd >= 2)
+        CSI_TRY(half_cols(h, &cur, f, 1, 1.0f, false));
+    /* 2. pack with the self-conjugate bins' real parts doubled, scaled */
+    {
+        cl_mem dst = half_next(h, cur, f, ax->np == 0);
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre_half", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
+                         CSI_ARG(nrows), CSI_ARG(h->scale)));
+        size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
+        size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        cur = dst;
+    }
+    /* 3. inverse along x; the last pass writes f */
+    cl_uint p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = half_next(h, cur, f, i == ax->np - 1);
+        CSI_TRY(launch_row(ctx, cur, dst, ax, i, p, 1.0f, h->rows, h->M, -1.0f));
+        cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    return CSI_OK;
+}

@@ -39,4 +39,21 @@ csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float sca
 csi_status csi_fft_c2c_run(csi_fft_c2c *f, cl_mem x, cl_mem y, int sign);
 void csi_fft_c2c_free(csi_fft_c2c *f);
 
+/* Half-spectrum transforms of a real signal of c[0] x c[1] x c[2] (c[0] even; the sizes
+ * csi_fft_filter_supported accepts). Coefficients: complex, rows of hs >= M + 1 values
+ * (M = c[0]/2, hs padded to 16), coefficient (u0 <= M, u1, u2) at u0 + hs (u1 + c[1] u2); the
+ * padding entries are zero in every forward output and ignored by the inverse.
+ *   forward: z[u] = scale * sum_x f[x] exp(-2 pi i <u, x / c>)  (the R2C transform)
+ *   inverse: f[x] = scale * Re sum_{u0 <= M} z[u] exp(+2 pi i <u, x / c>)
+ * The inverse is the adjoint of the forward for the real inner products <f, g> and Re <z, w>.
+ * Holds two scratch spectra. */
+typedef struct csi_fft_half csi_fft_half;
+csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                               csi_fft_half **out);
+size_t csi_fft_half_stride(const csi_fft_half *h); /* hs */
+size_t csi_fft_half_count(const csi_fft_half *h);  /* hs * c[1] * c[2] */
+csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z);
+csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f);
+void csi_fft_half_free(csi_fft_half *h);
+
 #endif

@@ -507,3 +507,39 @@ csi_status csi_fourier_weighted_create(csi_ctx *ctx, const size_t dims[3], const
     *out = op;
     return CSI_OK;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Real Fourier basis on the half spectrum                                                     */
+
+csi_status csi_fourier_half_create(csi_ctx *ctx, const size_t dims[3], csi_fourier_half **out)
+{
+    if (!out)
+        return csi_fail(CSI_ERR_ARG, "csi_fourier_half_create: no output pointer");
+    *out = NULL;
+    if (!ctx)
+        return csi_fail(CSI_ERR_ARG, "csi_fourier_half_create: no context");
+    CSI_TRY(csi_fft_check_size("real Fourier basis", dims));
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    if (!csi_fft_filter_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "real Fourier basis: size %zu x %zu x %zu: the first axis "
+                        "longer than 1 must be even and >= 4", dims[0], dims[1], dims[2]);
+    float scale = (float)(1.0 / sqrt((double)c[0] * (double)c[1] * (double)c[2]));
+    return csi_fft_half_create(ctx, c, nd, scale, out);
+}
+
+size_t csi_fourier_half_count(const csi_fourier_half *h) { return csi_fft_half_count(h); }
+size_t csi_fourier_half_stride(const csi_fourier_half *h) { return csi_fft_half_stride(h); }
+
+csi_status csi_fourier_half_forward(csi_fourier_half *h, cl_mem f, cl_mem z)
+{
+    return csi_fft_half_forward(h, f, z);
+}
+
+csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f)
+{
+    return csi_fft_half_inverse(h, z, f);
+}
+
+void csi_fourier_half_free(csi_fourier_half *h) { csi_fft_half_free(h); }
