@@ -431,20 +431,6 @@ __kernel void csi_fft_gain_rows(__global float *restrict X, __global const float
     X[2 * o + 1] *= g * scale;
 }
 
-/* Separable real weights on a complex volume of n0 x n1 x n2 (x fastest), in place:
- * x[u0, u1, u2] *= w0[u0] * w1[u1] * w2[u2]. Launched over (n0, n1, n2) exactly (the local size
- * divides n0), so no bounds check. Used by the weighted Fourier basis (F^H diag(w)). */
-__kernel void csi_fft_weight3(__global float *restrict x, __global const float *restrict w0,
-                              __global const float *restrict w1, __global const float *restrict w2)
-{
-    const size_t u0 = get_global_id(0), u1 = get_global_id(1), u2 = get_global_id(2);
-    const size_t n0 = get_global_size(0), n1 = get_global_size(1);
-    const float w = w0[u0] * (w1[u1] * w2[u2]);
-    const size_t e = u0 + n0 * (u1 + n1 * u2);
-    x[2 * e] *= w;
-    x[2 * e + 1] *= w;
-}
-
 /* Zero the padding columns M+1 .. hs-1 of every half-spectrum row (they are scratch in the
  * filter, but the half-spectrum Fourier basis hands its coefficients to the solver, so they
  * must hold exact zeros). Launched over (hs - M - 1, nrows) with a bounds check. */

@@ -189,7 +189,7 @@ typedef struct {
     int runs;
     double tau_rel, tol;
     int max_iter;
-    double wexp, wf0;
+    int full;
     double resid; /* -2: library default */
     int cont; /* -1 default, 0 off, 1 on */
     double gauss;
@@ -405,10 +405,10 @@ static void apply_solver_opts(csi_recon_options *ro, const bench_opts *o)
         ro->tol = o->tol;
     if (o->max_iter > 0)
         ro->max_iter = o->max_iter;
-    if (o->wexp > 0) {
-        ro->motion_wexp = o->wexp;
-        ro->motion_wf0 = o->wf0;
-    }
+    if (o->full & 1)
+        ro->motion_full_spectrum = true;
+    if (o->full & 2)
+        ro->motion_debias = true;
     if (o->resid > -2)
         ro->motion_resid_sigma = o->resid;
 }
@@ -496,7 +496,7 @@ typedef struct {
     const char *label;
     double tau_rel, tol;
     int max_iter;
-    double wexp, wf0;
+    int full;     /* motion_full_spectrum */
     double resid; /* motion_resid_sigma; -2 = the library's default */
 } setting;
 
@@ -506,17 +506,13 @@ static void bench_quality(csi_ctx *ctx, const bench_opts *o)
     char scenes[256], rates[256];
     snprintf(scenes, sizeof scenes, "%s", o->scenes);
     snprintf(rates, sizeof rates, "%s", o->rates);
-    static const setting defaults_only[] = {{"defaults", 0, 0, 0, 0, 0, -2}};
+    static const setting defaults_only[] = {{"defaults", 0, 0, 0, 0, -2}};
     static const setting sweep[] = {
-        {"tau 1e-3", 1e-3, 0, 0, 0, 0, -1},
-        {"tau 1e-2", 1e-2, 0, 0, 0, 0, -1},
-        {"tau 3e-3 + resid NC", 3e-3, 0, 0, 0, 0, 0},
-        {"tau 1e-2 + resid NC", 1e-2, 0, 0, 0, 0, 0},
-        {"tau 2e-2 + resid NC", 2e-2, 0, 0, 0, 0, 0},
-        {"tau 3e-2 + resid NC", 3e-2, 0, 0, 0, 0, 0},
-        {"tau 1e-2 + resid NC 0.8x", 1e-2, 0, 0, 0, 0, -0.8},
-        {"tau 2e-2 + resid NC 0.8x", 2e-2, 0, 0, 0, 0, -0.8},
-        {"tau 2e-2 + resid NC 1.25x", 2e-2, 0, 0, 0, 0, -1.25},
+        {"tau 3e-3 full spectrum", 3e-3, 0, 0, 1, -1},
+        {"tau 3e-3 full spectrum debias", 3e-3, 0, 0, 3, -1},
+        {"tau 3e-3 half spectrum", 3e-3, 0, 0, 0, -1},
+        {"tau 3e-3 half spectrum debias", 3e-3, 0, 0, 2, -1},
+        {"tau 3e-3 + resid NC", 3e-3, 0, 0, 0, 0},
     };
     const setting *set = o->sweep ? sweep : defaults_only;
     size_t nset = o->sweep ? sizeof sweep / sizeof *sweep : 1;
@@ -553,10 +549,7 @@ static void bench_quality(csi_ctx *ctx, const bench_opts *o)
                     so.tol = set[s].tol;
                 if (set[s].max_iter > 0)
                     so.max_iter = set[s].max_iter;
-                if (set[s].wexp > 0) {
-                    so.wexp = set[s].wexp;
-                    so.wf0 = set[s].wf0;
-                }
+                so.full = set[s].full;
                 if (set[s].resid > -2)
                     so.resid = set[s].resid;
                 if (set[s].resid < -0.5 && set[s].resid > -2 && set[s].resid != -1) /* -m: m x default */
@@ -588,7 +581,7 @@ int main(int argc, char **argv)
     if (argc < 2 || !strcmp(argv[1], "--help"))
         DIE("usage: csi-bench-motion fft|solve|quality [options] (see tools/bench_motion.c)");
     const char *mode = argv[1];
-    bench_opts o = {512, 512, 128, 0.01, 0, "disc", 1, 5, 0, 0, 0, 0, 0.05, -2, -1, -1, "disc,pan,balls", "0.1,spp1", 0};
+    bench_opts o = {512, 512, 128, 0.01, 0, "disc", 1, 5, 0, 0, 0, 0, -2, -1, -1, "disc,pan,balls", "0.1,spp1", 0};
     if (!strcmp(mode, "quality"))
         parse_size("64x64x32", &o);
     for (int i = 2; i < argc; i++) {
@@ -618,10 +611,8 @@ int main(int argc, char **argv)
             o.tol = atof(NEXT());
         else if (!strcmp(a, "--max-iter"))
             o.max_iter = atoi(NEXT());
-        else if (!strcmp(a, "--wexp"))
-            o.wexp = atof(NEXT());
-        else if (!strcmp(a, "--wf0"))
-            o.wf0 = atof(NEXT());
+        else if (!strcmp(a, "--full"))
+            o.full = 1;
         else if (!strcmp(a, "--resid"))
             o.resid = atof(NEXT());
         else if (!strcmp(a, "--gauss"))

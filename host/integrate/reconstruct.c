@@ -89,7 +89,7 @@ void csi_recon_defaults(csi_recon_options *o)
     o->lambda = 0.3f;
     o->sigma_scale = 1.0;
     o->output = CSI_AA_FILTERED;
-    o->motion_resid_sigma = -1.0;
+    o->motion_resid_sigma = 0.0; /* on, width from the sampling density */
 }
 
 void csi_recon_result_free(csi_recon_result *r)
@@ -166,7 +166,7 @@ static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_s
 }
 
 static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_recon_options *opt,
-                             const char *phase, csi_solve_report *rep)
+                             const char *phase, csi_solve_report *rep, bool motion)
 {
     if (kind == CSI_SOLVER_ROMP) {
         csi_romp_options o;
@@ -190,6 +190,16 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
         o.max_iter = opt->max_iter;
     if (opt->tau_rel > 0)
         o.tau_rel = opt->tau_rel;
+    else if (motion)
+        o.tau_rel = CSI_MOTION_TAU_REL;
+    if (motion) {
+        /* Alg. 2: SpaRSA's debiasing (least squares on the support) only when asked for: the
+         * video's spectrum is compressible, not sparse, and refitting its support to the samples
+         * overfits them (docs/bench/motion.md). Also keeps the half- and full-spectrum solves
+         * alike: the solver's support count differs between them (conjugate pairs count once
+         * on the half spectrum), and with it whether it debiases. */
+        o.debias = opt->motion_debias;
+    }
     o.progress = opt->progress;
     o.user = opt->user;
     return csi_sparsa_run(st->solver, st->y, st->x, &o, rep);
@@ -273,7 +283,7 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         CSI_TRY(csi_fill_zero(ctx, st->x, k * sizeof(float)));
         static const char *phase[4] = {"solve 1/", "solve 2/", "solve 3/", "solve 4/"};
         double t0 = now_s();
-        CSI_TRY(run_solver(st, res->solver, opt, phase[c], &res->report[c]));
+        CSI_TRY(run_solver(st, res->solver, opt, phase[c], &res->report[c], false));
         CSI_TRY(csi_finish(ctx));
         double t1 = now_s();
         t_solve += t1 - t0;
@@ -351,7 +361,104 @@ static csi_status resid_nc_apply(csi_ctx *ctx, resid_nc *r, const float *y, size
     return csi_vec_axpy(ctx, k, 1.0f, scratch, f);
 }
 
-/* Alg. 2 and Sec. 6.1. */
+/* A = S H for Alg. 2 on the half spectrum (csi_fourier_half): z (the half spectrum, complex)
+ * -> f = H z (real volume) -> the samples f[idx_i], returned as complex values with zero
+ * imaginary parts so that the complex solver sees measurements y + 0i. The adjoint takes the
+ * real parts of its input (the imaginary parts of y - A z are zero), scatters them and applies
+ * H^T (the real-to-complex transform), which is H's adjoint for the real inner products SpaRSA
+ * uses (Re <a, b> everywhere: its steps, objective and tests). Complex-linearity is never used by
+ * SpaRSA, so a real-linear operator is enough. */
+typedef struct {
+    csi_fourier_half *H;
+    csi_linop *S;   /* real sampling */
+    cl_mem vol, yr; /* k and n floats */
+    size_t k, n;
+} half_state;
+
+static csi_status half_apply(const csi_linop *op, cl_mem z, cl_mem y)
+{
+    half_state *s = op->state;
+    CSI_TRY(csi_fourier_half_inverse(s->H, z, s->vol));
+    CSI_TRY(csi_linop_apply(s->S, s->vol, s->yr));
+    cl_kernel r2c;
+    CSI_TRY(csi_kernel(op->ctx, "recon", "csi_real_to_complex", &r2c));
+    cl_uint nn = (cl_uint)s->n;
+    CSI_TRY(CSI_ARGS(r2c, CSI_MEM(s->yr), CSI_MEM(y), CSI_ARG(nn)));
+    return csi_run1d(op->ctx, r2c, s->n);
+}
+
+static csi_status half_adjoint(const csi_linop *op, cl_mem y, cl_mem z)
+{
+    half_state *s = op->state;
+    cl_kernel c2r;
+    CSI_TRY(csi_kernel(op->ctx, "recon", "csi_complex_real", &c2r));
+    cl_uint nn = (cl_uint)s->n;
+    CSI_TRY(CSI_ARGS(c2r, CSI_MEM(y), CSI_MEM(s->yr), CSI_ARG(nn)));
+    CSI_TRY(csi_run1d(op->ctx, c2r, s->n));
+    CSI_TRY(csi_linop_adjoint(s->S, s->yr, s->vol));
+    return csi_fourier_half_forward(s->H, s->vol, z);
+}
+
+static void half_destroy(csi_linop *op)
+{
+    half_state *s = op->state;
+    if (!s)
+        return;
+    csi_fourier_half_free(s->H);
+    csi_linop_free(s->S);
+    csi_buffer_release(&s->vol);
+    csi_buffer_release(&s->yr);
+    free(s);
+    op->state = NULL;
+}
+
+static csi_status half_create(csi_ctx *ctx, const size_t dims[3], const uint32_t *idx, size_t n,
+                              csi_linop **out)
+{
+    *out = NULL;
+    csi_linop *op = calloc(1, sizeof *op);
+    half_state *s = calloc(1, sizeof *s);
+    if (!op || !s) {
+        free(op);
+        free(s);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the motion operator");
+    }
+    op->ctx = ctx;
+    op->name = "S H (half-spectrum Fourier)";
+    op->complex_valued = true;
+    op->apply = half_apply;
+    op->adjoint = half_adjoint;
+    op->destroy = half_destroy;
+    op->state = s;
+    s->k = dims[0] * dims[1] * dims[2];
+    s->n = n;
+    csi_status st = csi_fourier_half_create(ctx, dims, &s->H);
+    if (st == CSI_OK)
+        st = csi_sampling_create(ctx, s->k, idx, n, false, &s->S);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, s->k * 4, CL_MEM_READ_WRITE, "the motion operator's volume", &s->vol);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the motion operator's samples", &s->yr);
+    if (st != CSI_OK) {
+        csi_linop_free(op);
+        return st;
+    }
+    op->rows = n;
+    op->cols = csi_fourier_half_count(s->H);
+    *out = op;
+    return CSI_OK;
+}
+
+/* Alg. 2 and Sec. 6.1.
+ *
+ * The paper solves for the complex 3-D Fourier coefficients x of f with A = S F3^H. For real
+ * samples that problem has a Hermitian minimiser (if x minimises, so does its conjugate mirror,
+ * and by convexity their mean, which is Hermitian and no worse), so csi solves the same problem
+ * on the half spectrum z (csi_fourier_half: z = x on the planes u0 = 0 and u0 = n0/2, 2 x
+ * between, so H z = F3^H x and ||z||_1 = ||x||_1): half the unknowns and about half the FFT
+ * work, the same tau and the same minimiser (docs/bench/motion.md has the measurements). The
+ * full complex formulation stays available (csi_recon_options.motion_full_spectrum) and is
+ * used when the size does not allow the half spectrum (an odd first axis). */
 static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                          const csi_sample_pos *pos, const float *values, size_t n,
                          const csi_recon_options *opt, csi_recon_result *res, recon_state *st)
@@ -367,45 +474,35 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     for (size_t i = 0; i < n; i++)
         st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
 
-    csi_linop *F = NULL;
-    if (opt->motion_wexp > 0) {
-        if (!(opt->motion_wf0 > 0) || !isfinite(opt->motion_wf0) || !isfinite(opt->motion_wexp))
-            return csi_fail(CSI_ERR_ARG, "Fourier weights: knee %g and exponent %g must be finite "
-                            "and > 0", opt->motion_wf0, opt->motion_wexp);
-        float *w[3] = {NULL, NULL, NULL};
-        csi_status ws = CSI_OK;
-        for (int a = 0; a < 3 && ws == CSI_OK; a++) {
-            w[a] = malloc(dims[a] * sizeof(float));
-            if (!w[a]) {
-                ws = csi_fail(CSI_ERR_NOMEM, "out of host memory for Fourier weights");
-                break;
-            }
-            for (size_t u = 0; u < dims[a]; u++) {
-                /* signed frequency in cycles per cell, numpy's fftfreq order */
-                double f = (u < (dims[a] + 1) / 2 ? (double)u : (double)u - (double)dims[a]) / (double)dims[a];
-                w[a][u] = (float)pow(1.0 + fabs(f) / opt->motion_wf0, -opt->motion_wexp);
-            }
-        }
-        if (ws == CSI_OK)
-            ws = csi_fourier_weighted_create(ctx, dims, (const float *const *)w, &F);
-        for (int a = 0; a < 3; a++)
-            free(w[a]);
-        CSI_TRY(ws);
-    } else {
-        CSI_TRY(csi_fourier_create(ctx, dims, &F));
+    bool half = !opt->motion_full_spectrum;
+    if (half) {
+        csi_status hs = half_create(ctx, dims, st->idx, n, &st->A);
+        if (hs == CSI_ERR_ARG && !st->A)
+            half = false; /* e.g. an odd width: the full complex problem instead */
+        else
+            CSI_TRY(hs);
     }
-    st->inner = F;
-    st->Psi = F;
-    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, true, &st->S));
-    CSI_TRY(csi_linop_compose("S F3^H", st->S, st->inner, true, &st->A));
+    if (!half) {
+        csi_linop *F = NULL;
+        CSI_TRY(csi_fourier_create(ctx, dims, &F));
+        st->inner = F;
+        st->Psi = F;
+        CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, true, &st->S));
+        CSI_TRY(csi_linop_compose("S F3^H", st->S, st->inner, true, &st->A));
+    }
+    const size_t ncoef = st->A->cols;
     CSI_TRY(csi_solver_create(st->A, &st->solver));
 
     CSI_TRY(csi_buffer(ctx, n * 8, CL_MEM_READ_WRITE, "the measurements", &st->y));
-    CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the Fourier coefficients", &st->x));
-    CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the reconstructed volume", &st->f));
+    CSI_TRY(csi_buffer(ctx, ncoef * 8, CL_MEM_READ_WRITE, "the Fourier coefficients", &st->x));
+    if (!half)
+        CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the reconstructed volume", &st->f));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the real volume", &st->tmp));
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, (np > wh ? np : wh) * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
+    half_state *hst = half ? st->A->state : NULL;
+    /* k floats of scratch once the solve is done: the operator's volume, or the complex one */
+    cl_mem scratch = half ? hst->vol : st->f;
     cl_mem mean = NULL, real_y = NULL;
     csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "the time mean", &mean);
     if (s == CSI_OK)
@@ -418,7 +515,6 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         s = csi_kernel(ctx, "recon", "csi_real_to_complex", &r2c);
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_complex_real", &c2r);
-    res->t_setup = now_s();
 
     resid_nc rnc;
     memset(&rnc, 0, sizeof rnc);
@@ -430,10 +526,10 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
         const double sig = opt->motion_resid_sigma > 0 ? opt->motion_resid_sigma
                                                         : csi_gauss_nc_default_sigma(k, n, 3);
-        /* st->f (k complex) is free until the first solve ends: scratch for the density. */
         if (s == CSI_OK)
-            s = resid_nc_init(ctx, g, st->idx, n, sig, real_y, st->f, yhost, &rnc);
+            s = resid_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
     }
+    res->t_setup = now_s();
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
@@ -446,24 +542,28 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK)
             s = csi_run1d(ctx, r2c, n);
         if (s == CSI_OK)
-            s = csi_fill_zero(ctx, st->x, k * 8);
+            s = csi_fill_zero(ctx, st->x, ncoef * 8);
         double t0 = now_s();
         if (s == CSI_OK)
-            s = run_solver(st, res->solver, opt, "solve", &res->report[c]);
+            s = run_solver(st, res->solver, opt, "solve", &res->report[c], true);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = now_s();
         t_solve += t1 - t0;
         report_progress(opt, "integrate");
-        if (s == CSI_OK)
-            s = csi_linop_apply(st->Psi, st->x, st->f);
-        if (s == CSI_OK)
-            s = CSI_ARGS(c2r, CSI_MEM(st->f), CSI_MEM(st->tmp), CSI_ARG(nk));
-        if (s == CSI_OK)
-            s = csi_run1d(ctx, c2r, k);
-        /* real_y and st->f are free now: scratch for the correction */
+        if (half) {
+            if (s == CSI_OK)
+                s = csi_fourier_half_inverse(hst->H, st->x, st->tmp); /* f = H z, real */
+        } else {
+            if (s == CSI_OK)
+                s = csi_linop_apply(st->Psi, st->x, st->f);
+            if (s == CSI_OK)
+                s = CSI_ARGS(c2r, CSI_MEM(st->f), CSI_MEM(st->tmp), CSI_ARG(nk));
+            if (s == CSI_OK)
+                s = csi_run1d(ctx, c2r, k); /* f = Re(F3^H x) */
+        }
         if (s == CSI_OK && correct)
-            s = resid_nc_apply(ctx, &rnc, st->plane, n, k, st->tmp, real_y, st->f, yhost);
+            s = resid_nc_apply(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
         if (s == CSI_OK)
             s = integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         t_int += now_s() - t1;

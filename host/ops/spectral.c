@@ -337,43 +337,7 @@ typedef struct {
     clfftPlanHandle plan;
     cl_mem tmp;
     csi_fft_c2c *native; /* csi's own kernels; NULL = clFFT */
-    /* weighted basis: per-axis weight tables (original, unsqueezed axes) and a scratch volume */
-    cl_mem w[3], wscratch;
-    size_t dims[3];
 } fourier_state;
-
-/* x *= w0[u0] w1[u1] w2[u2], in place. */
-static csi_status fourier_weight(const csi_linop *op, cl_mem x)
-{
-    fourier_state *s = op->state;
-    cl_kernel k;
-    CSI_TRY(csi_kernel(op->ctx, "fft", "csi_fft_weight3", &k));
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(s->w[0]), CSI_MEM(s->w[1]), CSI_MEM(s->w[2])));
-    size_t l0 = 1;
-    while (l0 < 64 && s->dims[0] % (l0 * 2) == 0)
-        l0 *= 2;
-    size_t global[3] = {s->dims[0], s->dims[1], s->dims[2]}, local[3] = {l0, 1, 1};
-    return csi_run(op->ctx, k, 3, global, local);
-}
-
-static csi_status fourier_apply(const csi_linop *op, cl_mem x, cl_mem y);
-static csi_status fourier_adjoint(const csi_linop *op, cl_mem y, cl_mem x);
-
-static csi_status wfourier_apply(const csi_linop *op, cl_mem x, cl_mem y)
-{
-    fourier_state *s = op->state;
-    if (x == y)
-        return csi_fail(CSI_ERR_ARG, "%s: input and output must be different buffers", op->name);
-    CSI_TRY(csi_copy(op->ctx, s->wscratch, 0, x, 0, op->cols * 8));
-    CSI_TRY(fourier_weight(op, s->wscratch));
-    return fourier_apply(op, s->wscratch, y);
-}
-
-static csi_status wfourier_adjoint(const csi_linop *op, cl_mem y, cl_mem x)
-{
-    CSI_TRY(fourier_adjoint(op, y, x));
-    return fourier_weight(op, x);
-}
 
 static csi_status fourier_apply(const csi_linop *op, cl_mem x, cl_mem y)
 {
@@ -402,9 +366,6 @@ static void fourier_destroy(csi_linop *op)
     if (!s)
         return;
     csi_fft_c2c_free(s->native);
-    for (int a = 0; a < 3; a++)
-        csi_buffer_release(&s->w[a]);
-    csi_buffer_release(&s->wscratch);
     if (s->plan)
         clfftDestroyPlan(&s->plan);
     csi_buffer_release(&s->tmp);
@@ -460,46 +421,6 @@ csi_status csi_fourier_create_backend(csi_ctx *ctx, const size_t dims[3], csi_ff
         st = make_plan(ctx, nd, c, CLFFT_COMPLEX_INTERLEAVED, CLFFT_COMPLEX_INTERLEAVED, str, n, str,
                        n, scale, scale, &s->plan, &s->tmp, what);
     }
-    if (st != CSI_OK) {
-        csi_linop_free(op);
-        return st;
-    }
-    *out = op;
-    return CSI_OK;
-}
-
-csi_status csi_fourier_weighted_create(csi_ctx *ctx, const size_t dims[3], const float *const w[3],
-                                       csi_linop **out)
-{
-    if (!out)
-        return csi_fail(CSI_ERR_ARG, "csi_fourier_weighted_create: no output pointer");
-    *out = NULL;
-    if (!w || !w[0] || !w[1] || !w[2])
-        return csi_fail(CSI_ERR_ARG, "weighted Fourier basis: missing weight tables");
-    CSI_TRY(csi_fft_check_size("weighted Fourier basis", dims));
-    for (int a = 0; a < 3; a++)
-        for (size_t i = 0; i < dims[a]; i++)
-            if (!isfinite(w[a][i]))
-                return csi_fail(CSI_ERR_ARG, "weighted Fourier basis: weight %zu of axis %d is not finite",
-                                i, a);
-    csi_linop *op;
-    CSI_TRY(csi_fourier_create(ctx, dims, &op));
-    fourier_state *s = op->state;
-    op->name = "weighted-fourier-basis";
-    op->apply = wfourier_apply;
-    op->adjoint = wfourier_adjoint;
-    memcpy(s->dims, dims, sizeof s->dims);
-    csi_status st = CSI_OK;
-    for (int a = 0; a < 3 && st == CSI_OK; a++) {
-        st = csi_buffer(ctx, dims[a] * sizeof(float), CL_MEM_READ_ONLY, "Fourier weights", &s->w[a]);
-        if (st == CSI_OK)
-            st = csi_write(ctx, s->w[a], 0, dims[a] * sizeof(float), w[a]);
-    }
-    if (st == CSI_OK)
-        st = csi_buffer(ctx, op->cols * 8, CL_MEM_READ_WRITE, "the weighted basis' scratch", &s->wscratch);
-    cl_kernel k;
-    if (st == CSI_OK)
-        st = csi_kernel(ctx, "fft", "csi_fft_weight3", &k);
     if (st != CSI_OK) {
         csi_linop_free(op);
         return st;

@@ -76,16 +76,6 @@ csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **ou
 csi_status csi_fourier_create_backend(csi_ctx *ctx, const size_t dims[3], csi_fft_backend backend,
                                       csi_linop **out);
 
-/* The Fourier basis with separable real weights on the coefficients: apply = F^H diag(w),
- * adjoint = diag(w) F, with w(u0, u1, u2) = w[0][u0] w[1][u1] w[2][u2] (tables of dims[a]
- * finite floats each, indexed like the coefficient layout above; copied to the device). With it,
- * an l1 penalty on the coefficients z of x = diag(w) z is the weighted penalty
- * sum |x_u| / w(u) on the Fourier coefficients x (Candes, Wakin & Boyd, "Enhancing sparsity by
- * reweighted l1 minimization", J. Fourier Anal. Appl. 14 (2008)): a prior that expects less
- * energy where w is small. Holds one extra scratch volume (8 N bytes). */
-csi_status csi_fourier_weighted_create(csi_ctx *ctx, const size_t dims[3], const float *const w[3],
-                                       csi_linop **out);
-
 /* The real Fourier basis on the half spectrum (csi's extension for Alg. 2: a real volume has a
  * Hermitian spectrum, so half the coefficients determine it; the solver then carries half the
  * unknowns and each transform does about half the work). With N = dims[0] dims[1] dims[2],
