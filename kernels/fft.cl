@@ -325,7 +325,24 @@ inline void dft7(float *xr, float *xi, float sgn)
         }                                                                                      \
     }
 
-#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R)
+/* The first pass along rows (p = 1) of a complex-to-complex transform, with its inputs
+ * multiplied by `scale` (the 1/sqrt(N) of the orthonormal Fourier basis, fused here so that it
+ * costs no pass of its own). */
+#define USCALE(r) scale
+#define ROW_PASS_SCALED(R)                                                                      \
+    __kernel void csi_fft_row_s_r##R(__global const float *restrict in,                       \
+                                     __global float *restrict out,                            \
+                                     __global const float *restrict tw, const uint L_,         \
+                                     const uint p_, const uint ts_, const uint nrows,          \
+                                     const uint rs, const float sgn, const float scale)        \
+    {                                                                                          \
+        const size_t i = get_global_id(0), row = get_global_id(1);                             \
+        const size_t T = (size_t)L_ / R, p = p_, ts = ts_;                                     \
+        const size_t base = row * (size_t)rs;                                                  \
+        PASS_BODY(R, ROW_LD, ROW_ST, USCALE)                                                   \
+    }
+
+#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
 ALL_PASSES(4)
@@ -412,4 +429,47 @@ __kernel void csi_fft_gain_rows(__global float *restrict X, __global const float
     const size_t o = row * (size_t)hs + k;
     X[2 * o] *= g * scale;
     X[2 * o + 1] *= g * scale;
+}
+
+/* Zero the padding columns M+1 .. hs-1 of every half-spectrum row (they are scratch in the
+ * filter, but the half-spectrum Fourier basis hands its coefficients to the solver, so they
+ * must hold exact zeros). Launched over (hs - M - 1, nrows) with a bounds check. */
+__kernel void csi_fft_zero_pad(__global float *restrict X, const uint M_, const uint hs,
+                               const uint nrows, const uint npad)
+{
+    const size_t j = get_global_id(0), row = get_global_id(1);
+    if (j >= npad || row >= nrows)
+        return;
+    const size_t o = row * (size_t)hs + M_ + 1 + j;
+    X[2 * o] = 0.0f;
+    X[2 * o + 1] = 0.0f;
+}
+
+/* The packing step of the half-spectrum synthesis f = Re(sum over u0 = 0..M of R[u0]
+ * exp(+2 pi i u0 x / n)) (the real adjoint of the real-to-complex transform; see
+ * csi_fourier_half in host/ops/fft_filter.c). It is csi_fft_c2r_pre applied to X' = scale *
+ * (2 Re R[0], R[1], ..., R[M-1], 2 Re R[M]): the complex-to-real inverse of a Hermitian
+ * spectrum X' gives (X'[0] + X'[M] (-1)^x) / 2 + Re sum_mid X'[u] e^(...), so doubling the real
+ * parts of the two self-conjugate bins and dropping their imaginary parts gives exactly the sum
+ * above. */
+__kernel void csi_fft_c2r_pre_half(__global const float *restrict X, __global float *restrict Z,
+                                   __global const float *restrict wn, const uint M_,
+                                   const uint hs, const uint nrows, const float scale)
+{
+    const size_t k = get_global_id(0), row = get_global_id(1), M = M_;
+    const size_t xb = row * (size_t)hs;
+    const size_t a = xb + k, b = xb + M - k;
+    const bool edge = k == 0;
+    float xr = X[2 * a], xi = X[2 * a + 1], mr = X[2 * b], mi = -X[2 * b + 1];
+    const float fe = edge ? 2.0f * scale : scale;
+    xr *= fe;
+    mr *= fe;
+    xi = edge ? 0.0f : xi * scale;
+    mi = edge ? 0.0f : mi * scale;
+    float er = 0.5f * (xr + mr), ei = 0.5f * (xi + mi);
+    float or_, oi;
+    CMUL(or_, oi, xr - mr, xi - mi, wn[2 * k], -wn[2 * k + 1]);
+    const size_t o = row * M + k;
+    Z[2 * o] = er - 0.5f * oi;
+    Z[2 * o + 1] = ei + 0.5f * or_;
 }

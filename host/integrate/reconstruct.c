@@ -147,6 +147,7 @@ void csi_recon_defaults(csi_recon_options *o)
     o->correct = CSI_CORRECT_AUTO;
     o->cv_n0 = -1.0;
     o->sigma_spacing = -1.0;
+    o->motion_resid_sigma = 0.0; /* on, width from the sampling density */
 }
 
 void csi_recon_result_free(csi_recon_result *r)
@@ -258,6 +259,7 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
         o.user = opt->user;
         return csi_romp_run(st->solver, st->y, st->x, &o, rep);
     }
+    const bool motion = image_spp <= 0;
     csi_sparsa_options o;
     csi_sparsa_defaults(&o);
     if (image_spp > 0)
@@ -274,6 +276,16 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
         o.max_iter = opt->max_iter;
     if (opt->tau_rel > 0)
         o.tau_rel = opt->tau_rel;
+    else if (motion)
+        o.tau_rel = CSI_MOTION_TAU_REL;
+    if (motion) {
+        /* Alg. 2: SpaRSA's debiasing (least squares on the support) only when asked for: the
+         * video's spectrum is compressible, not sparse, and refitting its support to the samples
+         * overfits them (docs/bench/motion.md). Also keeps the half- and full-spectrum solves
+         * alike: the solver's support count differs between them (conjugate pairs count once
+         * on the half spectrum), and with it whether it debiases. */
+        o.debias = opt->motion_debias;
+    }
     o.progress = opt->progress;
     o.user = opt->user;
     return csi_sparsa_run(st->solver, st->y, st->x, &o, rep);
@@ -439,7 +451,162 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     return finish_nan_check(res->image, np * channels, "image");
 }
 
-/* Alg. 2 and Sec. 6.1. */
+/* Alg. 2's residual correction (csi_recon_options.motion_resid_sigma): f += NC(y - S f), the
+ * normalized convolution G*(S^T r) / G*(S^T 1) of the samples' residual with a 3-D Gaussian. */
+typedef struct {
+    csi_linop *S, *G;
+    cl_mem den, b, fs;
+    float eps;
+} resid_nc;
+
+static void resid_nc_free(resid_nc *r)
+{
+    csi_linop_free(r->S);
+    csi_linop_free(r->G);
+    csi_buffer_release(&r->den);
+    csi_buffer_release(&r->b);
+    csi_buffer_release(&r->fs);
+}
+
+/* scratch: k floats (a buffer the caller is done with); ones: n floats of host scratch. */
+static csi_status resid_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
+                                double sigma, cl_mem yscratch, cl_mem scratch, float *ones, resid_nc *r)
+{
+    const size_t k = (size_t)g->w * g->h * g->t;
+    const size_t dims[3] = {g->w, g->h, g->t};
+    const double sphi[3] = {sigma, sigma, sigma};
+    CSI_TRY(csi_sampling_create(ctx, k, idx, n, false, &r->S));
+    CSI_TRY(csi_filter_create(ctx, dims, sphi, CSI_FILTER_GAUSS, 1.0f, &r->G));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the residual's sample density", &r->den));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered residual", &r->b));
+    CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the estimate at the samples", &r->fs));
+    /* Same threshold as the Gaussian baseline: cells no sample reaches stay uncorrected. */
+    r->eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, 3));
+    for (size_t i = 0; i < n; i++)
+        ones[i] = 1.0f;
+    CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, ones));
+    CSI_TRY(csi_linop_adjoint(r->S, yscratch, scratch));
+    return csi_linop_apply(r->G, scratch, r->den);
+}
+
+/* f += NC(y - S f). y: the channel's n samples on the host; yscratch: n floats, scratch: k
+ * floats of device scratch; host: n floats of host scratch. */
+static csi_status resid_nc_apply(csi_ctx *ctx, resid_nc *r, const float *y, size_t n, size_t k,
+                                 cl_mem f, cl_mem yscratch, cl_mem scratch, float *host)
+{
+    CSI_TRY(csi_linop_apply(r->S, f, r->fs));
+    CSI_TRY(csi_read(ctx, r->fs, 0, n * 4, host));
+    for (size_t i = 0; i < n; i++)
+        host[i] = y[i] - host[i];
+    CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, host));
+    CSI_TRY(csi_linop_adjoint(r->S, yscratch, scratch));
+    CSI_TRY(csi_linop_apply(r->G, scratch, r->b));
+    cl_kernel div;
+    CSI_TRY(csi_kernel(ctx, "recon", "csi_nc_divide", &div));
+    cl_uint nk = (cl_uint)k;
+    CSI_TRY(CSI_ARGS(div, CSI_MEM(r->b), CSI_MEM(r->den), CSI_MEM(scratch), CSI_ARG(nk), CSI_ARG(r->eps)));
+    CSI_TRY(csi_run1d(ctx, div, k));
+    return csi_vec_axpy(ctx, k, 1.0f, scratch, f);
+}
+
+/* A = S H for Alg. 2 on the half spectrum (csi_fourier_half): z (the half spectrum, complex)
+ * -> f = H z (real volume) -> the samples f[idx_i], returned as complex values with zero
+ * imaginary parts so that the complex solver sees measurements y + 0i. The adjoint takes the
+ * real parts of its input (the imaginary parts of y - A z are zero), scatters them and applies
+ * H^T (the real-to-complex transform), which is H's adjoint for the real inner products SpaRSA
+ * uses (Re <a, b> everywhere: its steps, objective and tests). Complex-linearity is never used by
+ * SpaRSA, so a real-linear operator is enough. */
+typedef struct {
+    csi_fourier_half *H;
+    csi_linop *S;   /* real sampling */
+    cl_mem vol, yr; /* k and n floats */
+    size_t k, n;
+} half_state;
+
+static csi_status half_apply(const csi_linop *op, cl_mem z, cl_mem y)
+{
+    half_state *s = op->state;
+    CSI_TRY(csi_fourier_half_inverse(s->H, z, s->vol));
+    CSI_TRY(csi_linop_apply(s->S, s->vol, s->yr));
+    cl_kernel r2c;
+    CSI_TRY(csi_kernel(op->ctx, "recon", "csi_real_to_complex", &r2c));
+    cl_uint nn = (cl_uint)s->n;
+    CSI_TRY(CSI_ARGS(r2c, CSI_MEM(s->yr), CSI_MEM(y), CSI_ARG(nn)));
+    return csi_run1d(op->ctx, r2c, s->n);
+}
+
+static csi_status half_adjoint(const csi_linop *op, cl_mem y, cl_mem z)
+{
+    half_state *s = op->state;
+    cl_kernel c2r;
+    CSI_TRY(csi_kernel(op->ctx, "recon", "csi_complex_real", &c2r));
+    cl_uint nn = (cl_uint)s->n;
+    CSI_TRY(CSI_ARGS(c2r, CSI_MEM(y), CSI_MEM(s->yr), CSI_ARG(nn)));
+    CSI_TRY(csi_run1d(op->ctx, c2r, s->n));
+    CSI_TRY(csi_linop_adjoint(s->S, s->yr, s->vol));
+    return csi_fourier_half_forward(s->H, s->vol, z);
+}
+
+static void half_destroy(csi_linop *op)
+{
+    half_state *s = op->state;
+    if (!s)
+        return;
+    csi_fourier_half_free(s->H);
+    csi_linop_free(s->S);
+    csi_buffer_release(&s->vol);
+    csi_buffer_release(&s->yr);
+    free(s);
+    op->state = NULL;
+}
+
+static csi_status half_create(csi_ctx *ctx, const size_t dims[3], const uint32_t *idx, size_t n,
+                              csi_linop **out)
+{
+    *out = NULL;
+    csi_linop *op = calloc(1, sizeof *op);
+    half_state *s = calloc(1, sizeof *s);
+    if (!op || !s) {
+        free(op);
+        free(s);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the motion operator");
+    }
+    op->ctx = ctx;
+    op->name = "S H (half-spectrum Fourier)";
+    op->complex_valued = true;
+    op->apply = half_apply;
+    op->adjoint = half_adjoint;
+    op->destroy = half_destroy;
+    op->state = s;
+    s->k = dims[0] * dims[1] * dims[2];
+    s->n = n;
+    csi_status st = csi_fourier_half_create(ctx, dims, &s->H);
+    if (st == CSI_OK)
+        st = csi_sampling_create(ctx, s->k, idx, n, false, &s->S);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, s->k * 4, CL_MEM_READ_WRITE, "the motion operator's volume", &s->vol);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the motion operator's samples", &s->yr);
+    if (st != CSI_OK) {
+        csi_linop_free(op);
+        return st;
+    }
+    op->rows = n;
+    op->cols = csi_fourier_half_count(s->H);
+    *out = op;
+    return CSI_OK;
+}
+
+/* Alg. 2 and Sec. 6.1.
+ *
+ * The paper solves for the complex 3-D Fourier coefficients x of f with A = S F3^H. For real
+ * samples that problem has a Hermitian minimiser (if x minimises, so does its conjugate mirror,
+ * and by convexity their mean, which is Hermitian and no worse), so csi solves the same problem
+ * on the half spectrum z (csi_fourier_half: z = x on the planes u0 = 0 and u0 = n0/2, 2 x
+ * between, so H z = F3^H x and ||z||_1 = ||x||_1): half the unknowns and about half the FFT
+ * work, the same tau and the same minimiser (docs/bench/motion.md has the measurements). The
+ * full complex formulation stays available (csi_recon_options.motion_full_spectrum) and is
+ * used when the size does not allow the half spectrum (an odd first axis). */
 static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                          const csi_sample_pos *pos, const float *values, size_t n,
                          const csi_recon_options *opt, csi_recon_result *res, recon_state *st)
@@ -455,20 +622,35 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     for (size_t i = 0; i < n; i++)
         st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
 
-    csi_linop *F = NULL;
-    CSI_TRY(csi_fourier_create(ctx, dims, &F));
-    st->inner = F;
-    st->Psi = F;
-    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, true, &st->S));
-    CSI_TRY(csi_linop_compose("S F3^H", st->S, st->inner, true, &st->A));
+    bool half = !opt->motion_full_spectrum;
+    if (half) {
+        csi_status hs = half_create(ctx, dims, st->idx, n, &st->A);
+        if (hs == CSI_ERR_ARG && !st->A)
+            half = false; /* e.g. an odd width: the full complex problem instead */
+        else
+            CSI_TRY(hs);
+    }
+    if (!half) {
+        csi_linop *F = NULL;
+        CSI_TRY(csi_fourier_create(ctx, dims, &F));
+        st->inner = F;
+        st->Psi = F;
+        CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, true, &st->S));
+        CSI_TRY(csi_linop_compose("S F3^H", st->S, st->inner, true, &st->A));
+    }
+    const size_t ncoef = st->A->cols;
     CSI_TRY(csi_solver_create(st->A, &st->solver));
 
     CSI_TRY(csi_buffer(ctx, n * 8, CL_MEM_READ_WRITE, "the measurements", &st->y));
-    CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the Fourier coefficients", &st->x));
-    CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the reconstructed volume", &st->f));
+    CSI_TRY(csi_buffer(ctx, ncoef * 8, CL_MEM_READ_WRITE, "the Fourier coefficients", &st->x));
+    if (!half)
+        CSI_TRY(csi_buffer(ctx, k * 8, CL_MEM_READ_WRITE, "the reconstructed volume", &st->f));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the real volume", &st->tmp));
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, (np > wh ? np : wh) * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
+    half_state *hst = half ? st->A->state : NULL;
+    /* k floats of scratch once the solve is done: the operator's volume, or the complex one */
+    cl_mem scratch = half ? hst->vol : st->f;
     cl_mem mean = NULL, real_y = NULL;
     csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "the time mean", &mean);
     if (s == CSI_OK)
@@ -481,6 +663,20 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         s = csi_kernel(ctx, "recon", "csi_real_to_complex", &r2c);
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_complex_real", &c2r);
+
+    resid_nc rnc;
+    memset(&rnc, 0, sizeof rnc);
+    float *yhost = NULL;
+    const bool correct = opt->motion_resid_sigma >= 0;
+    if (s == CSI_OK && correct) {
+        yhost = malloc(n * sizeof *yhost);
+        if (!yhost)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+        const double sig = opt->motion_resid_sigma > 0 ? opt->motion_resid_sigma
+                                                        : csi_gauss_nc_default_sigma(k, n, 3);
+        if (s == CSI_OK)
+            s = resid_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
+    }
     res->t_setup = now_s();
 
     double t_solve = 0, t_int = 0;
@@ -494,7 +690,7 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK)
             s = csi_run1d(ctx, r2c, n);
         if (s == CSI_OK)
-            s = csi_fill_zero(ctx, st->x, k * 8);
+            s = csi_fill_zero(ctx, st->x, ncoef * 8);
         double t0 = now_s();
         if (s == CSI_OK)
             s = run_solver(st, res->solver, opt, 0.0, &res->report[c]);
@@ -503,16 +699,25 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         double t1 = now_s();
         t_solve += t1 - t0;
         report_progress(opt, "integrate");
-        if (s == CSI_OK)
-            s = csi_linop_apply(st->Psi, st->x, st->f);
-        if (s == CSI_OK)
-            s = CSI_ARGS(c2r, CSI_MEM(st->f), CSI_MEM(st->tmp), CSI_ARG(nk));
-        if (s == CSI_OK)
-            s = csi_run1d(ctx, c2r, k);
+        if (half) {
+            if (s == CSI_OK)
+                s = csi_fourier_half_inverse(hst->H, st->x, st->tmp); /* f = H z, real */
+        } else {
+            if (s == CSI_OK)
+                s = csi_linop_apply(st->Psi, st->x, st->f);
+            if (s == CSI_OK)
+                s = CSI_ARGS(c2r, CSI_MEM(st->f), CSI_MEM(st->tmp), CSI_ARG(nk));
+            if (s == CSI_OK)
+                s = csi_run1d(ctx, c2r, k); /* f = Re(F3^H x) */
+        }
+        if (s == CSI_OK && correct)
+            s = resid_nc_apply(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
         if (s == CSI_OK)
             s = integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         t_int += now_s() - t1;
     }
+    resid_nc_free(&rnc);
+    free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);
     CSI_TRY(s);

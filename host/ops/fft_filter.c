@@ -270,31 +270,61 @@ static size_t pow2_dividing(size_t n, size_t cap)
     return p;
 }
 
-static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_plan *a, int pass,
-                           cl_uint p, float sgn)
+/* One pass along contiguous rows: `rows` rows of a->L complex values, row n at element n rs.
+ * scale >= 0 selects the scaled variant of the p = 1 kernel (inputs multiplied by scale). */
+static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                             cl_uint p, float sgn, size_t rows, size_t rs_, float scale)
 {
     int R = a->radix[pass];
     cl_kernel k;
     if (p >= 8) {
         /* k-indexed form: contiguous loads and stores (see kernels/fft.cl) */
-        CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("rowk", R), &k));
-        cl_uint L = (cl_uint)a->L, rs = (cl_uint)f->M, twoff = (cl_uint)a->twoff[pass];
+        CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
+        cl_uint L = (cl_uint)a->L, rs = (cl_uint)rs_, twoff = (cl_uint)a->twoff[pass];
         CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->twp), CSI_ARG(twoff), CSI_ARG(L),
                          CSI_ARG(p), CSI_ARG(rs), CSI_ARG(sgn)));
         size_t lk = pow2_dividing(p, 16);
-        size_t global[3] = {p, a->L / ((size_t)R * p), f->rows}, local[3] = {lk, 1, 1};
-        return csi_run(f->ctx, k, 3, global, local);
+        size_t global[3] = {p, a->L / ((size_t)R * p), rows}, local[3] = {lk, 1, 1};
+        return csi_run(ctx, k, 3, global, local);
     }
-    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name("row", R), &k));
-    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)f->rows,
-            rs = (cl_uint)f->M;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p), CSI_ARG(ts),
-                     CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn)));
+    const bool scaled = scale >= 0.0f;
+    CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(scaled ? "row_s" : "row", R), &k));
+    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)rows,
+            rs = (cl_uint)rs_;
+    if (scaled)
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                         CSI_ARG(ts), CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn), CSI_ARG(scale)));
+    else
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                         CSI_ARG(ts), CSI_ARG(nrows), CSI_ARG(rs), CSI_ARG(sgn)));
     /* Exact launch (the kernel has no bounds check): local sizes divide the global ones. */
     size_t T = a->L / (size_t)R;
-    size_t lx = pow2_dividing(T, 64), ly = pow2_dividing(f->rows, 64 / lx);
-    size_t global[2] = {T, f->rows}, local[2] = {lx, ly};
-    return csi_run(f->ctx, k, 2, global, local);
+    size_t lx = pow2_dividing(T, 64), ly = pow2_dividing(rows, 64 / lx);
+    size_t global[2] = {T, rows}, local[2] = {lx, ly};
+    return csi_run(ctx, k, 2, global, local);
+}
+
+static csi_status row_pass(csi_fft_filter *f, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                           cl_uint p, float sgn)
+{
+    return launch_row(f->ctx, in, out, a, pass, p, sgn, f->rows, f->M, -1.0f);
+}
+
+/* One unscaled pass along a strided axis: lines (c, b), c < nc (contiguous), b < nb, element q
+ * of a line at c + b sb + q sa. */
+static csi_status launch_col(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_plan *a, int pass,
+                             cl_uint p, float sgn, size_t nc_, size_t sa_, size_t nb_, size_t sb_)
+{
+    int R = a->radix[pass];
+    cl_kernel k;
+    CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+    cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
+    cl_uint nc = (cl_uint)nc_, sa = (cl_uint)sa_, nb = (cl_uint)nb_, sb = (cl_uint)sb_;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                     CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
+    /* Exact launch: the local size divides nc (the kernel has no bounds check). */
+    size_t global[3] = {nc_, a->L / (size_t)R, nb_}, local[3] = {pow2_dividing(nc_, 16), 1, 1};
+    return csi_run(ctx, k, 3, global, local);
 }
 
 /* A pass along axis a (1 = y, 2 = z) of the half spectrum; gain != 0 for the gain-fused one. */
@@ -413,6 +443,325 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
     for (int i = 0; i < ax->np; i++) {
         cl_mem dst = i == ax->np - 1 ? y : (cur == f->P ? f->Q : f->P);
         CSI_TRY(row_pass(f, cur, dst, ax, i, p, 1.0f));
+        cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    return CSI_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Complex-to-complex transforms (the orthonormal Fourier basis)                               */
+
+struct csi_fft_c2c {
+    csi_ctx *ctx;
+    size_t c[3], n;
+    int nd;
+    axis_plan ax[3];
+    cl_mem Q;       /* scratch volume, n complex values */
+    float scale;
+};
+
+bool csi_fft_c2c_supported(const size_t c[3], int nd)
+{
+    if (nd < 1 || nd > 3)
+        return false;
+    size_t n = 1;
+    for (int a = 0; a < nd; a++) {
+        if (c[a] < 2 || !factor_ok(c[a]))
+            return false;
+        n *= c[a];
+    }
+    /* Kernel arguments (lengths, strides) are 32-bit; element indices are size_t. */
+    return n < ((size_t)1 << 32);
+}
+
+void csi_fft_c2c_free(csi_fft_c2c *f)
+{
+    if (!f)
+        return;
+    for (int a = 0; a < 3; a++) {
+        csi_buffer_release(&f->ax[a].tw);
+        csi_buffer_release(&f->ax[a].twp);
+    }
+    csi_buffer_release(&f->Q);
+    free(f);
+}
+
+csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                              csi_fft_c2c **out)
+{
+    *out = NULL;
+    if (!csi_fft_c2c_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "FFT: size %zu x %zu x %zu not supported by csi's FFT", c[0],
+                        c[1], c[2]);
+    csi_fft_c2c *f = calloc(1, sizeof *f);
+    if (!f)
+        return csi_fail(CSI_ERR_NOMEM, "FFT: out of host memory");
+    f->ctx = ctx;
+    f->nd = nd;
+    f->scale = scale;
+    f->n = 1;
+    for (int a = 0; a < 3; a++) {
+        f->c[a] = a < nd ? c[a] : 1;
+        f->n *= f->c[a];
+    }
+    csi_status st = CSI_OK;
+    for (int a = 0; a < nd && st == CSI_OK; a++) {
+        f->ax[a].L = f->c[a];
+        plan_radices(&f->ax[a]);
+        st = twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw);
+        if (st == CSI_OK && a == 0)
+            st = pass_twiddles(ctx, &f->ax[a]);
+        for (int p = 0; p < f->ax[a].np && st == CSI_OK; p++) {
+            cl_kernel k;
+            int R = f->ax[a].radix[p];
+            if (a == 0) {
+                st = csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? "row_s" : "row", R), &k);
+                if (st == CSI_OK)
+                    st = csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k);
+            } else {
+                st = csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k);
+            }
+        }
+    }
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, f->n * 8, CL_MEM_READ_WRITE, "the FFT's scratch volume", &f->Q);
+    if (st != CSI_OK) {
+        csi_fft_c2c_free(f);
+        return st;
+    }
+    *out = f;
+    return CSI_OK;
+}
+
+csi_status csi_fft_c2c_run(csi_fft_c2c *f, cl_mem x, cl_mem y, int sign)
+{
+    if (x == y || x == f->Q || y == f->Q)
+        return csi_fail(CSI_ERR_ARG, "FFT: input, output and scratch must be different buffers");
+    const float sgn = sign < 0 ? -1.0f : 1.0f;
+    int total = 0;
+    for (int a = 0; a < f->nd; a++)
+        total += f->ax[a].np;
+    /* Stockham passes are out of place: alternate between y and the scratch Q so that the last
+     * pass lands in y (pass i writes y when total - 1 - i is even); x is only read. */
+    cl_mem cur = x;
+    int i = 0;
+    const size_t c0 = f->c[0], c1 = f->c[1], c2 = f->c[2];
+    for (int a = 0; a < f->nd; a++) {
+        const axis_plan *ax = &f->ax[a];
+        cl_uint p = 1;
+        for (int q = 0; q < ax->np; q++, i++) {
+            cl_mem dst = ((total - 1 - i) % 2 == 0) ? y : f->Q;
+            if (a == 0)
+                CSI_TRY(launch_row(f->ctx, cur, dst, ax, q, p, sgn, c1 * c2, c0,
+                                   i == 0 ? f->scale : -1.0f));
+            else if (a == 1) /* along y: lines (x, z) */
+                CSI_TRY(launch_col(f->ctx, cur, dst, ax, q, p, sgn, c0, c0, c2, c0 * c1));
+            else /* along z: lines (x, y) */
+                CSI_TRY(launch_col(f->ctx, cur, dst, ax, q, p, sgn, c0, c0 * c1, c1, c0));
+            cur = dst;
+            p *= (cl_uint)ax->radix[q];
+        }
+    }
+    return CSI_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Half-spectrum transforms of real signals (the real Fourier basis of Alg. 2)                 */
+
+struct csi_fft_half {
+    csi_ctx *ctx;
+    size_t c[3], M, hs, rows;
+    int nd;
+    axis_plan ax[3];
+    cl_mem wn, P, Q;
+    float scale;
+};
+
+void csi_fft_half_free(csi_fft_half *h)
+{
+    if (!h)
+        return;
+    for (int a = 0; a < 3; a++) {
+        csi_buffer_release(&h->ax[a].tw);
+        csi_buffer_release(&h->ax[a].twp);
+    }
+    csi_buffer_release(&h->wn);
+    csi_buffer_release(&h->P);
+    csi_buffer_release(&h->Q);
+    free(h);
+}
+
+size_t csi_fft_half_stride(const csi_fft_half *h) { return h->hs; }
+size_t csi_fft_half_count(const csi_fft_half *h) { return h->hs * h->rows; }
+
+csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                               csi_fft_half **out)
+{
+    *out = NULL;
+    if (!csi_fft_filter_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "FFT: size %zu x %zu x %zu not supported by csi's real FFT "
+                        "(the first axis must be even, >= 4, its half a product of 2, 3, 5, 7)",
+                        c[0], c[1], c[2]);
+    csi_fft_half *h = calloc(1, sizeof *h);
+    if (!h)
+        return csi_fail(CSI_ERR_NOMEM, "FFT: out of host memory");
+    h->ctx = ctx;
+    h->nd = nd;
+    h->scale = scale;
+    for (int a = 0; a < 3; a++)
+        h->c[a] = a < nd ? c[a] : 1;
+    h->M = h->c[0] / 2;
+    h->hs = (h->M + 1 + 15) / 16 * 16;
+    h->rows = h->c[1] * h->c[2];
+    csi_status st = CSI_OK;
+    h->ax[0].L = h->M;
+    h->ax[1].L = h->c[1];
+    h->ax[2].L = h->c[2];
+    for (int a = 0; a < nd && st == CSI_OK; a++) {
+        plan_radices(&h->ax[a]);
+        st = twiddles(ctx, h->ax[a].L, h->ax[a].L, &h->ax[a].tw);
+        if (st == CSI_OK && a == 0)
+            st = pass_twiddles(ctx, &h->ax[a]);
+        for (int p = 0; p < h->ax[a].np && st == CSI_OK; p++) {
+            cl_kernel k;
+            int R = h->ax[a].radix[p];
+            if (a == 0) {
+                st = csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? "row_s" : "row", R), &k);
+                if (st == CSI_OK)
+                    st = csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k);
+            } else {
+                st = csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k);
+            }
+        }
+    }
+    if (st == CSI_OK)
+        st = twiddles(ctx, 2 * h->M, h->M + 1, &h->wn);
+    /* + 1 element: csi_fft_r2c_post at k = 0 reads one past the last packed row. */
+    size_t spec = h->hs * h->rows * 8, packed = (h->M * h->rows + 1) * 8;
+    size_t bytes = spec > packed ? spec : packed;
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's spectrum", &h->P);
+    if (st == CSI_OK)
+        st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's scratch", &h->Q);
+    static const char *extra[] = {"csi_fft_r2c_post", "csi_fft_r2c_edges", "csi_fft_zero_pad",
+                                  "csi_fft_c2r_pre_half"};
+    for (size_t i = 0; i < 4 && st == CSI_OK; i++) {
+        cl_kernel k;
+        st = csi_kernel(ctx, "fft", extra[i], &k);
+    }
+    if (st != CSI_OK) {
+        csi_fft_half_free(h);
+        return st;
+    }
+    *out = h;
+    return CSI_OK;
+}
+
+/* The next buffer of a ping-pong between P and Q (the output when `last`). */
+static cl_mem half_next(const csi_fft_half *h, cl_mem cur, cl_mem out, bool last)
+{
+    if (last)
+        return out;
+    return cur == h->P ? h->Q : h->P;
+}
+
+/* Passes along the strided axes of the half spectrum (lines of hs columns). */
+static csi_status half_cols(csi_fft_half *h, cl_mem *cur, cl_mem out, int axis, float sgn,
+                            bool last_stage)
+{
+    const axis_plan *a = &h->ax[axis];
+    const size_t hs = h->hs, c1 = h->c[1], c2 = h->c[2];
+    cl_uint p = 1;
+    for (int i = 0; i < a->np; i++) {
+        cl_mem dst = half_next(h, *cur, out, last_stage && i == a->np - 1);
+        if (axis == 1)
+            CSI_TRY(launch_col(h->ctx, *cur, dst, a, i, p, sgn, hs, hs, c2, hs * c1));
+        else
+            CSI_TRY(launch_col(h->ctx, *cur, dst, a, i, p, sgn, hs, hs * c1, c1, hs));
+        *cur = dst;
+        p *= (cl_uint)a->radix[i];
+    }
+    return CSI_OK;
+}
+
+csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
+{
+    if (f == z || f == h->P || f == h->Q || z == h->P || z == h->Q)
+        return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
+    csi_ctx *ctx = h->ctx;
+    const axis_plan *ax = &h->ax[0];
+    const bool cols = h->nd > 1;
+    cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
+    /* 1. rows as M complex values, scaled by `scale` in the first pass */
+    cl_mem cur = f;
+    cl_uint p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = half_next(h, cur, z, false);
+        CSI_TRY(launch_row(ctx, cur, dst, ax, i, p, -1.0f, h->rows, h->M, i == 0 ? h->scale : -1.0f));
+        cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    /* 2. unpack to the half spectrum, zero the padding */
+    {
+        cl_mem dst = half_next(h, cur, z, !cols);
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
+                         CSI_ARG(nrows)));
+        size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
+        size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+        CSI_TRY(csi_run1d(ctx, k, h->rows));
+        cl_uint npad = (cl_uint)(h->hs - h->M - 1);
+        if (npad > 0) {
+            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_zero_pad", &k));
+            CSI_TRY(CSI_ARGS(k, CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows), CSI_ARG(npad)));
+            size_t g2[2] = {npad, h->rows}, l2[2] = {16, 4};
+            CSI_TRY(csi_run(ctx, k, 2, g2, l2));
+        }
+        cur = dst;
+    }
+    /* 3. forward along y, then z */
+    if (h->nd >= 2)
+        CSI_TRY(half_cols(h, &cur, z, 1, -1.0f, h->nd == 2));
+    if (h->nd == 3)
+        CSI_TRY(half_cols(h, &cur, z, 2, -1.0f, true));
+    return CSI_OK;
+}
+
+csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f)
+{
+    if (f == z || f == h->P || f == h->Q || z == h->P || z == h->Q)
+        return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
+    csi_ctx *ctx = h->ctx;
+    const axis_plan *ax = &h->ax[0];
+    cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
+    cl_mem cur = z;
+    /* 1. inverse along z, then y (never the last stage: the x passes follow) */
+    if (h->nd == 3)
+        CSI_TRY(half_cols(h, &cur, f, 2, 1.0f, false));
+    if (h->nd >= 2)
+        CSI_TRY(half_cols(h, &cur, f, 1, 1.0f, false));
+    /* 2. pack with the self-conjugate bins' real parts doubled, scaled */
+    {
+        cl_mem dst = half_next(h, cur, f, ax->np == 0);
+        cl_kernel k;
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre_half", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
+                         CSI_ARG(nrows), CSI_ARG(h->scale)));
+        size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
+        size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
+        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        cur = dst;
+    }
+    /* 3. inverse along x; the last pass writes f */
+    cl_uint p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = half_next(h, cur, f, i == ax->np - 1);
+        CSI_TRY(launch_row(ctx, cur, dst, ax, i, p, 1.0f, h->rows, h->M, -1.0f));
         cur = dst;
         p *= (cl_uint)ax->radix[i];
     }

@@ -1,5 +1,6 @@
-/* Internal: the filter pass y = F^-1 (gain . F x) on real signals with csi's own FFT kernels
- * (kernels/fft.cl), used by csi_filter_create when the size allows (host/ops/spectral.c).
+/* Internal: the filter pass y = F^-1 (gain . F x) on real signals, and complex-to-complex
+ * transforms, with csi's own FFT kernels (kernels/fft.cl), used by csi_filter_create and
+ * csi_fourier_create when the size allows (host/ops/spectral.c).
  * Sizes are squeezed (no axis of length 1 before a longer one): c[0] x c[1] x c[2] with nd
  * axes longer than 1. */
 #ifndef CSI_FFT_FILTER_H
@@ -20,5 +21,39 @@ csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const 
                                  bool wiener, float lambda, csi_fft_filter **out);
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y);
 void csi_fft_filter_free(csi_fft_filter *f);
+
+/* Complex-to-complex transform of c[0] x c[1] x c[2] interleaved complex values (nd axes
+ * longer than 1, squeezed as above) on the same Stockham passes: one pass per radix per axis,
+ * no transposes, natural order in and out. Holds one scratch volume of n complex values. */
+typedef struct csi_fft_c2c csi_fft_c2c;
+
+/* True if every length c[0..nd) is >= 2 and factors into 2, 3, 5, 7, and the product < 2^32. */
+bool csi_fft_c2c_supported(const size_t c[3], int nd);
+
+/* scale multiplies the result (fused into the first pass; must be >= 0). */
+csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                              csi_fft_c2c **out);
+
+/* y = scale * sum_u x[u] exp(sign 2 pi i <u, v / c>): sign < 0 forward, > 0 inverse
+ * (unnormalised except for scale). x is not modified; x, y must be different buffers. */
+csi_status csi_fft_c2c_run(csi_fft_c2c *f, cl_mem x, cl_mem y, int sign);
+void csi_fft_c2c_free(csi_fft_c2c *f);
+
+/* Half-spectrum transforms of a real signal of c[0] x c[1] x c[2] (c[0] even; the sizes
+ * csi_fft_filter_supported accepts). Coefficients: complex, rows of hs >= M + 1 values
+ * (M = c[0]/2, hs padded to 16), coefficient (u0 <= M, u1, u2) at u0 + hs (u1 + c[1] u2); the
+ * padding entries are zero in every forward output and ignored by the inverse.
+ *   forward: z[u] = scale * sum_x f[x] exp(-2 pi i <u, x / c>)  (the R2C transform)
+ *   inverse: f[x] = scale * Re sum_{u0 <= M} z[u] exp(+2 pi i <u, x / c>)
+ * The inverse is the adjoint of the forward for the real inner products <f, g> and Re <z, w>.
+ * Holds two scratch spectra. */
+typedef struct csi_fft_half csi_fft_half;
+csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float scale,
+                               csi_fft_half **out);
+size_t csi_fft_half_stride(const csi_fft_half *h); /* hs */
+size_t csi_fft_half_count(const csi_fft_half *h);  /* hs * c[1] * c[2] */
+csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z);
+csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f);
+void csi_fft_half_free(csi_fft_half *h);
 
 #endif

@@ -336,6 +336,7 @@ csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const d
 typedef struct {
     clfftPlanHandle plan;
     cl_mem tmp;
+    csi_fft_c2c *native; /* csi's own kernels; NULL = clFFT */
 } fourier_state;
 
 static csi_status fourier_apply(const csi_linop *op, cl_mem x, cl_mem y)
@@ -343,6 +344,8 @@ static csi_status fourier_apply(const csi_linop *op, cl_mem x, cl_mem y)
     fourier_state *s = op->state;
     if (x == y)
         return csi_fail(CSI_ERR_ARG, "%s: input and output must be different buffers", op->name);
+    if (s->native)
+        return csi_fft_c2c_run(s->native, x, y, +1);
     /* F^H: clFFT's backward transform is exp(+2 pi i ...), scaled here by 1/sqrt(N). */
     return run_plan(op->ctx, s->plan, CLFFT_BACKWARD, x, y, s->tmp);
 }
@@ -352,6 +355,8 @@ static csi_status fourier_adjoint(const csi_linop *op, cl_mem y, cl_mem x)
     fourier_state *s = op->state;
     if (x == y)
         return csi_fail(CSI_ERR_ARG, "%s: input and output must be different buffers", op->name);
+    if (s->native)
+        return csi_fft_c2c_run(s->native, y, x, -1);
     return run_plan(op->ctx, s->plan, CLFFT_FORWARD, y, x, s->tmp);
 }
 
@@ -360,6 +365,7 @@ static void fourier_destroy(csi_linop *op)
     fourier_state *s = op->state;
     if (!s)
         return;
+    csi_fft_c2c_free(s->native);
     if (s->plan)
         clfftDestroyPlan(&s->plan);
     csi_buffer_release(&s->tmp);
@@ -369,12 +375,20 @@ static void fourier_destroy(csi_linop *op)
 
 csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **out)
 {
+    return csi_fourier_create_backend(ctx, dims, CSI_FFT_AUTO, out);
+}
+
+csi_status csi_fourier_create_backend(csi_ctx *ctx, const size_t dims[3], csi_fft_backend backend,
+                                      csi_linop **out)
+{
     if (!out)
         return csi_fail(CSI_ERR_ARG, "csi_fourier_create: no output pointer");
     *out = NULL;
     if (!ctx)
         return csi_fail(CSI_ERR_ARG, "csi_fourier_create: no context");
     const char *what = "Fourier basis";
+    if (backend != CSI_FFT_AUTO && backend != CSI_FFT_CLFFT && backend != CSI_FFT_NATIVE)
+        return csi_fail(CSI_ERR_ARG, "%s: unknown FFT backend %d", what, (int)backend);
     CSI_TRY(csi_fft_check_size(what, dims));
     csi_linop *op = calloc(1, sizeof *op);
     fourier_state *s = calloc(1, sizeof *s);
@@ -395,10 +409,18 @@ csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **ou
     int map[3];
     int nd = squeeze(dims, c, map);
     size_t n = c[0] * c[1] * c[2];
-    size_t str[3] = {1, c[0], c[0] * c[1]};
     float scale = (float)(1.0 / sqrt((double)n));
-    csi_status st = make_plan(ctx, nd, c, CLFFT_COMPLEX_INTERLEAVED, CLFFT_COMPLEX_INTERLEAVED, str,
-                              n, str, n, scale, scale, &s->plan, &s->tmp, what);
+    csi_status st;
+    if (backend != CSI_FFT_CLFFT && csi_fft_c2c_supported(c, nd)) {
+        st = csi_fft_c2c_create(ctx, c, nd, scale, &s->native);
+    } else if (backend == CSI_FFT_NATIVE) {
+        st = csi_fail(CSI_ERR_ARG, "%s: size %zu x %zu x %zu is too large for csi's FFT kernels",
+                      what, dims[0], dims[1], dims[2]);
+    } else {
+        size_t str[3] = {1, c[0], c[0] * c[1]};
+        st = make_plan(ctx, nd, c, CLFFT_COMPLEX_INTERLEAVED, CLFFT_COMPLEX_INTERLEAVED, str, n, str,
+                       n, scale, scale, &s->plan, &s->tmp, what);
+    }
     if (st != CSI_OK) {
         csi_linop_free(op);
         return st;
@@ -406,3 +428,39 @@ csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **ou
     *out = op;
     return CSI_OK;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Real Fourier basis on the half spectrum                                                     */
+
+csi_status csi_fourier_half_create(csi_ctx *ctx, const size_t dims[3], csi_fourier_half **out)
+{
+    if (!out)
+        return csi_fail(CSI_ERR_ARG, "csi_fourier_half_create: no output pointer");
+    *out = NULL;
+    if (!ctx)
+        return csi_fail(CSI_ERR_ARG, "csi_fourier_half_create: no context");
+    CSI_TRY(csi_fft_check_size("real Fourier basis", dims));
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    if (!csi_fft_filter_supported(c, nd))
+        return csi_fail(CSI_ERR_ARG, "real Fourier basis: size %zu x %zu x %zu: the first axis "
+                        "longer than 1 must be even and >= 4", dims[0], dims[1], dims[2]);
+    float scale = (float)(1.0 / sqrt((double)c[0] * (double)c[1] * (double)c[2]));
+    return csi_fft_half_create(ctx, c, nd, scale, out);
+}
+
+size_t csi_fourier_half_count(const csi_fourier_half *h) { return csi_fft_half_count(h); }
+size_t csi_fourier_half_stride(const csi_fourier_half *h) { return csi_fft_half_stride(h); }
+
+csi_status csi_fourier_half_forward(csi_fourier_half *h, cl_mem f, cl_mem z)
+{
+    return csi_fft_half_forward(h, f, z);
+}
+
+csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f)
+{
+    return csi_fft_half_inverse(h, z, f);
+}
+
+void csi_fourier_half_free(csi_fourier_half *h) { csi_fft_half_free(h); }

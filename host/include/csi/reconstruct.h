@@ -87,6 +87,11 @@ csi_status csi_estimator_parse(const char *s, csi_estimator *out);
  * spread evenly over k cells in d dimensions, (k/N)^(1/d), times 0.5. */
 double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims);
 
+/* Alg. 2's default tau_rel: the best error per second over csi's procedural moving scenes at
+ * 10% and 1 sample per pixel (docs/bench/motion.md); the solver's own default (1e-4) costs 3-6x
+ * the iterations for no gain on these compressible (not sparse) spectra. */
+#define CSI_MOTION_TAU_REL 3e-3
+
 typedef struct csi_recon_options {
     csi_estimator estimator;      /* default CSI_EST_CS */
     double gauss_sigma;           /* CSI_EST_GAUSS: width in grid cells; 0: the default rule */
@@ -104,12 +109,24 @@ typedef struct csi_recon_options {
     double cv_n0;                 /* CV shrinkage (see csi_aa_correct); < 0: the default, 8 */
     double tol;                   /* solver tolerance; 0: the method's default */
     int max_iter;                 /* 0: the method's default */
-    double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: default */
+    double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: the method's
+                                     default (Alg. 1's rule, CSI_MOTION_TAU_REL for Alg. 2) */
     csi_recon_stop stop;          /* SpaRSA stopping rule; AUTO: the method's default */
     csi_switch continuation;      /* SpaRSA continuation on tau; AUTO: the method's default */
     csi_switch debias;            /* SpaRSA debiasing phase; AUTO: the method's default */
     size_t romp_s;                /* ROMP sparsity; 0: default from N */
     bool frames;                  /* grid.t > 1: also return every frame */
+    /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
+     * r = y - S f is interpolated by Gaussian normalized convolution and added to f, so that
+     * what the sparse Fourier model misses near the samples (edges, small movers) comes back.
+     * < 0: off (the paper's); 0 (default): width csi_gauss_nc_default_sigma; > 0: width in grid
+     * cells. */
+    double motion_resid_sigma;
+    /* Alg. 2 on the full complex spectrum (the paper's formulation: twice the unknowns and
+     * about twice the FFT work of csi's default, the half spectrum of the real volume; the
+     * same minimiser). Used anyway when the half spectrum cannot be (an odd grid width). */
+    bool motion_full_spectrum;
+    bool motion_debias;           /* Alg. 2: SpaRSA's debiasing step (default off) */
     csi_progress_fn progress;     /* phase names: "setup", "solve R" ..., "integrate" */
     void *user;
 } csi_recon_options;

@@ -1,5 +1,5 @@
 /* FFT-domain operators: the Gaussian filter Phi, its Wiener inverse, and the orthonormal
- * Fourier basis (clFFT on the device).
+ * Fourier basis (csi's own FFT kernels on the device, clFFT as reference and fallback).
  *
  * Sen & Darabi 2010, Sec. 4 and Alg. 1: Phi = F^H G F with G a Gaussian on the diagonal,
  * sigma_G = k / (2 pi sigma_Phi), sigma_Phi = 1.1 * (1/4) * sqrt(k/p); the inverse is a linear
@@ -67,6 +67,40 @@ csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const d
  * u0 + dims[0] * (u1 + dims[1] * u2), matching np.fft.fftn(a, norm="ortho") of an array of
  * shape (dims[2], dims[1], dims[0]). */
 csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **out);
+
+/* The same basis on a chosen FFT implementation. AUTO (what csi_fourier_create does): csi's own
+ * Stockham kernels (kernels/fft.cl; every size csi_fft_check_size accepts, below 2^32 points),
+ * else clFFT. CLFFT: always clFFT (the reference the tests check the native path against).
+ * NATIVE: csi's kernels or CSI_ERR_ARG. Device memory: the native path holds one scratch
+ * volume (8 N bytes) besides small twiddle tables; clFFT whatever its plan asks for. */
+csi_status csi_fourier_create_backend(csi_ctx *ctx, const size_t dims[3], csi_fft_backend backend,
+                                      csi_linop **out);
+
+/* The real Fourier basis on the half spectrum (csi's extension for Alg. 2: a real volume has a
+ * Hermitian spectrum, so half the coefficients determine it; the solver then carries half the
+ * unknowns and each transform does about half the work). With N = dims[0] dims[1] dims[2],
+ * M = n0 / 2 and n0 the first axis longer than 1 (it must be even, >= 4, and M a product of 2, 3,
+ * 5, 7; other axes products of 2, 3, 5, 7):
+ *   forward: z[u] = N^-1/2 sum_x f[x] exp(-2 pi i <u, x / n>) for u0 = 0 .. M (numpy's
+ *            rfftn(f, norm="ortho")), all u1, u2;
+ *   inverse: f[x] = N^-1/2 Re sum_{u0 = 0..M} z[u] exp(+2 pi i <u, x / n>), the adjoint of
+ *            forward for the real inner products <f, g> and Re <z, w>.
+ * So for a Hermitian spectrum X of a real f (X = fftn(f, norm="ortho")), inverse(z) = f when
+ * z = X on the planes u0 = 0 and u0 = M and z = 2 X in between, and ||z||_1 = ||X||_1 (the
+ * l1 norm of the whole spectrum): the l1 problem min 0.5 ||y - S f||^2 + tau ||X||_1 over real f
+ * is the same problem over z (see host/integrate/reconstruct.c, motion()).
+ * Layout: rows of `stride` >= M + 1 complex values (padded to a multiple of 16), coefficient
+ * (u0, u1, u2) at u0 + stride (u1 + n1 u2) (squeezed axes as in csi_fourier_create); padding
+ * entries are zero in every forward output and ignored by the inverse. f and z are device
+ * buffers of N floats and csi_fourier_half_count complex values; input and output must differ;
+ * the input is not modified. Device memory: two scratch spectra of the coefficients' size. */
+typedef struct csi_fft_half csi_fourier_half;
+csi_status csi_fourier_half_create(csi_ctx *ctx, const size_t dims[3], csi_fourier_half **out);
+size_t csi_fourier_half_count(const csi_fourier_half *h);
+size_t csi_fourier_half_stride(const csi_fourier_half *h);
+csi_status csi_fourier_half_forward(csi_fourier_half *h, cl_mem f, cl_mem z);
+csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f);
+void csi_fourier_half_free(csi_fourier_half *h);
 
 /* CSI_OK if clFFT can transform an axis of length n (n >= 1 and only factors 2, 3, 5, 7);
  * otherwise CSI_ERR_ARG with a message naming `what` and the size. */
