@@ -77,6 +77,14 @@ void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_
     csi_json_num(j, "lambda", opt->lambda);
     csi_json_num(j, "sigma_scale", opt->sigma_scale);
     csi_json_str(j, "integrate", csi_aa_output_name(opt->output));
+    csi_json_str(j, "estimator", csi_estimator_name(opt->estimator));
+    csi_json_str(j, "correct", csi_aa_correct_name(opt->correct));
+    csi_json_num(j, "cv_n0", opt->cv_n0);
+    csi_json_num(j, "sigma_spacing", opt->sigma_spacing);
+    csi_json_str(j, "stop", csi_recon_stop_name(opt->stop));
+    csi_json_str(j, "continuation", csi_switch_name(opt->continuation));
+    csi_json_str(j, "debias", csi_switch_name(opt->debias));
+    csi_json_num(j, "tau_rel_option", opt->tau_rel);
     csi_json_num(j, "t_setup_s", r->t_setup);
     csi_json_num(j, "t_solve_s", r->t_solve);
     csi_json_num(j, "t_integrate_s", r->t_integrate);
@@ -92,6 +100,7 @@ void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_
         csi_json_int(j, "inner_iterations", p->inner_iterations);
         csi_json_num(j, "rel_residual", p->rel_residual);
         csi_json_num(j, "objective", p->objective);
+        csi_json_num(j, "tau", p->tau);
         csi_json_int(j, "support", (int64_t)p->support);
         csi_json_num(j, "t_total_s", p->t_total);
         csi_json_end(j);
@@ -131,6 +140,11 @@ csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
         {.name = "csi:solver", .type = CSI_ATTR_STRING, .s = csi_solver_kind_name(r->solver)},
         {.name = "csi:wavelet", .type = CSI_ATTR_STRING, .s = csi_wavelet_name(opt->wavelet)},
         {.name = "csi:integrate", .type = CSI_ATTR_STRING, .s = csi_aa_output_name(opt->output)},
+        {.name = "csi:correct", .type = CSI_ATTR_STRING, .s = csi_aa_correct_name(opt->correct)},
+        {.name = "csi:stop", .type = CSI_ATTR_STRING, .s = csi_recon_stop_name(opt->stop)},
+        {.name = "csi:sigma_scale", .type = CSI_ATTR_DOUBLE, .f = opt->sigma_scale},
+        {.name = "csi:sigma_spacing", .type = CSI_ATTR_DOUBLE, .f = opt->sigma_spacing},
+        {.name = "csi:tau", .type = CSI_ATTR_DOUBLE, .f = r->report[0].tau},
         {.name = "csi:lambda", .type = CSI_ATTR_FLOAT, .f = opt->lambda},
         {.name = "csi:samples", .type = CSI_ATTR_DOUBLE, .f = (double)r->n},
         {.name = "csi:unknowns", .type = CSI_ATTR_DOUBLE, .f = (double)r->k},

@@ -265,7 +265,6 @@ int main(int argc, char **argv)
             if (s == CSI_OK) {
                 csi_json_str(j, "tool", "csi-reconstruct");
                 csi_json_str(j, "input", in);
-                csi_json_str(j, "estimator", csi_estimator_name(opt.estimator));
                 csi_json_str(j, "device", csi_ctx_device_name(ctx));
                 csi_json_int(j, "grid_w", dump.grid.w);
                 csi_json_int(j, "grid_h", dump.grid.h);

@@ -394,7 +394,6 @@ int main(int argc, char **argv)
             csi_json_str(j, "scene", scene_path);
             csi_json_str(j, "device", csi_ctx_device_name(ctx));
             csi_json_str(j, "method", reference ? "reference" : method);
-            csi_json_str(j, "estimator", csi_estimator_name(opt.estimator));
             csi_json_str(j, "positions", csi_pos_method_name(popts.method));
             csi_json_int(j, "spp", popts.spp);
             csi_json_int(j, "seed", (int64_t)seed);
