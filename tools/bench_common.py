@@ -169,13 +169,17 @@ def plan(bins, scene_path, env=None):
 
 
 def read_exr(path):
-    """Float32 (H, W, 3) linear RGB of an EXR written by csi."""
+    """Float32 (H, W, c) linear image of an EXR written by csi: RGB, or its single channel (Y)."""
     import OpenEXR
     with OpenEXR.File(path) as f:
         ch = f.channels()
         if "RGB" in ch:
             return np.asarray(ch["RGB"].pixels, np.float32)
-        return np.stack([np.asarray(ch[c].pixels, np.float32) for c in "RGB"], axis=-1)
+        if all(c in ch for c in "RGB"):
+            return np.stack([np.asarray(ch[c].pixels, np.float32) for c in "RGB"], axis=-1)
+        if len(ch) == 1:
+            return np.asarray(next(iter(ch.values())).pixels, np.float32)[..., None]
+        raise BenchError(f"{path}: unexpected channels {sorted(ch)}")
 
 
 def read_dump(path):
