@@ -53,7 +53,7 @@ GAUSS_FACTORS = [0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83]
 RESULT_FIELDS = ["scene", "kind", "width", "height", "grid_w", "grid_h", "grid_t", "k", "spp", "seed",
                  "method", "param", "samples", "mse", "psnr", "mse_edge", "psnr_edge", "edge_pixels",
                  "frames_mse", "frames_psnr", "t_render_s", "t_recon_s", "t_total_s", "t_wall_s",
-                 "t_per_sample_us", "iterations", "rel_residual", "converged"]
+                 "t_per_sample_us", "iterations", "inner_iterations", "rel_residual", "converged"]
 
 
 def parse_args(argv):
@@ -249,7 +249,8 @@ class Bench:
                  mse_edge=me, psnr_edge=bc.psnr(me), edge_pixels=int(edges.sum()), frames_mse=fm,
                  frames_psnr=fp, t_render_s=t_render, t_recon_s=t_recon, t_total_s=t_render + t_recon,
                  t_wall_s=st_render.get("t_wall_s", 0) + (st_recon or {}).get("t_wall_s", 0),
-                 t_per_sample_us=st_render.get("t_per_sample_us", 0), iterations=its, rel_residual=res,
+                 t_per_sample_us=st_render.get("t_per_sample_us", 0), iterations=its,
+                 inner_iterations=bc.stats_inner(st_recon) if st_recon else 0, rel_residual=res,
                  converged=int(conv))
         if st_recon and "k" in st_recon:
             r["k"] = st_recon["k"]
@@ -430,7 +431,8 @@ class Bench:
                         continue
                     its, res, conv = bc.stats_iterations(sr)
                     r = dict(scene=name, method=m, axis=axis, value=val, spp=spp, k=sr["k"], n=sr["n"],
-                             iterations=its, rel_residual=res, converged=int(conv), t_render_s=st["t_render_s"],
+                             iterations=its, inner_iterations=bc.stats_inner(sr), rel_residual=res,
+                             converged=int(conv), t_render_s=st["t_render_s"],
                              t_recon_s=bc.recon_time(sr), t_solve_s=sr.get("t_solve_s", 0),
                              mse=bc.mse(img, ref), mse_edge=bc.mse(img, ref, edges), error="")
                     self.effort.append(r)

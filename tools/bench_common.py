@@ -274,6 +274,12 @@ def stats_iterations(st):
         all(c.get("converged", True) for c in chans.values())
 
 
+def stats_inner(st):
+    """Max over channels of the solver's inner (least-squares / debiasing CG) iterations."""
+    rec = st.get("reconstruction", st)
+    return int(max([c.get("inner_iterations", 0) for c in rec.get("channels", {}).values()] or [0]))
+
+
 def recon_time(st):
     """Reconstruction time: setup + solve + integrate (as csi-render's t_reconstruct_s; excludes
     reading the dump and creating the OpenCL context)."""
