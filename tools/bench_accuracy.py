@@ -7,7 +7,11 @@ render and reconstruction time measured separately in the same run, for every bu
 
 Methods (names used in the CSVs and plots):
   static scenes (2-D antialiasing):
-    random, stratified          Monte Carlo: per-pixel sample mean (csi-render --method ...)
+    random, stratified          Monte Carlo: per-pixel sample mean (csi-render --method ...), on
+                                the reference's fine grid (--mc-grid, default sqrt(ref-spp) = 16x
+                                the image: positions as fine as the reference's, so they behave
+                                like continuous ones; on the cs grid of 4x, 16 spp would sample
+                                every cell and be exact on that grid)
     oidn                        stratified followed by Intel Open Image Denoise (pyoidn, CPU, HDR
                                 mode, colour only: no albedo/normal buffers)
     cs-<solver>-<wavelet>       compressive (Poisson-disk positions), solver romp|sparsa,
@@ -53,7 +57,7 @@ GAUSS_FACTORS = [0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83]
 RESULT_FIELDS = ["scene", "kind", "width", "height", "grid_w", "grid_h", "grid_t", "k", "spp", "seed",
                  "method", "param", "samples", "mse", "psnr", "mse_edge", "psnr_edge", "edge_pixels",
                  "frames_mse", "frames_psnr", "t_render_s", "t_recon_s", "t_total_s", "t_wall_s",
-                 "t_per_sample_us", "iterations", "inner_iterations", "rel_residual", "converged"]
+                 "t_per_sample_us", "iterations", "inner_iterations", "rel_residual", "converged", "finite"]
 
 
 def parse_args(argv):
@@ -70,6 +74,9 @@ def parse_args(argv):
     ap.add_argument("--max-iter", type=int, default=0, help="solver iteration cap (default: the binary's)")
     ap.add_argument("--tol", type=float, default=0, help="solver tolerance (default: the binary's)")
     ap.add_argument("--ref-spp", type=int, default=256, help="reference samples per pixel [256]")
+    ap.add_argument("--mc-grid", type=int, default=0,
+                    help="fine-grid multiplier of the Monte Carlo baselines on static scenes (default: "
+                    "sqrt(ref-spp), the reference's grid, so their positions are as fine as the reference's)")
     ap.add_argument("--ref-cache", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-ref"))
     ap.add_argument("--effort-scenes", default=None,
                     help="scenes for the solver-effort and problem-size sweeps (default: the first static one)")
@@ -84,7 +91,8 @@ def parse_args(argv):
     ap.add_argument("--build", default=None, help="build directory with the binaries [ROOT/build]")
     ap.add_argument("--threads", type=int, default=0, help="tracing threads (default: all cores)")
     ap.add_argument("--quick", action="store_true",
-                    help="smoke run: 64x64 static, 32x32x16 motion, 2 seeds, max-iter 100, small sweeps")
+                    help="smoke run: 64x64 static, 32x32x16 motion, spp 1,4,16 (unless --spp is given), 2 seeds, "
+                    "max-iter 100, small sweeps")
     ap.add_argument("--keep", action="store_true", help="keep the work directory (images, dumps)")
     ap.add_argument("--no-plots", action="store_true")
     a = ap.parse_args(argv)
@@ -94,6 +102,7 @@ def parse_args(argv):
         a.time_steps = a.time_steps or 16
         a.max_iter = a.max_iter or 100
         a.seeds = min(a.seeds, 2)
+        a.spp = "1,4,16" if a.spp == ap.get_default("spp") else a.spp
         a.iters = "10,30,100" if a.iters == ap.get_default("iters") else a.iters
         a.tols = "1e-2" if a.tols == ap.get_default("tols") else a.tols
         a.gauss_factors = "0.5,1.0,2.0" if a.gauss_factors == ap.get_default("gauss_factors") else a.gauss_factors
@@ -104,6 +113,7 @@ def parse_args(argv):
     a.grids = [int(x) for x in a.grids.split(",") if x]
     a.gauss_factors = [float(x) for x in a.gauss_factors.split(",") if x]
     a.size = tuple(int(v) for v in a.size.lower().split("x")) if a.size else None
+    a.mc_grid = a.mc_grid or math.ceil(math.sqrt(a.ref_spp) - 1e-9)
     a.motion_size = tuple(int(v) for v in a.motion_size.lower().split("x")) if a.motion_size else None
     if a.methods == "all":
         a.methods = None
@@ -232,11 +242,13 @@ class Bench:
 
     def row(self, ctx, method, img, ref, edges, st_render, t_recon, frames=None, ref_frames=None,
             param="", st_recon=None):
-        m = bc.mse(img, ref)
-        me = bc.mse(img, ref, edges)
+        finite = bool(np.isfinite(img).all())
+        m = bc.mse(img, ref) if finite else float("inf")  # a NaN pixel is a failed image, not a skipped one
+        me = bc.mse(img, ref, edges) if finite else float("inf")
         fm = fp = float("nan")
         if frames is not None and ref_frames is not None:
-            per = [bc.mse(frames[t], ref_frames[t]) for t in range(len(frames))]
+            per = [bc.mse(frames[t], ref_frames[t]) if np.isfinite(frames[t]).all() else float("inf")
+                   for t in range(len(frames))]
             fm = float(np.mean(per))
             fp = float(np.mean([bc.psnr(x) for x in per]))
             if ctx["seed"] == 1:
@@ -251,7 +263,7 @@ class Bench:
                  t_wall_s=st_render.get("t_wall_s", 0) + (st_recon or {}).get("t_wall_s", 0),
                  t_per_sample_us=st_render.get("t_per_sample_us", 0), iterations=its,
                  inner_iterations=bc.stats_inner(st_recon) if st_recon else 0, rel_residual=res,
-                 converged=int(conv))
+                 converged=int(conv), finite=int(finite))
         if st_recon and "k" in st_recon:
             r["k"] = st_recon["k"]
         self.results.append(r)
@@ -294,13 +306,14 @@ class Bench:
                 ctx = dict(scene=name, kind="static", width=W, height=H, grid_w=0, grid_h=0, grid_t=1,
                            k=0, spp=spp, seed=seed)
                 common = ["--spp", str(spp), "--seed", str(seed)]
+                mc = common + ["--grid", str(a.mc_grid * W)]
                 tag = f"{name}_s{spp}_r{seed}"
                 if self.want("random", False):
-                    img, st = self.render(scene, tag + "_random", common + ["--method", "random"])
+                    img, st = self.render(scene, tag + "_random", mc + ["--method", "random"])
                     self.row(dict(ctx, grid_w=st["grid_w"], grid_h=st["grid_h"]), "random", img, ref, edges,
                              st, st["t_reconstruct_s"])
                 if self.want("stratified", False) or self.want("oidn", False):
-                    img, st = self.render(scene, tag + "_strat", common + ["--method", "stratified"])
+                    img, st = self.render(scene, tag + "_strat", mc + ["--method", "stratified"])
                     c2 = dict(ctx, grid_w=st["grid_w"], grid_h=st["grid_h"])
                     if self.want("stratified", False):
                         self.row(c2, "stratified", img, ref, edges, st, st["t_reconstruct_s"])
@@ -447,7 +460,7 @@ class Bench:
         for r in self.results:
             g.setdefault((r["scene"], r["method"], r["spp"]), []).append(r)
         out = {}
-        for key, rs in g.items():
+        for key, rs in g.items():  # an infinite MSE (a failed image) makes the mean infinite
             out[key] = {f: float(np.nanmean([x[f] for x in rs])) for f in
                         ("mse", "mse_edge", "frames_mse", "frames_psnr", "t_render_s", "t_recon_s", "t_total_s",
                          "t_per_sample_us", "iterations", "samples")}

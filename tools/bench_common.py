@@ -194,6 +194,20 @@ def read_dump(path):
     return dict(grid_w=gw, grid_h=gh, grid_t=gt, out_w=ow, out_h=oh, channels=c, count=n), rec["p"], rec["v"]
 
 
+def write_dump1(path, hdr, pos, vals):
+    """Writes a one-channel dump (docs/dump-format.md) with the grid of `hdr` and positions `pos`."""
+    n = len(vals)
+    h = np.zeros(16, "<u4")
+    h[:8] = [int.from_bytes(b"CSID", "little"), 1, hdr["grid_w"], hdr["grid_h"], hdr["grid_t"], hdr["out_w"], hdr["out_h"], 1]
+    h[8:10] = [n & 0xFFFFFFFF, n >> 32]
+    rec = np.zeros(n, dtype=[("p", "<u4", 3), ("v", "<f4", 1)])
+    rec["p"], rec["v"][:, 0] = pos, vals
+    with open(path + ".tmp", "wb") as f:
+        f.write(h.tobytes())
+        f.write(rec.tobytes())
+    os.replace(path + ".tmp", path)
+
+
 def dump_frames(path, fill=None):
     """Per-pixel Monte Carlo frames from a dump: frame t of pixel p is the mean of p's samples with
     time index t. (T, H, W, c). Pixels with no sample in frame t take `fill` (H, W, c) at that

@@ -61,6 +61,28 @@ def seed_means(rows, keys, fields):
     return {k: {f: float(np.nanmean([x[f] for x in v])) for f in fields} for k, v in g.items()}
 
 
+def _loglog_capped(ax, series, cap_from=("random", "stratified")):
+    """Log-log lines per method; values above 30x the largest Monte Carlo value, infinite or NaN
+    (a failed reconstruction) are drawn at that cap as an X, so one blow-up does not flatten the
+    figure, and are named in the legend."""
+    mc = [y for m, pts in series.items() if m in cap_from for _, y in pts if np.isfinite(y) and y > 0]
+    cap = 30 * max(mc) if mc else float("inf")
+    off = False
+    for m, pts in series.items():
+        c, mk = _style(m)
+        good = [(x, y) for x, y in pts if np.isfinite(y) and 0 < y <= cap]
+        bad = [x for x, y in pts if not (np.isfinite(y) and y <= cap)]
+        if good:
+            ax.loglog(*zip(*good), marker=mk, color=c, label=m)
+        if bad:
+            ax.loglog(bad, [cap] * len(bad), "X", color=c, ms=9, mec="k",
+                      label=None if good else m)
+            off = True
+    if off:
+        ax.axhline(cap, color="k", lw=0.5, ls=":")
+        ax.text(0.02, 0.98, "X: off scale or NaN (see CSV)", transform=ax.transAxes, fontsize=6, va="top")
+
+
 def _style(m):
     return STYLE.get(m, ("k", "."))
 
@@ -80,11 +102,9 @@ def plot_scene(out, scene, res, var, eff, frames):
         panels.append(("frames_mse", "mean per-frame MSE"))
     fig, axs = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), dpi=DPI)
     for ax, (f, title) in zip(axs, panels):
-        for m in methods:
-            pts = sorted((k[1], v[f]) for k, v in M.items() if k[0] == m and np.isfinite(v[f]) and v[f] > 0)
-            if pts:
-                c, mk = _style(m)
-                ax.loglog(*zip(*pts), marker=mk, color=c, label=m)
+        series = {m: sorted((k[1], v[f]) for k, v in M.items() if k[0] == m and not (v[f] == 0))
+                  for m in methods}
+        _loglog_capped(ax, {m: p for m, p in series.items() if p and not all(np.isnan(y) for _, y in p)})
         ax.set_xlabel("samples per pixel")
         _spp_axis(ax, {k[1] for k in M})
         ax.set_title(title, fontsize=10)
@@ -96,11 +116,8 @@ def plot_scene(out, scene, res, var, eff, frames):
     made.append(_save(fig, out, f"mse_spp_{scene}.png"))
     # 2. MSE vs total time (the trade-off)
     fig, ax = plt.subplots(figsize=(5, 3.6), dpi=DPI)
-    for m in methods:
-        pts = sorted((v["t_total_s"], v["mse"]) for k, v in M.items() if k[0] == m and v["mse"] > 0)
-        if pts:
-            c, mk = _style(m)
-            ax.loglog(*zip(*pts), marker=mk, color=c, label=m)
+    _loglog_capped(ax, {m: sorted((v["t_total_s"], v["mse"]) for k, v in M.items() if k[0] == m and v["mse"] > 0)
+                        for m in methods})
     ax.set_xlabel("render + reconstruction time (s)")
     ax.set_ylabel("MSE")
     ax.set_title(f"{scene}: error vs time (points: spp)", fontsize=10)

@@ -110,20 +110,6 @@ def box(f, hdr):
     return f.reshape(oh, h // oh, ow, w // ow).mean(axis=(1, 3))
 
 
-def write_dump1(path, hdr, pos, vals):
-    """A one-channel dump (docs/dump-format.md) of the same positions."""
-    n = len(vals)
-    h = np.zeros(16, "<u4")
-    h[:8] = [int.from_bytes(b"CSID", "little"), 1, hdr["grid_w"], hdr["grid_h"], 1, hdr["out_w"], hdr["out_h"], 1]
-    h[8:10] = [n & 0xFFFFFFFF, n >> 32]
-    rec = np.zeros(n, dtype=[("p", "<u4", 3), ("v", "<f4", 1)])
-    rec["p"], rec["v"][:, 0] = pos, vals
-    with open(path + ".tmp", "wb") as f:
-        f.write(h.tobytes())
-        f.write(rec.tobytes())
-    os.replace(path + ".tmp", path)
-
-
 def one_size(a, bins, env, out_w, work, logf):
     grid = out_w * 4
     bc.log(f"size {out_w}x{out_w}, grid {grid}^2")
@@ -139,7 +125,7 @@ def one_size(a, bins, env, out_w, work, logf):
     hdr, pos, vals = bc.read_dump(d3)
     y = np.ascontiguousarray(vals[:, a.channel], np.float32)
     d1 = os.path.join(work, f"s{out_w}_1ch.csid")
-    write_dump1(d1, hdr, pos, y)
+    bc.write_dump1(d1, hdr, pos, y)
     k = hdr["grid_w"] * hdr["grid_h"]
 
     # ours: a warm-up (kernel and FFT caches), then the timed run

@@ -7,7 +7,7 @@
 For each fine-grid size n (k = n^2; the output image is n/4 wide, 4 spp, Poisson-disk positions,
 so N = k/4 samples): the scene is traced once with --dump, then csi-reconstruct runs on the dump
 with a fixed iteration cap (--max-iter, so the work per iteration is what scales, not how many
-iterations a particular image needs), RGB, after a warm-up run at the same size (kernel and FFT
+iterations a particular image needs), one channel (--channels 3 for RGB), after a warm-up run at the same size (kernel and FFT
 plan caches). Recorded per run:
   - t_setup_s, t_solve_s, t_integrate_s from the stats JSON, and solve time per iteration:
     t_solve / (iterations + inner iterations, summed over channels). Inner iterations are the
@@ -69,6 +69,9 @@ def series(a, bins, env, work, logf, scene_name, sizes, motion):
         if motion:
             ropts += ["--time-steps", str(T)]
         bc.run([bins["csi-render"], scene, "-o", os.path.join(work, "m.exr"), "-q"] + ropts, env, log=logf)
+        if a.channels == 1:  # one channel (G): the per-channel cost, a third of the machine time
+            hdr, pos, vals = bc.read_dump(dump)
+            bc.write_dump1(dump, hdr, pos, np.ascontiguousarray(vals[:, 1]))
         extra = ["--max-iter", str(a.max_iter)] + (["--solver", a.solver] if a.solver else [])
         reconstruct_measured(bins, env, dump, work, ["--max-iter", "1"])  # warm-up: caches for this size
         best = None
@@ -165,6 +168,8 @@ def main():
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--max-iter", type=int, default=20)
     ap.add_argument("--solver", default=None, help="default: the binary's")
+    ap.add_argument("--channels", type=int, choices=(1, 3), default=1,
+                    help="1: reconstruct the G channel only (default); 3: RGB")
     ap.add_argument("--repeat", type=int, default=1, help="timed runs per size (the fastest is kept)")
     ap.add_argument("--build", default=None)
     ap.add_argument("--quick", action="store_true", help="k = 128^2 .. 512^2; motion 32x8, 64x16")
