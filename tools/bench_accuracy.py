@@ -4,6 +4,7 @@ render and reconstruction time measured separately in the same run, for every bu
 
   .venv/bin/python tools/bench_accuracy.py --out bench-out            # the full run
   .venv/bin/python tools/bench_accuracy.py --quick --out bench-quick  # a smoke run, minutes
+  .venv/bin/python tools/bench_accuracy.py --replot bench-out          # redo break-even + plots
 
 Methods (names used in the CSVs and plots):
   static scenes (2-D antialiasing):
@@ -64,7 +65,7 @@ def parse_args(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="bench-accuracy", help="output directory (CSVs, plots, run.json)")
     ap.add_argument("--scenes", default=",".join(ALL_SCENES), help="comma list of bundled scenes")
-    ap.add_argument("--spp", default="1,2,4,9,16", help="comma list of samples per pixel")
+    ap.add_argument("--spp", default=None, help="comma list of samples per pixel [1,2,4,9,16; --quick: 1,4,16]")
     ap.add_argument("--methods", default="all",
                     help="comma list of methods (see above; 'cs' = every cs variant); default all")
     ap.add_argument("--seeds", type=int, default=10, help="seeds per (scene, spp, method) [10]")
@@ -102,12 +103,12 @@ def parse_args(argv):
         a.time_steps = a.time_steps or 16
         a.max_iter = a.max_iter or 100
         a.seeds = min(a.seeds, 2)
-        a.spp = "1,4,16" if a.spp == ap.get_default("spp") else a.spp
+        a.spp = a.spp or "1,4,16"
         a.iters = "10,30,100" if a.iters == ap.get_default("iters") else a.iters
         a.tols = "1e-2" if a.tols == ap.get_default("tols") else a.tols
         a.gauss_factors = "0.5,1.0,2.0" if a.gauss_factors == ap.get_default("gauss_factors") else a.gauss_factors
     a.scenes = [s for s in a.scenes.split(",") if s]
-    a.spp = sorted({int(s) for s in a.spp.split(",") if s})
+    a.spp = sorted({int(s) for s in (a.spp or "1,2,4,9,16").split(",") if s})
     a.iters = [int(x) for x in a.iters.split(",") if x]
     a.tols = [float(x) for x in a.tols.split(",") if x]
     a.grids = [int(x) for x in a.grids.split(",") if x]
@@ -508,7 +509,7 @@ class Bench:
                 t_extra = max(v["t_recon_s"] - t_rec_strat, 0.0)
                 if not (s_eq > 4):
                     c_star = float("inf")
-                    verdict = "never (cs at 4 spp is not more accurate than stratified at 4 spp)"
+                    verdict = f"never ({m} at 4 spp is not more accurate than stratified at 4 spp)"
                 else:
                     c_star = t_extra / (P * (s_eq - 4)) if math.isfinite(s_eq) else 0.0
                     verdict = "wins at this scene's cost" if c_meas > c_star else "loses at this scene's cost"
@@ -579,9 +580,35 @@ class Bench:
                    f"{r['cost_per_sample_us_measured']:.3g}): {r['verdict']}")
 
 
+def replot(out):
+    """Recomputes breakeven.csv from results.csv and redraws the figures (all but the insets,
+    which need the run's images) of an existing output directory."""
+    import bench_plots
+    b = Bench.__new__(Bench)
+    b.out = os.path.abspath(out)
+    b.results = bench_plots.read_csv(os.path.join(b.out, "results.csv"))
+    if not b.results:
+        raise bc.BenchError(f"{out}: no results.csv")
+    b.be = b.breakeven()
+    b.write_csv("breakeven.csv", b.be)
+    for p in bench_plots.plot_all(b.out):
+        print(p)
+
+
 def main(argv=None):
     warnings.filterwarnings("ignore", "Mean of empty slice")
-    a = parse_args(sys.argv[1:] if argv is None else argv)
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--replot"]:
+        if len(argv) != 2:
+            print("usage: bench_accuracy.py --replot OUT_DIR", file=sys.stderr)
+            return 2
+        try:
+            replot(argv[1])
+        except bc.BenchError as e:
+            print(f"bench_accuracy: {e}", file=sys.stderr)
+            return 1
+        return 0
+    a = parse_args(argv)
     try:
         Bench(a).run()
     except bc.BenchError as e:

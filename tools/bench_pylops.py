@@ -18,7 +18,8 @@ The objective: csi's SpaRSA minimises 0.5 ||y - A x||^2 + tau ||x||_1 with tau =
 ||A^H y||_inf (continuation down to it, then debiasing); PyLops FISTA minimises
 ||y - A x||^2 + eps ||x||_1 (threshold eps * alpha / 2), so eps = 2 tau makes them the same
 problem. PyLops gets its step from its own power iteration (alpha = None), which is timed as part
-of its solve.
+of its solve (the CSV also gives the time of its first iteration, i.e. of that power iteration);
+--pylops-step bound gives it 1 / (max Wiener gain)^2 instead, a valid bound on ||A||^2.
 
 What is measured, in one run: csi-reconstruct's reconstruction time (setup + solve + integrate,
 from its stats; after a warm-up run so kernel and FFT caches are warm) and wall time; its final
@@ -172,7 +173,12 @@ def one_size(a, bins, env, out_w, work, logf):
 
     bc.log(f"  pylops FISTA: eps {eps:.3e} (tau_rel {tau_rel:g}), up to {a.pylops_iter} iterations")
     state["t0"] = time.perf_counter()
-    xinv, nit, _ = pylops.optimization.sparsity.fista(A, yo, niter=a.pylops_iter, eps=eps, tol=0, callback=callback)
+    alpha = None  # PyLops' default: 1 / (largest eigenvalue of A^H A) by its power iteration, timed
+    if a.pylops_step == "bound":
+        # ||S|| <= 1 and Psi is orthonormal, so ||A||^2 <= max Wiener gain^2: a valid step, no eigs
+        alpha = 1.0 / float(wiener_gain(hdr["grid_h"], hdr["grid_w"], hdr["out_h"], hdr["out_w"], a.lam).max() ** 2)
+    xinv, nit, _ = pylops.optimization.sparsity.fista(A, yo, niter=a.pylops_iter, eps=eps, alpha=alpha, tol=0,
+                                                      callback=callback)
     t_pl_total = time.perf_counter() - state["t0"] - state["excluded"]
 
     def first(pred):
@@ -188,7 +194,12 @@ def one_size(a, bins, env, out_w, work, logf):
                ours_iterations=ch["iterations"], ours_rel_residual=r_ours, ours_mse=mse_ours, ours_t_recon_s=t_ours,
                ours_t_solve_s=st["t_solve_s"], ours_t_wall_s=wall,
                pylops_iterations=nit, pylops_t_total_s=t_pl_total, pylops_final_rel_residual=last["rel_residual"],
-               pylops_final_mse=last["mse"])
+               pylops_final_mse=last["mse"],
+               # cost of one iteration: csi counts outer steps and inner (debiasing CG) steps, each
+               # one A and one A^H; PyLops' from the trace, after its step-size power iteration
+               ours_ms_per_iter=1e3 * st["t_solve_s"] / max(ch["iterations"] + ch.get("inner_iterations", 0), 1),
+               pylops_ms_per_iter=1e3 * (last["t_s"] - trace[0]["t_s"]) / max(len(trace) - 1, 1),
+               pylops_t_first_iter_s=trace[0]["t_s"])
     for name, hit in (("residual", hit_r), ("mse", hit_m)):
         if hit:
             row[f"pylops_t_to_{name}_s"] = hit["t_s"]
@@ -225,6 +236,9 @@ def main():
     ap.add_argument("--max-iter", type=int, default=0, help="csi's iteration cap (default: the binary's)")
     ap.add_argument("--tol", type=float, default=0)
     ap.add_argument("--pylops-iter", type=int, default=500)
+    ap.add_argument("--pylops-step", choices=("eigs", "bound"), default="eigs",
+                    help="FISTA step: eigs = PyLops' power iteration (default, timed); bound = 1 / max "
+                    "Wiener gain^2, a known bound on ||A||^2 (no eigs)")
     ap.add_argument("--build", default=None)
     ap.add_argument("--quick", action="store_true", help="one size, 64 (k = 256^2), 100 PyLops iterations")
     a = ap.parse_args()
