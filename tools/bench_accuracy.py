@@ -58,7 +58,7 @@ GAUSS_FACTORS = [0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83]
 RESULT_FIELDS = ["scene", "kind", "width", "height", "grid_w", "grid_h", "grid_t", "k", "spp", "seed",
                  "method", "param", "samples", "mse", "psnr", "mse_edge", "psnr_edge", "edge_pixels",
                  "frames_mse", "frames_psnr", "t_render_s", "t_recon_s", "t_total_s", "t_wall_s",
-                 "t_per_sample_us", "iterations", "inner_iterations", "rel_residual", "converged", "finite"]
+                 "t_per_sample_us", "iterations", "inner_iterations", "rel_residual", "converged", "finite", "error"]
 
 
 def parse_args(argv):
@@ -95,6 +95,9 @@ def parse_args(argv):
                     help="smoke run: 64x64 static, 32x32x16 motion, spp 1,4,16 (unless --spp is given), 2 seeds, "
                     "max-iter 100, small sweeps")
     ap.add_argument("--keep", action="store_true", help="keep the work directory (images, dumps)")
+    ap.add_argument("--resume", action="store_true",
+                    help="continue a run in --out: keep its finished (scene, spp) blocks and effort sweeps, "
+                    "redo the rest (use the same options)")
     ap.add_argument("--no-plots", action="store_true")
     a = ap.parse_args(argv)
     if a.quick:
@@ -126,6 +129,14 @@ def parse_args(argv):
     return a
 
 
+def _num(v):
+    """A CSV or row value as a float (NaN when empty or not a number)."""
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 class Bench:
     def __init__(self, a):
         self.a = a
@@ -144,6 +155,30 @@ class Bench:
         self.refs = []
         self.insets = {}
         self._oidn_ready = False
+        self.done = set()
+        self.effort_done = set()
+        if a.resume:
+            self.load_previous()
+
+    def load_previous(self):
+        """--resume: keep the (scene, spp) blocks that finished (their variance rows are written
+        when a block ends) and the scenes whose effort sweeps finished; drop partial blocks."""
+        import bench_plots
+        rd = lambda n: bench_plots.read_csv(os.path.join(self.out, n))  # noqa: E731
+        self.variance = rd("variance.csv")
+        self.done = {(r["scene"], int(r["spp"])) for r in self.variance}
+        keep = lambda rows: [r for r in rows if (r["scene"], int(r["spp"])) in self.done]  # noqa: E731
+        self.results = keep(rd("results.csv"))
+        self.sweeps = keep(rd("gauss_sweep.csv"))
+        self.frames_rows = keep(rd("frames.csv"))
+        self.effort = rd("effort.csv")
+        self.effort_done = {r["scene"] for r in self.effort}
+        self.refs = rd("references.csv")
+        for f in os.listdir(self.out):
+            if f.startswith("insets_") and f.endswith(".npz"):
+                z = np.load(os.path.join(self.out, f))
+                self.insets[f[7:-4]] = {str(n): (img, float(m)) for n, img, m in zip(z["names"], z["images"], z["mse"])}
+        bc.log(f"resume: {len(self.done)} finished (scene, spp) blocks, {len(self.results)} rows kept")
 
     # ---- running the binaries ------------------------------------------------------------
     def solver_opts(self):
@@ -280,6 +315,21 @@ class Bench:
                + (f" frames PSNR {fp:.2f}" if frames is not None else ""))
         return r
 
+    def failed(self, ctx, method, err, st_render=None, param=""):
+        """A reconstruction that exited non-zero: recorded as a failed image (infinite error), the
+        run goes on. The first line of the message is kept in the CSV."""
+        msg = str(err).strip().splitlines()
+        msg = (msg[-1] if msg else "failed")[:200]
+        st_render = st_render or {}
+        self.results.append(dict(ctx, method=method, param=param, samples=st_render.get("samples", 0),
+                                 mse=float("inf"), psnr=float("-inf"), mse_edge=float("inf"),
+                                 psnr_edge=float("-inf"), edge_pixels=0, frames_mse=float("inf"),
+                                 frames_psnr=float("-inf"), t_render_s=st_render.get("t_render_s", 0),
+                                 t_recon_s=float("nan"), t_total_s=float("nan"), t_wall_s=float("nan"),
+                                 t_per_sample_us=st_render.get("t_per_sample_us", float("nan")), iterations=0,
+                                 inner_iterations=0, rel_residual=float("nan"), converged=0, finite=0, error=msg))
+        bc.log(f"  {ctx['scene']} spp {ctx['spp']} seed {ctx['seed']} {method}: FAILED: {msg}")
+
     def flush_variance(self, scene, spp, edges):
         for method, (n, s, s2) in self.var_acc.items():
             if n < 2:
@@ -289,6 +339,12 @@ class Bench:
                 v, ve = float(var.mean()), float(var[edges].mean()) if edges.any() else float("nan")
             self.variance.append(dict(scene=scene, spp=spp, method=method, seeds=n, var_all=v, var_edge=ve))
         self.var_acc = {}
+        if spp == self.a.inset_spp and scene in self.insets:  # kept for --resume and --replot
+            ins = self.insets[scene]
+            np.savez_compressed(os.path.join(self.out, f"insets_{scene}.npz"), ref=self.refimg[scene],
+                                edges=self.edges[scene], names=np.array(list(ins)),
+                                images=np.stack([v[0] for v in ins.values()]),
+                                mse=np.array([v[1] for v in ins.values()]))
 
     # ---- the scene loops --------------------------------------------------------------------
     def static_scene(self, name):
@@ -303,6 +359,8 @@ class Bench:
         so = self.solver_opts()
         for spp in a.spp:
             self.var_acc = {}
+            if (name, spp) in self.done:
+                continue
             for seed in range(1, a.seeds + 1):
                 ctx = dict(scene=name, kind="static", width=W, height=H, grid_w=0, grid_h=0, grid_t=1,
                            k=0, spp=spp, seed=seed)
@@ -327,7 +385,11 @@ class Bench:
                     _, st = self.render(scene, tag + "_poisson", common + ["--estimator", "mean", "--dump", dump])
                     for m in cs:
                         _, solver, wav = m.split("-")
-                        img, sr, _ = self.reconstruct(dump, f"{tag}_{m}", ["--solver", solver, "--wavelet", wav] + so)
+                        try:
+                            img, sr, _ = self.reconstruct(dump, f"{tag}_{m}", ["--solver", solver, "--wavelet", wav] + so)
+                        except bc.BenchError as e:
+                            self.failed(ctx, m, e, st)
+                            continue
                         c2 = dict(ctx, grid_w=sr["grid_w"], grid_h=sr["grid_h"], k=sr["k"])
                         self.row(c2, m, img, ref, edges, st, bc.recon_time(sr), st_recon=sr,
                                  param=f"max_iter={a.max_iter or 'default'}")
@@ -353,6 +415,8 @@ class Bench:
         for spp in a.spp:
             self.var_acc = {}
             best_sigma = None
+            if (name, spp) in self.done:
+                continue
             for seed in range(1, a.seeds + 1):
                 ctx = dict(scene=name, kind="motion", width=W, height=H, grid_w=W, grid_h=H, grid_t=T,
                            k=W * H * T, spp=spp, seed=seed)
@@ -402,7 +466,11 @@ class Bench:
                     self.row(ctx, "gauss", img, ref, edges, st, bc.recon_time(sr), fr, ref_frames,
                              param=f"sigma={s_img}/{s_fr}", st_recon=sr)
                 for m in want_cs:
-                    img, sr, fr = self.reconstruct(dump, f"{tag}_{m}", ["--solver", m.split("-")[1]] + so, fdir)
+                    try:
+                        img, sr, fr = self.reconstruct(dump, f"{tag}_{m}", ["--solver", m.split("-")[1]] + so, fdir)
+                    except bc.BenchError as e:
+                        self.failed(ctx, m, e, st)
+                        continue
                     self.row(ctx, m, img, ref, edges, st, bc.recon_time(sr), fr, ref_frames, st_recon=sr,
                              param=f"max_iter={a.max_iter or 'default'}")
                 shutil.rmtree(fdir, ignore_errors=True)
@@ -462,7 +530,7 @@ class Bench:
             g.setdefault((r["scene"], r["method"], r["spp"]), []).append(r)
         out = {}
         for key, rs in g.items():  # an infinite MSE (a failed image) makes the mean infinite
-            out[key] = {f: float(np.nanmean([x[f] for x in rs])) for f in
+            out[key] = {f: float(np.nanmean([_num(x.get(f)) for x in rs])) for f in
                         ("mse", "mse_edge", "frames_mse", "frames_psnr", "t_render_s", "t_recon_s", "t_total_s",
                          "t_per_sample_us", "iterations", "samples")}
         return out
@@ -557,7 +625,7 @@ class Bench:
             self.save()
         eff = a.effort_scenes.split(",") if a.effort_scenes else static[:1]
         for name in eff:
-            if name not in self.refimg:
+            if name not in self.refimg or name in self.effort_done:
                 continue
             bc.log(f"effort sweeps on {name}")
             self.effort_scene(name)
@@ -581,8 +649,8 @@ class Bench:
 
 
 def replot(out):
-    """Recomputes breakeven.csv from results.csv and redraws the figures (all but the insets,
-    which need the run's images) of an existing output directory."""
+    """Recomputes breakeven.csv from results.csv and redraws the figures of an existing output
+    directory (insets from the insets_<scene>.npz files the run saved)."""
     import bench_plots
     b = Bench.__new__(Bench)
     b.out = os.path.abspath(out)

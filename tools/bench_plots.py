@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Plots of tools/bench_accuracy.py's CSVs (matplotlib, Agg). Run on its own to redraw from an
-output directory (everything but the insets, which need the images of the run):
+output directory (the insets from the insets_<scene>.npz the run saved):
 
   .venv/bin/python tools/bench_plots.py OUT_DIR
 """
@@ -58,7 +58,12 @@ def seed_means(rows, keys, fields):
     g = {}
     for r in rows:
         g.setdefault(tuple(r[k] for k in keys), []).append(r)
-    return {k: {f: float(np.nanmean([x[f] for x in v])) for f in fields} for k, v in g.items()}
+    def num(v):
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return float("nan")
+    return {k: {f: float(np.nanmean([num(x.get(f)) for x in v])) for f in fields} for k, v in g.items()}
 
 
 def _loglog_capped(ax, series, cap_from=("random", "stratified")):
@@ -241,6 +246,11 @@ def plot_all(out, bench=None):
         if bench is not None and scene in bench.insets:
             made.append(plot_insets(out, scene, bench.refimg[scene], bench.insets[scene], bench.edges[scene],
                                     bench.a.inset_spp))
+        elif os.path.exists(os.path.join(out, f"insets_{scene}.npz")):  # saved by the run
+            z = np.load(os.path.join(out, f"insets_{scene}.npz"))
+            ims = {str(n): (img, float(m)) for n, img, m in zip(z["names"], z["images"], z["mse"])}
+            spp = int(next((r["spp"] for r in res if r["scene"] == scene and r["spp"] == 4), 4))
+            made.append(plot_insets(out, scene, z["ref"], ims, z["edges"], spp))
     return made
 
 
