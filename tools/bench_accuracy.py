@@ -145,7 +145,7 @@ class Bench:
         self.out = os.path.abspath(a.out)
         self.work = os.path.join(self.out, "work")
         os.makedirs(self.work, exist_ok=True)
-        self.logf = open(os.path.join(self.out, "commands.log"), "w")
+        self.logf = open(os.path.join(self.out, "commands.log"), "a" if a.resume else "w")
         self.fp = bc.tracer_fingerprint(self.bins, self.env)
         self.results = []
         self.variance = []
@@ -199,7 +199,16 @@ class Bench:
         with open(js) as f:
             st = json.load(f)
         st["t_wall_s"] = wall
-        return bc.read_exr(exr), st
+        img = bc.read_exr(exr)
+        self.tidy(exr, js)
+        return img, st
+
+    def tidy(self, *paths):
+        """Outputs are read at once; a long run would otherwise fill the disk (--keep keeps them)."""
+        if not self.a.keep:
+            for p in paths:
+                if os.path.exists(p):
+                    os.remove(p)
 
     def reconstruct(self, dump, tag, args, frames_dir=None):
         exr = os.path.join(self.work, tag + ".exr")
@@ -216,7 +225,9 @@ class Bench:
         if frames_dir:
             names = sorted(n for n in os.listdir(frames_dir) if n.endswith(".exr"))
             fr = np.stack([bc.read_exr(os.path.join(frames_dir, n)) for n in names])
-        return bc.read_exr(exr), st, fr
+        img = bc.read_exr(exr)
+        self.tidy(exr, js)
+        return img, st, fr
 
     def oidn(self, img):
         import pyoidn
