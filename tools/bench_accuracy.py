@@ -17,6 +17,7 @@ Methods (names used in the CSVs and plots):
                                 mode, colour only: no albedo/normal buffers)
     cs-<solver>-<wavelet>       compressive (Poisson-disk positions), solver romp|sparsa,
                                 wavelet db4|db8
+    cs-<solver>-<wavelet>-sharp the same with --integrate sharp (on request only: --methods)
   moving scenes (3-D motion blur), each on the blurred image and on every frame:
     random, stratified          per-pixel Monte Carlo over x, y, t; a frame's pixel is the mean of
                                 the pixel's samples in that frame (pixels with none: the pixel's
@@ -52,6 +53,8 @@ import bench_common as bc  # noqa: E402
 ALL_SCENES = ["triangle", "checkerboard", "garden", "billiards", "train"]
 STATIC_CS = ["cs-romp-db4", "cs-romp-db8", "cs-sparsa-db4", "cs-sparsa-db8"]
 STATIC_METHODS = ["random", "stratified", "oidn"] + STATIC_CS
+# on request (--methods): the same with --integrate sharp (integrate Phi^-1 f_b, not f_b)
+STATIC_CS_SHARP = [m + "-sharp" for m in STATIC_CS]
 MOTION_METHODS = ["random", "stratified", "oidn", "gauss", "cs3d-sparsa"]
 GAUSS_FACTORS = [0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83]
 
@@ -280,11 +283,11 @@ class Bench:
 
     # ---- bookkeeping -----------------------------------------------------------------------
     def want(self, m, motion):
-        pool = MOTION_METHODS + ["cs3d-romp"] if motion else STATIC_METHODS
+        pool = MOTION_METHODS + ["cs3d-romp"] if motion else STATIC_METHODS + STATIC_CS_SHARP
         if m not in pool:
             return False
-        if self.a.methods is None:
-            return m != "cs3d-romp"  # ROMP is real-valued; the 3-D problem is complex
+        if self.a.methods is None:  # ROMP is real-valued (the 3-D problem is complex); sharp: on request
+            return m != "cs3d-romp" and not m.endswith("-sharp")
         return m in self.a.methods
 
     def row(self, ctx, method, img, ref, edges, st_render, t_recon, frames=None, ref_frames=None,
@@ -390,14 +393,16 @@ class Bench:
                     if self.want("oidn", False):
                         den, t = self.oidn(img)
                         self.row(c2, "oidn", den, ref, edges, st, st["t_reconstruct_s"] + t)
-                cs = [m for m in STATIC_CS if self.want(m, False)]
+                cs = [m for m in STATIC_CS + STATIC_CS_SHARP if self.want(m, False)]
                 if cs:
                     dump = os.path.join(self.work, tag + ".csid")
                     _, st = self.render(scene, tag + "_poisson", common + ["--estimator", "mean", "--dump", dump])
                     for m in cs:
-                        _, solver, wav = m.split("-")
+                        solver, wav = m.split("-")[1:3]
+                        integ = ["--integrate", "sharp"] if m.endswith("-sharp") else []
                         try:
-                            img, sr, _ = self.reconstruct(dump, f"{tag}_{m}", ["--solver", solver, "--wavelet", wav] + so)
+                            img, sr, _ = self.reconstruct(dump, f"{tag}_{m}",
+                                                          ["--solver", solver, "--wavelet", wav] + integ + so)
                         except bc.BenchError as e:
                             self.failed(ctx, m, e, st)
                             continue

@@ -89,6 +89,8 @@ def _loglog_capped(ax, series, cap_from=("random", "stratified")):
 
 
 def _style(m):
+    if m.endswith("-sharp"):  # --integrate sharp variants: the base method's colour, star marker
+        return STYLE.get(m[:-6], ("k", "."))[0], "*"
     return STYLE.get(m, ("k", "."))
 
 
