@@ -53,8 +53,8 @@ def binaries(build_dir=None):
 
 
 def run(cmd, env=None, timeout=None, log=None):
-    """Runs cmd (a list), returns (wall seconds, rusage of that child). Raises BenchError with the
-    command's stderr on a non-zero exit. os.wait4 gives this child's own peak RSS and CPU time."""
+    """Runs cmd (a list) and returns its wall time in seconds. Raises BenchError with the end of
+    the command's stderr on a non-zero exit; `log` gets the command line and its stderr."""
     t0 = time.perf_counter()
     if log:
         log.write("$ " + " ".join(shlex.quote(c) for c in cmd) + "\n")
@@ -66,28 +66,13 @@ def run(cmd, env=None, timeout=None, log=None):
         p.kill()
         p.communicate()
         raise BenchError(f"timed out after {timeout} s: {' '.join(cmd)}")
-    # communicate() already reaped the child; Popen keeps no rusage, so use wait4 before reaping
-    # where it matters (run_rusage below). Here only the status matters.
+    # (peak memory of a child needs os.wait4 before it is reaped: see bench_scaling.py)
     wall = time.perf_counter() - t0
     if p.returncode != 0:
         raise BenchError(f"exit {p.returncode}: {' '.join(cmd)}\n{err.decode(errors='replace')[-2000:]}")
     if log and err:
         log.write(err.decode(errors="replace"))
     return wall
-
-
-def run_rusage(cmd, env=None):
-    """Runs cmd and returns (wall seconds, peak RSS in bytes, user+sys CPU seconds) of that child,
-    from os.wait4 (Linux reports ru_maxrss in KiB)."""
-    t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env or default_env())
-    err = p.stderr.read()
-    _, status, ru = os.wait4(p.pid, 0)
-    p.returncode = os.waitstatus_to_exitcode(status)
-    wall = time.perf_counter() - t0
-    if p.returncode != 0:
-        raise BenchError(f"exit {p.returncode}: {' '.join(cmd)}\n{err.decode(errors='replace')[-2000:]}")
-    return wall, ru.ru_maxrss * 1024, ru.ru_utime + ru.ru_stime
 
 
 def sha256_file(path, h=None):
