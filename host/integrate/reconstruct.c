@@ -136,6 +136,14 @@ double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims)
     return 0.5 * pow((double)k / (double)n, 1.0 / dims);
 }
 
+double csi_motion_tau_rel(size_t n)
+{
+    if (n == 0)
+        return CSI_MOTION_TAU_MAX;
+    double t = CSI_MOTION_TAU_C / sqrt((double)n);
+    return t < CSI_MOTION_TAU_MIN ? CSI_MOTION_TAU_MIN : t > CSI_MOTION_TAU_MAX ? CSI_MOTION_TAU_MAX : t;
+}
+
 void csi_recon_defaults(csi_recon_options *o)
 {
     memset(o, 0, sizeof *o);
@@ -244,7 +252,7 @@ static void image_sparsa_defaults(csi_sparsa_options *o, double spp)
 /* image_spp > 0: Alg. 1 with that many samples per output pixel (SpaRSA gets the image
  * defaults where the caller left a setting open); 0: Alg. 2. */
 static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_recon_options *opt,
-                             double image_spp, csi_solve_report *rep)
+                             double image_spp, size_t motion_n, csi_solve_report *rep)
 {
     if (kind == CSI_SOLVER_ROMP) {
         csi_romp_options o;
@@ -277,7 +285,7 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
     if (opt->tau_rel > 0)
         o.tau_rel = opt->tau_rel;
     else if (motion)
-        o.tau_rel = CSI_MOTION_TAU_REL;
+        o.tau_rel = csi_motion_tau_rel(motion_n);
     if (motion) {
         /* Alg. 2: SpaRSA's debiasing (least squares on the support) only when asked for: the
          * video's spectrum is compressible, not sparse, and refitting its support to the samples
@@ -428,7 +436,7 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
         CSI_TRY(csi_fill_zero(ctx, st->x, k * sizeof(float)));
         double t0 = now_s();
-        CSI_TRY(run_solver(st, res->solver, opt, (double)n / (double)np, &res->report[c]));
+        CSI_TRY(run_solver(st, res->solver, opt, (double)n / (double)np, 0, &res->report[c]));
         CSI_TRY(csi_finish(ctx));
         double t1 = now_s();
         t_solve += t1 - t0;
@@ -693,7 +701,7 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_fill_zero(ctx, st->x, ncoef * 8);
         double t0 = now_s();
         if (s == CSI_OK)
-            s = run_solver(st, res->solver, opt, 0.0, &res->report[c]);
+            s = run_solver(st, res->solver, opt, 0.0, n, &res->report[c]);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = now_s();
