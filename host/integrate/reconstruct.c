@@ -81,6 +81,14 @@ double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims)
     return 0.5 * pow((double)k / (double)n, 1.0 / dims);
 }
 
+double csi_motion_tau_rel(size_t n)
+{
+    if (n == 0)
+        return CSI_MOTION_TAU_MAX;
+    double t = CSI_MOTION_TAU_C / sqrt((double)n);
+    return t < CSI_MOTION_TAU_MIN ? CSI_MOTION_TAU_MIN : t > CSI_MOTION_TAU_MAX ? CSI_MOTION_TAU_MAX : t;
+}
+
 void csi_recon_defaults(csi_recon_options *o)
 {
     memset(o, 0, sizeof *o);
@@ -166,8 +174,9 @@ static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_s
 }
 
 static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_recon_options *opt,
-                             const char *phase, csi_solve_report *rep, bool motion)
+                             const char *phase, csi_solve_report *rep, size_t motion_n)
 {
+    const bool motion = motion_n > 0; /* Alg. 2 with motion_n samples */
     if (kind == CSI_SOLVER_ROMP) {
         csi_romp_options o;
         csi_romp_defaults(&o);
@@ -191,7 +200,7 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
     if (opt->tau_rel > 0)
         o.tau_rel = opt->tau_rel;
     else if (motion)
-        o.tau_rel = CSI_MOTION_TAU_REL;
+        o.tau_rel = csi_motion_tau_rel(motion_n);
     if (motion) {
         /* Alg. 2: SpaRSA's debiasing (least squares on the support) only when asked for: the
          * video's spectrum is compressible, not sparse, and refitting its support to the samples
@@ -283,7 +292,7 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         CSI_TRY(csi_fill_zero(ctx, st->x, k * sizeof(float)));
         static const char *phase[4] = {"solve 1/", "solve 2/", "solve 3/", "solve 4/"};
         double t0 = now_s();
-        CSI_TRY(run_solver(st, res->solver, opt, phase[c], &res->report[c], false));
+        CSI_TRY(run_solver(st, res->solver, opt, phase[c], &res->report[c], 0));
         CSI_TRY(csi_finish(ctx));
         double t1 = now_s();
         t_solve += t1 - t0;
@@ -545,7 +554,7 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_fill_zero(ctx, st->x, ncoef * 8);
         double t0 = now_s();
         if (s == CSI_OK)
-            s = run_solver(st, res->solver, opt, "solve", &res->report[c], true);
+            s = run_solver(st, res->solver, opt, "solve", &res->report[c], n);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = now_s();

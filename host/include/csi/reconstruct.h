@@ -53,10 +53,20 @@ csi_status csi_estimator_parse(const char *s, csi_estimator *out);
  * spread evenly over k cells in d dimensions, (k/N)^(1/d), times 0.5. */
 double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims);
 
-/* Alg. 2's default tau_rel: the best error per second over csi's procedural moving scenes at
- * 10% and 1 sample per pixel (docs/bench/motion.md); the solver's own default (1e-4) costs 3-6x
- * the iterations for no gain on these compressible (not sparse) spectra. */
-#define CSI_MOTION_TAU_REL 3e-3
+/* Alg. 2's default tau_rel for n samples: CSI_MOTION_TAU_C / sqrt(n), clamped to
+ * [CSI_MOTION_TAU_MIN, CSI_MOTION_TAU_MAX]. Why 1/sqrt(n): tau_rel is relative to
+ * ||A^H y||_inf, which for A = S F3^H (F unitary) is the DC coefficient, about n mean(y) /
+ * sqrt(k); a coefficient the scene does not have still receives the incoherent sum of the
+ * samples, about sqrt(n) rms(y) / sqrt(k). So the aliasing floor l1 must cut is
+ * ~ (rms / mean) / sqrt(n) of the maximum, and a fixed fraction of it is a fixed C / sqrt(n).
+ * C = 0.25 was the best error per second over csi's procedural moving scenes at 64^2 x 16
+ * (n 4096 and 6554: tau_rel 3-4e-3) and at 512^2 x 128 (n = 335544: 4.3e-4), see
+ * docs/bench/motion.md; the solver's own default (1e-4) costs 3-10x the iterations at the small
+ * sizes for a worse result. */
+#define CSI_MOTION_TAU_C 0.25
+#define CSI_MOTION_TAU_MIN 1e-4
+#define CSI_MOTION_TAU_MAX 3e-2
+double csi_motion_tau_rel(size_t n);
 
 typedef struct csi_recon_options {
     csi_estimator estimator;      /* default CSI_EST_CS */
@@ -70,7 +80,7 @@ typedef struct csi_recon_options {
     double tol;                   /* solver tolerance; 0: the solver's default */
     int max_iter;                 /* 0: the solver's default */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: default (the
-                                     solver's for Alg. 1, CSI_MOTION_TAU_REL for Alg. 2) */
+                                     solver's for Alg. 1, csi_motion_tau_rel(N) for Alg. 2) */
     size_t romp_s;                /* ROMP sparsity; 0: default from N */
     bool frames;                  /* grid.t > 1: also return every frame */
     /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
