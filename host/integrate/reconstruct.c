@@ -259,7 +259,7 @@ typedef struct {
  * 18% per column, enough to rank correlations (csi/solve.h). */
 #define CSI_ROMP_NORM_PROBES 64
 
-static void image_romp_defaults(image_romp *o)
+static void image_romp_defaults(image_romp *o, size_t N, bool published)
 {
     /* The published ROMP (Needell & Vershynin): s from N, stop at 2s, raw correlations. */
     o->s = 0;
@@ -267,6 +267,14 @@ static void image_romp_defaults(image_romp *o)
     o->normalize = false;
     o->seed_levels = 0;
     o->lsq_iter = 0;
+    if (published)
+        return;
+    /* csi's image settings (docs/bench/romp.md): fewer candidates per step, a support limit
+     * as a fraction of N (early stopping is ROMP's only regulariser: the least squares
+     * interpolate the samples), the coarse block and the coarsest detail level seeded. */
+    o->s = N / 64 > 16 ? N / 64 : 16;
+    o->max_support = 0.15;
+    o->seed_levels = 2;
 }
 
 /* image_spp > 0: Alg. 1 with that many samples per output pixel (SpaRSA gets the image
@@ -278,7 +286,7 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
         csi_romp_options o;
         csi_romp_defaults(&o);
         image_romp o_img;
-        image_romp_defaults(&o_img);
+        image_romp_defaults(&o_img, st->A->rows, opt->romp_published);
         if (opt->romp_s > 0)
             o_img.s = opt->romp_s;
         if (opt->romp_max_support > 0)

@@ -126,6 +126,8 @@ typedef struct csi_recon_options {
                                      block, 1 + j = it and the j coarsest detail levels;
                                      -1: none (the published ROMP); 0: the method's default */
     int romp_lsq_iter;            /* CG iterations per least squares; 0: the method's default */
+    bool romp_published;          /* the method's ROMP defaults are the published ROMP's (s
+                                     from N, stop at 2s, no seed) instead of csi's */
     bool frames;                  /* grid.t > 1: also return every frame */
     /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
      * r = y - S f is interpolated by Gaussian normalized convolution and added to f, so that
