@@ -53,12 +53,14 @@ static void usage(FILE *f)
 "      --tol T               solver tolerance (relative); default 3e-3 for images, else the solver's\n"
 "      --max-iter N          solver iteration cap; default 300 for images, else the solver's\n"
 "      --tau T               SpaRSA: tau relative to ||A^H y||_inf; default for images 3e-3 / spp\n"
-"      --romp-s S            ROMP: candidates per step (default: see docs/bench/romp.md)\n"
+"      --romp-preset csi|published  ROMP defaults: csi's for images (default) or Needell &\n"
+"                            Vershynin's (s from N, stop at 2s); the --romp-* below override\n"
+"      --romp-s S            ROMP: candidates per step (csi: N / 64, at least 16)\n"
 "      --romp-max-support M  ROMP: support size that ends the run (a count, or in (0, 1) a\n"
-"                            fraction of the samples)\n"
+"                            fraction of the samples; csi: 0.15)\n"
 "      --romp-normalize on|off|auto  ROMP: rank correlations by column norm\n"
 "      --romp-seed-levels off|auto|L  ROMP: start the support with the coarse wavelet block\n"
-"                            (L = 1) and the L - 1 coarsest detail levels\n"
+"                            (L = 1) and the L - 1 coarsest detail levels (csi: 2)\n"
 "      --romp-lsq-iter N     ROMP: CG iterations per least squares\n"
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
@@ -89,7 +91,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ };
+           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -107,7 +109,7 @@ int main(int argc, char **argv)
         {"romp-s", required_argument, 0, O_ROMP_S}, {"romp-max-support", required_argument, 0, O_ROMP_MAXS},
         {"romp-normalize", required_argument, 0, O_ROMP_NORM},
         {"romp-seed-levels", required_argument, 0, O_ROMP_SEED},
-        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ}, {"quiet", no_argument, 0, 'q'},
+        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ}, {"romp-preset", required_argument, 0, O_ROMP_PRESET}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     csi_recon_options opt;
@@ -220,6 +222,11 @@ int main(int argc, char **argv)
                 opt.romp_seed_levels = (int)u;
             else
                 return cli_error(prog, CSI_ERR_ARG, "--romp-seed-levels: '%s' (expected off, auto or 1 to 16)", optarg);
+            break;
+        case O_ROMP_PRESET:
+            if (strcmp(optarg, "csi") && strcmp(optarg, "published"))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-preset: '%s' (expected csi or published)", optarg);
+            opt.romp_published = !strcmp(optarg, "published");
             break;
         case O_ROMP_LSQ:
             if (!cli_parse_u64(optarg, 1, 100000, &u))

@@ -50,7 +50,8 @@ static void usage(FILE *f)
 "      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
 "      --estimator cs|mean|gauss  --gauss-sigma S  --correct auto|none|cv  --cv-n0 N\n"
 "      --stop gap|objective|auto  --continuation on|off|auto  --debias on|off|auto\n"
-"      --romp-s S  --romp-max-support M  --romp-normalize on|off|auto\n"
+"      --romp-preset csi|published  --romp-s S  --romp-max-support M\n"
+"      --romp-normalize on|off|auto\n"
 "      --romp-seed-levels off|auto|L  --romp-lsq-iter N\n"
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
@@ -85,7 +86,7 @@ static void on_solve(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_SPP, O_METHOD, O_GRID, O_DUMP,
+           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET, O_SPP, O_METHOD, O_GRID, O_DUMP,
            O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
@@ -103,7 +104,7 @@ int main(int argc, char **argv)
         {"romp-s", required_argument, 0, O_ROMP_S}, {"romp-max-support", required_argument, 0, O_ROMP_MAXS},
         {"romp-normalize", required_argument, 0, O_ROMP_NORM},
         {"romp-seed-levels", required_argument, 0, O_ROMP_SEED},
-        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ},
+        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ}, {"romp-preset", required_argument, 0, O_ROMP_PRESET},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
@@ -226,6 +227,11 @@ int main(int argc, char **argv)
                 opt.romp_seed_levels = (int)u;
             else
                 return cli_error(prog, CSI_ERR_ARG, "--romp-seed-levels: '%s' (expected off, auto or 1 to 16)", optarg);
+            break;
+        case O_ROMP_PRESET:
+            if (strcmp(optarg, "csi") && strcmp(optarg, "published"))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-preset: '%s' (expected csi or published)", optarg);
+            opt.romp_published = !strcmp(optarg, "published");
             break;
         case O_ROMP_LSQ:
             if (!cli_parse_u64(optarg, 1, 100000, &u))
