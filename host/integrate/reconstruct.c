@@ -271,10 +271,14 @@ static void image_romp_defaults(image_romp *o, size_t N, bool published)
         return;
     /* csi's image settings (docs/bench/romp.md): fewer candidates per step, a support limit
      * as a fraction of N (early stopping is ROMP's only regulariser: the least squares
-     * interpolate the samples), the coarse block and the coarsest detail level seeded. */
+     * interpolate the samples), the coarse block and the coarsest detail level seeded, short
+     * least squares. */
     o->s = N / 64 > 16 ? N / 64 : 16;
     o->max_support = 0.15;
     o->seed_levels = 2;
+    /* Warm-started CG: 10 steps per support growth instead of 60 gave the same or lower MSE
+     * (inexact fits regularise too) at 2-3x less time. */
+    o->lsq_iter = 10;
 }
 
 /* image_spp > 0: Alg. 1 with that many samples per output pixel (SpaRSA gets the image

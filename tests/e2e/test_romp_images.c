@@ -9,20 +9,21 @@
  *   paper      the same ROMP with the paper's integration (f_b, no correction, the paper's
  *              Gaussian width): the paper's Alg. 1 as written
  *   csi        csi's ROMP settings for images (csi_reconstruct's ROMP defaults: s = N/64,
- *              support limit 0.15 N, coarse block + coarsest detail level seeded)
+ *              support limit 0.15 N, coarse block + coarsest detail level seeded, 10 CG
+ *              steps per least squares)
  *   sparsa     csi_reconstruct's defaults (SpaRSA), the default solver of Alg. 1
  *   mean       stratified Monte Carlo (the per-pixel mean of stratified samples)
  * Claims, MSE averaged over position seeds 1..3 at 4 spp, on both images:
  *   1. csi's ROMP settings have a lower MSE than the published ROMP, with either integration;
  *   2. SpaRSA's defaults have a lower MSE than ROMP with csi's settings (why SpaRSA stays the
  *      default solver of Alg. 1);
- *   3. against stratified Monte Carlo, as measured (docs/bench/romp.md, 2 seeds: texture 3.59e-4
- *      vs 5.55e-4, triangle 4.53e-4 vs 4.69e-4): on the texture csi's ROMP is below stratified;
- *      on the triangle it is within 4% of it, too close to call at 3 seeds, so only a bound
- *      (below 1.15x stratified) is asserted; and the published ROMP is above stratified on the
- *      triangle (5.79e-4: the spiky result of issue 3 item 5). With 3 seeds this test measured
- *      triangle: published 5.68e-4, paper 7.09e-4, csi 4.49e-4, SpaRSA 3.09e-4, stratified 4.82e-4;
- *      texture: 4.08e-4, 1.98e-3, 3.69e-4, 3.16e-4, 5.68e-4.
+ *   3. against stratified Monte Carlo, as measured (docs/bench/romp.md): csi's ROMP is below
+ *      stratified on both images (2 seeds: triangle 4.21e-4 vs 4.69e-4, texture 3.59e-4 vs
+ *      5.55e-4), and the published ROMP is above it on the triangle (5.79e-4: the spiky result
+ *      of issue 3 item 5). With 3 seeds this test measured, published / paper / csi / SpaRSA /
+ *      stratified: triangle 5.68e-4 / 7.09e-4 / 4.08e-4 / 3.09e-4 / 4.82e-4; texture 4.08e-4 /
+ *      1.98e-3 / 3.69e-4 / 3.16e-4 / 5.68e-4. The tightest margin is 10% (csi vs published on
+ *      the texture); positions and solves are deterministic, so the figures are fixed.
  * The test prints every figure it compares. */
 #include <math.h>
 #include <stdio.h>
@@ -187,15 +188,11 @@ int main(void)
               "ROMP %.3e", im, m[CFG_CSI], m[CFG_PAPER]);
         CHECK(m[CFG_SPARSA] < m[CFG_CSI], "%s: SpaRSA's defaults %.3e not below csi's ROMP %.3e", im,
               m[CFG_SPARSA], m[CFG_CSI]);
-        if (i == 1)
-            CHECK(m[CFG_CSI] < m[CFG_MEAN], "%s: csi's ROMP %.3e not below stratified's %.3e", im,
-                  m[CFG_CSI], m[CFG_MEAN]);
-        else {
-            CHECK(m[CFG_CSI] < 1.15 * m[CFG_MEAN], "%s: csi's ROMP %.3e not within 1.15x "
-                  "stratified's %.3e", im, m[CFG_CSI], m[CFG_MEAN]);
+        CHECK(m[CFG_CSI] < m[CFG_MEAN], "%s: csi's ROMP %.3e not below stratified's %.3e", im,
+              m[CFG_CSI], m[CFG_MEAN]);
+        if (i == 0)
             CHECK(m[CFG_PUBLISHED] > m[CFG_MEAN], "%s: the published ROMP %.3e is no longer above "
                   "stratified's %.3e (update docs/bench/romp.md)", im, m[CFG_PUBLISHED], m[CFG_MEAN]);
-        }
     }
     return test_done();
 }
