@@ -61,7 +61,7 @@ static void usage(FILE *f)
 "      --romp-normalize on|off|auto  ROMP: rank correlations by column norm\n"
 "      --romp-seed-levels off|auto|L  ROMP: start the support with the coarse wavelet block\n"
 "                            (L = 1) and the L - 1 coarsest detail levels (csi: 2)\n"
-"      --romp-lsq-iter N     ROMP: CG iterations per least squares (csi: 10)\n"
+"      --romp-lsq-iter N     ROMP: CG iterations per least squares (csi: 1)\n"
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
 "other:\n"
