@@ -346,7 +346,18 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
         }
         o.progress = opt->progress;
         o.user = opt->user;
-        return csi_romp_run(st->solver, st->y, st->x, &o, rep);
+        CSI_TRY(csi_romp_run(st->solver, st->y, st->x, &o, rep));
+        if (o.max_support > 0 && rep->reason == CSI_SOLVE_SUPPORT_LIMIT) {
+            /* A support limit set for images (csi's, or the caller's) is the stopping rule, as
+             * SpaRSA's objective change is: the samples are not meant to be fit exactly. */
+            rep->reason = CSI_SOLVE_CONVERGED;
+            rep->converged = true;
+            snprintf(rep->message, sizeof rep->message, "ROMP reached its support limit %zu "
+                     "(the early stop for images): %zu selected + %zu seeded after %d "
+                     "iterations, residual %.3g", o.max_support, rep->support - o.seed_count, o.seed_count,
+                     rep->iterations, rep->rel_residual);
+        }
+        return CSI_OK;
     }
     const bool motion = image_spp <= 0;
     csi_sparsa_options o;
