@@ -145,6 +145,9 @@ static bool run(csi_ctx *ctx, const scene *s, config cfg, uint32_t spp, uint64_t
     if (st == CSI_OK) {
         CHECK(cfg != CFG_SPARSA || r.solver == CSI_SOLVER_SPARSA, "the default solver is %s",
               csi_solver_kind_name(r.solver));
+        /* csi's support limit is the stopping rule for images: reported as such */
+        CHECK(cfg != CFG_CSI || (r.report[0].converged && r.solver == CSI_SOLVER_ROMP),
+              "csi's ROMP: %s", r.report[0].message);
         memcpy(img, r.image, NP * sizeof(float));
         csi_recon_result_free(&r);
     }
