@@ -85,6 +85,14 @@ void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_
     csi_json_str(j, "continuation", csi_switch_name(opt->continuation));
     csi_json_str(j, "debias", csi_switch_name(opt->debias));
     csi_json_num(j, "tau_rel_option", opt->tau_rel);
+    if (r->solver == CSI_SOLVER_ROMP) { /* the ROMP options as given (0 / auto: the method's) */
+        csi_json_str(j, "romp_preset", opt->romp_published ? "published" : "csi");
+        csi_json_int(j, "romp_s_option", (int64_t)opt->romp_s);
+        csi_json_num(j, "romp_max_support_option", opt->romp_max_support);
+        csi_json_str(j, "romp_normalize", csi_switch_name(opt->romp_normalize));
+        csi_json_int(j, "romp_seed_levels_option", opt->romp_seed_levels);
+        csi_json_int(j, "romp_lsq_iter_option", opt->romp_lsq_iter);
+    }
     csi_json_num(j, "t_setup_s", r->t_setup);
     csi_json_num(j, "t_solve_s", r->t_solve);
     csi_json_num(j, "t_integrate_s", r->t_integrate);

@@ -1,6 +1,7 @@
 /* csi-reconstruct: a sample dump in, an antialiased (Alg. 1) or motion-blurred (Alg. 2) image
  * out. See --help and docs/dump-format.md. */
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,6 +53,15 @@ static void usage(FILE *f)
 "      --tol T               solver tolerance (relative); default 3e-3 for images, else the solver's\n"
 "      --max-iter N          solver iteration cap; default 300 for images, else the solver's\n"
 "      --tau T               SpaRSA: tau relative to ||A^H y||_inf; default for images 3e-3 / spp\n"
+"      --romp-preset csi|published  ROMP defaults: csi's for images (default) or Needell &\n"
+"                            Vershynin's (s from N, stop at 2s); the --romp-* below override\n"
+"      --romp-s S            ROMP: candidates per step (csi: N / 64, at least 16)\n"
+"      --romp-max-support M  ROMP: support size that ends the run (a count, or in (0, 1) a\n"
+"                            fraction of the samples; csi: 0.15)\n"
+"      --romp-normalize on|off|auto  ROMP: rank correlations by column norm\n"
+"      --romp-seed-levels off|auto|L  ROMP: start the support with the coarse wavelet block\n"
+"                            (L = 1) and the L - 1 coarsest detail levels (csi: 2)\n"
+"      --romp-lsq-iter N     ROMP: CG iterations per least squares (csi: 1)\n"
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
 "other:\n"
@@ -81,7 +91,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS };
+           O_TOL, O_MAXIT, O_TAU, O_DROP, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -95,7 +105,11 @@ int main(int argc, char **argv)
         {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
         {"sigma-spacing", required_argument, 0, O_SPACING},
         {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
-        {"debias", required_argument, 0, O_DEBIAS}, {"quiet", no_argument, 0, 'q'},
+        {"debias", required_argument, 0, O_DEBIAS},
+        {"romp-s", required_argument, 0, O_ROMP_S}, {"romp-max-support", required_argument, 0, O_ROMP_MAXS},
+        {"romp-normalize", required_argument, 0, O_ROMP_NORM},
+        {"romp-seed-levels", required_argument, 0, O_ROMP_SEED},
+        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ}, {"romp-preset", required_argument, 0, O_ROMP_PRESET}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     csi_recon_options opt;
@@ -183,6 +197,41 @@ int main(int argc, char **argv)
         case O_DEBIAS:
             if (csi_switch_parse(optarg, &opt.debias) != CSI_OK)
                 return cli_error(prog, CSI_ERR_ARG, "--debias: %s", csi_last_error());
+            break;
+        case O_ROMP_S:
+            if (!cli_parse_u64(optarg, 1, 1u << 30, &u))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-s: '%s' is not a whole number from 1 to 2^30", optarg);
+            opt.romp_s = (size_t)u;
+            break;
+        case O_ROMP_MAXS:
+            if (!cli_parse_double(optarg, 1e-6, 4294967296.0, &d) || (d >= 1 && d != floor(d)))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-max-support: '%s' is neither a fraction of "
+                                 "the samples in (0, 1) nor a whole count", optarg);
+            opt.romp_max_support = d;
+            break;
+        case O_ROMP_NORM:
+            if (csi_switch_parse(optarg, &opt.romp_normalize) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--romp-normalize: %s", csi_last_error());
+            break;
+        case O_ROMP_SEED:
+            if (!strcmp(optarg, "off"))
+                opt.romp_seed_levels = -1;
+            else if (!strcmp(optarg, "auto"))
+                opt.romp_seed_levels = 0;
+            else if (cli_parse_u64(optarg, 1, 16, &u))
+                opt.romp_seed_levels = (int)u;
+            else
+                return cli_error(prog, CSI_ERR_ARG, "--romp-seed-levels: '%s' (expected off, auto or 1 to 16)", optarg);
+            break;
+        case O_ROMP_PRESET:
+            if (strcmp(optarg, "csi") && strcmp(optarg, "published"))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-preset: '%s' (expected csi or published)", optarg);
+            opt.romp_published = !strcmp(optarg, "published");
+            break;
+        case O_ROMP_LSQ:
+            if (!cli_parse_u64(optarg, 1, 100000, &u))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-lsq-iter: '%s' is not a whole number from 1 to 1e5", optarg);
+            opt.romp_lsq_iter = (int)u;
             break;
         case O_GSIGMA:
             if (!cli_parse_double(optarg, 1e-3, 1e4, &d))

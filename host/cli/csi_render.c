@@ -50,6 +50,9 @@ static void usage(FILE *f)
 "      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
 "      --estimator cs|mean|gauss  --gauss-sigma S  --correct auto|none|cv  --cv-n0 N\n"
 "      --stop gap|objective|auto  --continuation on|off|auto  --debias on|off|auto\n"
+"      --romp-preset csi|published  --romp-s S  --romp-max-support M\n"
+"      --romp-normalize on|off|auto\n"
+"      --romp-seed-levels off|auto|L  --romp-lsq-iter N\n"
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
 "  -q, --quiet               no progress on stderr\n"
@@ -83,7 +86,7 @@ static void on_solve(void *user, const char *phase, int iter, double res)
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_SPP, O_METHOD, O_GRID, O_DUMP,
+           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET, O_SPP, O_METHOD, O_GRID, O_DUMP,
            O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
@@ -98,6 +101,10 @@ int main(int argc, char **argv)
         {"sigma-spacing", required_argument, 0, O_SPACING},
         {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
         {"debias", required_argument, 0, O_DEBIAS},
+        {"romp-s", required_argument, 0, O_ROMP_S}, {"romp-max-support", required_argument, 0, O_ROMP_MAXS},
+        {"romp-normalize", required_argument, 0, O_ROMP_NORM},
+        {"romp-seed-levels", required_argument, 0, O_ROMP_SEED},
+        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ}, {"romp-preset", required_argument, 0, O_ROMP_PRESET},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
@@ -195,6 +202,41 @@ int main(int argc, char **argv)
         case O_DEBIAS:
             if (csi_switch_parse(optarg, &opt.debias) != CSI_OK)
                 return cli_error(prog, CSI_ERR_ARG, "--debias: %s", csi_last_error());
+            break;
+        case O_ROMP_S:
+            if (!cli_parse_u64(optarg, 1, 1u << 30, &u))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-s: '%s' is not a whole number from 1 to 2^30", optarg);
+            opt.romp_s = (size_t)u;
+            break;
+        case O_ROMP_MAXS:
+            if (!cli_parse_double(optarg, 1e-6, 4294967296.0, &d) || (d >= 1 && d != floor(d)))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-max-support: '%s' is neither a fraction of "
+                                 "the samples in (0, 1) nor a whole count", optarg);
+            opt.romp_max_support = d;
+            break;
+        case O_ROMP_NORM:
+            if (csi_switch_parse(optarg, &opt.romp_normalize) != CSI_OK)
+                return cli_error(prog, CSI_ERR_ARG, "--romp-normalize: %s", csi_last_error());
+            break;
+        case O_ROMP_SEED:
+            if (!strcmp(optarg, "off"))
+                opt.romp_seed_levels = -1;
+            else if (!strcmp(optarg, "auto"))
+                opt.romp_seed_levels = 0;
+            else if (cli_parse_u64(optarg, 1, 16, &u))
+                opt.romp_seed_levels = (int)u;
+            else
+                return cli_error(prog, CSI_ERR_ARG, "--romp-seed-levels: '%s' (expected off, auto or 1 to 16)", optarg);
+            break;
+        case O_ROMP_PRESET:
+            if (strcmp(optarg, "csi") && strcmp(optarg, "published"))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-preset: '%s' (expected csi or published)", optarg);
+            opt.romp_published = !strcmp(optarg, "published");
+            break;
+        case O_ROMP_LSQ:
+            if (!cli_parse_u64(optarg, 1, 100000, &u))
+                return cli_error(prog, CSI_ERR_ARG, "--romp-lsq-iter: '%s' is not a whole number from 1 to 1e5", optarg);
+            opt.romp_lsq_iter = (int)u;
             break;
         case O_GSIGMA:
             if (!cli_parse_double(optarg, 1e-3, 1e4, &d))

@@ -172,6 +172,8 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
     if (S->cplx)
         return csi_fail(CSI_ERR_ARG, "ROMP is real-valued; operator %s is complex (use SpaRSA)",
                         S->A->name ? S->A->name : "?");
+    if (o.seed_count > 0 && !o.seed_support)
+        return csi_fail(CSI_ERR_ARG, "ROMP options: seed_count %zu without seed_support", o.seed_count);
     if (!(o.tol >= 0) || !(o.lsq_tol >= 0) || o.lsq_iter < 0 || o.max_iter < 0)
         return csi_fail(CSI_ERR_ARG, "ROMP options: tol %g, lsq_tol %g, lsq_iter %d, max_iter %d must "
                         "be non-negative", o.tol, o.lsq_tol, o.lsq_iter, o.max_iter);
@@ -201,15 +203,43 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
     }
     CSI_TRY(csi_vec_copy(ctx, S->r, y, S->nfN));
     double rn = ynorm;
-    size_t support = 0;
+    size_t support = 0; /* indices selected by ROMP (seeded ones not counted) */
     int it = 0;
     const double target = o.tol * ynorm;
     cl_kernel km;
     CSI_TRY(csi_kernel(ctx, "romp", "romp_mark", &km));
+    if (o.seed_count > 0) {
+        /* csi's extension: start from a given support (e.g. a wavelet's coarse block) and its
+         * least-squares fit; the mask then keeps selection from ever returning these indices. */
+        for (size_t i = 0; i < o.seed_count; i++) {
+            uint32_t j = o.seed_support[i];
+            if (j >= S->k)
+                return csi_fail(CSI_ERR_ARG, "ROMP seed support: index %u at %zu is outside the %zu "
+                                "unknowns", j, i, S->k);
+            if (S->h_mask[j])
+                return csi_fail(CSI_ERR_ARG, "ROMP seed support: index %u repeats (at %zu)", j, i);
+            S->h_mask[j] = 1;
+        }
+        double ts = csi_solve_now();
+        CSI_TRY(csi_write(ctx, S->sel, 0, o.seed_count * 4, o.seed_support));
+        cl_uint madd = (cl_uint)o.seed_count;
+        const size_t ml = 64, mg = o.seed_count;
+        CSI_TRY(CSI_ARGS(km, CSI_MEM(S->mask), CSI_MEM(S->sel), CSI_ARG(madd)));
+        CSI_TRY(csi_run(ctx, km, 1, &mg, &ml));
+        double tl = csi_solve_now();
+        rep->t_select += tl - ts;
+        int cg;
+        CSI_TRY(csi_cgls(S, y, x, S->mask, o.lsq_iter, o.lsq_tol, target, &cg, &rn, rep));
+        if (!isfinite(rn))
+            return csi_fail(CSI_ERR_NUMERIC, "ROMP: least squares on the seed support gave a "
+                            "non-finite residual");
+        rep->inner_iterations += cg;
+        rep->t_lsq += csi_solve_now() - tl;
+    }
     for (;;) {
         if (rn <= target) {
             csi_report_set(rep, CSI_SOLVE_CONVERGED, "ROMP converged: residual %.3g <= tol %.3g "
-                           "after %d iterations, support %zu", rn / ynorm, o.tol, it, support);
+                           "after %d iterations, support %zu", rn / ynorm, o.tol, it, support + o.seed_count);
             break;
         }
         if (support >= limit) {
@@ -237,7 +267,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
             free(c);
             rep->t_select += csi_solve_now() - ts;
             csi_report_set(rep, CSI_SOLVE_STALLED, "ROMP stalled: no correlation left outside the "
-                           "support (residual %.3g, support %zu)", rn / ynorm, support);
+                           "support (residual %.3g, support %zu)", rn / ynorm, support + o.seed_count);
             break;
         }
         size_t lo, hi;
@@ -275,6 +305,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
             o.progress(o.user, "romp", it, rn / ynorm);
     }
     rep->iterations = it;
+    support += o.seed_count;
     rep->support = support;
     rep->rel_residual = rn / ynorm;
     rep->objective = 0.5 * rn * rn;

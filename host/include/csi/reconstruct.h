@@ -124,7 +124,20 @@ typedef struct csi_recon_options {
     csi_recon_stop stop;          /* SpaRSA stopping rule; AUTO: the method's default */
     csi_switch continuation;      /* SpaRSA continuation on tau; AUTO: the method's default */
     csi_switch debias;            /* SpaRSA debiasing phase; AUTO: the method's default */
-    size_t romp_s;                /* ROMP sparsity; 0: default from N */
+    /* ROMP (Alg. 1 only; docs/bench/romp.md has the measurements behind the defaults) */
+    size_t romp_s;                /* candidates per step (csi_romp_options.s); 0: the method's
+                                     default */
+    double romp_max_support;      /* support size that ends the run: >= 1 a count, in (0, 1) a
+                                     fraction of N; 0: the method's default */
+    csi_switch romp_normalize;    /* rank correlations by column norm (csi_column_norms);
+                                     AUTO: the method's default */
+    int romp_seed_levels;         /* support seeded before the first step with the top-left
+                                     block of the coefficient array: 1 = the coarse scaling
+                                     block, 1 + j = it and the j coarsest detail levels;
+                                     -1: none (the published ROMP); 0: the method's default */
+    int romp_lsq_iter;            /* CG iterations per least squares; 0: the method's default */
+    bool romp_published;          /* the method's ROMP defaults are the published ROMP's (s
+                                     from N, stop at 2s, no seed) instead of csi's */
     bool frames;                  /* grid.t > 1: also return every frame */
     /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
      * r = y - S f is interpolated by Gaussian normalized convolution and added to f, so that

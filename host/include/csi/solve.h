@@ -80,7 +80,8 @@ void csi_solver_free(csi_solver *s);
  * sorted list, and the window of largest energy sum u_i^2 is J0; I = I u J0 (an index is never
  * selected twice: selection skips I, and the host checks); x = argmin ||y - A x|| over x
  * supported on I by CGLS (CG on the normal equations through A and A^H), warm-started from the
- * previous x, at most lsq_iter iterations; r = y - A x. Stops when ||r|| <= tol ||y||
+ * previous x, at most lsq_iter iterations; r = y - A x. With seed_support, I starts as that set
+ * and x as its least-squares fit. Stops when ||r|| <= tol ||y||
  * (converged), when |I| >= 2s (SUPPORT_LIMIT; max_support overrides 2s), at max_iter (MAX_ITER) or when no candidate is
  * left (STALLED). A fit with |I| > N/2 is reported NOT_IDENTIFIABLE. */
 typedef struct csi_romp_options {
@@ -103,6 +104,16 @@ typedef struct csi_romp_options {
                                 csi_column_norms and docs/bench/solve.md. */
     uint32_t *support_log;   /* optional: receives the selected indices in selection order */
     size_t support_log_cap;  /* its capacity (entries beyond it are not written) */
+    const uint32_t *seed_support; /* optional (NULL): indices put in the support I before the
+                                     first iteration (csi's extension, not in Needell &
+                                     Vershynin): e.g. the coarse scaling block of a wavelet
+                                     basis, which raw correlations never pick on point samples
+                                     (docs/bench/romp.md). The least squares on them run first;
+                                     selection never returns them. The support limit
+                                     (max_support, or 2s) counts the selected indices only;
+                                     csi_solve_report.support counts both. Each index < k, no
+                                     repeats, else CSI_ERR_ARG. Not written to support_log. */
+    size_t seed_count;
 } csi_romp_options;
 void csi_romp_defaults(csi_romp_options *o);
 /* The default s for N measurements of k unknowns (see csi_romp_options.s). */
