@@ -132,7 +132,10 @@ def one_size(a, bins, env, out_w, work, logf):
     # ours: a warm-up (kernel and FFT caches), then the timed run
     ours_exr, ours_js = os.path.join(work, "ours.exr"), os.path.join(work, "ours.json")
     cmd = [bins["csi-reconstruct"], d1, "-o", ours_exr, "--stats", ours_js, "-q", "--solver", "sparsa",
-           "--wavelet", "db4", "--levels", str(a.levels), "--lambda", str(a.lam)]
+           "--wavelet", "db4", "--levels", str(a.levels), "--lambda", str(a.lam),
+           # the operator and estimate PyLops is given: the paper's filter width, f_b integrated,
+           # no per-pixel correction (csi's defaults change all three)
+           "--sigma-spacing", "0", "--integrate", "filtered", "--correct", "none"]
     if a.tau_rel:
         cmd += ["--tau", str(a.tau_rel)]
     if a.max_iter:
@@ -156,8 +159,16 @@ def one_size(a, bins, env, out_w, work, logf):
     A, Psi, order = build_operator(hdr, pos, a.levels, a.lam)
     yo = y[order]
     ny = float(np.linalg.norm(yo))
-    tau_rel = a.tau_rel or a.default_tau_rel
-    tau = tau_rel * float(np.abs(A.H @ yo).max())
+    atb = float(np.abs(A.H @ yo).max())
+    if a.tau_rel:
+        tau_rel = a.tau_rel
+        tau = tau_rel * atb
+    elif ch.get("tau"):
+        tau = float(ch["tau"])  # the tau csi's run ended with (its default rule), same objective
+        tau_rel = tau / atb
+    else:
+        tau_rel = a.default_tau_rel
+        tau = tau_rel * atb
     eps = 2 * tau
     trace = []
     state = {"t0": None, "excluded": 0.0}

@@ -14,6 +14,7 @@
 #include "csi/runtime.h"
 #include "csi/stats.h"
 #include "outputs.h"
+#include "recon_opts.h"
 
 static const char *prog = "csi-render";
 
@@ -44,21 +45,15 @@ static void usage(FILE *f)
 "      --reference SPP       render a stratified ground truth with SPP samples per pixel instead\n"
 "      --seed S              seed of positions and shading, default 1\n"
 "      --threads N           tracing threads, default: all cores\n"
-"reconstruction (as csi-reconstruct):\n"
-"      --solver romp|sparsa  --wavelet db4|db8  --levels L  --lambda L  --sigma-scale S\n"
-"      --sigma-spacing C\n"
-"      --integrate filtered|sharp  --tol T  --max-iter N  --tau T\n"
-"      --estimator cs|mean|gauss  --gauss-sigma S  --correct auto|none|cv  --cv-n0 N\n"
-"      --stop gap|objective|auto  --continuation on|off|auto  --debias on|off|auto\n"
-"      --romp-preset csi|published  --romp-s S  --romp-max-support M\n"
-"      --romp-normalize on|off|auto\n"
-"      --romp-seed-levels off|auto|L  --romp-lsq-iter N\n"
+);
+    cli_recon_usage(f);
+    fputs(
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
 "  -q, --quiet               no progress on stderr\n"
 "  -h, --help                this text\n"
 "      --version             version\n"
-"exit status: 0 success, 2 bad input or usage, 1 other failure\n");
+"exit status: 0 success, 2 bad input or usage, 1 other failure\n", f);
 }
 
 typedef struct {
@@ -85,26 +80,11 @@ static void on_solve(void *user, const char *phase, int iter, double res)
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE,
-           O_TOL, O_MAXIT, O_TAU, O_DEVICE, O_VERSION, O_EST, O_GSIGMA, O_CORRECT, O_CVN0, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET, O_SPP, O_METHOD, O_GRID, O_DUMP,
-           O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
-        {"solver", required_argument, 0, O_SOLVER}, {"wavelet", required_argument, 0, O_WAVELET},
-        {"levels", required_argument, 0, O_LEVELS}, {"lambda", required_argument, 0, O_LAMBDA},
-        {"sigma-scale", required_argument, 0, O_SIGMA}, {"integrate", required_argument, 0, O_INTEGRATE},
-        {"tol", required_argument, 0, O_TOL}, {"max-iter", required_argument, 0, O_MAXIT},
-        {"tau", required_argument, 0, O_TAU}, {"device", required_argument, 0, O_DEVICE},
-        {"estimator", required_argument, 0, O_EST}, {"gauss-sigma", required_argument, 0, O_GSIGMA},
-        {"correct", required_argument, 0, O_CORRECT}, {"cv-n0", required_argument, 0, O_CVN0},
-        {"sigma-spacing", required_argument, 0, O_SPACING},
-        {"stop", required_argument, 0, O_STOP}, {"continuation", required_argument, 0, O_CONT},
-        {"debias", required_argument, 0, O_DEBIAS},
-        {"romp-s", required_argument, 0, O_ROMP_S}, {"romp-max-support", required_argument, 0, O_ROMP_MAXS},
-        {"romp-normalize", required_argument, 0, O_ROMP_NORM},
-        {"romp-seed-levels", required_argument, 0, O_ROMP_SEED},
-        {"romp-lsq-iter", required_argument, 0, O_ROMP_LSQ}, {"romp-preset", required_argument, 0, O_ROMP_PRESET},
+        {"device", required_argument, 0, O_DEVICE},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
@@ -115,14 +95,18 @@ int main(int argc, char **argv)
     cli_outputs outs = {0};
     csi_recon_options opt;
     csi_recon_defaults(&opt);
-    bool quiet = false, plan_only = false, est_given = false;
+    bool quiet = false, plan_only = false;
     const char *device = NULL, *dump_path = NULL, *method = "cs";
     uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
     int c;
-    double d;
-    uint64_t u;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, "o:qh", longopts, NULL)) != -1) {
+    /* --estimator defaults by --method: remember whether it was given. */
+    const csi_estimator unset = (csi_estimator)-1;
+    opt.estimator = unset;
+    struct option *all_opts = cli_longopts_with_recon(longopts);
+    if (!all_opts)
+        return cli_error(prog, CSI_ERR_NOMEM, "out of memory");
+    while ((c = getopt_long(argc, argv, "o:qh", all_opts, NULL)) != -1) {
         switch (c) {
         case 'o': outs.exr = optarg; break;
         case O_PNG: outs.png = optarg; break;
@@ -130,119 +114,6 @@ int main(int argc, char **argv)
         case O_STATS: outs.stats = optarg; break;
         case O_DUMP: dump_path = optarg; break;
         case O_PLAN: plan_only = true; break;
-        case O_SOLVER:
-            if (csi_solver_kind_parse(optarg, &opt.solver) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--solver: %s", csi_last_error());
-            break;
-        case O_WAVELET:
-            if (csi_wavelet_parse(optarg, &opt.wavelet) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--wavelet: %s", csi_last_error());
-            break;
-        case O_LEVELS:
-            if (!cli_parse_u64(optarg, 1, 16, &u))
-                return cli_error(prog, CSI_ERR_ARG, "--levels: '%s' is not a whole number from 1 to 16", optarg);
-            opt.levels = (int)u;
-            break;
-        case O_LAMBDA:
-            if (!cli_parse_double(optarg, 1e-12, 1e6, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--lambda: '%s' is not a number in [1e-12, 1e6]", optarg);
-            opt.lambda = (float)d;
-            break;
-        case O_SIGMA:
-            if (!cli_parse_double(optarg, 1e-3, 100, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--sigma-scale: '%s' is not a number in [0.001, 100]", optarg);
-            opt.sigma_scale = d;
-            break;
-        case O_INTEGRATE:
-            if (csi_aa_output_parse(optarg, &opt.output) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--integrate: %s", csi_last_error());
-            break;
-        case O_TOL:
-            if (!cli_parse_double(optarg, 1e-12, 1, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--tol: '%s' is not a number in [1e-12, 1]", optarg);
-            opt.tol = d;
-            break;
-        case O_MAXIT:
-            if (!cli_parse_u64(optarg, 1, 1000000, &u))
-                return cli_error(prog, CSI_ERR_ARG, "--max-iter: '%s' is not a whole number from 1 to 1e6", optarg);
-            opt.max_iter = (int)u;
-            break;
-        case O_TAU:
-            if (!cli_parse_double(optarg, 1e-12, 1, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--tau: '%s' is not a number in [1e-12, 1]", optarg);
-            opt.tau_rel = d;
-            break;
-        case O_EST:
-            if (csi_estimator_parse(optarg, &opt.estimator) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--estimator: %s", csi_last_error());
-            est_given = true;
-            break;
-        case O_CORRECT:
-            if (csi_aa_correct_parse(optarg, &opt.correct) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--correct: %s", csi_last_error());
-            break;
-        case O_CVN0:
-            if (!cli_parse_double(optarg, 0, 1e6, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--cv-n0: '%s' is not a number in [0, 1e6]", optarg);
-            opt.cv_n0 = d;
-            break;
-        case O_SPACING:
-            if (!cli_parse_double(optarg, 0, 100, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--sigma-spacing: '%s' is not a number in [0, 100]", optarg);
-            opt.sigma_spacing = d;
-            break;
-        case O_STOP:
-            if (csi_recon_stop_parse(optarg, &opt.stop) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--stop: %s", csi_last_error());
-            break;
-        case O_CONT:
-            if (csi_switch_parse(optarg, &opt.continuation) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--continuation: %s", csi_last_error());
-            break;
-        case O_DEBIAS:
-            if (csi_switch_parse(optarg, &opt.debias) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--debias: %s", csi_last_error());
-            break;
-        case O_ROMP_S:
-            if (!cli_parse_u64(optarg, 1, 1u << 30, &u))
-                return cli_error(prog, CSI_ERR_ARG, "--romp-s: '%s' is not a whole number from 1 to 2^30", optarg);
-            opt.romp_s = (size_t)u;
-            break;
-        case O_ROMP_MAXS:
-            if (!cli_parse_double(optarg, 1e-6, 4294967296.0, &d) || (d >= 1 && d != floor(d)))
-                return cli_error(prog, CSI_ERR_ARG, "--romp-max-support: '%s' is neither a fraction of "
-                                 "the samples in (0, 1) nor a whole count", optarg);
-            opt.romp_max_support = d;
-            break;
-        case O_ROMP_NORM:
-            if (csi_switch_parse(optarg, &opt.romp_normalize) != CSI_OK)
-                return cli_error(prog, CSI_ERR_ARG, "--romp-normalize: %s", csi_last_error());
-            break;
-        case O_ROMP_SEED:
-            if (!strcmp(optarg, "off"))
-                opt.romp_seed_levels = -1;
-            else if (!strcmp(optarg, "auto"))
-                opt.romp_seed_levels = 0;
-            else if (cli_parse_u64(optarg, 1, 16, &u))
-                opt.romp_seed_levels = (int)u;
-            else
-                return cli_error(prog, CSI_ERR_ARG, "--romp-seed-levels: '%s' (expected off, auto or 1 to 16)", optarg);
-            break;
-        case O_ROMP_PRESET:
-            if (strcmp(optarg, "csi") && strcmp(optarg, "published"))
-                return cli_error(prog, CSI_ERR_ARG, "--romp-preset: '%s' (expected csi or published)", optarg);
-            opt.romp_published = !strcmp(optarg, "published");
-            break;
-        case O_ROMP_LSQ:
-            if (!cli_parse_u64(optarg, 1, 100000, &u))
-                return cli_error(prog, CSI_ERR_ARG, "--romp-lsq-iter: '%s' is not a whole number from 1 to 1e5", optarg);
-            opt.romp_lsq_iter = (int)u;
-            break;
-        case O_GSIGMA:
-            if (!cli_parse_double(optarg, 1e-3, 1e4, &d))
-                return cli_error(prog, CSI_ERR_ARG, "--gauss-sigma: '%s' is not a number in [0.001, 1e4]", optarg);
-            opt.gauss_sigma = d;
-            break;
         case O_SPP:
             if (!cli_parse_u64(optarg, 1, 65536, &spp))
                 return cli_error(prog, CSI_ERR_ARG, "--spp: '%s' is not a whole number from 1 to 65536", optarg);
@@ -276,11 +147,19 @@ int main(int argc, char **argv)
         case 'q': quiet = true; break;
         case 'h': usage(stdout); return 0;
         case O_VERSION: printf("csi-render %s\n", CSI_VERSION); return 0;
-        default:
-            return cli_error(prog, CSI_ERR_ARG, "unknown or incomplete option '%s' (see --help)",
-                             argv[optind - 1]);
+        default: {
+            int rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], &opt);
+            if (rc) {
+                free(all_opts);
+                return rc;
+            }
+        }
         }
     }
+    free(all_opts);
+    const bool est_given = opt.estimator != unset;
+    if (!est_given)
+        opt.estimator = CSI_EST_CS;
     if (optind != argc - 1)
         return cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no scene given (see --help)"
                                                           : "more than one scene given (see --help)");
@@ -351,10 +230,8 @@ int main(int argc, char **argv)
     popts.method = reference || !strcmp(method, "stratified") ? CSI_POS_STRATIFIED
                    : !strcmp(method, "random")              ? CSI_POS_RANDOM
                                                             : CSI_POS_POISSON;
-    if (reference || strcmp(method, "cs")) {
-        if (!est_given)
-            opt.estimator = CSI_EST_MEAN;
-    }
+    if (!est_given)
+        opt.estimator = reference || strcmp(method, "cs") ? CSI_EST_MEAN : CSI_EST_CS;
     s = cli_outputs_check(&outs);
     if (s == CSI_OK && dump_path) {
         cli_outputs dchk = {.exr = dump_path};
@@ -473,7 +350,7 @@ int main(int argc, char **argv)
     }
     if (!quiet) {
         for (uint32_t ch = 0; ch < res.channels; ch++)
-            if (!res.report[ch].converged)
+            if (!res.report[ch].converged && res.report[ch].reason != CSI_SOLVE_NOT_IDENTIFIABLE)
                 fprintf(stderr, "%s: warning: channel %u: %s\n", prog, ch, res.report[ch].message);
         fprintf(stderr, "%s: %ux%u%s from %zu samples (%s) : render %.2f s, reconstruct %.2f s\n", prog,
                 grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, mdesc, t_render, t_recon);
