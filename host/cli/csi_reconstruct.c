@@ -36,6 +36,8 @@ static void usage(FILE *f)
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
 "other:\n"
+"      --seed S              seed of the solver's randomised parts (ROMP's column-norm probes with\n"
+"                            --romp-normalize on); default: the dump's seed (csi-render's), else 1\n"
 "      --device NAME         OpenCL device (substring of 'platform / device'; default: PoCL CPU,\n"
 "                            or $CSI_DEVICE); --device list prints the devices\n"
 "  -q, --quiet               no progress or warnings on stderr\n"
@@ -61,18 +63,18 @@ static void on_progress(void *user, const char *phase, int iter, double res)
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
         {"drop-invalid", no_argument, 0, O_DROP},
         {"device", required_argument, 0, O_DEVICE}, 
-        {"quiet", no_argument, 0, 'q'},
+        {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     csi_recon_options opt;
     csi_recon_defaults(&opt);
-    bool quiet = false, drop = false;
+    bool quiet = false, drop = false, seed_given = false;
     const char *device = NULL;
     int c;
     opterr = 0;
@@ -86,6 +88,16 @@ int main(int argc, char **argv)
         case O_FRAMES: outs.frames_dir = optarg; opt.frames = true; break;
         case O_STATS: outs.stats = optarg; break;
         case O_DROP: drop = true; break;
+        case O_SEED: {
+            uint64_t v;
+            if (!cli_parse_u64(optarg, 0, UINT64_MAX, &v)) {
+                free(all_opts);
+                return cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
+            }
+            opt.seed = v;
+            seed_given = true;
+            break;
+        }
         case O_DEVICE: device = optarg; break;
         case 'q': quiet = true; break;
         case 'h': usage(stdout); return 0;
@@ -129,6 +141,8 @@ int main(int argc, char **argv)
     if (!quiet && drep.duplicates)
         fprintf(stderr, "%s: warning: %s: %llu records repeat a position; their values were averaged\n",
                 prog, in, (unsigned long long)drep.duplicates);
+    if (!seed_given && dump.seed)
+        opt.seed = dump.seed; /* as csi-render ran it, so the result is the same */
     if (dump.grid.t > 1 && opt.solver == CSI_SOLVER_ROMP) {
         csi_dump_free(&dump);
         return cli_error(prog, CSI_ERR_ARG, "%s: ROMP is real-valued and a volume (grid_t = %u) needs "

@@ -283,6 +283,7 @@ int main(int argc, char **argv)
             goto done;
         }
     }
+    opt.seed = seed;
     opt.progress = on_solve;
     opt.user = &ps;
     double t1 = cli_now();

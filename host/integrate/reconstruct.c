@@ -150,6 +150,7 @@ void csi_recon_defaults(csi_recon_options *o)
     o->solver = CSI_SOLVER_DEFAULT;
     o->wavelet = CSI_WAVELET_DB4;
     o->lambda = 0.3f;
+    o->seed = 1;
     o->sigma_scale = 1.0;
     o->output = CSI_AA_SHARP;
     o->correct = CSI_CORRECT_AUTO;
@@ -328,7 +329,7 @@ static csi_status run_solver(recon_state *st, csi_solver_kind kind, const csi_re
         if (o_img.normalize && !st->romp_norms) {
             CSI_TRY(csi_buffer(st->A->ctx, k * sizeof(float), CL_MEM_READ_WRITE,
                                "the ROMP column norms", &st->romp_norms));
-            CSI_TRY(csi_column_norms(st->A, CSI_ROMP_NORM_PROBES, 1, st->romp_norms));
+            CSI_TRY(csi_column_norms(st->A, CSI_ROMP_NORM_PROBES, opt->seed, st->romp_norms));
         }
         o.col_norms = o_img.normalize ? st->romp_norms : NULL;
         if (o_img.seed_levels > 0 && !st->romp_seed) {

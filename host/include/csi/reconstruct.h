@@ -139,6 +139,8 @@ typedef struct csi_recon_options {
     bool romp_published;          /* the method's ROMP defaults are the published ROMP's (s
                                      from N, stop at 2s, no seed) instead of csi's */
     bool frames;                  /* grid.t > 1: also return every frame */
+    uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
+                                     everything else is deterministic. Default 1 */
     /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
      * r = y - S f is interpolated by Gaussian normalized convolution and added to f, so that
      * what the sparse Fourier model misses near the samples (edges, small movers) comes back.
