@@ -30,78 +30,13 @@
 
 #include "csi/positions.h"
 #include "csi/reconstruct.h"
+#include "analytic.h"
 #include "testlib.h"
 
-#define GRID 256
-#define OUT 64
-#define BLK (GRID / OUT)
-#define NP (OUT * OUT)
-#define SS 8
 #define MAX_SEEDS 10
 
-static double triangle(double x, double y)
-{
-    const double a[2] = {0.13, 0.21}, b[2] = {0.87, 0.36}, c[2] = {0.38, 0.91};
-    double s1 = (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
-    double s2 = (c[0] - b[0]) * (y - b[1]) - (c[1] - b[1]) * (x - b[0]);
-    double s3 = (a[0] - c[0]) * (y - c[1]) - (a[1] - c[1]) * (x - c[0]);
-    bool in = (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
-    return in ? 1.0 : 0.1;
-}
-
-static double texture(double x, double y)
-{
-    const double pi = 3.14159265358979323846;
-    double u = 0.8 * x + 0.6 * y, v = -0.6 * x + 0.8 * y;
-    double sines = 0.15 * sin(2 * pi * 5.0 * x) * cos(2 * pi * 3.0 * y) + 0.1 * sin(2 * pi * 11.0 * u);
-    double checker = fmod(floor(u * 6.0) + floor(v * 6.0), 2.0);
-    if (checker < 0)
-        checker += 2.0;
-    double disc = ((x - 0.6) * (x - 0.6) + (y - 0.4) * (y - 0.4) < 0.04) ? 0.2 : 0.0;
-    return 0.2 + sines + 0.4 * checker + disc;
-}
-
-typedef double (*image_fn)(double, double);
-
-typedef struct {
-    float fine[GRID * GRID];
-    double truth[NP];
-    bool edge[NP];
-    int nedge;
-} scene;
-
-static void make_scene(image_fn fn, scene *s)
-{
-    for (int y = 0; y < GRID; y++)
-        for (int x = 0; x < GRID; x++)
-            s->fine[y * GRID + x] = (float)fn((x + 0.5) / GRID, (y + 0.5) / GRID);
-    const int m = GRID * SS; /* supersampled points per side */
-    for (int p = 0; p < NP; p++)
-        s->truth[p] = 0;
-    for (int j = 0; j < m; j++) {
-        double y = (j + 0.5) / m;
-        for (int i = 0; i < m; i++)
-            s->truth[(j / (BLK * SS)) * OUT + i / (BLK * SS)] += fn((i + 0.5) / m, y);
-    }
-    const double per = (double)(BLK * SS) * (BLK * SS);
-    s->nedge = 0;
-    for (int p = 0; p < NP; p++) {
-        s->truth[p] /= per;
-        int ox = p % OUT, oy = p / OUT;
-        float lo = INFINITY, hi = -INFINITY;
-        for (int y = 0; y < BLK; y++)
-            for (int x = 0; x < BLK; x++) {
-                float v = s->fine[(oy * BLK + y) * GRID + ox * BLK + x];
-                lo = fminf(lo, v);
-                hi = fmaxf(hi, v);
-            }
-        s->edge[p] = hi - lo > 0.15f;
-        s->nedge += s->edge[p];
-    }
-}
-
 /* Reconstructs from positions made with (method, spp, seed); writes the NP-pixel image. */
-static bool run(csi_ctx *ctx, const scene *s, csi_pos_method method, csi_estimator est, uint32_t spp,
+static bool run(csi_ctx *ctx, const analytic_scene *s, csi_pos_method method, csi_estimator est, uint32_t spp,
                 uint64_t seed, float *img)
 {
     const csi_grid g = {GRID, GRID, 1, OUT, OUT};
@@ -137,7 +72,7 @@ typedef struct {
 
 /* Mean MSE over seeds 1..nseeds and the mean over edge pixels of the per-pixel variance over
  * seeds (unbiased, nseeds - 1 in the denominator). */
-static figures measure(csi_ctx *ctx, const scene *s, csi_pos_method method, csi_estimator est,
+static figures measure(csi_ctx *ctx, const analytic_scene *s, csi_pos_method method, csi_estimator est,
                        uint32_t spp, int nseeds)
 {
     static float img[MAX_SEEDS][NP];
@@ -168,13 +103,13 @@ static figures measure(csi_ctx *ctx, const scene *s, csi_pos_method method, csi_
 int main(void)
 {
     csi_ctx *ctx = test_ctx();
-    static scene sc;
+    static analytic_scene sc;
     const struct {
         const char *name;
-        image_fn fn;
-    } images[2] = {{"triangle", triangle}, {"texture", texture}};
+        analytic_fn fn;
+    } images[2] = {{"triangle", analytic_triangle}, {"texture", analytic_texture}};
     for (int i = 0; i < 2; i++) {
-        make_scene(images[i].fn, &sc);
+        analytic_scene_make(images[i].fn, &sc);
         CHECK(sc.nedge > 50, "%s has %d edge pixels", images[i].name, sc.nedge);
 
         figures cs = measure(ctx, &sc, CSI_POS_POISSON, CSI_EST_CS, 4, 10);

@@ -1,0 +1,34 @@
+/* Analytic test images and their exact box averages, shared by the end-to-end quality tests.
+ *
+ * A GRID x GRID fine grid holds the image's value at each cell centre (what a renderer's point
+ * samples see); the truth of each of the OUT x OUT output pixels is the box average of the
+ * continuous image, by the midpoint rule with SS x SS points per fine cell, in double. Edge
+ * pixels: pixels whose cells span a step larger than 0.15. */
+#ifndef CSI_TEST_ANALYTIC_H
+#define CSI_TEST_ANALYTIC_H
+
+#include <stdbool.h>
+
+#define GRID 256
+#define OUT 64
+#define BLK (GRID / OUT)
+#define NP (OUT * OUT)
+#define SS 8
+
+typedef double (*analytic_fn)(double x, double y);
+
+/* A slanted triangle, 1.0 on 0.1. */
+double analytic_triangle(double x, double y);
+/* Sinusoids, a rotated checker and a disc: texture with edges and smooth parts. */
+double analytic_texture(double x, double y);
+
+typedef struct {
+    float fine[GRID * GRID];
+    double truth[NP];
+    bool edge[NP];
+    int nedge;
+} analytic_scene;
+
+void analytic_scene_make(analytic_fn fn, analytic_scene *s);
+
+#endif
