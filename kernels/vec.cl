@@ -212,6 +212,22 @@ inline float8 cmag8(const float8 re, const float8 im)
     return m * sqrt(1.0f + q * q);
 }
 
+/* Magnitudes for the reductions (asum, amax, prox_sums' l1): cmag, but NaN when either part is
+ * NaN. fmax/fmin drop a NaN operand, so cmag(1, NaN) is finite and a NaN would hide from
+ * csi_vec_amax, whose contract is that a NaN anywhere is returned (and from ||x||_1). |re| + |im|
+ * is NaN exactly when a part is (both terms are >= 0, so no Inf - Inf). The soft threshold keeps
+ * plain cmag: its element outputs are unchanged. */
+inline float cmagn(const float re, const float im)
+{
+    const float s = fabs(re) + fabs(im);
+    return isnan(s) ? s : cmag(re, im);
+}
+inline float8 cmagn8(const float8 re, const float8 im)
+{
+    const float8 s = fabs(re) + fabs(im);
+    return select(cmag8(re, im), s, isnan(s));
+}
+
 /* This work-item's blocks [b0, b1) of nb (per blocks each, clamped: items past the end get an
  * empty range). size_t products: j * per can pass 2^32 for the last items of a large launch. */
 #define CHUNK(nb, per, b0, b1)                                        \
@@ -276,8 +292,8 @@ VEC_REDUCE_R(vec_red_asum_r, fabs(vload16(b, x)), fabs(x[i]))
 VEC_REDUCE_R(vec_red_dist2, (vload16(b, x) - vload16(b, y)) * (vload16(b, x) - vload16(b, y)),
              (x[i] - y[i]) * (x[i] - y[i]))
 /* complex, n elements: block b holds elements 8b .. 8b+7 = floats 16b .. 16b+15 */
-VEC_REDUCE_C(vec_red_asum_c, cmag8(vload16(b, x).even, vload16(b, x).odd),
-             cmag(x[2 * i], x[2 * i + 1]))
+VEC_REDUCE_C(vec_red_asum_c, cmagn8(vload16(b, x).even, vload16(b, x).odd),
+             cmagn(x[2 * i], x[2 * i + 1]))
 /* imaginary part of x^H y over n complex elements */
 VEC_REDUCE_C(vec_red_cdot_im,
              vload16(b, x).even * vload16(b, y).odd - vload16(b, x).odd * vload16(b, y).even,
@@ -353,7 +369,7 @@ void vec_prox_sums_c(__global const float *restrict x, __global const float *res
         o.even = ore;
         o.odd = oim;
         vstore16(o, b, out);
-        KAHAN_ADD8(s0, c0, cmag8(ore, oim));
+        KAHAN_ADD8(s0, c0, cmagn8(ore, oim));
         KAHAN_ADD8(s1, c1, (ore - xv.even) * (ore - xv.even) + (oim - xv.odd) * (oim - xv.odd));
     }
     if (get_global_id(0) == 0)
@@ -362,7 +378,7 @@ void vec_prox_sums_c(__global const float *restrict x, __global const float *res
             const float2 o = soft2(xr + cf * g[2 * i], xi + cf * g[2 * i + 1], t);
             out[2 * i] = o.x;
             out[2 * i + 1] = o.y;
-            KAHAN_ADD(s0.s0, c0.s0, cmag(o.x, o.y));
+            KAHAN_ADD(s0.s0, c0.s0, cmagn(o.x, o.y));
             KAHAN_ADD(s1.s0, c1.s0, (o.x - xr) * (o.x - xr) + (o.y - xi) * (o.y - xi));
         }
     const float2 m0 = merge8(s0, c0), m1 = merge8(s1, c1);
@@ -451,7 +467,7 @@ void vec_amax(__global const float *restrict x, const uint n, const uint per, co
         uint8 bidx = (uint8)(0xffffffffu);
         for (size_t b = b0; b < b1; b++) {
             const float16 z = vload16(b, x);
-            const float8 v = cmag8(z.even, z.odd);
+            const float8 v = cmagn8(z.even, z.odd);
             AMAX_STEP(float8, int8, uint8, best, bidx, v,
                       (uint8)(8 * (uint)b) + (uint8)(0, 1, 2, 3, 4, 5, 6, 7));
         }
@@ -471,7 +487,7 @@ void vec_amax(__global const float *restrict x, const uint n, const uint per, co
     }
     if (get_global_id(0) == 0)
         for (size_t i = (cplx ? 8 : 16) * nb; i < n; i++)
-            amax_take(&bv, &bi, cplx ? cmag(x[2 * i], x[2 * i + 1]) : fabs(x[i]), (uint)i);
+            amax_take(&bv, &bi, cplx ? cmagn(x[2 * i], x[2 * i + 1]) : fabs(x[i]), (uint)i);
     sv[l] = bv;
     si[l] = bi;
     barrier(CLK_LOCAL_MEM_FENCE);
