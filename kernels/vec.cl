@@ -80,8 +80,8 @@ __kernel void vec_nonzero_mask(__global const float *x, const uint n, const uint
  * far inside float's normal range), but squares underflow below |x| ~ 1e-19 (FLT_MIN ~ 1.2e-38:
  * relative accuracy lost, vec.h's relative bound broken for tiny vectors) and overflow above
  * ~1.8e19. Here q = min/max is in [0, 1], so 1 + q^2 is in [1, 2] and m * sqrt(...) overflows
- * only when |z| itself exceeds FLT_MAX. The division's cost is hidden: the contiguous-chunk
- * reductions below run at memory speed (docs/bench/solve.md). */
+ * only when |z| itself exceeds FLT_MAX. The contiguous-chunk reductions below run at about
+ * csi_copy's bytes per second with it (docs/bench/solve.md), so the division is not the limit. */
 inline float cmag(const float re, const float im)
 {
     const float a = fabs(re), b = fabs(im);
