@@ -7,7 +7,8 @@
 
 #define VEC_LOCAL 64     /* must match kernels/vec.cl */
 #define VEC_MAX_GROUPS 64
-#define VEC_PER_ITEM 16  /* aim for at least this many terms per work-item before adding groups */
+#define VEC_MIN_BLOCKS 8 /* aim for at least this many 16-float blocks per work-item before adding groups */
+#define VEC_BLOCK 16     /* floats per block, must match kernels/vec.cl */
 
 struct csi_vec_ws {
     csi_ctx *ctx;
@@ -157,16 +158,29 @@ csi_status csi_vec_nonzero_mask(csi_ctx *ctx, size_t n, bool cplx, cl_mem x, cl_
     return run1(ctx, k, n);
 }
 
-/* Groups for a reduction over n terms: enough that each work-item sees >= VEC_PER_ITEM terms,
- * at most VEC_MAX_GROUPS (the partials finished on the host). */
-static size_t groups_for(size_t n)
+/* Launch shape for a reduction over nb blocks of 16 floats (kernels/vec.cl): g groups of
+ * VEC_LOCAL work-items, launched exactly (g * VEC_LOCAL, no rounding up), each work-item taking
+ * `per` consecutive blocks. Enough groups that each work-item has >= VEC_MIN_BLOCKS blocks (so
+ * small vectors do not pay for thousands of idle items), at most VEC_MAX_GROUPS (the partials
+ * are finished on the host; 64 groups also keep both cores busy). Depends on nb only, so the
+ * same n gives the same partition and the same bits. */
+typedef struct {
+    size_t groups, global;
+    cl_uint per;
+} vec_shape;
+
+static vec_shape shape_for(size_t nb)
 {
-    size_t g = (n + VEC_LOCAL * VEC_PER_ITEM - 1) / (VEC_LOCAL * VEC_PER_ITEM);
+    vec_shape s;
+    size_t g = (nb + VEC_LOCAL * VEC_MIN_BLOCKS - 1) / (VEC_LOCAL * VEC_MIN_BLOCKS);
     if (g < 1)
         g = 1;
     if (g > VEC_MAX_GROUPS)
         g = VEC_MAX_GROUPS;
-    return g;
+    s.groups = g;
+    s.global = g * VEC_LOCAL;
+    s.per = (cl_uint)((nb + s.global - 1) / s.global); /* nb < 2^31 / 8 (check_n) */
+    return s;
 }
 
 /* Reads g groups' (hi, lo) partials of nout sums and finishes each in double (2g <= 128
@@ -184,7 +198,9 @@ static csi_status finish(csi_vec_ws *ws, size_t g, int nout, double *out)
     return CSI_OK;
 }
 
-static csi_status reduce(csi_vec_ws *ws, cl_mem x, cl_mem y, size_t n, const char *kname, double *out)
+/* One-output reduction over n terms; epb = terms per 16-float block (16 real, 8 complex). */
+static csi_status reduce(csi_vec_ws *ws, cl_mem x, cl_mem y, size_t n, size_t epb, const char *kname,
+                         double *out)
 {
     *out = 0.0;
     CSI_TRY(check_n(n, "vector reduction"));
@@ -193,27 +209,28 @@ static csi_status reduce(csi_vec_ws *ws, cl_mem x, cl_mem y, size_t n, const cha
     cl_kernel k;
     CSI_TRY(kern(ws->ctx, kname, &k));
     cl_uint nn = (cl_uint)n;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(y), CSI_ARG(nn), CSI_MEM(ws->pval)));
-    size_t g = groups_for(n), local = VEC_LOCAL, global = g * VEC_LOCAL;
-    CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
-    return finish(ws, g, 1, out);
+    vec_shape sh = shape_for(n / epb);
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(y), CSI_ARG(nn), CSI_ARG(sh.per), CSI_MEM(ws->pval)));
+    size_t local = VEC_LOCAL;
+    CSI_TRY(csi_run(ws->ctx, k, 1, &sh.global, &local));
+    return finish(ws, sh.groups, 1, out);
 }
 
 csi_status csi_vec_dot(csi_vec_ws *ws, size_t nf, cl_mem x, cl_mem y, double *out)
 {
-    return reduce(ws, x, y, nf, "vec_red_dot", out);
+    return reduce(ws, x, y, nf, VEC_BLOCK, "vec_red_dot", out);
 }
 
 csi_status csi_vec_cdot(csi_vec_ws *ws, size_t n, cl_mem x, cl_mem y, double out[2])
 {
-    CSI_TRY(reduce(ws, x, y, 2 * n, "vec_red_dot", &out[0]));
-    return reduce(ws, x, y, n, "vec_red_cdot_im", &out[1]);
+    CSI_TRY(reduce(ws, x, y, 2 * n, VEC_BLOCK, "vec_red_dot", &out[0]));
+    return reduce(ws, x, y, n, VEC_BLOCK / 2, "vec_red_cdot_im", &out[1]);
 }
 
 csi_status csi_vec_nrm2(csi_vec_ws *ws, size_t nf, cl_mem x, double *out)
 {
     double s;
-    CSI_TRY(reduce(ws, x, x, nf, "vec_red_sumsq", &s));
+    CSI_TRY(reduce(ws, x, x, nf, VEC_BLOCK, "vec_red_sumsq", &s));
     *out = sqrt(s > 0 ? s : 0.0);
     if (isnan(s))
         *out = s;
@@ -222,12 +239,13 @@ csi_status csi_vec_nrm2(csi_vec_ws *ws, size_t nf, cl_mem x, double *out)
 
 csi_status csi_vec_dist2(csi_vec_ws *ws, size_t nf, cl_mem x, cl_mem y, double *out)
 {
-    return reduce(ws, x, y, nf, "vec_red_dist2", out);
+    return reduce(ws, x, y, nf, VEC_BLOCK, "vec_red_dist2", out);
 }
 
 csi_status csi_vec_asum(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, double *out)
 {
-    return reduce(ws, x, x, n, cplx ? "vec_red_asum_c" : "vec_red_asum_r", out);
+    return reduce(ws, x, x, n, cplx ? VEC_BLOCK / 2 : VEC_BLOCK, cplx ? "vec_red_asum_c" : "vec_red_asum_r",
+                  out);
 }
 
 csi_status csi_vec_prox_sums(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, cl_mem g, float cf,
@@ -243,12 +261,13 @@ csi_status csi_vec_prox_sums(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, cl_m
     cl_kernel k;
     CSI_TRY(kern(ws->ctx, cplx ? "vec_prox_sums_c" : "vec_prox_sums_r", &k));
     cl_uint nn = (cl_uint)n;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(g), CSI_ARG(nn), CSI_ARG(cf), CSI_ARG(t), CSI_MEM(out),
-                     CSI_MEM(ws->pval)));
-    size_t gr = groups_for(n), local = VEC_LOCAL, global = gr * VEC_LOCAL;
-    CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
+    vec_shape sh = shape_for(n / (cplx ? VEC_BLOCK / 2 : VEC_BLOCK));
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_MEM(g), CSI_ARG(nn), CSI_ARG(sh.per), CSI_ARG(cf), CSI_ARG(t),
+                     CSI_MEM(out), CSI_MEM(ws->pval)));
+    size_t local = VEC_LOCAL;
+    CSI_TRY(csi_run(ws->ctx, k, 1, &sh.global, &local));
     double o[2];
-    CSI_TRY(finish(ws, gr, 2, o));
+    CSI_TRY(finish(ws, sh.groups, 2, o));
     *l1 = o[0];
     *dx2 = o[1];
     return CSI_OK;
@@ -264,11 +283,13 @@ csi_status csi_vec_resid_sums(csi_vec_ws *ws, size_t nf, cl_mem y, cl_mem Az, cl
     cl_kernel k;
     CSI_TRY(kern(ws->ctx, "vec_resid_sums", &k));
     cl_uint nn = (cl_uint)nf;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(y), CSI_MEM(Az), CSI_MEM(Ax), CSI_ARG(nn), CSI_MEM(r), CSI_MEM(ws->pval)));
-    size_t gr = groups_for(nf), local = VEC_LOCAL, global = gr * VEC_LOCAL;
-    CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
+    vec_shape sh = shape_for(nf / VEC_BLOCK);
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(y), CSI_MEM(Az), CSI_MEM(Ax), CSI_ARG(nn), CSI_ARG(sh.per), CSI_MEM(r),
+                     CSI_MEM(ws->pval)));
+    size_t local = VEC_LOCAL;
+    CSI_TRY(csi_run(ws->ctx, k, 1, &sh.global, &local));
     double o[3];
-    CSI_TRY(finish(ws, gr, 3, o));
+    CSI_TRY(finish(ws, sh.groups, 3, o));
     *rr = o[0];
     *dd = o[1];
     *ry = o[2];
@@ -286,9 +307,11 @@ csi_status csi_vec_amax(csi_vec_ws *ws, size_t n, bool cplx, cl_mem x, double *v
     cl_kernel k;
     CSI_TRY(kern(ws->ctx, "vec_amax", &k));
     cl_uint nn = (cl_uint)n, c = cplx;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_ARG(nn), CSI_ARG(c), CSI_MEM(ws->pval), CSI_MEM(ws->pidx)));
-    size_t g = groups_for(n), local = VEC_LOCAL, global = g * VEC_LOCAL;
-    CSI_TRY(csi_run(ws->ctx, k, 1, &global, &local));
+    vec_shape sh = shape_for(n / (cplx ? VEC_BLOCK / 2 : VEC_BLOCK));
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(x), CSI_ARG(nn), CSI_ARG(sh.per), CSI_ARG(c), CSI_MEM(ws->pval),
+                     CSI_MEM(ws->pidx)));
+    size_t local = VEC_LOCAL, g = sh.groups;
+    CSI_TRY(csi_run(ws->ctx, k, 1, &sh.global, &local));
     CSI_TRY(csi_read(ws->ctx, ws->pval, 0, g * sizeof(float), ws->hval));
     CSI_TRY(csi_read(ws->ctx, ws->pidx, 0, g * sizeof(cl_uint), ws->hidx));
     float best = -1.0f;

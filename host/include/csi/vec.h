@@ -8,15 +8,20 @@
  * magnitudes (asum, amax, soft thresholding, masks) take `n`, the number of ELEMENTS, and a
  * `cplx` flag.
  *
- * Reductions return double and have bounded rounding error: per work-item Kahan-compensated
- * sums (the pending correction kept), a pairwise tree of exact TwoSum additions inside each
- * work-group, (hi, lo) partials finished in double on the host. For a sum of terms v_i, each
- * formed with relative error <= u (u = 2^-24; 8 ulp for complex magnitudes, see vec.cl),
- * the computed S^ satisfies |S^ - S| <= (3u + O(m u^2)) * sum |v_i|, m = terms per work-item
- * (about n / 4096): u for forming each term, 2u for Kahan (Higham, "Accuracy and Stability of
- * Numerical Algorithms", 2nd ed., Sec. 4.3), O(u^2) for the TwoSum tree and the double finish.
- * That is about 1.8e-7 * sum |v_i| whatever n is. Norms are sqrt of such sums, so they overflow
- * only when sum x_i^2 exceeds FLT_MAX (|x| beyond ~1e19); the solvers check for Inf/NaN.
+ * Reductions return double and have bounded rounding error. Each work-item sums a contiguous
+ * chunk of the array in 16 (real terms) or 8 (complex terms) independent Kahan-compensated
+ * chains, the SIMD lanes of one vector (the pending corrections kept); the lanes are merged by
+ * exact TwoSum additions, the work-group's items by a pairwise tree of TwoSum additions, and
+ * the (hi, lo) group partials are finished in double on the host. For a sum of terms v_i, each
+ * formed with relative error <= u (u = 2^-24; 8 ulp for complex magnitudes, see vec.cl), the
+ * computed S^ satisfies |S^ - S| <= (3u + O(m u^2)) * sum |v_i|, m = terms per Kahan chain
+ * (at most about n / 65536 + 16 for large n: 4096 work-items x 16 lanes, plus the < 16-term
+ * tail that one chain takes): u for forming each term, 2u for Kahan (Higham, "Accuracy and
+ * Stability of Numerical Algorithms", 2nd ed., Sec. 4.3), O(u^2) for the TwoSum merges, tree
+ * and double finish. That is about 1.8e-7 * sum |v_i| whatever n is. Norms are sqrt of such
+ * sums, so they overflow only when sum x_i^2 exceeds FLT_MAX (|x| beyond ~1e19); the solvers
+ * check for Inf/NaN. Complex magnitudes are scaled (no overflow or underflow for any finite
+ * input, see cmag in vec.cl), so sums of |x_i| are accurate from subnormal to FLT_MAX.
  *
  * All reductions block (they read the partials back); element-wise calls only enqueue. */
 #ifndef CSI_VEC_H
