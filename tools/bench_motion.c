@@ -329,13 +329,12 @@ static void bench_vec(csi_ctx *ctx, const bench_opts *o)
     csi_buffer_release(&c);
 }
 
-/* ---- vecproto: the same vector work written the way PoCL's CPU device runs fast --------- *
- * Built from source here (not part of the library): evidence for docs/bench/motion.md of what
- * kernels/vec.cl's element-wise and reduction kernels could cost. Differences: no bounds check
- * (exact launches), sqrt(re^2 + im^2) instead of hypot, and reductions where each work-item
- * sums a contiguous chunk (vec_reduce's work-items stride by the global size, and PoCL runs a
- * group's work-items one after another, so each cache line is fetched once per work-item that
- * touches it, 16 times). Same Kahan + pairwise scheme otherwise. */
+/* ---- vecproto: the prototype that led kernels/vec.cl's reductions to contiguous chunks ---- *
+ * Built from source here (not part of the library). It showed that reductions whose work-items
+ * stride by the global size are slow on PoCL (a group's work-items run one after another, so a
+ * cache line is fetched once per work-item touching it) and that contiguous chunks per work-item
+ * run at copy speed; kernels/vec.cl now works that way (docs/bench/solve.md, "Contiguous chunks
+ * per work-item"). Kept as the baseline the library's kernels are timed against. */
 static const char *proto_src =
     "#pragma OPENCL FP_CONTRACT OFF\n"
     "__kernel void prox(__global const float *restrict x, __global const float *restrict g, const float c,\n"
