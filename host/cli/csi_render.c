@@ -206,8 +206,11 @@ int main(int argc, char **argv)
     csi_grid grid = {.out_w = plan.width, .out_h = plan.height, .t = plan.frames};
     uint64_t factor;
     if (reference) {
-        factor = (uint64_t)ceil(sqrt((double)ref_spp) - 1e-9);
-        if (plan.frames > 1)
+        /* Enough cells per pixel block for SPP distinct stratified samples: sqrt(SPP) per axis
+         * when static; when moving, the block has T frames, so sqrt(SPP / T) per axis (at least
+         * 1): the reference is then antialiased as well as motion-blurred. */
+        factor = (uint64_t)ceil(sqrt((double)ref_spp / (double)plan.frames) - 1e-9);
+        if (factor < 1)
             factor = 1;
     } else if (grid_k) {
         if (grid_k % plan.width) {

@@ -53,6 +53,13 @@ for m in stratified random; do
     check "[[ $? == 0 ]] && grep -q '\"estimator\": \"mean\"' '$T/$m.json'" "--method $m"
 done
 
+# references: SPP distinct stratified samples per pixel, moving scenes included (x, y and t)
+for sc in static moving; do
+    scene="${!sc}"
+    "$B/csi-render" "$scene" --reference 64 -o "$T/$sc.ref.exr" --stats "$T/$sc.ref.json" -q
+    check "[[ $? == 0 ]] && grep -q '\"samples\": 65536,' '$T/$sc.ref.json'" "$sc --reference 64"
+done
+
 # --- bad input: exit 2, one line naming the problem, no output file --------------------------
 expect_fail() { # name, expected-substring, command...
     local name="$1" want="$2"; shift 2
