@@ -187,6 +187,32 @@ static const char *pass_kernel_name(const char *kind, int radix)
     return buf;
 }
 
+/* Plans one axis's passes, uploads its twiddles (and, along x, the per-pass twiddles) and builds
+ * every kernel it will launch, so that the first run pays no compile. Along x the first pass
+ * uses the `first_row` kernel ("row_s" where it also scales, else "row"); along the other axes
+ * `col_gain` also builds the gain-fused column kernels (the filter's first inverse pass). */
+static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, const char *first_row,
+                               bool col_gain)
+{
+    plan_radices(ax);
+    CSI_TRY(twiddles(ctx, ax->L, ax->L, &ax->tw));
+    if (x_axis)
+        CSI_TRY(pass_twiddles(ctx, ax));
+    for (int p = 0; p < ax->np; p++) {
+        cl_kernel k;
+        int R = ax->radix[p];
+        if (x_axis) {
+            CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? first_row : "row", R), &k));
+            CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
+        } else {
+            CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+            if (col_gain)
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", R), &k));
+        }
+    }
+    return CSI_OK;
+}
+
 static csi_status build(csi_fft_filter *f, const double sigma[3])
 {
     csi_ctx *ctx = f->ctx;
@@ -194,24 +220,8 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     f->ax[0].L = M;
     f->ax[1].L = f->c[1];
     f->ax[2].L = f->c[2];
-    for (int a = 0; a < f->nd; a++) {
-        plan_radices(&f->ax[a]);
-        CSI_TRY(twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw));
-        if (a == 0)
-            CSI_TRY(pass_twiddles(ctx, &f->ax[a]));
-        /* Build every kernel now so that the first run pays no compile. */
-        for (int p = 0; p < f->ax[a].np; p++) {
-            cl_kernel k;
-            int R = f->ax[a].radix[p];
-            if (a == 0) {
-                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row", R), &k));
-                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
-            } else {
-                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
-                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", R), &k));
-            }
-        }
-    }
+    for (int a = 0; a < f->nd; a++)
+        CSI_TRY(prepare_axis(ctx, &f->ax[a], a == 0, "row", true));
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
     /* + 1 element: csi_fft_r2c_post at k = 0 reads one past the last packed row. */
     size_t spec = f->hs * f->rows * 8, packed = (M * f->rows + 1) * 8;
@@ -508,21 +518,7 @@ csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float sca
     csi_status st = CSI_OK;
     for (int a = 0; a < nd && st == CSI_OK; a++) {
         f->ax[a].L = f->c[a];
-        plan_radices(&f->ax[a]);
-        st = twiddles(ctx, f->ax[a].L, f->ax[a].L, &f->ax[a].tw);
-        if (st == CSI_OK && a == 0)
-            st = pass_twiddles(ctx, &f->ax[a]);
-        for (int p = 0; p < f->ax[a].np && st == CSI_OK; p++) {
-            cl_kernel k;
-            int R = f->ax[a].radix[p];
-            if (a == 0) {
-                st = csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? "row_s" : "row", R), &k);
-                if (st == CSI_OK)
-                    st = csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k);
-            } else {
-                st = csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k);
-            }
-        }
+        st = prepare_axis(ctx, &f->ax[a], a == 0, "row_s", false);
     }
     if (st == CSI_OK)
         st = csi_buffer(ctx, f->n * 8, CL_MEM_READ_WRITE, "the FFT's scratch volume", &f->Q);
@@ -619,21 +615,7 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
     h->ax[1].L = h->c[1];
     h->ax[2].L = h->c[2];
     for (int a = 0; a < nd && st == CSI_OK; a++) {
-        plan_radices(&h->ax[a]);
-        st = twiddles(ctx, h->ax[a].L, h->ax[a].L, &h->ax[a].tw);
-        if (st == CSI_OK && a == 0)
-            st = pass_twiddles(ctx, &h->ax[a]);
-        for (int p = 0; p < h->ax[a].np && st == CSI_OK; p++) {
-            cl_kernel k;
-            int R = h->ax[a].radix[p];
-            if (a == 0) {
-                st = csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? "row_s" : "row", R), &k);
-                if (st == CSI_OK)
-                    st = csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k);
-            } else {
-                st = csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k);
-            }
-        }
+        st = prepare_axis(ctx, &h->ax[a], a == 0, "row_s", false);
     }
     if (st == CSI_OK)
         st = twiddles(ctx, 2 * h->M, h->M + 1, &h->wn);
