@@ -560,15 +560,16 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     return finish_nan_check(res->image, np * channels, "image");
 }
 
-/* Alg. 2's residual correction (csi_recon_options.motion_resid_sigma): f += NC(y - S f), the
- * normalized convolution G*(S^T r) / G*(S^T 1) of the samples' residual with a 3-D Gaussian. */
+/* Normalized convolution with a Gaussian of one width on every axis of the grid (t too when the
+ * grid has one): NC(y) = G*(S^T y) / G*(S^T 1). The Gaussian baseline is NC of the samples; Alg.
+ * 2's residual correction (csi_recon_options.motion_resid_sigma) is f += NC(y - S f). */
 typedef struct {
     csi_linop *S, *G;
     cl_mem den, b, fs;
     float eps;
-} resid_nc;
+} nc_op;
 
-static void resid_nc_free(resid_nc *r)
+static void nc_free(nc_op *r)
 {
     csi_linop_free(r->S);
     csi_linop_free(r->G);
@@ -577,20 +578,22 @@ static void resid_nc_free(resid_nc *r)
     csi_buffer_release(&r->fs);
 }
 
-/* scratch: k floats (a buffer the caller is done with); ones: n floats of host scratch. */
-static csi_status resid_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
-                                double sigma, cl_mem yscratch, cl_mem scratch, float *ones, resid_nc *r)
+/* yscratch: n floats and scratch: k floats of device scratch; ones: n floats of host scratch. */
+static csi_status nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
+                          double sigma, cl_mem yscratch, cl_mem scratch, float *ones, nc_op *r)
 {
     const size_t k = (size_t)g->w * g->h * g->t;
     const size_t dims[3] = {g->w, g->h, g->t};
-    const double sphi[3] = {sigma, sigma, sigma};
+    const int nd = g->t > 1 ? 3 : 2;
+    const double sphi[3] = {sigma, sigma, g->t > 1 ? sigma : 0};
     CSI_TRY(csi_sampling_create(ctx, k, idx, n, false, &r->S));
     CSI_TRY(csi_filter_create(ctx, dims, sphi, CSI_FILTER_GAUSS, 1.0f, &r->G));
-    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the residual's sample density", &r->den));
-    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered residual", &r->b));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered sample density", &r->den));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered samples", &r->b));
     CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the estimate at the samples", &r->fs));
-    /* Same threshold as the Gaussian baseline: cells no sample reaches stay uncorrected. */
-    r->eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, 3));
+    /* Cells whose filtered density is below 1e-6 of a single sample's peak contribution (no
+     * sample within reach of the filter) are left 0 instead of 0/0. */
+    r->eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, nd));
     for (size_t i = 0; i < n; i++)
         ones[i] = 1.0f;
     CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, ones));
@@ -598,23 +601,29 @@ static csi_status resid_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t 
     return csi_linop_apply(r->G, scratch, r->den);
 }
 
+/* out = NC(yd): yd is n floats on the device; out (k floats) may be `scratch`. */
+static csi_status nc_interp(csi_ctx *ctx, nc_op *r, cl_mem yd, size_t k, cl_mem scratch, cl_mem out)
+{
+    CSI_TRY(csi_linop_adjoint(r->S, yd, scratch));
+    CSI_TRY(csi_linop_apply(r->G, scratch, r->b));
+    cl_kernel div;
+    CSI_TRY(csi_kernel(ctx, "recon", "csi_nc_divide", &div));
+    cl_uint nk = (cl_uint)k;
+    CSI_TRY(CSI_ARGS(div, CSI_MEM(r->b), CSI_MEM(r->den), CSI_MEM(out), CSI_ARG(nk), CSI_ARG(r->eps)));
+    return csi_run1d(ctx, div, k);
+}
+
 /* f += NC(y - S f). y: the channel's n samples on the host; yscratch: n floats, scratch: k
  * floats of device scratch; host: n floats of host scratch. */
-static csi_status resid_nc_apply(csi_ctx *ctx, resid_nc *r, const float *y, size_t n, size_t k,
-                                 cl_mem f, cl_mem yscratch, cl_mem scratch, float *host)
+static csi_status nc_correct(csi_ctx *ctx, nc_op *r, const float *y, size_t n, size_t k, cl_mem f,
+                             cl_mem yscratch, cl_mem scratch, float *host)
 {
     CSI_TRY(csi_linop_apply(r->S, f, r->fs));
     CSI_TRY(csi_read(ctx, r->fs, 0, n * 4, host));
     for (size_t i = 0; i < n; i++)
         host[i] = y[i] - host[i];
     CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, host));
-    CSI_TRY(csi_linop_adjoint(r->S, yscratch, scratch));
-    CSI_TRY(csi_linop_apply(r->G, scratch, r->b));
-    cl_kernel div;
-    CSI_TRY(csi_kernel(ctx, "recon", "csi_nc_divide", &div));
-    cl_uint nk = (cl_uint)k;
-    CSI_TRY(CSI_ARGS(div, CSI_MEM(r->b), CSI_MEM(r->den), CSI_MEM(scratch), CSI_ARG(nk), CSI_ARG(r->eps)));
-    CSI_TRY(csi_run1d(ctx, div, k));
+    CSI_TRY(nc_interp(ctx, r, yscratch, k, scratch, scratch));
     return csi_vec_axpy(ctx, k, 1.0f, scratch, f);
 }
 
@@ -773,7 +782,7 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_complex_real", &c2r);
 
-    resid_nc rnc;
+    nc_op rnc;
     memset(&rnc, 0, sizeof rnc);
     float *yhost = NULL;
     const bool correct = opt->motion_resid_sigma >= 0;
@@ -784,7 +793,7 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         const double sig = opt->motion_resid_sigma > 0 ? opt->motion_resid_sigma
                                                         : csi_gauss_nc_default_sigma(k, n, 3);
         if (s == CSI_OK)
-            s = resid_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
+            s = nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
     }
     res->t_setup = now_s();
 
@@ -820,12 +829,12 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                 s = csi_run1d(ctx, c2r, k); /* f = Re(F3^H x) */
         }
         if (s == CSI_OK && correct)
-            s = resid_nc_apply(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
+            s = nc_correct(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
         if (s == CSI_OK)
             s = integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         t_int += now_s() - t1;
     }
-    resid_nc_free(&rnc);
+    nc_free(&rnc);
     free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);
@@ -868,61 +877,37 @@ static csi_status gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                            const csi_recon_options *opt, csi_recon_result *res, recon_state *st)
 {
     const size_t k = (size_t)g->w * g->h * g->t, wh = (size_t)g->w * g->h;
-    const size_t dims[3] = {g->w, g->h, g->t};
     const int nd = g->t > 1 ? 3 : 2;
     const double sigma = opt->gauss_sigma > 0 ? opt->gauss_sigma : csi_gauss_nc_default_sigma(k, n, nd);
-    const double sphi[3] = {sigma, sigma, g->t > 1 ? sigma : 0};
     st->idx = malloc(n * sizeof *st->idx);
     st->plane = malloc(n * sizeof(float));
     if (!st->idx || !st->plane)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
     for (size_t i = 0; i < n; i++)
         st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
-    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, false, &st->S));
-    CSI_TRY(csi_filter_create(ctx, dims, sphi, CSI_FILTER_GAUSS, 1.0f, &st->inner));
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the scattered samples", &st->x));
-    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered samples", &st->f));
-    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered density", &st->tmp));
+    CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the interpolated samples", &st->tmp));
     CSI_TRY(csi_buffer(ctx, (np > wh ? np : wh) * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
-    cl_mem scratch = NULL, den = NULL;
+    cl_mem scratch = NULL;
+    nc_op nc;
+    memset(&nc, 0, sizeof nc);
     csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "a frame", &scratch);
     if (s == CSI_OK)
-        s = csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the density", &den);
-    cl_kernel div = NULL;
-    if (s == CSI_OK)
-        s = csi_kernel(ctx, "recon", "csi_nc_divide", &div);
-    /* Density: G * (S^T 1). Same for every channel. The threshold keeps cells no sample reaches
-     * (density below 1e-6 of a single sample's peak contribution) at 0 instead of 0/0. */
-    for (size_t i = 0; i < n && s == CSI_OK; i++)
-        st->plane[i] = 1.0f;
-    if (s == CSI_OK)
-        s = csi_write(ctx, st->y, 0, n * 4, st->plane);
-    if (s == CSI_OK)
-        s = csi_linop_adjoint(st->S, st->y, st->x);
-    if (s == CSI_OK)
-        s = csi_linop_apply(st->inner, st->x, den);
+        s = nc_init(ctx, g, st->idx, n, sigma, st->y, st->x, st->plane, &nc);
     res->t_setup = now_s();
     double t0 = now_s();
-    const float eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, nd));
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
         for (size_t i = 0; i < n; i++)
             st->plane[i] = values[i * channels + c];
-        cl_uint nk = (cl_uint)k;
         s = csi_write(ctx, st->y, 0, n * 4, st->plane);
         if (s == CSI_OK)
-            s = csi_linop_adjoint(st->S, st->y, st->x);
-        if (s == CSI_OK)
-            s = csi_linop_apply(st->inner, st->x, st->f);
-        if (s == CSI_OK)
-            s = CSI_ARGS(div, CSI_MEM(st->f), CSI_MEM(den), CSI_MEM(st->tmp), CSI_ARG(nk), CSI_ARG(eps));
-        if (s == CSI_OK)
-            s = csi_run1d(ctx, div, k);
+            s = nc_interp(ctx, &nc, st->y, k, st->x, st->tmp);
         if (s == CSI_OK)
             s = integrate_volume(ctx, g, st->tmp, c, opt, res, scratch, st->out);
         if (s == CSI_OK && g->t == 1 && opt->correct == CSI_CORRECT_CV)
-            s = cv_correct(ctx, g, opt, st->S, st->tmp, st->y, values, channels, c, pos, n,
+            s = cv_correct(ctx, g, opt, nc.S, st->tmp, st->y, values, channels, c, pos, n,
                            res->image + (size_t)c * np);
         if (s == CSI_OK) {
             csi_solve_report *r = &res->report[c];
@@ -931,8 +916,8 @@ static csi_status gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
     }
     res->t_integrate = now_s() - t0;
+    nc_free(&nc);
     csi_buffer_release(&scratch);
-    csi_buffer_release(&den);
     return s;
 }
 
