@@ -495,12 +495,6 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,
                         csi_wavelet_name(opt->wavelet));
 
-    st->idx = malloc(n * sizeof *st->idx);
-    if (!st->idx)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu sample indices", n);
-    for (size_t i = 0; i < n; i++)
-        st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
-
     /* A = S . (Phi^-1 . Psi); the compositions own their parts. */
     csi_linop *Psi = NULL, *W = NULL, *WPsi = NULL;
     CSI_TRY(csi_wavelet_create(ctx, opt->wavelet, w, h, levels, &Psi));
@@ -525,9 +519,6 @@ static csi_status antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the sharpened image", &st->tmp));
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, np * sizeof(float), CL_MEM_READ_WRITE, "the output image", &st->out));
-    st->plane = malloc(n * sizeof(float));
-    if (!st->plane)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
     res->t_setup = now_s();
 
     double t_solve = 0, t_int = 0;
@@ -734,12 +725,6 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (res->solver == CSI_SOLVER_ROMP)
         return csi_fail(CSI_ERR_ARG, "ROMP is real-valued and the 3-D Fourier problem is complex: "
                                      "use --solver sparsa for a volume (grid_t = %zu)", T);
-    st->idx = malloc(n * sizeof *st->idx);
-    if (!st->idx)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu sample indices", n);
-    for (size_t i = 0; i < n; i++)
-        st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
-
     bool half = !opt->motion_full_spectrum;
     if (half) {
         csi_status hs = half_create(ctx, dims, st->idx, n, &st->A);
@@ -773,9 +758,6 @@ static csi_status motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_status s = csi_buffer(ctx, wh * 4, CL_MEM_READ_WRITE, "the time mean", &mean);
     if (s == CSI_OK)
         s = csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the real measurements", &real_y);
-    st->plane = malloc(n * sizeof(float));
-    if (s == CSI_OK && !st->plane)
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
     cl_kernel r2c = NULL, c2r = NULL;
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_real_to_complex", &r2c);
@@ -879,12 +861,6 @@ static csi_status gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     const size_t k = (size_t)g->w * g->h * g->t, wh = (size_t)g->w * g->h;
     const int nd = g->t > 1 ? 3 : 2;
     const double sigma = opt->gauss_sigma > 0 ? opt->gauss_sigma : csi_gauss_nc_default_sigma(k, n, nd);
-    st->idx = malloc(n * sizeof *st->idx);
-    st->plane = malloc(n * sizeof(float));
-    if (!st->idx || !st->plane)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
-    for (size_t i = 0; i < n; i++)
-        st->idx[i] = (uint32_t)csi_grid_index(g, pos[i]);
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the scattered samples", &st->x));
@@ -978,15 +954,27 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     memset(&st, 0, sizeof st);
     double t0 = now_s();
     report_progress(&opt, "setup");
-    csi_status s;
-    if (opt.estimator == CSI_EST_MEAN)
-        s = sample_mean(ctx, grid, channels, pos, values, n, out, &st);
-    else if (opt.estimator == CSI_EST_GAUSS)
-        s = gauss_nc(ctx, grid, channels, pos, values, n, &opt, out, &st);
-    else if (grid->t == 1)
-        s = antialias(ctx, grid, channels, pos, values, n, &opt, out, &st);
-    else
-        s = motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
+    csi_status s = CSI_OK;
+    if (opt.estimator != CSI_EST_MEAN) {
+        /* What every operator-based path needs: the samples' linear grid indices, and one
+         * channel's values at a time (st.plane). */
+        st.idx = malloc(n * sizeof *st.idx);
+        st.plane = malloc(n * sizeof *st.plane);
+        if (!st.idx || !st.plane)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+        for (size_t i = 0; i < n && s == CSI_OK; i++)
+            st.idx[i] = (uint32_t)csi_grid_index(grid, pos[i]);
+    }
+    if (s == CSI_OK) {
+        if (opt.estimator == CSI_EST_MEAN)
+            s = sample_mean(ctx, grid, channels, pos, values, n, out, &st);
+        else if (opt.estimator == CSI_EST_GAUSS)
+            s = gauss_nc(ctx, grid, channels, pos, values, n, &opt, out, &st);
+        else if (grid->t == 1)
+            s = antialias(ctx, grid, channels, pos, values, n, &opt, out, &st);
+        else
+            s = motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
+    }
     out->t_setup = out->t_setup > t0 ? out->t_setup - t0 : 0;
     state_free(&st);
     if (s != CSI_OK)
