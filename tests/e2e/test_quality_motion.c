@@ -21,7 +21,7 @@
  * measured margins (printed, and in docs/bench/motion.md) are 1-3 dB.
  *
  * Also: the half-spectrum formulation (csi's default) and the paper's full complex spectrum
- * reach the same minimiser (host/integrate/reconstruct.c, motion()): their images differ by
+ * reach the same minimiser (host/integrate/motion.c): their images differ by
  * less than 1% relative L2. Both stop at a relative duality gap of 1e-5 of the objective, which
  * does not bound the distance between the iterates in closed form for l1 problems; measured
  * differences are ~1e-4, and a wrong half-spectrum operator (a factor 2 on the inner bins, a

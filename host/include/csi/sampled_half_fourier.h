@@ -1,0 +1,35 @@
+/* A = S H for Alg. 2 on the half spectrum (csi_fourier_half): z (the half spectrum, complex)
+ * -> f = H z (real volume) -> the samples f[idx_i], returned as complex values with zero
+ * imaginary parts so that the complex solver sees measurements y + 0i. The adjoint takes the
+ * real parts of its input (the imaginary parts of y - A z are zero), scatters them and applies
+ * H^T (the real-to-complex transform), which is H's adjoint for the real inner products SpaRSA
+ * uses (Re <a, b> everywhere: its steps, objective and tests). Complex-linearity is never used by
+ * SpaRSA, so a real-linear operator is enough. */
+#ifndef CSI_SAMPLED_HALF_FOURIER_H
+#define CSI_SAMPLED_HALF_FOURIER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/linop.h"
+#include "csi/spectral.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The operator for a dims[0] x dims[1] x dims[2] real volume sampled at idx[0..n-1] (distinct,
+ * < the volume's size; copied). rows = n, cols = csi_fourier_half_count. CSI_ERR_ARG with no
+ * operator made when the size has no half spectrum (an odd first axis). */
+csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], const uint32_t *idx,
+                                            size_t n, csi_linop **out);
+/* f = H z: the real volume (k floats) of half-spectrum coefficients z, without sampling. */
+csi_status csi_half_fourier_synthesize(const csi_linop *op, cl_mem z, cl_mem f);
+/* The operator's own k-float volume buffer, which the caller may use as scratch between
+ * applications (its contents are overwritten by the next apply or adjoint). */
+cl_mem csi_half_fourier_scratch(const csi_linop *op);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,42 @@
+/* The per-pixel control-variate correction of Alg. 1 (csi_aa_correct in csi/reconstruct.h). */
+#include <stdlib.h>
+
+#include "internal.h"
+
+/* The CV shrinkage when the caller leaves it (cv_n0 < 0). Measured: docs/bench/quality.md. */
+#define CSI_CV_N0_DEFAULT 8.0
+
+csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                                const csi_linop *S, cl_mem fine, cl_mem gathered,
+                                const float *values, uint32_t channels, uint32_t c,
+                                const csi_sample_pos *pos, size_t n, float *plane)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const double n0 = opt->cv_n0 >= 0 ? opt->cv_n0 : CSI_CV_N0_DEFAULT;
+    float *gs = malloc(n * sizeof *gs);
+    double *sum = calloc(np, sizeof *sum);
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    csi_status s = CSI_OK;
+    if (!gs || !sum || !cnt)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction");
+    if (s == CSI_OK)
+        s = csi_linop_apply(S, fine, gathered);
+    if (s == CSI_OK)
+        s = csi_read(ctx, gathered, 0, n * sizeof(float), gs);
+    if (s == CSI_OK) {
+        for (size_t i = 0; i < n; i++) {
+            size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+            sum[p] += (double)values[i * channels + c] - (double)gs[i];
+            cnt[p]++;
+        }
+        for (size_t p = 0; p < np; p++)
+            if (cnt[p])
+                plane[p] = (float)((double)plane[p] + sum[p] / ((double)cnt[p] + n0));
+    }
+    free(gs);
+    free(sum);
+    free(cnt);
+    return s;
+}
+

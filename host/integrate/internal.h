@@ -1,0 +1,88 @@
+/* What the files of the reconstruction share (not installed, not part of the public API):
+ * the state of one reconstruction, the methods it dispatches to, and their common steps. */
+#ifndef CSI_INTEGRATE_INTERNAL_H
+#define CSI_INTEGRATE_INTERNAL_H
+
+#include "csi/linop.h"
+#include "csi/reconstruct.h"
+
+/* Everything one reconstruction allocates, released in one place (reconstruct.c). */
+typedef struct {
+    csi_linop *S, *inner, *A, *Psi, *W;
+    csi_solver *solver;
+    cl_mem y, x, f, tmp, out;
+    uint32_t *idx;
+    float *plane;
+    cl_mem romp_norms;   /* ROMP column norms, made once for all channels (or NULL) */
+    uint32_t *romp_seed; /* ROMP seed support (or NULL) */
+    size_t romp_seed_n;
+} csi_recon_state;
+
+/* The methods (each fills res and st; csi_reconstruct frees st). */
+csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                               const csi_sample_pos *pos, const float *values, size_t n,
+                               const csi_recon_options *opt, csi_recon_result *res,
+                               csi_recon_state *st);
+csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                            const csi_sample_pos *pos, const float *values, size_t n,
+                            const csi_recon_options *opt, csi_recon_result *res,
+                            csi_recon_state *st);
+csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                              const csi_sample_pos *pos, const float *values, size_t n,
+                              const csi_recon_options *opt, csi_recon_result *res,
+                              csi_recon_state *st);
+csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                 const csi_sample_pos *pos, const float *values, size_t n,
+                                 csi_recon_result *res, csi_recon_state *st);
+
+/* Runs the solver on st->A, st->y into st->x. image_spp > 0: Alg. 1 with that many samples per
+ * output pixel (SpaRSA gets the image defaults where the caller left a setting open); 0: Alg. 2
+ * with motion_n samples. */
+csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
+                                const csi_recon_options *opt, double image_spp, size_t motion_n,
+                                csi_solve_report *rep);
+
+/* Monotonic clock in seconds. */
+double csi_recon_now(void);
+/* Reports a phase to the caller's progress callback, if any. */
+void csi_recon_progress(const csi_recon_options *opt, const char *phase);
+/* CSI_ERR_NUMERIC naming `what` and the first non-finite element of a. */
+csi_status csi_recon_check_finite(const float *a, size_t n, const char *what);
+/* Integrates one channel's real volume `vol` (w x h x T) into the result: the image plane is the
+ * box integral of its mean over t; frames (if asked for) the box integral of each slice.
+ * scratch_wh: w*h floats; out: out_w*out_h floats. */
+csi_status csi_recon_integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol, uint32_t c,
+                                      const csi_recon_options *opt, csi_recon_result *res,
+                                      cl_mem scratch_wh, cl_mem out);
+
+/* The control-variate correction of one channel (see csi_aa_correct in csi/reconstruct.h): gathers
+ * the fine estimate `fine` at the samples through S (into `gathered`, n floats on the device),
+ * then adds beta_p * (mean residual of pixel p) to plane[p] on the host, in double, in sample
+ * order (deterministic). values: sample-major, `channels` per sample; this is channel c. */
+csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                                const csi_linop *S, cl_mem fine, cl_mem gathered,
+                                const float *values, uint32_t channels, uint32_t c,
+                                const csi_sample_pos *pos, size_t n, float *plane);
+
+/* Normalized convolution with a Gaussian of one width on every axis of the grid (t too when the
+ * grid has one): NC(y) = G*(S^T y) / G*(S^T 1). The Gaussian baseline is NC of the samples; Alg.
+ * 2's residual correction (csi_recon_options.motion_resid_sigma) is f += NC(y - S f). */
+typedef struct {
+    csi_linop *S, *G;
+    cl_mem den, b, fs;
+    float eps;
+} csi_nc_op;
+
+/* yscratch: n floats and scratch: k floats of device scratch; ones: n floats of host scratch. */
+csi_status csi_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
+                       double sigma, cl_mem yscratch, cl_mem scratch, float *ones, csi_nc_op *r);
+/* out = NC(yd): yd is n floats on the device; out (k floats) may be `scratch`. */
+csi_status csi_nc_interp(csi_ctx *ctx, csi_nc_op *r, cl_mem yd, size_t k, cl_mem scratch,
+                         cl_mem out);
+/* f += NC(y - S f). y: the channel's n samples on the host; yscratch: n floats, scratch: k
+ * floats of device scratch; host: n floats of host scratch. */
+csi_status csi_nc_correct(csi_ctx *ctx, csi_nc_op *r, const float *y, size_t n, size_t k,
+                          cl_mem f, cl_mem yscratch, cl_mem scratch, float *host);
+void csi_nc_free(csi_nc_op *r);
+
+#endif

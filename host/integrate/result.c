@@ -1,0 +1,59 @@
+/* The reconstruction result: integrating a fine volume into its image (and frames), the final
+ * finiteness check, and freeing it. */
+#include <math.h>
+#include <stdlib.h>
+#include <time.h>
+
+#include "csi/integrate_ops.h"
+#include "internal.h"
+
+void csi_recon_result_free(csi_recon_result *r)
+{
+    if (!r)
+        return;
+    free(r->image);
+    free(r->frames);
+    r->image = r->frames = NULL;
+}
+
+double csi_recon_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void csi_recon_progress(const csi_recon_options *opt, const char *phase)
+{
+    if (opt->progress)
+        opt->progress(opt->user, phase, 0, -1.0);
+}
+
+csi_status csi_recon_check_finite(const float *a, size_t n, const char *what)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(a[i]))
+            return csi_fail(CSI_ERR_NUMERIC, "the reconstructed %s has a non-finite value at %zu", what, i);
+    return CSI_OK;
+}
+
+csi_status csi_recon_integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol,
+                                      uint32_t c, const csi_recon_options *opt, csi_recon_result *res,
+                                      cl_mem scratch_wh, cl_mem out)
+{
+    const size_t wh = (size_t)g->w * g->h, np = (size_t)g->out_w * g->out_h;
+    const uint32_t channels = res->channels;
+    if (g->t == 1) {
+        CSI_TRY(csi_box_integrate(ctx, vol, g->w, g->h, 1, g->out_w, g->out_h, out));
+        return csi_read(ctx, out, 0, np * 4, res->image + (size_t)c * np);
+    }
+    CSI_TRY(csi_time_mean(ctx, vol, g->w, g->h, g->t, 1, scratch_wh));
+    CSI_TRY(csi_box_integrate(ctx, scratch_wh, g->w, g->h, 1, g->out_w, g->out_h, out));
+    CSI_TRY(csi_read(ctx, out, 0, np * 4, res->image + (size_t)c * np));
+    for (size_t t = 0; opt->frames && t < g->t; t++) {
+        CSI_TRY(csi_copy(ctx, scratch_wh, 0, vol, t * wh * 4, wh * 4));
+        CSI_TRY(csi_box_integrate(ctx, scratch_wh, g->w, g->h, 1, g->out_w, g->out_h, out));
+        CSI_TRY(csi_read(ctx, out, 0, np * 4, res->frames + (t * channels + c) * np));
+    }
+    return CSI_OK;
+}
