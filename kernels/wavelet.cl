@@ -27,7 +27,7 @@
 
 /* Daubechies' extremal-phase orthonormal filters: Daubechies, "Ten Lectures on Wavelets" (SIAM
  * 1992), Table 6.1, in the order and sign convention of PyWavelets 1.8 (pywt.Wavelet('db4').dec_lo,
- * 'db8'), which tools/gen_refs_wavelet.py checks this table against. dec_hi[j] =
+ * 'db8'), which tests/data/wavelet/gen_refs.py checks this table against. dec_hi[j] =
  * (-1)^(j+1) dec_lo[F-1-j] (the quadrature mirror filter). The reconstruction filters are these
  * reversed, which the transposed index formulas above express. */
 __constant float csi_db4_lo[8] = {

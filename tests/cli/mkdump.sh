@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# csi-mkdump end to end: converts committed PNGs (tests/data/io, made by tools/gen_refs_io.py
+# csi-mkdump end to end: converts committed PNGs (tests/data/io, made by tests/data/io/gen_refs.py
 # with an independent PNG encoder) and checks the dumps byte by byte with od + awk against the
 # expected linear values; then every bad input must exit 2 with a message and leave no file.
 # Usage: bash mkdump.sh BUILD_DIR SOURCE_DIR

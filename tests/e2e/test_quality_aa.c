@@ -1,13 +1,13 @@
 /* Quality of Alg. 1 (csi_reconstruct with its defaults) against stratified Monte Carlo, on dumps
  * made here from analytic images (issue 4, "Quality"; the paper's Figs. 5 and 6).
  *
- * Images (the same functions as tools/quality_sweep.py, coordinates in [0,1]^2, y down):
+ * Images (the same functions as tools/bench/quality_sweep.py, coordinates in [0,1]^2, y down):
  *   triangle  a slanted triangle (1.0) on 0.1, no edge axis-aligned: edge-dominated;
  *   texture   sinusoids + a rotated checker + a disc: smooth texture with edges.
  * The fine grid (256 x 256 -> 64 x 64 output, 4 x 4 cells per pixel) holds the image's value at
  * each cell centre (what a ray through that point returns). Ground truth: the box average of
  * the continuous image over each output pixel, midpoint rule with 8 x 8 points per fine cell in
- * double. Against 32 x 32 points per cell (tools/quality_sweep.py's box_truth) that truth differs
+ * double. Against 32 x 32 points per cell (tools/bench/quality_sweep.py's box_truth) that truth differs
  * by at most 2.5e-3 per pixel and 1.9e-8 (triangle) / 4.7e-8 (texture) in mean square: under
  * 0.3% of the smallest MSE compared here (1.8e-5), so it cannot decide a comparison.
  *

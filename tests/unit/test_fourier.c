@@ -1,6 +1,6 @@
 /* Orthonormal Fourier basis (csi_fourier_create) under PoCL, on both FFT implementations (csi's
  * own Stockham kernels and clFFT): against np.fft.fftn / ifftn with norm="ortho"
- * (tools/gen_refs_spectral.py), unitarity (apply(adjoint(x)) = x, Parseval), the complex adjoint
+ * (tests/data/spectral/gen_refs.py), unitarity (apply(adjoint(x)) = x, Parseval), the complex adjoint
  * identity <A x, y> = <x, A^H y>, 1-D / 2-D / 3-D, non-square and 3 * 2^n sizes; then native
  * against clFFT on sizes that exercise every radix (2..8, 3, 5, 7), odd lengths, the k-indexed
  * row passes (p >= 8) and squeezed axes of length 1.

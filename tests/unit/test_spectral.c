@@ -1,5 +1,5 @@
 /* Gaussian filter Phi and its Wiener inverse (host/ops/spectral.c, kernels/spectral.cl) under
- * PoCL, against numpy references (tools/gen_refs_spectral.py, full complex FFT in float64) and
+ * PoCL, against numpy references (tests/data/spectral/gen_refs.py, full complex FFT in float64) and
  * closed forms.
  *
  * Tolerances. A radix-2/3/5/7 FFT in float32 has a relative L2 error bounded by about

@@ -1,7 +1,7 @@
 /* 2-D periodized Daubechies wavelet operator (host/ops/wavelet.c, kernels/wavelet.cl).
  *
  * References: PyWavelets 1.8 (wavedec2 / waverec2, mode='periodization', coeffs_to_array layout)
- * vectors in tests/data/wavelet made by tools/gen_refs_wavelet.py (seed 20261122), and, for sizes
+ * vectors in tests/data/wavelet made by tests/data/wavelet/gen_refs.py (seed 20261122), and, for sizes
  * too large to commit, a plain double-precision C transform written here from PyWavelets'
  * periodization formula with PyWavelets' filters (tests/data/wavelet/filters_*.npy).
  *
@@ -31,7 +31,7 @@ typedef struct {
     int levels;
 } wcase;
 
-/* Must match CASES in tools/gen_refs_wavelet.py. */
+/* Must match CASES in tests/data/wavelet/gen_refs.py. */
 static const wcase cases[] = {
     {"db4", 64, 64, 1},  {"db4", 64, 64, 3},   {"db8", 64, 64, 2}, {"db8", 64, 64, 4},
     {"db4", 96, 64, 3},  {"db8", 128, 48, 4},  {"db4", 48, 48, 4}, {"db8", 48, 96, 4},

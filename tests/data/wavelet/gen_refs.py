@@ -10,7 +10,7 @@ For each case (family, W, H, levels) writes into tests/data/wavelet/:
 <tag> = <family>_<W>x<H>_L<levels>; and filters_<family>.npy, float64 (2, F): dec_lo, dec_hi. Also checks the filter tables in kernels/wavelet.cl against
 pywt.Wavelet(...).dec_lo / dec_hi, so the kernel's data cannot drift from PyWavelets.
 
-Run: /work/main/.venv/bin/python tools/gen_refs_wavelet.py   (numpy, PyWavelets: tools/requirements.txt)
+Run: /work/main/.venv/bin/python tests/data/wavelet/gen_refs.py   (numpy, PyWavelets: tools/bench/requirements.txt)
 """
 import os
 import re
@@ -20,8 +20,8 @@ import warnings
 import numpy as np
 import pywt
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-OUT = os.path.join(ROOT, "tests", "data", "wavelet")
+OUT = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(OUT)))
 SEED = 20261122
 
 # (family, W, H, levels). Covers: square and non-square, sides 3*2^n, several level counts,

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Self-test of the benchmark helpers' arithmetic (no binaries needed, a second to run):
 
-  .venv/bin/python tools/bench_selftest.py
+  .venv/bin/python tools/bench/bench_selftest.py
 
 Checks against closed forms: dump writing/reading round trip (docs/dump-format.md layout),
 per-frame Monte Carlo means with the empty-cell fallback, full-grid dump averaging, the edge-pixel

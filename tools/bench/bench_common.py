@@ -1,4 +1,4 @@
-"""Shared helpers of the csi benchmarks (tools/bench_accuracy.py, bench_pylops.py, bench_scaling.py).
+"""Shared helpers of the csi benchmarks (tools/bench/bench_accuracy.py, bench_pylops.py, bench_scaling.py).
 
 Everything here drives the real binaries (csi-render, csi-reconstruct) as a user would and reads
 what they write (EXR images, stats JSON, sample dumps); nothing re-implements the method.
@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENE_DIR = os.path.join(ROOT, "data", "scenes")
 EDGE_REL = 0.1
 PSNR_PEAK = 1.0

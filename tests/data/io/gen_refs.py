@@ -8,7 +8,7 @@
 
 The PNG encoder here is a minimal independent one (zlib + CRC from Python's standard library),
 so the csi reader is checked against a different implementation than the one it uses.
-Run: /work/main/.venv/bin/python tools/gen_refs_io.py
+Run: /work/main/.venv/bin/python tests/data/io/gen_refs.py
 """
 import os
 import struct
@@ -16,7 +16,7 @@ import zlib
 
 import numpy as np
 
-OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "data", "io")
+OUT = os.path.dirname(os.path.abspath(__file__))
 
 
 def png_bytes(codes):

@@ -2,11 +2,11 @@
 """Fine-grid multiplier sweep of csi-render's compressive method on the static scenes (issue 6,
 docs/bench/grid.md): MSE against a 256-spp stratified reference (csi-render --reference 256, on
 the 16x grid) and reconstruction time, for every (scene, spp, multiplier), next to stratified
-Monte Carlo at the same spp on the reference's 16x grid (as tools/bench_accuracy.py does).
-The metric code is tools/bench_common.py's (mse over all pixels and RGB channels).
+Monte Carlo at the same spp on the reference's 16x grid (as tools/bench/bench_accuracy.py does).
+The metric code is tools/bench/bench_common.py's (mse over all pixels and RGB channels).
 
-  .venv/bin/python tools/bench_grid.py --size 64x64 --grids 4,8,16 --spp 1,4,9,16 --seeds 4
-  .venv/bin/python tools/bench_grid.py --grids auto ...   # csi-render's default (no --grid)
+  .venv/bin/python tools/bench/bench_grid.py --size 64x64 --grids 4,8,16 --spp 1,4,9,16 --seeds 4
+  .venv/bin/python tools/bench/bench_grid.py --grids auto ...   # csi-render's default (no --grid)
 """
 import argparse
 import json

@@ -13,7 +13,7 @@ For each analytic test image (a slanted triangle, a procedural texture) this scr
      solve time and iterations from --stats.
 
 Usage (from the worktree root, after building):
-  /work/main/.venv/bin/python tools/quality_sweep.py --grid 256 --out 64 --spp 1,2,4,9,16 \
+  /work/main/.venv/bin/python tools/bench/quality_sweep.py --grid 256 --out 64 --spp 1,2,4,9,16 \
       --seeds 1,2 --configs mean,gauss,cs [--images triangle,texture] [--md docs/bench/quality.md]
 Configurations are NAME or NAME=csi-reconstruct-args, e.g.
   'fast=--max-iter 100 --tau 1e-3'. Built-in names: mean (stratified positions, per-pixel
@@ -31,7 +31,7 @@ import time
 import numpy as np
 import OpenEXR
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 # ---- analytic images, coordinates in [0,1]^2 (x right, y down) -------------------------------

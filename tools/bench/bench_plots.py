@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Plots of tools/bench_accuracy.py's CSVs (matplotlib, Agg). Run on its own to redraw from an
+"""Plots of tools/bench/bench_accuracy.py's CSVs (matplotlib, Agg). Run on its own to redraw from an
 output directory (the insets from the insets_<scene>.npz the run saved):
 
-  .venv/bin/python tools/bench_plots.py OUT_DIR
+  .venv/bin/python tools/bench/bench_plots.py OUT_DIR
 """
 import csv
 import math

@@ -1,6 +1,6 @@
 /* Times the tracer on scenes: 256 x 256 images at 4 samples per pixel (262144 uniformly random
  * positions on a 512 x 512 x T fine grid, seed 1), with 1 and 2 threads; prints one JSON line
- * per run with the counters. Built as build/csi-tracer-time-scenes (tools/tracer_*.c):
+ * per run with the counters. Built as build/csi-tracer-time-scenes (tools/bench/tracer_*.c):
  *   build/csi-tracer-time-scenes data/scenes/triangle.scene data/scenes/garden.scene ... */
 #include <stdio.h>
 #include <stdlib.h>

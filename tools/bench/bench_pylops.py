@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """csi's SpaRSA against PyLops FISTA on the same antialiasing problem (issues 3 and 6).
 
-  .venv/bin/python tools/bench_pylops.py --out bench-pylops               # 512^2 and 1024^2
-  .venv/bin/python tools/bench_pylops.py --quick --out bench-pylops-quick # 256^2, short
+  .venv/bin/python tools/bench/bench_pylops.py --out bench-pylops               # 512^2 and 1024^2
+  .venv/bin/python tools/bench/bench_pylops.py --quick --out bench-pylops-quick # 256^2, short
 
 The problem (one channel, G): a scene rendered at Poisson-disk positions on a fine grid of k =
 n x n cells (4x the output width), y = those samples. Both solvers see the same operator

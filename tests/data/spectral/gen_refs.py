@@ -6,13 +6,13 @@ Gaussian filter Phi = F^H G F and Wiener inverse (1 + lambda) G / (G^2 + lambda)
 complex FFT in float64 (independent of the R2C/C2R path under test), and the orthonormal Fourier
 basis as np.fft.fftn / ifftn with norm="ortho". Arrays have numpy shape (n2, n1, n0) = the C
 layout of csi's dims[0] x dims[1] x dims[2] (x fastest). Fixed seeds; run from the repository
-root:  .venv/bin/python tools/gen_refs_spectral.py
+root:  .venv/bin/python tests/data/spectral/gen_refs.py
 """
 import os
 
 import numpy as np
 
-OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "data", "spectral")
+OUT = os.path.dirname(os.path.abspath(__file__))
 
 
 def gauss_1d(n, sigma_phi):

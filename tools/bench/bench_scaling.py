@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Time and memory of csi-reconstruct against problem size k (issue 6: growth no worse than k log k).
 
-  .venv/bin/python tools/bench_scaling.py --out bench-scaling          # k = 256^2 .. 2048^2 (+ motion)
-  .venv/bin/python tools/bench_scaling.py --quick --out bench-scaling  # k = 128^2 .. 512^2
+  .venv/bin/python tools/bench/bench_scaling.py --out bench-scaling          # k = 256^2 .. 2048^2 (+ motion)
+  .venv/bin/python tools/bench/bench_scaling.py --quick --out bench-scaling  # k = 128^2 .. 512^2
 
 For each fine-grid size n (k = n^2; the output image is n/4 wide, 4 spp, Poisson-disk positions,
 so N = k/4 samples): the scene is traced once with --dump, then csi-reconstruct runs on the dump

@@ -637,7 +637,7 @@ static const char *need_value(const char *a)
 int main(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--help"))
-        DIE("usage: csi-bench-motion fft|solve|quality [options] (see tools/bench_motion.c)");
+        DIE("usage: csi-bench-motion fft|solve|quality [options] (see tools/bench/bench_motion.c)");
     const char *mode = argv[1];
     bench_opts o = {512, 512, 128, 0.01, 0, "disc", 1, 5, 0, 0, 0, 0, -2, -1, -1, "disc,pan,balls", "0.1,spp1", 0, 0};
     if (!strcmp(mode, "quality"))
