@@ -201,12 +201,19 @@ inline void dft7(float *xr, float *xi, float sgn)
 /* Twiddle, load, store and DFT of one Stockham pass; in/out are float arrays of interleaved
  * (re, im) pairs, complex element e at 2e. `ld(r)` / `st(r)` give the complex element index of
  * the r-th input / output. The table tw holds exp(-2 pi i m / L); conjugated for sgn = +1. */
-#define PASS_BODY(R, LD, ST, SCALE)                                                             \
+#define PASS_BODY(R, LD, ST, SCALE) PASS_BODY_L(R, LD, ST, SCALE, LOAD_REAL)
+/* Loads of the input element e_ into xr[r], xi[r]: times a real factor SCALE(r), or times the
+ * complex factor (gr_[r], gi_[r]) of the gain pass with a complex factor (SCALE unused). */
+#define LOAD_REAL(r, e_, SCALE)                                                                 \
+    xr[r] = in[2 * e_] * SCALE(r);                                                             \
+    xi[r] = in[2 * e_ + 1] * SCALE(r);
+#define LOAD_CPLX(r, e_, SCALE)                                                                 \
+    CMUL(xr[r], xi[r], in[2 * e_], in[2 * e_ + 1], gr_[r], gi_[r]);
+#define PASS_BODY_L(R, LD, ST, SCALE, LOAD)                                                     \
     float xr[R], xi[R];                                                                        \
     _Pragma("unroll") for (int r = 0; r < R; r++) {                                            \
         const size_t e_ = LD(r);                                                               \
-        xr[r] = in[2 * e_] * SCALE(r);                                                         \
-        xi[r] = in[2 * e_ + 1] * SCALE(r);                                                     \
+        LOAD(r, e_, SCALE)                                                                     \
     }                                                                                          \
     const size_t k = i % p;                                                                    \
     if (p > 1) {                                                                               \
@@ -250,29 +257,56 @@ inline void dft7(float *xr, float *xi, float sgn)
  * G = gx[c] gb[b] ga[q] (the separable Gaussian), turned into the Wiener inverse
  * (1 + lambda) G / (G^2 + lambda) when wiener != 0, times the normalisation `scale`. */
 #define GAIN_SCALE(r) g_[r]
+/* The parameters and index set-up both gain passes share. */
+#define GAIN_PASS_PARAMS                                                                        \
+    __global const float *restrict in, __global float *restrict out,                           \
+        __global const float *restrict tw, const uint L_, const uint p_, const uint ts_,       \
+        const uint sa_, const uint nc, const uint nb, const uint sb_, const float sgn,         \
+        __global const float *restrict gx, __global const float *restrict gb,                  \
+        __global const float *restrict ga, const uint wiener, const float lambda,              \
+        const float scale
+#define GAIN_PASS_START(R)                                                                       \
+    const size_t c = get_global_id(0), i = get_global_id(1), b = get_global_id(2);             \
+    const size_t T = (size_t)L_ / R, p = p_, ts = ts_, sa = sa_;                               \
+    const size_t base = c + b * (size_t)sb_;                                                   \
+    const float gcb = gx[c] * gb[b];
+/* The Gaussian or Wiener gain at position q_ along the last axis, times `scale`. */
+#define GAIN_AT(q_)                                                                             \
+    float g = gcb * ga[q_];                                                                    \
+    if (wiener)                                                                                \
+        g = (1.0f + lambda) * g / (g * g + lambda);                                            \
+    g *= scale;
 #define COL_PASS_GAIN(R)                                                                        \
-    __kernel void csi_fft_col_gain_r##R(__global const float *restrict in,                    \
-                                        __global float *restrict out,                         \
-                                        __global const float *restrict tw, const uint L_,      \
-                                        const uint p_, const uint ts_, const uint sa_,         \
-                                        const uint nc, const uint nb, const uint sb_,          \
-                                        const float sgn, __global const float *restrict gx,    \
-                                        __global const float *restrict gb,                     \
-                                        __global const float *restrict ga, const uint wiener,  \
-                                        const float lambda, const float scale)                 \
+    __kernel void csi_fft_col_gain_r##R(GAIN_PASS_PARAMS)                                      \
     {                                                                                          \
-        const size_t c = get_global_id(0), i = get_global_id(1), b = get_global_id(2);         \
-        const size_t T = (size_t)L_ / R, p = p_, ts = ts_, sa = sa_;                           \
-        const size_t base = c + b * (size_t)sb_;                                               \
-        const float gcb = gx[c] * gb[b];                                                       \
+        GAIN_PASS_START(R)                                                                     \
         float g_[R];                                                                           \
         _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
-            float g = gcb * ga[i + (size_t)r * T];                                             \
-            if (wiener)                                                                        \
-                g = (1.0f + lambda) * g / (g * g + lambda);                                    \
-            g_[r] = g * scale;                                                                 \
+            GAIN_AT(i + (size_t)r * T)                                                         \
+            g_[r] = g;                                                                         \
         }                                                                                      \
         PASS_BODY(R, COL_LD, COL_ST, GAIN_SCALE)                                               \
+    }
+
+/* The gain pass of a 2-D filter times a separable complex factor (csi_filter_create_factor in
+ * csi/spectral.h): the gain above (b = 0, gb = {1}) times fc[c] fa[q], both complex
+ * (interleaved); csgn = -1 conjugates them, which is the filter's adjoint. */
+#define COL_PASS_CGAIN(R)                                                                       \
+    __kernel void csi_fft_col_cgain_r##R(GAIN_PASS_PARAMS, __global const float *restrict fc,  \
+                                         __global const float *restrict fa, const float csgn)  \
+    {                                                                                          \
+        GAIN_PASS_START(R)                                                                     \
+        const float fcr = fc[2 * c], fci = csgn * fc[2 * c + 1];                               \
+        float gr_[R], gi_[R];                                                                  \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            const size_t q_ = i + (size_t)r * T;                                               \
+            GAIN_AT(q_)                                                                        \
+            float er, ei;                                                                      \
+            CMUL(er, ei, fcr, fci, fa[2 * q_], csgn * fa[2 * q_ + 1]);                         \
+            gr_[r] = g * er;                                                                   \
+            gi_[r] = g * ei;                                                                   \
+        }                                                                                      \
+        PASS_BODY_L(R, COL_LD, COL_ST, NOSCALE, LOAD_CPLX)                                     \
     }
 
 /* One pass along contiguous rows: dimension 0 = butterfly i (< L/R), dimension 1 = row
@@ -342,7 +376,7 @@ inline void dft7(float *xr, float *xi, float sgn)
         PASS_BODY(R, ROW_LD, ROW_ST, USCALE)                                                   \
     }
 
-#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
+#define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) COL_PASS_CGAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
 ALL_PASSES(4)

@@ -73,6 +73,8 @@ void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_
     csi_json_int(j, "k", (int64_t)r->k);
     csi_json_int(j, "n", (int64_t)r->n);
     csi_json_num(j, "sampling_fraction", r->k ? (double)r->n / (double)r->k : 0);
+    csi_json_int(j, "unknowns", (int64_t)r->unknowns);
+    csi_json_int(j, "model_grid_factor", r->model_factor);
     csi_json_str(j, "wavelet", csi_wavelet_name(opt->wavelet));
     csi_json_num(j, "lambda", opt->lambda);
     csi_json_num(j, "sigma_scale", opt->sigma_scale);

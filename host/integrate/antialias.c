@@ -1,8 +1,11 @@
-/* Alg. 1 (antialiasing): A = S Phi^-1 Psi, solve, integrate, control-variate correction. */
+/* Alg. 1 (antialiasing): A = S Phi^-1 Psi, solve, integrate, control-variate correction; on a
+ * coarser model grid when the filter allows it (csi/model_grid.h). */
 #include <math.h>
 #include <stdlib.h>
 
 #include "csi/integrate_ops.h"
+#include "csi/interp.h"
+#include "csi/model_grid.h"
 #include "csi/sampling.h"
 #include "csi/spectral.h"
 #include "csi/wavelet.h"
@@ -45,10 +48,26 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,
                         csi_wavelet_name(opt->wavelet));
 
+    /* With a wide filter the image model lives on a grid D times coarser than the samples'
+     * (csi/model_grid.h): the same operator to ~1e-5, without the fine grid's FFTs. Only for
+     * what it reproduces: the sharp estimate, solved by SpaRSA (ROMP and the filtered estimate
+     * keep the fine grid). */
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const unsigned D = opt->model_grid != CSI_SWITCH_OFF && opt->output == CSI_AA_SHARP &&
+                               res->solver == CSI_SOLVER_SPARSA
+                           ? csi_model_grid_factor(w, h, sphi, levels) : 1;
+    const size_t mw = w / D, mh = h / D, km = mw * mh;
+    int mlevels = levels;
+    for (unsigned d = D; d > 1; d /= 2)
+        mlevels--;
+    res->model_factor = D;
+    res->unknowns = km;
+
     /* A = S . (Phi^-1 . Psi); the compositions own their parts. */
     csi_linop *Psi = NULL, *W = NULL, *WPsi = NULL;
-    CSI_TRY(csi_wavelet_create(ctx, opt->wavelet, w, h, levels, &Psi));
-    csi_status s = csi_filter_create(ctx, dims, sphi, CSI_FILTER_WIENER, opt->lambda, &W);
+    CSI_TRY(csi_wavelet_create(ctx, opt->wavelet, mw, mh, mlevels, &Psi));
+    csi_status s = D > 1 ? csi_model_filter_create(ctx, mw, mh, D, sphi, opt->lambda, opt->wavelet, 1, 1, &W)
+                         : csi_filter_create(ctx, dims, sphi, CSI_FILTER_WIENER, opt->lambda, &W);
     if (s == CSI_OK)
         s = csi_linop_compose("Phi^-1 Psi", W, Psi, true, &WPsi);
     if (s != CSI_OK) {
@@ -59,15 +78,32 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     st->inner = WPsi;
     st->Psi = Psi; /* borrowed from WPsi */
     st->W = W;     /* borrowed from WPsi */
-    CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, false, &st->S));
+    if (D > 1)
+        CSI_TRY(csi_interp_create(ctx, mw, mh, D, st->idx, n, &st->S));
+    else
+        CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, false, &st->S));
     CSI_TRY(csi_linop_compose("S Phi^-1 Psi", st->S, st->inner, true, &st->A));
     CSI_TRY(csi_solver_create(st->A, &st->solver));
+    if (D > 1) {
+        /* The box mean over each pixel: the model filter with the pixel's Dirichlet kernel, read
+         * at each pixel's first fine cell. */
+        const unsigned bx = g->w / g->out_w, by = g->h / g->out_h;
+        CSI_TRY(csi_model_filter_create(ctx, mw, mh, D, sphi, opt->lambda, opt->wavelet, bx, by, &st->Wbox));
+        uint32_t *pix = malloc(np * sizeof *pix);
+        if (!pix)
+            return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+        for (size_t oy = 0; oy < g->out_h; oy++)
+            for (size_t ox = 0; ox < g->out_w; ox++)
+                pix[oy * g->out_w + ox] = (uint32_t)(oy * by * w + ox * bx);
+        s = csi_interp_create(ctx, mw, mh, D, pix, np, &st->Ipix);
+        free(pix);
+        CSI_TRY(s);
+    }
 
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
-    CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
-    CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the fine image", &st->f));
-    CSI_TRY(csi_buffer(ctx, k * sizeof(float), CL_MEM_READ_WRITE, "the sharpened image", &st->tmp));
-    const size_t np = (size_t)g->out_w * g->out_h;
+    CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
+    CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the fine image", &st->f));
+    CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the sharpened image", &st->tmp));
     CSI_TRY(csi_buffer(ctx, np * sizeof(float), CL_MEM_READ_WRITE, "the output image", &st->out));
     res->t_setup = csi_recon_now();
 
@@ -76,7 +112,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         for (size_t i = 0; i < n; i++)
             st->plane[i] = values[i * channels + c];
         CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
-        CSI_TRY(csi_fill_zero(ctx, st->x, k * sizeof(float)));
+        CSI_TRY(csi_fill_zero(ctx, st->x, km * sizeof(float)));
         double t0 = csi_recon_now();
         CSI_TRY(csi_recon_run_solver(st, res->solver, opt, (double)n / (double)np, 0, &res->report[c]));
         CSI_TRY(csi_finish(ctx));
@@ -85,15 +121,23 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         csi_recon_progress(opt, "integrate");
         CSI_TRY(csi_linop_apply(st->Psi, st->x, st->f)); /* f_b = Psi x */
         cl_mem src = st->f;
-        if (opt->output == CSI_AA_SHARP) {
-            CSI_TRY(csi_linop_apply(st->W, st->f, st->tmp)); /* Phi^-1 f_b */
-            src = st->tmp;
+        if (D > 1) {
+            CSI_TRY(csi_linop_apply(st->Wbox, st->f, st->tmp)); /* box means of Phi^-1 f_b */
+            CSI_TRY(csi_linop_apply(st->Ipix, st->tmp, st->out));
+        } else {
+            if (opt->output == CSI_AA_SHARP) {
+                CSI_TRY(csi_linop_apply(st->W, st->f, st->tmp)); /* Phi^-1 f_b */
+                src = st->tmp;
+            }
+            CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
         }
-        CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
         CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), res->image + (size_t)c * np));
+        /* The correction reads the estimate at the samples: S src, which on the model grid is
+         * A x (the same for the sharp estimate on the fine grid, where A x = S Phi^-1 Psi x). */
         if (opt->correct != CSI_CORRECT_NONE)
-            CSI_TRY(csi_recon_cv_correct(ctx, g, opt, st->S, src, st->y, values, channels, c, pos, n,
-                               res->image + (size_t)c * np));
+            CSI_TRY(csi_recon_cv_correct(ctx, g, opt, D > 1 ? st->A : st->S, D > 1 ? st->x : src,
+                                         st->y, values, channels, c, pos, n,
+                                         res->image + (size_t)c * np));
         t_int += csi_recon_now() - t1;
     }
     res->t_solve = t_solve;

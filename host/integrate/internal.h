@@ -9,6 +9,7 @@
 /* Everything one reconstruction allocates, released in one place (reconstruct.c). */
 typedef struct {
     csi_linop *S, *inner, *A, *Psi, *W;
+    csi_linop *Wbox, *Ipix; /* Alg. 1 on a model grid: box-mean filter, reading at the pixels */
     csi_solver *solver;
     cl_mem y, x, f, tmp, out;
     uint32_t *idx;

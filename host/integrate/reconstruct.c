@@ -16,6 +16,8 @@ static void state_free(csi_recon_state *st)
         csi_linop_free(st->S);
         csi_linop_free(st->inner);
     }
+    csi_linop_free(st->Wbox);
+    csi_linop_free(st->Ipix);
     csi_buffer_release(&st->y);
     csi_buffer_release(&st->x);
     csi_buffer_release(&st->f);
@@ -79,6 +81,8 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     out->out_h = grid->out_h;
     out->channels = channels;
     out->k = (size_t)grid->w * grid->h * grid->t;
+    out->unknowns = out->k;
+    out->model_factor = 1;
     out->n = n;
     out->solver = opt.solver != CSI_SOLVER_DEFAULT ? opt.solver : CSI_SOLVER_SPARSA;
     out->image = calloc(np * channels, sizeof(float));

@@ -40,6 +40,7 @@ struct csi_fft_filter {
     cl_mem wn;                /* exp(-2 pi i k / n0), k <= M */
     cl_mem P, Q;              /* ping-pong volumes */
     cl_mem gx, g1, g2, one;   /* gains along x (hs entries), y, z; {1} */
+    cl_mem fc, fa;            /* optional complex factor along x (hs entries) and y (2-D) */
     cl_uint wiener;
     float lambda, scale;
 };
@@ -177,6 +178,8 @@ void csi_fft_filter_free(csi_fft_filter *f)
     csi_buffer_release(&f->g1);
     csi_buffer_release(&f->g2);
     csi_buffer_release(&f->one);
+    csi_buffer_release(&f->fc);
+    csi_buffer_release(&f->fa);
     free(f);
 }
 
@@ -337,14 +340,40 @@ static csi_status launch_col(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_pla
     return csi_run(ctx, k, 3, global, local);
 }
 
-/* A pass along axis a (1 = y, 2 = z) of the half spectrum; gain != 0 for the gain-fused one. */
+csi_status csi_fft_filter_set_factor(csi_fft_filter *f, const double *fc, const double *fa)
+{
+    if (f->nd != 2)
+        return csi_fail(CSI_ERR_ARG, "FFT filter: a complex factor needs a 2-D filter (size %zu x "
+                        "%zu x %zu)", f->c[0], f->c[1], f->c[2]);
+    /* Stored as float like the Gaussian gains; the padding columns of the half spectrum get 0. */
+    float *t = calloc(2 * (f->hs > f->c[1] ? f->hs : f->c[1]), sizeof *t);
+    if (!t)
+        return csi_fail(CSI_ERR_NOMEM, "FFT filter: out of host memory");
+    for (size_t k = 0; k < 2 * (f->M + 1); k++)
+        t[k] = (float)fc[k];
+    csi_status st = upload_table(f->ctx, t, 2 * f->hs * sizeof *t, "filter factors", &f->fc);
+    for (size_t k = 0; k < 2 * f->c[1]; k++)
+        t[k] = (float)fa[k];
+    if (st == CSI_OK)
+        st = upload_table(f->ctx, t, 2 * f->c[1] * sizeof *t, "filter factors", &f->fa);
+    free(t);
+    for (int p = 0; p < f->ax[1].np && st == CSI_OK; p++) {
+        cl_kernel k;
+        st = csi_kernel(f->ctx, "fft", pass_kernel_name("col_cgain", f->ax[1].radix[p]), &k);
+    }
+    return st;
+}
+
+/* A pass along axis a (1 = y, 2 = z) of the half spectrum; gain != 0 for the gain-fused one
+ * (conj: with the complex factor conjugated). */
 static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, int pass, cl_uint p,
-                           float sgn, bool gain)
+                           float sgn, bool gain, bool conj)
 {
     const axis_plan *a = &f->ax[axis];
     int R = a->radix[pass];
+    const bool cgain = gain && f->fc;
     cl_kernel k;
-    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name(gain ? "col_gain" : "col", R), &k));
+    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name(cgain ? "col_cgain" : gain ? "col_gain" : "col", R), &k));
     size_t hs = f->hs, c1 = f->c[1];
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
     /* All hs columns (a multiple of 16, the padding ones are scratch): the kernel has no bounds
@@ -363,10 +392,18 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
         /* The last axis carries the gain; the middle index b is y for z passes (3-D) and
          * absent (nb = 1) for y passes of a 2-D signal. */
         cl_mem gb = axis == 2 ? f->g1 : f->one, ga = axis == 2 ? f->g2 : f->g1;
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
-                         CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn),
-                         CSI_MEM(f->gx), CSI_MEM(gb), CSI_MEM(ga), CSI_ARG(f->wiener),
-                         CSI_ARG(f->lambda), CSI_ARG(f->scale)));
+        const float csgn = conj ? -1.0f : 1.0f;
+        if (cgain)
+            CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                             CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb),
+                             CSI_ARG(sgn), CSI_MEM(f->gx), CSI_MEM(gb), CSI_MEM(ga),
+                             CSI_ARG(f->wiener), CSI_ARG(f->lambda), CSI_ARG(f->scale),
+                             CSI_MEM(f->fc), CSI_MEM(f->fa), CSI_ARG(csgn)));
+        else
+            CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
+                             CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb),
+                             CSI_ARG(sgn), CSI_MEM(f->gx), CSI_MEM(gb), CSI_MEM(ga),
+                             CSI_ARG(f->wiener), CSI_ARG(f->lambda), CSI_ARG(f->scale)));
     } else {
         CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
                          CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
@@ -375,13 +412,14 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
     return csi_run(f->ctx, k, 3, global, local);
 }
 
-static csi_status run_axis_cols(csi_fft_filter *f, cl_mem *cur, int axis, float sgn, bool gain_first)
+static csi_status run_axis_cols(csi_fft_filter *f, cl_mem *cur, int axis, float sgn, bool gain_first,
+                               bool conj)
 {
     const axis_plan *a = &f->ax[axis];
     cl_uint p = 1;
     for (int i = 0; i < a->np; i++) {
         cl_mem dst = *cur == f->P ? f->Q : f->P;
-        CSI_TRY(col_pass(f, *cur, dst, axis, i, p, sgn, gain_first && i == 0));
+        CSI_TRY(col_pass(f, *cur, dst, axis, i, p, sgn, gain_first && i == 0, conj));
         *cur = dst;
         p *= (cl_uint)a->radix[i];
     }
@@ -389,6 +427,11 @@ static csi_status run_axis_cols(csi_fft_filter *f, cl_mem *cur, int axis, float 
 }
 
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
+{
+    return csi_fft_filter_run_dir(f, x, y, false);
+}
+
+csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool conj)
 {
     csi_ctx *ctx = f->ctx;
     const axis_plan *ax = &f->ax[0];
@@ -421,13 +464,13 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
     }
     /* 3, 4: forward along y, z; inverse along z, y with the gain in the first inverse pass */
     if (f->nd >= 2)
-        CSI_TRY(run_axis_cols(f, &cur, 1, -1.0f, false));
+        CSI_TRY(run_axis_cols(f, &cur, 1, -1.0f, false, conj));
     if (f->nd == 3) {
-        CSI_TRY(run_axis_cols(f, &cur, 2, -1.0f, false));
-        CSI_TRY(run_axis_cols(f, &cur, 2, 1.0f, true));
+        CSI_TRY(run_axis_cols(f, &cur, 2, -1.0f, false, conj));
+        CSI_TRY(run_axis_cols(f, &cur, 2, 1.0f, true, conj));
     }
     if (f->nd >= 2)
-        CSI_TRY(run_axis_cols(f, &cur, 1, 1.0f, f->nd == 2));
+        CSI_TRY(run_axis_cols(f, &cur, 1, 1.0f, f->nd == 2, conj));
     if (f->nd == 1) {
         cl_kernel k;
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_gain_rows", &k));

@@ -20,6 +20,13 @@ bool csi_fft_filter_supported(const size_t c[3], int nd);
 csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const double sigma[3],
                                  bool wiener, float lambda, csi_fft_filter **out);
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y);
+/* Multiplies the gain by a separable complex factor fc[kx] fa[ky] (2-D filters only): fc holds
+ * c[0]/2 + 1 interleaved complex values (kx = 0 .. c[0]/2), fa c[1] (ky in DFT order). The
+ * factor must be Hermitian (fc[0] real, fa[-ky] = conj fa[ky]) and real at the Nyquist bins for
+ * the output to be the real convolution it describes. */
+csi_status csi_fft_filter_set_factor(csi_fft_filter *f, const double *fc, const double *fa);
+/* The filter pass with the factor conjugated when conj (the adjoint of the pass with it). */
+csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool conj);
 void csi_fft_filter_free(csi_fft_filter *f);
 
 /* Complex-to-complex transform of c[0] x c[1] x c[2] interleaved complex values (nd axes

@@ -177,6 +177,16 @@ typedef struct {
     csi_fft_filter *native;    /* csi's own FFT kernels (kernels/fft.cl); NULL = clFFT path */
 } filter_state;
 
+/* With a complex factor (csi_filter_create_factor) the operator is no longer symmetric: its
+ * adjoint conjugates the factor. */
+static csi_status filter_adjoint_factor(const csi_linop *op, cl_mem y, cl_mem x)
+{
+    filter_state *s = op->state;
+    if (x == y)
+        return csi_fail(CSI_ERR_ARG, "%s: input and output must be different buffers", op->name);
+    return csi_fft_filter_run_dir(s->native, y, x, true);
+}
+
 static csi_status filter_apply(const csi_linop *op, cl_mem x, cl_mem y)
 {
     filter_state *s = op->state;
@@ -326,6 +336,34 @@ csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const d
         csi_linop_free(op);
         return st;
     }
+    *out = op;
+    return CSI_OK;
+}
+
+csi_status csi_filter_create_factor(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
+                                    csi_filter_kind kind, float lambda, const double *fx,
+                                    const double *fy, csi_linop **out)
+{
+    if (!out)
+        return csi_fail(CSI_ERR_ARG, "csi_filter_create_factor: no output pointer");
+    *out = NULL;
+    if (!fx || !fy || !dims)
+        return csi_fail(CSI_ERR_ARG, "csi_filter_create_factor: missing factor or dimensions");
+    size_t c[3];
+    int map[3];
+    if (squeeze(dims, c, map) != 2 || map[0] != 0 || map[1] != 1)
+        return csi_fail(CSI_ERR_ARG, "filter with a complex factor: size %zu x %zu x %zu is not "
+                        "2-D (two axes longer than 1, the third 1)", dims[0], dims[1], dims[2]);
+    csi_linop *op;
+    CSI_TRY(csi_filter_create_backend(ctx, dims, sigma_phi, kind, lambda, CSI_FFT_NATIVE, &op));
+    filter_state *s = op->state;
+    csi_status st = csi_fft_filter_set_factor(s->native, fx, fy);
+    if (st != CSI_OK) {
+        csi_linop_free(op);
+        return st;
+    }
+    op->name = kind == CSI_FILTER_WIENER ? "wiener-inverse-factor" : "gauss-filter-factor";
+    op->adjoint = filter_adjoint_factor;
     *out = op;
     return CSI_OK;
 }

@@ -53,6 +53,27 @@ int csi_wavelet_taps(csi_wavelet_family f)
     return 0;
 }
 
+/* The decomposition low-pass filters of kernels/wavelet.cl (PyWavelets' dec_lo), in double for
+ * the host's frequency responses. */
+static const double db4_lo[8] = {
+    -0.010597401785069032, 0.032883011666885197, 0.030841381835560764, -0.18703481171909309,
+    -0.027983769416859854, 0.63088076792985892, 0.71484657055291567, 0.23037781330889651};
+static const double db8_lo[16] = {
+    -0.00011747678412476953, 0.00067544940645056933, -0.00039174037337694705,
+    -0.0048703529934515741, 0.0087460940474057766, 0.013981027917398282,
+    -0.044088253930794755, -0.017369301001807547, 0.12874742662047847,
+    0.00047248457391328279, -0.28401554296154691, -0.015829105256349306,
+    0.58535468365420673, 0.67563073629728976, 0.31287159091429995, 0.054415842243104008};
+
+const double *csi_wavelet_lowpass(csi_wavelet_family f)
+{
+    switch (f) {
+    case CSI_WAVELET_DB4: return db4_lo;
+    case CSI_WAVELET_DB8: return db8_lo;
+    }
+    return NULL;
+}
+
 csi_status csi_wavelet_parse(const char *s, csi_wavelet_family *out)
 {
     if (s && strcmp(s, "db4") == 0) {

@@ -121,6 +121,9 @@ typedef struct csi_recon_options {
     int max_iter;                 /* 0: the method's default */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: the method's
                                      default (Alg. 1's rule, csi_motion_tau_rel(N) for Alg. 2) */
+    csi_switch model_grid;        /* Alg. 1 on a grid coarser than the samples' where the filter
+                                     allows it (csi/model_grid.h: the same operator to ~1e-5, a
+                                     fraction of the cost); OFF: always on the samples' grid */
     csi_recon_stop stop;          /* SpaRSA stopping rule; AUTO: the method's default */
     csi_switch continuation;      /* SpaRSA continuation on tau; AUTO: the method's default */
     csi_switch debias;            /* SpaRSA debiasing phase; AUTO: the method's default */
@@ -165,7 +168,9 @@ typedef struct csi_recon_result {
     csi_solver_kind solver; /* the solver used */
     csi_solve_report report[4];
     double t_setup, t_solve, t_integrate; /* seconds */
-    size_t k, n;            /* unknowns and measurements per channel */
+    size_t k, n;            /* grid cells and measurements per channel */
+    size_t unknowns;        /* the solver's unknowns per channel: k, or fewer on a model grid */
+    uint32_t model_factor;  /* Alg. 1: the model grid's coarsening D (csi/model_grid.h), else 1 */
 } csi_recon_result;
 void csi_recon_result_free(csi_recon_result *r);
 

@@ -60,6 +60,18 @@ csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const d
                                      csi_filter_kind kind, float lambda, csi_fft_backend backend,
                                      csi_linop **out);
 
+/* A 2-D filter (dims[2] = 1, both other axes longer than 1) whose gain is that of
+ * csi_filter_create times a separable complex factor fx[kx] fy[ky]: fx holds dims[0]/2 + 1
+ * interleaved complex values for kx = 0 .. dims[0]/2 (the half spectrum of the real input), fy
+ * dims[1] for ky in DFT order. For the output to be the real convolution the gain describes, the
+ * factor must be Hermitian (fx[0] real, fy[dims[1] - ky] = conj fy[ky]) and real at the Nyquist
+ * bins (zero there is the safe choice). apply filters with the factor, adjoint with its conjugate
+ * (the transposed convolution). csi's FFT kernels only: dims[0] must be even and >= 4, with the
+ * sizes csi_filter_create_backend(..., CSI_FFT_NATIVE, ...) accepts. */
+csi_status csi_filter_create_factor(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
+                                    csi_filter_kind kind, float lambda, const double *fx,
+                                    const double *fy, csi_linop **out);
+
 /* Orthonormal Fourier basis over dims (1-D, 2-D or 3-D; complex operator, rows = cols =
  * product): apply = F^H (coefficients -> signal, unitary inverse DFT), adjoint = F (unitary
  * forward DFT, 1/sqrt(N) scaling), so apply(adjoint(x)) = x and both preserve the 2-norm.

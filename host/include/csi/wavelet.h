@@ -34,6 +34,10 @@ csi_status csi_wavelet_parse(const char *s, csi_wavelet_family *out);
 /* Filter length of a family (8 or 16), 0 for a value outside the enum. */
 int csi_wavelet_taps(csi_wavelet_family f);
 
+/* The family's decomposition low-pass filter (PyWavelets' dec_lo, csi_wavelet_taps(f) values),
+ * as kernels/wavelet.cl uses it; NULL for a value outside the enum. */
+const double *csi_wavelet_lowpass(csi_wavelet_family f);
+
 /* The default number of levels for a w x h image, by this rule:
  *   L = min(floor(log2(min(w, h) / (taps - 1))), t)
  * where the first term is PyWavelets' dwt_max_level (the deepest level at which the coarsest band

@@ -1,0 +1,148 @@
+/* The interpolation operator of csi/interp.h (host/ops/interp.c, kernels/interp.cl) under PoCL,
+ * against float64 references made by numpy (tests/data/interp/gen_refs.py: every tap summed
+ * directly with explicit wrap; the kernel's transform by scipy's adaptive quadrature).
+ *
+ * Tolerances. Gather and spread sum 36 float32 products of O(1) values with float32 weights:
+ * rounding of order 36 * 6e-8 |terms| ~ 2e-6 of the largest value; we allow 1e-5 of max |ref|.
+ * The kernel in double against numpy: 1e-13 (both evaluate the same closed form); its transform:
+ * csi's 48-point Gauss-Legendre rule against quad's adaptive rule, 1e-9 relative to phi^(0)
+ * (the integrand's derivative is singular at the support's edge, where phi ~ exp(-beta) = 3e-6,
+ * which bounds what a fixed rule loses there well below that). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/interp.h"
+#include "testlib.h"
+
+static void test_kernel(void)
+{
+    test_npy az, ap, ax, af;
+    bool ok = test_npy_load("interp/kernel_z.npy", &az) && test_npy_load("interp/kernel_phi.npy", &ap) &&
+              test_npy_load("interp/kernel_xi.npy", &ax) && test_npy_load("interp/kernel_ft.npy", &af);
+    CHECK(ok, "kernel reference files");
+    if (!ok)
+        return;
+    double *z = test_npy_f64(&az), *p = test_npy_f64(&ap), *xi = test_npy_f64(&ax), *ft = test_npy_f64(&af);
+    double worst = 0, worst_ft = 0;
+    for (size_t i = 0; i < az.count; i++)
+        worst = fmax(worst, fabs(csi_interp_kernel(z[i]) - p[i]));
+    for (size_t i = 0; i < ax.count; i++)
+        worst_ft = fmax(worst_ft, fabs(csi_interp_kernel_ft(xi[i]) - ft[i]) / ft[0]);
+    CHECK(worst < 1e-13, "kernel values within 1e-13 (max diff %.2e)", worst);
+    CHECK(worst_ft < 1e-9, "kernel transform within 1e-9 of phi^(0) (max %.2e)", worst_ft);
+    printf("kernel: max |phi - ref| %.2e, max |phi^ - ref| / phi^(0) %.2e\n", worst, worst_ft);
+    free(z);
+    free(p);
+    free(xi);
+    free(ft);
+    test_npy_free(&az);
+    test_npy_free(&ap);
+    test_npy_free(&ax);
+    test_npy_free(&af);
+}
+
+struct icase {
+    const char *name;
+    size_t mw, mh;
+    unsigned D;
+};
+
+static const struct icase cases[] = {
+    {"i20x12_D2", 20, 12, 2},
+    {"i4x4_D4", 4, 4, 4},
+    {"i200x40_D2", 200, 40, 2},
+};
+
+static double ddot(const float *a, const float *b, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; i++)
+        s += (double)a[i] * b[i];
+    return s;
+}
+
+static void test_case(csi_ctx *ctx, const struct icase *ic)
+{
+    char path[128];
+    test_npy ai, ac, ar, ay, as;
+    bool ok = true;
+    const char *parts[] = {"idx", "c", "r", "y", "s"};
+    test_npy *arrs[] = {&ai, &ac, &ar, &ay, &as};
+    for (int i = 0; i < 5; i++) {
+        snprintf(path, sizeof path, "interp/%s_%s.npy", ic->name, parts[i]);
+        ok = ok && test_npy_load(path, arrs[i]);
+    }
+    CHECK(ok, "reference files for %s", ic->name);
+    if (!ok)
+        return;
+    const size_t n = ai.count, k = ic->mw * ic->mh;
+    uint32_t *idx = malloc(n * sizeof *idx);
+    double *id = test_npy_f64(&ai);
+    for (size_t i = 0; i < n; i++)
+        idx[i] = (uint32_t)id[i];
+    float *c = test_npy_f32(&ac), *r = test_npy_f32(&ar), *yref = test_npy_f32(&ay), *sref = test_npy_f32(&as);
+    csi_linop *op = NULL;
+    CHECK_OK(csi_interp_create(ctx, ic->mw, ic->mh, ic->D, idx, n, &op));
+    if (op) {
+        cl_mem dc = test_upload(c, k * 4), dr = test_upload(r, n * 4);
+        cl_mem dy = test_alloc(n * 4), ds = test_alloc(k * 4), ds2 = test_alloc(k * 4);
+        CHECK_OK(csi_linop_apply(op, dc, dy));
+        CHECK_OK(csi_linop_adjoint(op, dr, ds));
+        CHECK_OK(csi_linop_adjoint(op, dr, ds2));
+        float *y = malloc(n * 4), *s = malloc(k * 4), *s2 = malloc(k * 4);
+        test_download(dy, y, n * 4);
+        test_download(ds, s, k * 4);
+        test_download(ds2, s2, k * 4);
+        double ey = test_max_abs_diff(y, yref, n) / test_max_abs(yref, n);
+        double es = test_max_abs_diff(s, sref, k) / test_max_abs(sref, k);
+        CHECK(ey < 1e-5, "%s gather within 1e-5 of max |ref| (%.2e)", ic->name, ey);
+        CHECK(es < 1e-5, "%s spread within 1e-5 of max |ref| (%.2e)", ic->name, es);
+        CHECK(memcmp(s, s2, k * 4) == 0, "%s spread gives the same bits twice", ic->name);
+        /* <I c, r> = <c, I^T r> in double: both sides from float32 results, so within the same
+         * 1e-5 of the sums of |terms|. */
+        double lhs = ddot(y, r, n), rhs = ddot(c, s, k);
+        double scale = sqrt(ddot(y, y, n) * ddot(r, r, n)) + sqrt(ddot(c, c, k) * ddot(s, s, k));
+        CHECK(fabs(lhs - rhs) <= 1e-5 * scale, "%s adjoint identity: %.9g vs %.9g", ic->name, lhs, rhs);
+        printf("%s: %zu samples, gather err %.2e, spread err %.2e, adjoint gap %.2e\n", ic->name, n, ey,
+               es, fabs(lhs - rhs) / scale);
+        free(y);
+        free(s);
+        free(s2);
+        csi_buffer_release(&dc);
+        csi_buffer_release(&dr);
+        csi_buffer_release(&dy);
+        csi_buffer_release(&ds);
+        csi_buffer_release(&ds2);
+        csi_linop_free(op);
+    }
+    free(idx);
+    free(id);
+    free(c);
+    free(r);
+    free(yref);
+    free(sref);
+    for (int i = 0; i < 5; i++)
+        test_npy_free(arrs[i]);
+}
+
+static void test_errors(csi_ctx *ctx)
+{
+    uint32_t idx[2] = {0, 400};
+    csi_linop *op = (csi_linop *)1;
+    CHECK(csi_interp_create(ctx, 10, 10, 2, idx, 2, &op) == CSI_ERR_ARG && op == NULL,
+          "an index outside the 20 x 20 fine grid is refused");
+    CHECK(strstr(csi_last_error(), "400") != NULL, "the message names the index: %s", csi_last_error());
+    CHECK(csi_interp_create(ctx, 10, 10, 0, idx, 1, &op) == CSI_ERR_ARG, "D = 0 is refused");
+    CHECK(csi_interp_create(ctx, 10, 10, 2, idx, 0, &op) == CSI_ERR_ARG, "no samples is refused");
+}
+
+int main(void)
+{
+    csi_ctx *ctx = test_ctx();
+    test_kernel();
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
+        test_case(ctx, &cases[i]);
+    test_errors(ctx);
+    return test_done();
+}
