@@ -9,7 +9,7 @@
 #include "common.h"
 #include "recon_opts.h"
 
-enum { O_FIRST = CLI_RECON_FIRST, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE, O_TOL, O_MAXIT, O_TAU, O_EST, O_GSIGMA, O_CORRECT, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET, O_CVN0, O_MOTION_RESID, O_FULL_SPECTRUM, O_MOTION_DEBIAS, O_LAST };
+enum { O_FIRST = CLI_RECON_FIRST, O_SOLVER, O_WAVELET, O_LEVELS, O_LAMBDA, O_SIGMA, O_INTEGRATE, O_TOL, O_MAXIT, O_TAU, O_EST, O_GSIGMA, O_CORRECT, O_SPACING, O_STOP, O_CONT, O_DEBIAS, O_ROMP_S, O_ROMP_MAXS, O_ROMP_NORM, O_ROMP_SEED, O_ROMP_LSQ, O_ROMP_PRESET, O_CVN0, O_MOTION_RESID, O_FULL_SPECTRUM, O_MOTION_DEBIAS, O_BUDGET, O_TILES, O_TILE_MARGIN, O_TILE_MARGIN_T, O_LAST };
 
 static const struct option recon_longopts[] = {
     {"solver", required_argument, 0, O_SOLVER},
@@ -38,6 +38,10 @@ static const struct option recon_longopts[] = {
     {"motion-resid-sigma", required_argument, 0, O_MOTION_RESID},
     {"full-spectrum", no_argument, 0, O_FULL_SPECTRUM},
     {"motion-debias", no_argument, 0, O_MOTION_DEBIAS},
+    {"mem-budget", required_argument, 0, O_BUDGET},
+    {"tiles", required_argument, 0, O_TILES},
+    {"tile-margin", required_argument, 0, O_TILE_MARGIN},
+    {"tile-margin-t", required_argument, 0, O_TILE_MARGIN_T},
 };
 
 struct option *cli_longopts_with_recon(const struct option *own)
@@ -95,7 +99,15 @@ void cli_recon_usage(FILE *f)
 "                            (default), < 0: off (the paper's)\n"
 "      --full-spectrum       volumes: solve on the full complex spectrum (the paper's form) rather\n"
 "                            than the half spectrum of the real volume (same minimiser, 2x work)\n"
-"      --motion-debias       volumes: SpaRSA's debiasing least squares (default off)\n", f);
+"      --motion-debias       volumes: SpaRSA's debiasing least squares (default off)\n"
+"tiles (bounded memory; docs/tiles.md):\n"
+"      --mem-budget SIZE     device memory one reconstruction may use, e.g. 512M, 2G (bytes, or\n"
+"                            K/M/G = KiB/MiB/GiB); the image is solved in overlapping tiles when\n"
+"                            the whole would need more. Default 1G, at most half the device's\n"
+"      --tiles N|auto        exactly N tiles (blended seamlessly), or as few as fit (auto, default)\n"
+"      --tile-margin P       overlap beyond a tile's core in output pixels (default: 128 grid cells,\n"
+"                            at least 4 pixels; 16 for volumes)\n"
+"      --tile-margin-t F     the same in frames for a volume (default 4)\n", f);
 }
 
 int cli_recon_option(const char *prog, int c, const char *optarg, csi_recon_options *opt)
@@ -219,6 +231,27 @@ int cli_recon_option(const char *prog, int c, const char *optarg, csi_recon_opti
         if (!cli_parse_double(optarg, -1e6, 1e4, &d))
             return cli_error(prog, CSI_ERR_ARG, "--motion-resid-sigma: '%s' is not a number", optarg);
         opt->motion_resid_sigma = d;
+        break;
+    case O_BUDGET:
+        if (!cli_parse_bytes(optarg, &u) || u < (1u << 20))
+            return cli_error(prog, CSI_ERR_ARG, "--mem-budget: '%s' is not a size of at least 1M "
+                             "(bytes, or a number with K, M or G)", optarg);
+        opt->mem_budget = u;
+        break;
+    case O_TILES:
+        if (!strcmp(optarg, "auto"))
+            opt->tiles = 0;
+        else if (cli_parse_u64(optarg, 1, 1u << 20, &u))
+            opt->tiles = (uint32_t)u;
+        else
+            return cli_error(prog, CSI_ERR_ARG, "--tiles: '%s' (expected auto or a whole number from 1 to 2^20)", optarg);
+        break;
+    case O_TILE_MARGIN:
+    case O_TILE_MARGIN_T:
+        if (!cli_parse_u64(optarg, 1, 65536, &u))
+            return cli_error(prog, CSI_ERR_ARG, "--%s: '%s' is not a whole number from 1 to 65536",
+                             c == O_TILE_MARGIN ? "tile-margin" : "tile-margin-t", optarg);
+        *(c == O_TILE_MARGIN ? &opt->tile_margin : &opt->tile_margin_t) = (uint32_t)u;
         break;
     case O_FULL_SPECTRUM: opt->motion_full_spectrum = true; break;
     case O_MOTION_DEBIAS: opt->motion_debias = true; break;

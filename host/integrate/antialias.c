@@ -8,17 +8,19 @@
 #include "csi/model_grid.h"
 #include "csi/sampling.h"
 #include "csi/spectral.h"
+#include "csi/vec.h"
 #include "csi/wavelet.h"
 #include "internal.h"
 
 /* sigma_spacing when the caller leaves it (< 0). Measured: docs/bench/quality.md. */
 #define CSI_SIGMA_SPACING_DEFAULT 0.8
 
-/* Alg. 1. */
-csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
-                               const csi_sample_pos *pos, const float *values, size_t n,
-                               const csi_recon_options *opt, csi_recon_result *res,
-                               csi_recon_state *st)
+/* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
+ * borrowed from st->inner), on the model grid D times coarser when the filter allows it. The
+ * filter width and the default levels follow the whole problem's cells per sample when st is a
+ * tile's (a tile gets the whole grid's levels as opt->levels). *D_out: D; *km_out: the unknowns. */
+static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
+                              csi_solver_kind solver, csi_recon_state *st, unsigned *D_out, size_t *km_out)
 {
     const size_t w = g->w, h = g->h, k = w * h;
     const size_t dims[3] = {w, h, 1};
@@ -31,7 +33,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
      * (set by the output size alone) is narrower than the gaps between samples, and the
      * reconstruction rings between them (docs/bench/quality.md). */
     const double spacing = (opt->sigma_spacing >= 0 ? opt->sigma_spacing : CSI_SIGMA_SPACING_DEFAULT) *
-                           sqrt((double)k / (double)n);
+                           sqrt(csi_recon_scope_k(st, k) / csi_recon_scope_n(st, n));
     sphi[0] = fmax(sphi[0], spacing);
     sphi[1] = fmax(sphi[1], spacing);
     /* Default: as many levels as the grid allows, at most 5. The tau rule (image_sparsa_defaults)
@@ -52,16 +54,15 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
      * (csi/model_grid.h): the same operator to ~1e-5, without the fine grid's FFTs. Only for
      * what it reproduces: the sharp estimate, solved by SpaRSA (ROMP and the filtered estimate
      * keep the fine grid). */
-    const size_t np = (size_t)g->out_w * g->out_h;
     const unsigned D = opt->model_grid != CSI_SWITCH_OFF && opt->output == CSI_AA_SHARP &&
-                               res->solver == CSI_SOLVER_SPARSA
+                               solver == CSI_SOLVER_SPARSA
                            ? csi_model_grid_factor(w, h, sphi, levels) : 1;
-    const size_t mw = w / D, mh = h / D, km = mw * mh;
+    const size_t mw = w / D, mh = h / D;
     int mlevels = levels;
     for (unsigned d = D; d > 1; d /= 2)
         mlevels--;
-    res->model_factor = D;
-    res->unknowns = km;
+    *D_out = D;
+    *km_out = mw * mh;
 
     /* A = S . (Phi^-1 . Psi); the compositions own their parts. */
     csi_linop *Psi = NULL, *W = NULL, *WPsi = NULL;
@@ -83,10 +84,10 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     else
         CSI_TRY(csi_sampling_create(ctx, k, st->idx, n, false, &st->S));
     CSI_TRY(csi_linop_compose("S Phi^-1 Psi", st->S, st->inner, true, &st->A));
-    CSI_TRY(csi_solver_create(st->A, &st->solver));
     if (D > 1) {
         /* The box mean over each pixel: the model filter with the pixel's Dirichlet kernel, read
          * at each pixel's first fine cell. */
+        const size_t np = (size_t)g->out_w * g->out_h;
         const unsigned bx = g->w / g->out_w, by = g->h / g->out_h;
         CSI_TRY(csi_model_filter_create(ctx, mw, mh, D, sphi, opt->lambda, opt->wavelet, bx, by, &st->Wbox));
         uint32_t *pix = malloc(np * sizeof *pix);
@@ -99,6 +100,47 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         free(pix);
         CSI_TRY(s);
     }
+    return CSI_OK;
+}
+
+csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                     const float *values, size_t n, const csi_recon_options *opt,
+                                     csi_recon_state *st, double scale[4])
+{
+    unsigned D;
+    size_t km;
+    CSI_TRY(aa_operator(ctx, g, n, opt, CSI_SOLVER_SPARSA, st, &D, &km));
+    CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
+    CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
+    csi_vec_ws *ws = NULL;
+    CSI_TRY(csi_vec_ws_create(ctx, &ws));
+    csi_status s = CSI_OK;
+    for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
+        for (size_t i = 0; i < n; i++)
+            st->plane[i] = values[i * channels + c];
+        s = csi_write(ctx, st->y, 0, n * sizeof(float), st->plane);
+        if (s == CSI_OK)
+            s = csi_linop_adjoint(st->A, st->y, st->x);
+        if (s == CSI_OK)
+            s = csi_vec_amax(ws, km, false, st->x, &scale[c], NULL);
+    }
+    csi_vec_ws_free(ws);
+    return s;
+}
+
+/* Alg. 1. */
+csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                               const csi_sample_pos *pos, const float *values, size_t n,
+                               const csi_recon_options *opt, csi_recon_result *res,
+                               csi_recon_state *st)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    unsigned D;
+    size_t km;
+    CSI_TRY(aa_operator(ctx, g, n, opt, res->solver, st, &D, &km));
+    res->model_factor = D;
+    res->unknowns = km;
+    CSI_TRY(csi_solver_create(st->A, &st->solver));
 
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
@@ -114,7 +156,9 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
         CSI_TRY(csi_fill_zero(ctx, st->x, km * sizeof(float)));
         double t0 = csi_recon_now();
-        CSI_TRY(csi_recon_run_solver(st, res->solver, opt, (double)n / (double)np, 0, &res->report[c]));
+        const double tau_scale = st->scope && st->scope->has_scale ? st->scope->scale[c] : 0;
+        CSI_TRY(csi_recon_run_solver(st, res->solver, opt, csi_recon_scope_spp(st, n, np), 0, tau_scale,
+                                     &res->report[c]));
         CSI_TRY(csi_finish(ctx));
         double t1 = csi_recon_now();
         t_solve += t1 - t0;

@@ -5,6 +5,7 @@
 
 #include "csi/linop.h"
 #include "csi/reconstruct.h"
+#include "csi/tiles.h"
 
 /* Everything one reconstruction allocates, released in one place (reconstruct.c). */
 typedef struct {
@@ -17,7 +18,43 @@ typedef struct {
     cl_mem romp_norms;   /* ROMP column norms, made once for all channels (or NULL) */
     uint32_t *romp_seed; /* ROMP seed support (or NULL) */
     size_t romp_seed_n;
+    /* A tile's reconstruction: the whole problem's figures the defaults follow (csi/tiles.h);
+     * NULL when the problem is the whole. Borrowed, not freed. */
+    const csi_tile_scope *scope;
 } csi_recon_state;
+
+/* Releases everything in st (not st itself). */
+void csi_recon_state_free(csi_recon_state *st);
+
+/* The cells and samples the size-dependent defaults follow: the whole problem's when st is a
+ * tile's, else k and n. */
+static inline double csi_recon_scope_k(const csi_recon_state *st, size_t k)
+{
+    return st->scope ? (double)st->scope->k : (double)k;
+}
+static inline double csi_recon_scope_n(const csi_recon_state *st, size_t n)
+{
+    return st->scope ? (double)st->scope->n : (double)n;
+}
+/* Samples per output pixel of the whole problem (st a tile's) or of this one. */
+static inline double csi_recon_scope_spp(const csi_recon_state *st, size_t n, size_t np)
+{
+    return st->scope ? (double)st->scope->n / ((double)st->scope->out_w * st->scope->out_h)
+                     : (double)n / (double)np;
+}
+
+/* The dispatch of csi_reconstruct on one problem (no tiling): the whole when scope is NULL, a
+ * tile's window otherwise. */
+csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
+                                  const csi_sample_pos *pos, const float *values, size_t n,
+                                  const csi_recon_options *opt, const csi_tile_scope *scope,
+                                  csi_recon_result *out);
+
+/* Alg. 1's tau scale of one problem: ||A^H y||_inf per channel, A built as csi_recon_antialias
+ * builds it (st->idx and st->plane filled by the caller; st freed by the caller). */
+csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                     const float *values, size_t n, const csi_recon_options *opt,
+                                     csi_recon_state *st, double scale[4]);
 
 /* The methods (each fills res and st; csi_reconstruct frees st). */
 csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
@@ -38,10 +75,11 @@ csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t chann
 
 /* Runs the solver on st->A, st->y into st->x. image_spp > 0: Alg. 1 with that many samples per
  * output pixel (SpaRSA gets the image defaults where the caller left a setting open); 0: Alg. 2
- * with motion_n samples. */
+ * with motion_n samples. tau_scale > 0: SpaRSA's tau is tau_rel * tau_scale (a tile following
+ * the whole problem's scale) instead of tau_rel * ||A^H y||_inf. */
 csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
                                 const csi_recon_options *opt, double image_spp, size_t motion_n,
-                                csi_solve_report *rep);
+                                double tau_scale, csi_solve_report *rep);
 
 /* Monotonic clock in seconds. */
 double csi_recon_now(void);

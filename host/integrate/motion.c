@@ -1,5 +1,6 @@
 /* Alg. 2 (motion blur and animation): A = S F3^H on the half (or full) spectrum, solve, residual
  * correction, mean over t and every frame. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -75,8 +76,10 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         yhost = malloc(n * sizeof *yhost);
         if (!yhost)
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
-        const double sig = opt->motion_resid_sigma > 0 ? opt->motion_resid_sigma
-                                                        : csi_gauss_nc_default_sigma(k, n, 3);
+        const double sig = opt->motion_resid_sigma > 0
+                               ? opt->motion_resid_sigma
+                               : csi_gauss_nc_default_sigma((size_t)csi_recon_scope_k(st, k),
+                                                            (size_t)csi_recon_scope_n(st, n), 3);
         if (s == CSI_OK)
             s = csi_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
     }
@@ -95,8 +98,13 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK)
             s = csi_fill_zero(ctx, st->x, ncoef * 8);
         double t0 = csi_recon_now();
+        /* A tile scales tau by the whole volume's DC coefficient rescaled to its own cells and
+         * samples (csi_tile_scope): n mean / sqrt(k), the tile's DC had its mean been the
+         * whole's. */
+        const double tau_scale = st->scope && st->scope->has_scale
+                                     ? (double)n * fabs(st->scope->scale[c]) / sqrt((double)k) : 0;
         if (s == CSI_OK)
-            s = csi_recon_run_solver(st, res->solver, opt, 0.0, n, &res->report[c]);
+            s = csi_recon_run_solver(st, res->solver, opt, 0.0, n, tau_scale, &res->report[c]);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = csi_recon_now();

@@ -8,7 +8,7 @@
 
 #include "internal.h"
 
-static void state_free(csi_recon_state *st)
+void csi_recon_state_free(csi_recon_state *st)
 {
     csi_solver_free(st->solver);
     csi_linop_free(st->A); /* owns S and inner, which own the rest (see below) */
@@ -60,6 +60,15 @@ static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_s
     return CSI_OK;
 }
 
+static csi_status check_options(const csi_recon_options *opt)
+{
+    if (!(opt->lambda > 0) || !isfinite(opt->lambda))
+        return csi_fail(CSI_ERR_ARG, "lambda must be a finite number > 0 (got %g)", (double)opt->lambda);
+    if (!(opt->sigma_scale > 0) || !isfinite(opt->sigma_scale))
+        return csi_fail(CSI_ERR_ARG, "sigma scale must be a finite number > 0 (got %g)", opt->sigma_scale);
+    return CSI_OK;
+}
+
 csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
                            const csi_sample_pos *pos, const float *values, size_t n,
                            const csi_recon_options *opt_in, csi_recon_result *out)
@@ -70,11 +79,22 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
         opt = *opt_in;
     else
         csi_recon_defaults(&opt);
-    if (!(opt.lambda > 0) || !isfinite(opt.lambda))
-        return csi_fail(CSI_ERR_ARG, "lambda must be a finite number > 0 (got %g)", (double)opt.lambda);
-    if (!(opt.sigma_scale > 0) || !isfinite(opt.sigma_scale))
-        return csi_fail(CSI_ERR_ARG, "sigma scale must be a finite number > 0 (got %g)", opt.sigma_scale);
+    CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
+    csi_tiling tl;
+    CSI_TRY(csi_tiling_plan(ctx, grid, channels, n, &opt, &tl));
+    if (tl.count > 1)
+        return csi_reconstruct_tiled(ctx, grid, channels, pos, values, n, &opt, &tl, out);
+    return csi_reconstruct_scoped(ctx, grid, channels, pos, values, n, &opt, NULL, out);
+}
+
+csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
+                                  const csi_sample_pos *pos, const float *values, size_t n,
+                                  const csi_recon_options *opt_in, const csi_tile_scope *scope,
+                                  csi_recon_result *out)
+{
+    memset(out, 0, sizeof *out);
+    csi_recon_options opt = *opt_in;
 
     const size_t np = (size_t)grid->out_w * grid->out_h;
     out->out_w = grid->out_w;
@@ -84,6 +104,7 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     out->unknowns = out->k;
     out->model_factor = 1;
     out->n = n;
+    out->tiles = 1;
     out->solver = opt.solver != CSI_SOLVER_DEFAULT ? opt.solver : CSI_SOLVER_SPARSA;
     out->image = calloc(np * channels, sizeof(float));
     if (grid->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN) {
@@ -96,6 +117,7 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     }
     csi_recon_state st;
     memset(&st, 0, sizeof st);
+    st.scope = scope;
     double t0 = csi_recon_now();
     csi_recon_progress(&opt, "setup");
     csi_status s = CSI_OK;
@@ -120,7 +142,7 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
             s = csi_recon_motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
     }
     out->t_setup = out->t_setup > t0 ? out->t_setup - t0 : 0;
-    state_free(&st);
+    csi_recon_state_free(&st);
     if (s != CSI_OK)
         csi_recon_result_free(out);
     return s;

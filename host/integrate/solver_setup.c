@@ -67,7 +67,8 @@ static void image_romp_defaults(image_romp *o, size_t N, bool published)
 /* image_spp > 0: Alg. 1 with that many samples per output pixel (SpaRSA gets the image
  * defaults where the caller left a setting open); 0: Alg. 2. */
 csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
-                                const csi_recon_options *opt, double image_spp, size_t motion_n, csi_solve_report *rep)
+                                const csi_recon_options *opt, double image_spp, size_t motion_n,
+                                double tau_scale, csi_solve_report *rep)
 {
     if (kind == CSI_SOLVER_ROMP) {
         csi_romp_options o;
@@ -157,6 +158,8 @@ csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
         o.tau_rel = opt->tau_rel;
     else if (motion)
         o.tau_rel = csi_motion_tau_rel(motion_n);
+    if (tau_scale > 0)
+        o.tau = o.tau_rel * tau_scale;
     if (motion) {
         /* Alg. 2: SpaRSA's debiasing (least squares on the support) only when asked for: the
          * video's spectrum is compressible, not sparse, and refitting its support to the samples

@@ -155,6 +155,13 @@ typedef struct csi_recon_options {
      * same minimiser). Used anyway when the half spectrum cannot be (an odd grid width). */
     bool motion_full_spectrum;
     bool motion_debias;           /* Alg. 2: SpaRSA's debiasing step (default off) */
+    /* Tiles (csi/tiles.h): the problem is solved in overlapping tiles when the whole would need
+     * more device memory than mem_budget, or when `tiles` asks for a number of them. */
+    uint64_t mem_budget;          /* device bytes one reconstruction may use; 0: the default
+                                     (csi_tile_default_budget: 1 GiB, at most half the device) */
+    uint32_t tiles;               /* 0: as few as fit the budget (1 when the whole fits); N: N */
+    uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0: the default */
+    uint32_t tile_margin_t;       /* the same in frames for a volume; 0: the default */
     csi_progress_fn progress;     /* phase names: "setup", "solve R" ..., "integrate" */
     void *user;
 } csi_recon_options;
@@ -168,9 +175,10 @@ typedef struct csi_recon_result {
     csi_solver_kind solver; /* the solver used */
     csi_solve_report report[4];
     double t_setup, t_solve, t_integrate; /* seconds */
-    size_t k, n;            /* grid cells and measurements per channel */
+    size_t k, n;            /* grid cells and measurements per channel (the whole problem's) */
     size_t unknowns;        /* the solver's unknowns per channel: k, or fewer on a model grid */
     uint32_t model_factor;  /* Alg. 1: the model grid's coarsening D (csi/model_grid.h), else 1 */
+    uint32_t tiles;         /* tiles it was solved in (1: the whole at once) */
 } csi_recon_result;
 void csi_recon_result_free(csi_recon_result *r);
 

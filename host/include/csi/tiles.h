@@ -1,0 +1,167 @@
+/* Reconstruction in overlapping tiles: any image size in bounded device memory, and units of
+ * work that separate processes or machines can run (issue 11).
+ *
+ * Layout. The output image is split along x and y (output pixels) and, for a volume (grid.t >
+ * 1), along t (frames) into n[0] x n[1] x n[2] tiles. The tiles' cores partition the image; a
+ * tile's window is its core extended by at least margin[a] on every side that is not the
+ * image's edge, and every window along an axis has the same length (one FFT and wavelet size for
+ * all tiles: the fine length window * cells-per-pixel is 7-smooth and, for Alg. 1, a multiple of
+ * 2^levels). Core boundaries are multiples of align[a] pixels, so that on the fine grid every
+ * window starts on the whole grid's coarsest wavelet lattice where the edges allow it.
+ *
+ * Each tile is an independent reconstruction of the samples inside its window (positions
+ * shifted to the window's origin) by the same method, with the whole problem's figures where a
+ * default depends on them (csi_tile_scope): the samples per pixel and cells per sample behind
+ * the filter width, the tau rule and the normalized-convolution widths, the wavelet levels, and
+ * the solver's tau scale. Everything else is the tile's own.
+ *
+ * Blending. Along each axis a tile's weight ramps from 0 to 1 as S(u) = u^2 (3 - 2u) across the
+ * 2 band[a] pixels (frames) centred on each interior core boundary, and the neighbour's as
+ * 1 - S(u), so the weights of every pixel sum to 1 (a partition of unity; the 2-D and 3-D
+ * weights are products of the 1-D ones) and a pixel outside every band is exactly its own
+ * tile's value. Weights are evaluated at pixel (frame) centres and are constant over an output
+ * pixel's block of the fine grid: tiles are aligned to output-pixel boundaries, so a pixel's
+ * samples are all in every window that contains the pixel and the per-pixel steps after the
+ * solve (Alg. 1's control-variate correction) see the same samples as untiled.
+ *
+ * Determinism. A tile's result depends only on the samples, the options, the layout and the
+ * scope, never on which process computes it or when; the blend adds tiles in index order
+ * (csi_tiles_add refuses any other order), so the image is the same bits for any number of
+ * workers and any completion order. */
+#ifndef CSI_TILES_H
+#define CSI_TILES_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/reconstruct.h"
+#include "csi/runtime.h"
+#include "csi/samples.h"
+#include "csi/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The default device budget of one reconstruction: 1 GiB, at most half of what the device
+ * reports as its global memory. PoCL's CPU device derives its limits from the memory free when
+ * it starts (1 GiB per buffer and 3.5 GiB in all on one day, 4 GiB and 13 GiB on another), so
+ * the default leaves room under the smallest seen and never exceeds the device. */
+#define CSI_TILE_DEFAULT_BUDGET (UINT64_C(1) << 30)
+uint64_t csi_tile_default_budget(const csi_ctx *ctx);
+
+/* A layout of tiles over one problem (see the top of this file). Axis 0 = x and 1 = y in output
+ * pixels, 2 = t in frames (length 1 when grid.t == 1). */
+typedef struct csi_tiling {
+    csi_grid grid;       /* the whole problem's grid */
+    uint32_t length[3];  /* out_w, out_h, grid.t */
+    uint32_t n[3];       /* tiles along each axis */
+    uint32_t count;      /* n[0] * n[1] * n[2] */
+    uint32_t window[3];  /* window length per axis (pixels / frames), the same for every tile */
+    uint32_t margin[3];  /* a window reaches at least this far beyond its core inside the image */
+    uint32_t band[3];    /* half-width of the blend ramp around each interior core boundary */
+    uint32_t align[3];   /* interior core boundaries are multiples of this */
+    int levels;          /* Alg. 1: wavelet levels of every tile (the whole grid's); else 0 */
+    uint64_t budget;     /* the device budget it was planned for (bytes) */
+    uint64_t tile_bytes; /* the device bytes the memory model gives one tile */
+    uint64_t whole_bytes;/* ... and the whole problem untiled */
+} csi_tiling;
+
+/* One tile: its core and window along each axis, [core0, core1) and [win0, win0 + window). */
+typedef struct csi_tile {
+    uint32_t index;
+    uint32_t pos[3]; /* tile coordinates: index = (pos[2] * n[1] + pos[1]) * n[0] + pos[0] */
+    uint32_t core0[3], core1[3];
+    uint32_t win0[3];
+} csi_tile;
+
+/* Chooses the layout of a problem of n samples for opt (csi_recon_options.mem_budget, .tiles,
+ * .tile_margin, .tile_margin_t; ctx gives the device's limits and may be NULL, then only the
+ * budget counts). opt->tiles == 0: as few tiles as fit the budget, whose windows cover the
+ * fewest cells in all (count 1 when the whole problem fits); N > 0: exactly N tiles (the
+ * factorisation n[0] n[1] n[2] = N that fits and covers the fewest cells). CSI_ERR_ARG when no
+ * layout fits (the message names the budget and the smallest tile's bytes) or when N tiles
+ * cannot be laid out on the image (fewer pixels than tiles along every factorisation). The
+ * per-sample part of the memory model assumes the samples are spread evenly (25% headroom). */
+csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                           const csi_recon_options *opt, csi_tiling *out);
+
+/* Tile `index` (< count) of a layout. */
+void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *out);
+
+/* The tile's 1-D blend weight at pixel (frame) coordinate c along axis a (0 outside its
+ * window). The weights of all tiles at any coordinate sum to 1. */
+double csi_tile_weight(const csi_tiling *tl, const csi_tile *t, int axis, uint32_t c);
+
+/* Whether two layouts are the same (every field that decides windows and weights). */
+bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b);
+
+/* The whole problem's figures every tile's defaults follow (see the top of this file). */
+typedef struct csi_tile_scope {
+    uint64_t k, n;       /* cells and samples of the whole problem */
+    uint32_t out_w, out_h;
+    uint32_t channels;
+    /* Per channel, the solver's tau scale: Alg. 1 (SpaRSA), ||A^H y||_inf of the whole problem,
+     * taken as the largest over the tiles' own (the wavelets are local, so the whole image's
+     * largest coefficient is some tile's); Alg. 2, the mean sample value, from which a tile's
+     * scale is the whole volume's DC coefficient rescaled to the tile's cells and samples,
+     * n_t mean / sqrt(k_t) (for non-negative samples the DC coefficient is ||A^H y||_inf).
+     * 0 where unknown: that tile then scales tau by its own ||A^H y||_inf (the untiled rule
+     * applied to the tile). */
+    double scale[4];
+    bool has_scale;
+} csi_tile_scope;
+
+/* The scope of a problem from all its samples: k, n and, for the compressive estimator, the
+ * tau scale (Alg. 1: one operator setup and one adjoint per tile and channel; Alg. 2: a pass
+ * over the samples). ctx is needed for Alg. 1. */
+csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                               const csi_sample_pos *pos, const float *values, size_t n,
+                               const csi_recon_options *opt, const csi_tiling *tl,
+                               csi_tile_scope *out);
+
+/* One tile's reconstruction: the result is the tile's window (out_w x out_h = window[0] x
+ * window[1] pixels at window origin x0, y0; frames t0 .. t0 + nframes - 1). Its image is, when
+ * t is not split, the tile's image; when it is, the tile's share of the mean over t,
+ * sum over its frames of w_t(t) frame(t) / grid.t. Frames (opt->frames) are the tile's own. */
+typedef struct csi_tile_result {
+    uint32_t index;
+    uint32_t x0, y0, t0;
+    csi_recon_result r;
+} csi_tile_result;
+void csi_tile_result_free(csi_tile_result *t);
+
+/* Reconstructs tile `index` of layout tl from the whole problem's samples (pos, values, n as for
+ * csi_reconstruct; the tile takes those inside its window). scope from csi_tile_scope_make, or
+ * made by the caller from values it was given (a tile run on another machine). */
+csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                const csi_sample_pos *pos, const float *values, size_t n,
+                                const csi_recon_options *opt, const csi_tiling *tl,
+                                const csi_tile_scope *scope, uint32_t index, csi_tile_result *out);
+
+/* Blending: csi_tiles_begin allocates the whole result (image, and frames when `frames`), then
+ * csi_tiles_add blends tiles 0, 1, ..., count - 1 in that order (another order, a tile of
+ * another layout or size is CSI_ERR_ARG), and csi_tiles_end checks that all came and sums the
+ * solver reports (iterations and times added, the largest residual, converged when all did). */
+typedef struct csi_tiles_blend {
+    csi_tiling tl;
+    uint32_t next;
+    csi_recon_result *out;
+} csi_tiles_blend;
+csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
+                           csi_tiles_blend *b, csi_recon_result *out);
+csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t);
+csi_status csi_tiles_end(csi_tiles_blend *b);
+
+/* The whole tiled reconstruction in this process: layout tl (count >= 1), scope, every tile in
+ * index order, blended. csi_reconstruct calls it when its plan needs more than one tile. */
+csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                 const csi_sample_pos *pos, const float *values, size_t n,
+                                 const csi_recon_options *opt, const csi_tiling *tl,
+                                 csi_recon_result *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,390 @@
+/* Reconstruction by tiles (csi/tiles.h): the whole problem's scope, one tile's problem (its
+ * samples, its grid, its result), and the blend of the tiles into one image. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/tiles.h"
+#include "internal.h"
+
+void csi_tile_result_free(csi_tile_result *t)
+{
+    if (t)
+        csi_recon_result_free(&t->r);
+}
+
+/* The tile's own problem: its grid and the samples inside its window, shifted to its origin. */
+typedef struct {
+    csi_grid g;
+    csi_tile tile;
+    csi_sample_pos *pos;
+    float *values;
+    size_t n;
+} tile_problem;
+
+static void tile_problem_free(tile_problem *p)
+{
+    free(p->pos);
+    free(p->values);
+    p->pos = NULL;
+    p->values = NULL;
+}
+
+static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32_t channels,
+                                    const csi_sample_pos *pos, const float *values, size_t n,
+                                    tile_problem *p)
+{
+    memset(p, 0, sizeof *p);
+    if (index >= tl->count)
+        return csi_fail(CSI_ERR_ARG, "tile %u of a layout of %u tiles", index, tl->count);
+    csi_tiling_tile(tl, index, &p->tile);
+    const csi_grid *G = &tl->grid;
+    const uint32_t bw = G->w / G->out_w, bh = G->h / G->out_h;
+    const uint32_t x0 = p->tile.win0[0] * bw, x1 = x0 + tl->window[0] * bw;
+    const uint32_t y0 = p->tile.win0[1] * bh, y1 = y0 + tl->window[1] * bh;
+    const uint32_t t0 = p->tile.win0[2], t1 = t0 + tl->window[2];
+    p->g = (csi_grid){.w = x1 - x0, .h = y1 - y0, .t = t1 - t0, .out_w = tl->window[0], .out_h = tl->window[1]};
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        m += pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1;
+    p->pos = malloc((m ? m : 1) * sizeof *p->pos);
+    p->values = malloc((m ? m : 1) * channels * sizeof *p->values);
+    if (!p->pos || !p->values) {
+        tile_problem_free(p);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the %zu samples of tile %u", m, index);
+    }
+    for (size_t i = 0; i < n; i++) {
+        const csi_sample_pos q = pos[i];
+        if (q.x >= x0 && q.x < x1 && q.y >= y0 && q.y < y1 && q.t >= t0 && q.t < t1) {
+            p->pos[p->n] = (csi_sample_pos){q.x - x0, q.y - y0, q.t - t0};
+            memcpy(p->values + p->n * channels, values + i * channels, channels * sizeof(float));
+            p->n++;
+        }
+    }
+    return CSI_OK;
+}
+
+csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                               const csi_sample_pos *pos, const float *values, size_t n,
+                               const csi_recon_options *opt, const csi_tiling *tl,
+                               csi_tile_scope *out)
+{
+    memset(out, 0, sizeof *out);
+    out->k = (uint64_t)g->w * g->h * g->t;
+    out->n = n;
+    out->out_w = g->out_w;
+    out->out_h = g->out_h;
+    out->channels = channels;
+    if (opt->estimator != CSI_EST_CS || channels > 4)
+        return CSI_OK;
+    if (g->t > 1) {
+        for (uint32_t c = 0; c < channels; c++) {
+            double sum = 0;
+            for (size_t i = 0; i < n; i++)
+                sum += values[i * channels + c];
+            out->scale[c] = n ? sum / (double)n : 0;
+        }
+        out->has_scale = true;
+        return CSI_OK;
+    }
+    if (opt->solver == CSI_SOLVER_ROMP)
+        return CSI_OK; /* ROMP has no tau */
+    csi_recon_options o = *opt;
+    o.levels = tl->levels;
+    for (uint32_t i = 0; i < tl->count; i++) {
+        tile_problem p;
+        CSI_TRY(tile_problem_make(tl, i, channels, pos, values, n, &p));
+        double sc[4] = {0, 0, 0, 0};
+        csi_status s = CSI_OK;
+        if (p.n > 0) {
+            csi_recon_state st;
+            memset(&st, 0, sizeof st);
+            csi_tile_scope whole = *out; /* the filter follows the whole's cells per sample */
+            st.scope = &whole;
+            st.idx = malloc(p.n * sizeof *st.idx);
+            st.plane = malloc(p.n * sizeof *st.plane);
+            if (!st.idx || !st.plane)
+                s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the %zu samples of tile %u", p.n, i);
+            for (size_t j = 0; j < p.n && s == CSI_OK; j++)
+                st.idx[j] = (uint32_t)csi_grid_index(&p.g, p.pos[j]);
+            if (s == CSI_OK)
+                s = csi_recon_antialias_scale(ctx, &p.g, channels, p.values, p.n, &o, &st, sc);
+            csi_recon_state_free(&st);
+        }
+        tile_problem_free(&p);
+        CSI_TRY(s);
+        for (uint32_t c = 0; c < channels; c++)
+            if (sc[c] > out->scale[c])
+                out->scale[c] = sc[c];
+    }
+    out->has_scale = true;
+    return CSI_OK;
+}
+
+csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                const csi_sample_pos *pos, const float *values, size_t n,
+                                const csi_recon_options *opt, const csi_tiling *tl,
+                                const csi_tile_scope *scope, uint32_t index, csi_tile_result *out)
+{
+    memset(out, 0, sizeof *out);
+    if (memcmp(g, &tl->grid, sizeof *g))
+        return csi_fail(CSI_ERR_ARG, "the tile layout was made for another grid");
+    tile_problem p;
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, n, &p));
+    out->index = index;
+    out->x0 = p.tile.win0[0];
+    out->y0 = p.tile.win0[1];
+    out->t0 = p.tile.win0[2];
+    const bool split_t = tl->n[2] > 1;
+    csi_recon_options o = *opt;
+    o.levels = tl->levels > 0 ? tl->levels : opt->levels;
+    o.frames = opt->frames || split_t; /* a time window's share of the mean needs its frames */
+    o.tiles = 0;
+    csi_status s = CSI_OK;
+    if (p.n == 0) {
+        /* No sample reaches this window: the tile knows nothing, and says so. */
+        csi_recon_result *r = &out->r;
+        const size_t np = (size_t)p.g.out_w * p.g.out_h;
+        r->out_w = p.g.out_w;
+        r->out_h = p.g.out_h;
+        r->channels = channels;
+        r->nframes = o.frames && p.g.t > 1 && o.estimator != CSI_EST_MEAN ? p.g.t : 0;
+        r->image = calloc(np * channels, sizeof(float));
+        r->frames = r->nframes ? calloc(np * channels * r->nframes, sizeof(float)) : NULL;
+        r->k = (size_t)p.g.w * p.g.h * p.g.t;
+        r->model_factor = 1;
+        r->tiles = 1;
+        r->solver = o.solver != CSI_SOLVER_DEFAULT ? o.solver : CSI_SOLVER_SPARSA;
+        for (uint32_t c = 0; c < channels; c++) {
+            r->report[c].converged = true;
+            r->report[c].reason = CSI_SOLVE_ZERO;
+            snprintf(r->report[c].message, sizeof r->report[c].message, "tile %u has no sample", index);
+        }
+        if (!r->image || (r->nframes && !r->frames))
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for tile %u", index);
+    } else {
+        s = csi_reconstruct_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, scope, &out->r);
+    }
+    tile_problem_free(&p);
+    if (s != CSI_OK) {
+        csi_tile_result_free(out);
+        return csi_fail_context(s, "tile %u of %u: ", index, tl->count);
+    }
+    csi_recon_result *r = &out->r;
+    if (split_t && r->nframes) {
+        /* The window's share of the mean over t: sum_t w_t(t) frame(t) / T, in frame order. */
+        csi_tile tile;
+        csi_tiling_tile(tl, index, &tile);
+        const size_t np = (size_t)r->out_w * r->out_h;
+        for (uint32_t c = 0; c < channels; c++)
+            for (size_t q = 0; q < np; q++) {
+                double acc = 0;
+                for (uint32_t t = 0; t < r->nframes; t++)
+                    acc += csi_tile_weight(tl, &tile, 2, out->t0 + t) * r->frames[((size_t)t * channels + c) * np + q];
+                r->image[(size_t)c * np + q] = (float)(acc / tl->grid.t);
+            }
+        if (!opt->frames) {
+            free(r->frames);
+            r->frames = NULL;
+            r->nframes = 0;
+        }
+    }
+    return CSI_OK;
+}
+
+csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames, csi_tiles_blend *b,
+                           csi_recon_result *out)
+{
+    memset(b, 0, sizeof *b);
+    memset(out, 0, sizeof *out);
+    b->tl = *tl;
+    b->out = out;
+    const csi_grid *g = &tl->grid;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    out->out_w = g->out_w;
+    out->out_h = g->out_h;
+    out->channels = channels;
+    out->k = (size_t)g->w * g->h * g->t;
+    out->tiles = tl->count;
+    out->image = calloc(np * channels, sizeof(float));
+    if (frames && g->t > 1) {
+        out->nframes = g->t;
+        out->frames = calloc(np * channels * g->t, sizeof(float));
+    }
+    if (!out->image || (out->nframes && !out->frames)) {
+        csi_recon_result_free(out);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the %ux%u output", g->out_w, g->out_h);
+    }
+    for (uint32_t c = 0; c < channels; c++)
+        out->report[c].converged = true;
+    return CSI_OK;
+}
+
+/* acc += w v in double, rounded once to float: the same bits for the same order of tiles. */
+static inline void blend1(float *acc, double w, float v)
+{
+    *acc = (float)((double)*acc + w * (double)v);
+}
+
+csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t)
+{
+    const csi_tiling *tl = &b->tl;
+    csi_recon_result *out = b->out;
+    const csi_recon_result *r = &t->r;
+    if (t->index != b->next)
+        return csi_fail(CSI_ERR_ARG, "tile %u came where tile %u was due (tiles are blended in index "
+                        "order, so that the image is the same bits however they were computed)", t->index, b->next);
+    csi_tile tile;
+    csi_tiling_tile(tl, t->index, &tile);
+    if (r->out_w != tl->window[0] || r->out_h != tl->window[1] || r->channels != out->channels ||
+        t->x0 != tile.win0[0] || t->y0 != tile.win0[1] || t->t0 != tile.win0[2])
+        return csi_fail(CSI_ERR_ARG, "tile %u is a %ux%u window at (%u, %u, %u) with %u channels; the "
+                        "layout's is %ux%u at (%u, %u, %u) with %u", t->index, r->out_w, r->out_h, t->x0,
+                        t->y0, t->t0, r->channels, tl->window[0], tl->window[1], tile.win0[0], tile.win0[1],
+                        tile.win0[2], out->channels);
+    if (out->nframes && r->nframes != tl->window[2])
+        return csi_fail(CSI_ERR_ARG, "tile %u has %u frames, the layout's windows %u", t->index, r->nframes,
+                        tl->window[2]);
+    const uint32_t W = tl->grid.out_w, H = tl->grid.out_h, C = out->channels;
+    const size_t np = (size_t)W * H, tnp = (size_t)r->out_w * r->out_h;
+    double *wx = malloc(r->out_w * sizeof *wx), *wy = malloc(r->out_h * sizeof *wy);
+    if (!wx || !wy) {
+        free(wx);
+        free(wy);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory blending tile %u", t->index);
+    }
+    for (uint32_t x = 0; x < r->out_w; x++)
+        wx[x] = csi_tile_weight(tl, &tile, 0, t->x0 + x);
+    for (uint32_t y = 0; y < r->out_h; y++)
+        wy[y] = csi_tile_weight(tl, &tile, 1, t->y0 + y);
+    for (uint32_t c = 0; c < C; c++)
+        for (uint32_t y = 0; y < r->out_h; y++)
+            for (uint32_t x = 0; x < r->out_w; x++) {
+                const double w = wx[x] * wy[y];
+                if (w > 0)
+                    blend1(&out->image[(size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x], w,
+                           r->image[(size_t)c * tnp + (size_t)y * r->out_w + x]);
+            }
+    for (uint32_t f = 0; out->nframes && f < r->nframes; f++) {
+        const double wt = csi_tile_weight(tl, &tile, 2, t->t0 + f);
+        if (wt <= 0)
+            continue;
+        for (uint32_t c = 0; c < C; c++)
+            for (uint32_t y = 0; y < r->out_h; y++)
+                for (uint32_t x = 0; x < r->out_w; x++) {
+                    const double w = wx[x] * wy[y] * wt;
+                    if (w > 0)
+                        blend1(&out->frames[((size_t)(t->t0 + f) * C + c) * np + (size_t)(t->y0 + y) * W + t->x0 + x],
+                               w, r->frames[((size_t)f * C + c) * tnp + (size_t)y * r->out_w + x]);
+                }
+    }
+    free(wx);
+    free(wy);
+    /* The run's figures: operator calls, iterations and times add up; the residual is the worst
+     * tile's; converged when every tile did. */
+    if (t->index == 0) {
+        out->solver = r->solver;
+        out->model_factor = r->model_factor;
+    }
+    out->unknowns += r->unknowns;
+    for (uint32_t c = 0; c < C; c++) {
+        csi_solve_report *a = &out->report[c];
+        const csi_solve_report *p = &r->report[c];
+        a->iterations += p->iterations;
+        a->inner_iterations += p->inner_iterations;
+        a->stages += p->stages;
+        a->applies += p->applies;
+        a->adjoints += p->adjoints;
+        a->support += p->support;
+        a->objective += p->objective;
+        a->t_total += p->t_total;
+        a->t_select += p->t_select;
+        a->t_lsq += p->t_lsq;
+        a->t_step += p->t_step;
+        a->t_debias += p->t_debias;
+        if (p->rel_residual > a->rel_residual)
+            a->rel_residual = p->rel_residual;
+        if (p->rel_gap > a->rel_gap)
+            a->rel_gap = p->rel_gap;
+        if (p->tau > a->tau)
+            a->tau = p->tau;
+        if (!p->converged && a->converged) {
+            a->converged = false;
+            a->reason = p->reason;
+            snprintf(a->message, sizeof a->message, "tile %u: %s", t->index, p->message);
+        }
+    }
+    out->t_setup += r->t_setup;
+    out->t_solve += r->t_solve;
+    out->t_integrate += r->t_integrate;
+    b->next++;
+    return CSI_OK;
+}
+
+csi_status csi_tiles_end(csi_tiles_blend *b)
+{
+    csi_recon_result *out = b->out;
+    if (b->next != b->tl.count)
+        return csi_fail(CSI_ERR_ARG, "%u of %u tiles blended: tile %u is missing", b->next, b->tl.count, b->next);
+    for (uint32_t c = 0; c < out->channels; c++) {
+        csi_solve_report *a = &out->report[c];
+        if (a->converged)
+            snprintf(a->message, sizeof a->message, "%u tiles converged: %d iterations in all, largest "
+                     "relative residual %.3g", b->tl.count, a->iterations, a->rel_residual);
+    }
+    CSI_TRY(csi_recon_check_finite(out->image, (size_t)out->out_w * out->out_h * out->channels, "image"));
+    if (out->nframes)
+        CSI_TRY(csi_recon_check_finite(out->frames, (size_t)out->out_w * out->out_h * out->channels *
+                                       out->nframes, "frames"));
+    return CSI_OK;
+}
+
+/* Phase names of a tile for the caller's progress callback: "tile 3/16 solve" and so on. */
+typedef struct {
+    const csi_recon_options *opt;
+    uint32_t index, count;
+} tile_progress;
+
+static void on_tile_progress(void *user, const char *phase, int iter, double res)
+{
+    const tile_progress *tp = user;
+    char name[64];
+    snprintf(name, sizeof name, "tile %u/%u %s", tp->index + 1, tp->count, phase);
+    tp->opt->progress(tp->opt->user, name, iter, res);
+}
+
+csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                 const csi_sample_pos *pos, const float *values, size_t n,
+                                 const csi_recon_options *opt, const csi_tiling *tl,
+                                 csi_recon_result *out)
+{
+    memset(out, 0, sizeof *out);
+    csi_tile_scope scope;
+    if (opt->progress)
+        opt->progress(opt->user, "tile scale", 0, -1.0);
+    CSI_TRY(csi_tile_scope_make(ctx, g, channels, pos, values, n, opt, tl, &scope));
+    csi_tiles_blend b;
+    CSI_TRY(csi_tiles_begin(tl, channels, opt->frames, &b, out));
+    tile_progress tp = {opt, 0, tl->count};
+    csi_recon_options o = *opt;
+    if (opt->progress) {
+        o.progress = on_tile_progress;
+        o.user = &tp;
+    }
+    csi_status s = CSI_OK;
+    for (uint32_t i = 0; i < tl->count && s == CSI_OK; i++) {
+        tp.index = i;
+        csi_tile_result t;
+        s = csi_reconstruct_tile(ctx, g, channels, pos, values, n, &o, tl, &scope, i, &t);
+        if (s == CSI_OK)
+            s = csi_tiles_add(&b, &t);
+        csi_tile_result_free(&t);
+    }
+    if (s == CSI_OK)
+        s = csi_tiles_end(&b);
+    out->n = n;
+    if (s != CSI_OK)
+        csi_recon_result_free(out);
+    return s;
+}

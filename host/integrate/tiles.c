@@ -1,0 +1,414 @@
+/* The tile layout: how a problem is split into overlapping tiles, each tile's core and window,
+ * and the blend weights (csi/tiles.h). Pure geometry and arithmetic: no device work here. */
+#include "csi/tiles.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "csi/wavelet.h"
+#include "internal.h"
+
+/* Default overlap. Alg. 1: 128 fine-grid cells (at least 4 pixels): the coarsest default wavelet
+ * (5 levels, db4) spans 7 * 32 = 224 cells, and the measured difference between tiled and
+ * untiled pixels stopped falling beyond half that distance from a window's edge
+ * (docs/bench/scale.md). Volumes: 16 pixels and 4 frames (same page). */
+#define TILE_MARGIN_CELLS 128u
+#define TILE_MARGIN_MIN_PX 4u
+#define TILE_MARGIN_MOTION_PX 16u
+#define TILE_MARGIN_MOTION_T 4u
+/* Headroom on the per-sample part of the memory model: a tile holds about its share of the
+ * samples when they are spread evenly (Poisson-disk, stratified or uniform positions). */
+#define TILE_SAMPLE_HEADROOM 1.25
+
+uint64_t csi_tile_default_budget(const csi_ctx *ctx)
+{
+    uint64_t b = CSI_TILE_DEFAULT_BUDGET;
+    if (ctx) {
+        uint64_t half = csi_ctx_global_mem(ctx) / 2;
+        if (half && half < b)
+            b = half;
+    }
+    return b;
+}
+
+typedef enum { M_AA, M_MOTION, M_GAUSS, M_MEAN } tile_method;
+
+static tile_method method_of(const csi_grid *g, const csi_recon_options *opt)
+{
+    if (opt->estimator == CSI_EST_MEAN)
+        return M_MEAN;
+    if (opt->estimator == CSI_EST_GAUSS)
+        return M_GAUSS;
+    return g->t > 1 ? M_MOTION : M_AA;
+}
+
+/* Device bytes of one reconstruction of k cells and n samples: every buffer the method creates,
+ * counted with PoCL's allocation log (POCL_DEBUG=memory) per method, as bytes per cell and per
+ * sample (docs/bench/scale.md has the counts). The largest single buffer is about 4 bytes per
+ * cell for images (8 for the complex volume of the full-spectrum Alg. 2). */
+static uint64_t model_bytes(tile_method m, const csi_recon_options *opt, uint64_t k, uint64_t n,
+                            uint64_t *largest)
+{
+    double per_cell, per_sample;
+    switch (m) {
+    case M_AA:
+        per_cell = opt->solver == CSI_SOLVER_ROMP ? 60 : 49;
+        per_sample = 40;
+        *largest = 4 * k + 16 * (uint64_t)sqrt((double)k) * 8; /* the half spectrum's padding */
+        break;
+    case M_MOTION:
+        per_cell = opt->motion_full_spectrum ? 100 : 62;
+        per_sample = 64;
+        *largest = (opt->motion_full_spectrum ? 8 : 5) * k;
+        break;
+    case M_GAUSS:
+        per_cell = 30;
+        per_sample = 16;
+        *largest = 5 * k;
+        break;
+    default:
+        per_cell = 0;
+        per_sample = 24;
+        *largest = 16 * n;
+        break;
+    }
+    return (uint64_t)ceil(per_cell * (double)k + per_sample * (double)n) + (UINT64_C(1) << 20);
+}
+
+static bool smooth7(uint64_t v)
+{
+    static const unsigned p[] = {2, 3, 5, 7};
+    if (v == 0)
+        return false;
+    for (int i = 0; i < 4; i++)
+        while (v % p[i] == 0)
+            v /= p[i];
+    return v == 1;
+}
+
+/* What one axis needs of a window length E (pixels or frames): E * cells is 7-smooth (FFT
+ * radices) and a multiple of `multiple` (2^levels for the wavelets, 2 for an even first axis). */
+typedef struct {
+    uint32_t length, cells, multiple, align, margin;
+} axis_req;
+
+static bool len_ok(const axis_req *a, uint32_t e)
+{
+    uint64_t f = (uint64_t)e * a->cells;
+    return smooth7(f) && f % a->multiple == 0;
+}
+
+static uint32_t core_bound(uint32_t L, uint32_t n, uint32_t align, uint32_t i)
+{
+    if (i == 0)
+        return 0;
+    if (i >= n)
+        return L;
+    return align * (uint32_t)((uint64_t)i * (L / align) / n);
+}
+
+static uint32_t win_start(uint32_t L, uint32_t n, uint32_t align, uint32_t e, uint32_t i)
+{
+    if (n == 1)
+        return 0;
+    const uint32_t b0 = core_bound(L, n, align, i), b1 = core_bound(L, n, align, i + 1);
+    int64_t s = (int64_t)b0 - ((int64_t)e - (int64_t)(b1 - b0)) / 2;
+    if (s > 0)
+        s -= s % align; /* on the coarse wavelet lattice where the edges allow */
+    if (s < 0)
+        s = 0;
+    if (s > (int64_t)L - e)
+        s = (int64_t)L - e;
+    return (uint32_t)s;
+}
+
+/* The window length for n tiles along an axis (0 when n tiles cannot be laid out: cores under
+ * one alignment unit, or no valid length shorter than the axis). */
+static uint32_t axis_window(const axis_req *a, uint32_t n)
+{
+    const uint32_t L = a->length;
+    if (n == 1)
+        return L;
+    if (L / a->align < n)
+        return 0;
+    uint32_t core = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t c = core_bound(L, n, a->align, i + 1) - core_bound(L, n, a->align, i);
+        if (c == 0)
+            return 0;
+        if (c > core)
+            core = c;
+    }
+    for (uint64_t e = (uint64_t)core + 2ull * a->margin; e < L; e++) {
+        if (!len_ok(a, (uint32_t)e))
+            continue;
+        bool covers = true;
+        for (uint32_t i = 0; i < n && covers; i++) {
+            const uint32_t s = win_start(L, n, a->align, (uint32_t)e, i);
+            const uint32_t b0 = core_bound(L, n, a->align, i), b1 = core_bound(L, n, a->align, i + 1);
+            covers = (i == 0 || s + a->margin <= b0) && (i == n - 1 || s + e >= (uint64_t)b1 + a->margin);
+        }
+        if (covers)
+            return (uint32_t)e;
+    }
+    return 0;
+}
+
+static uint32_t min_core(uint32_t L, uint32_t n, uint32_t align)
+{
+    uint32_t m = L;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t c = core_bound(L, n, align, i + 1) - core_bound(L, n, align, i);
+        if (c < m)
+            m = c;
+    }
+    return m;
+}
+
+typedef struct {
+    tile_method m;
+    axis_req ax[3];
+    uint64_t k, n;
+    uint32_t bw, bh;
+    int levels;
+} plan_ctx;
+
+typedef struct {
+    uint32_t n[3], window[3];
+    uint64_t bytes, largest, work;
+} candidate;
+
+static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint32_t n[3], candidate *c)
+{
+    for (int a = 0; a < 3; a++) {
+        c->n[a] = n[a];
+        c->window[a] = axis_window(&p->ax[a], n[a]);
+        if (!c->window[a])
+            return false;
+    }
+    const uint64_t cells = (uint64_t)c->window[0] * p->bw * c->window[1] * p->bh * c->window[2];
+    const uint32_t count = n[0] * n[1] * n[2];
+    uint64_t ns = p->n;
+    if (count > 1) {
+        double share = ceil(TILE_SAMPLE_HEADROOM * (double)p->n * (double)cells / (double)p->k);
+        ns = share < (double)cells ? (uint64_t)share : cells;
+        if (ns > p->n)
+            ns = p->n;
+    }
+    c->bytes = model_bytes(p->m, opt, cells, ns, &c->largest);
+    c->work = cells * count;
+    return true;
+}
+
+static bool fits(const candidate *c, uint64_t budget, uint64_t max_alloc)
+{
+    return c->bytes <= budget && (!max_alloc || c->largest <= max_alloc);
+}
+
+static bool better(const candidate *a, const candidate *best, bool have)
+{
+    if (!have)
+        return true;
+    uint32_t ca = a->n[0] * a->n[1] * a->n[2], cb = best->n[0] * best->n[1] * best->n[2];
+    return a->work < best->work || (a->work == best->work && ca < cb);
+}
+
+csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                           const csi_recon_options *opt, csi_tiling *out)
+{
+    memset(out, 0, sizeof *out);
+    out->grid = *g;
+    out->length[0] = g->out_w;
+    out->length[1] = g->out_h;
+    out->length[2] = g->t;
+    for (int a = 0; a < 3; a++) {
+        out->n[a] = 1;
+        out->window[a] = out->length[a];
+        out->align[a] = 1;
+    }
+    out->count = 1;
+    const uint64_t global = ctx ? csi_ctx_global_mem(ctx) : 0;
+    const uint64_t max_alloc = ctx ? (uint64_t)csi_ctx_max_alloc(ctx) : 0;
+    uint64_t budget = opt->mem_budget ? opt->mem_budget : csi_tile_default_budget(ctx);
+    if (global && budget > global)
+        budget = global; /* never more than the device reports */
+    out->budget = budget;
+
+    plan_ctx p;
+    memset(&p, 0, sizeof p);
+    p.m = method_of(g, opt);
+    p.k = (uint64_t)g->w * g->h * g->t;
+    p.n = n;
+    p.bw = g->w / g->out_w;
+    p.bh = g->h / g->out_h;
+    if (p.m == M_AA) {
+        p.levels = opt->levels;
+        if (p.levels <= 0) {
+            p.levels = csi_wavelet_default_levels(opt->wavelet, g->w, g->h);
+            if (p.levels > 5)
+                p.levels = 5;
+        }
+        out->levels = p.levels;
+    }
+    const uint32_t cells[3] = {p.bw, p.bh, 1};
+    for (int a = 0; a < 3; a++) {
+        axis_req *ax = &p.ax[a];
+        ax->length = out->length[a];
+        ax->cells = cells[a];
+        ax->multiple = 1;
+        ax->align = 1;
+        if (p.m == M_AA && a < 2 && p.levels > 0 && p.levels < 31) {
+            /* Windows a multiple of 2^levels cells long, starting on that lattice: the smallest
+             * power of two of pixels that is a multiple of 2^levels cells. */
+            const uint32_t pw = 1u << p.levels;
+            ax->multiple = pw;
+            while ((uint64_t)ax->align * cells[a] % pw != 0)
+                ax->align *= 2;
+        } else if (a == 0 && p.m != M_MEAN) {
+            ax->multiple = 2; /* csi's own FFT kernels and the half spectrum want an even first axis */
+        }
+        if (a == 2)
+            ax->margin = opt->tile_margin_t ? opt->tile_margin_t : TILE_MARGIN_MOTION_T;
+        else if (p.m == M_AA) {
+            uint32_t m = (TILE_MARGIN_CELLS + cells[a] - 1) / cells[a];
+            ax->margin = opt->tile_margin ? opt->tile_margin : m < TILE_MARGIN_MIN_PX ? TILE_MARGIN_MIN_PX : m;
+        } else
+            ax->margin = opt->tile_margin ? opt->tile_margin : TILE_MARGIN_MOTION_PX;
+        out->align[a] = ax->align;
+        out->margin[a] = ax->margin;
+    }
+
+    const uint32_t one[3] = {1, 1, 1};
+    candidate whole, best;
+    memset(&best, 0, sizeof best);
+    evaluate(&p, opt, one, &whole);
+    out->whole_bytes = whole.bytes;
+    out->tile_bytes = whole.bytes;
+    bool have = false;
+    if (p.m == M_MEAN || (opt->tiles <= 1 && fits(&whole, budget, max_alloc))) {
+        if (opt->tiles > 1)
+            return csi_fail(CSI_ERR_ARG, "the per-pixel sample mean needs no tiles (asked for %u)", opt->tiles);
+        return CSI_OK;
+    }
+    const uint32_t maxn[3] = {p.ax[0].length / p.ax[0].align, p.ax[1].length / p.ax[1].align,
+                              g->t > 1 ? g->t : 1};
+    if (opt->tiles > 1) {
+        const uint32_t N = opt->tiles;
+        bool any = false;
+        for (uint32_t nt = 1; nt <= N && nt <= maxn[2]; nt++) {
+            if (N % nt)
+                continue;
+            for (uint32_t ny = 1; ny <= N / nt && ny <= maxn[1]; ny++) {
+                if ((N / nt) % ny)
+                    continue;
+                const uint32_t nn[3] = {N / nt / ny, ny, nt};
+                candidate c;
+                if (nn[0] > maxn[0] || !evaluate(&p, opt, nn, &c))
+                    continue;
+                any = true;
+                if (fits(&c, budget, max_alloc) && better(&c, &best, have)) {
+                    best = c;
+                    have = true;
+                }
+            }
+        }
+        if (!any)
+            return csi_fail(CSI_ERR_ARG, "%u tiles cannot be laid out on a %ux%u%s image (each tile "
+                            "needs a core of at least %ux%u pixels inside windows of valid FFT sizes)",
+                            N, g->out_w, g->out_h, g->t > 1 ? " x t" : "", p.ax[0].align, p.ax[1].align);
+        if (!have)
+            return csi_fail(CSI_ERR_ARG, "%u tiles do not fit the device budget of %llu bytes: ask "
+                            "for more tiles or a larger budget", N, (unsigned long long)budget);
+    } else {
+        for (uint32_t nt = 1; nt <= maxn[2]; nt++) {
+            for (uint32_t ny = 1; ny <= maxn[1]; ny++) {
+                /* The fewest tiles along x that fit, by bisection (a tile's bytes fall as the
+                 * tiles along x grow, up to the rounding of window lengths). */
+                uint32_t lo = 1, hi = maxn[0];
+                candidate c;
+                const uint32_t top[3] = {hi, ny, nt};
+                if (!evaluate(&p, opt, top, &c) || !fits(&c, budget, max_alloc))
+                    continue;
+                while (lo < hi) {
+                    uint32_t mid = lo + (hi - lo) / 2;
+                    const uint32_t nn[3] = {mid, ny, nt};
+                    if (evaluate(&p, opt, nn, &c) && fits(&c, budget, max_alloc))
+                        hi = mid;
+                    else
+                        lo = mid + 1;
+                }
+                const uint32_t nn[3] = {lo, ny, nt};
+                evaluate(&p, opt, nn, &c);
+                if (better(&c, &best, have)) {
+                    best = c;
+                    have = true;
+                }
+                if (lo == 1)
+                    break; /* more tiles along y only add overlap */
+            }
+            if (have && best.n[2] < nt)
+                break;
+        }
+        if (!have)
+            return csi_fail(CSI_ERR_ARG, "no tiling of the %ux%ux%u grid fits the device budget of "
+                            "%llu bytes (the whole needs %llu)", g->w, g->h, g->t,
+                            (unsigned long long)budget, (unsigned long long)whole.bytes);
+    }
+    out->count = best.n[0] * best.n[1] * best.n[2];
+    out->tile_bytes = best.bytes;
+    for (int a = 0; a < 3; a++) {
+        out->n[a] = best.n[a];
+        out->window[a] = best.window[a];
+        uint32_t band = out->margin[a] / 2;
+        uint32_t mc = min_core(out->length[a], out->n[a], out->align[a]) / 2;
+        if (band > mc)
+            band = mc;
+        out->band[a] = band ? band : 1;
+    }
+    return CSI_OK;
+}
+
+void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *t)
+{
+    memset(t, 0, sizeof *t);
+    t->index = index;
+    t->pos[0] = index % tl->n[0];
+    t->pos[1] = index / tl->n[0] % tl->n[1];
+    t->pos[2] = index / tl->n[0] / tl->n[1];
+    for (int a = 0; a < 3; a++) {
+        t->core0[a] = core_bound(tl->length[a], tl->n[a], tl->align[a], t->pos[a]);
+        t->core1[a] = core_bound(tl->length[a], tl->n[a], tl->align[a], t->pos[a] + 1);
+        t->win0[a] = win_start(tl->length[a], tl->n[a], tl->align[a], tl->window[a], t->pos[a]);
+    }
+}
+
+/* The smooth step u^2 (3 - 2u) of u clamped to [0, 1]. */
+static double smoothstep(double u)
+{
+    u = u < 0 ? 0 : u > 1 ? 1 : u;
+    return u * u * (3 - 2 * u);
+}
+
+double csi_tile_weight(const csi_tiling *tl, const csi_tile *t, int axis, uint32_t c)
+{
+    if (c < t->win0[axis] || c >= t->win0[axis] + tl->window[axis])
+        return 0;
+    const double x = c + 0.5, r = tl->band[axis];
+    double w = 1;
+    if (t->pos[axis] > 0)
+        w *= smoothstep((x - (t->core0[axis] - r)) / (2 * r));
+    if (t->pos[axis] + 1 < tl->n[axis])
+        w *= 1 - smoothstep((x - (t->core1[axis] - r)) / (2 * r));
+    return w;
+}
+
+bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b)
+{
+    if (memcmp(&a->grid, &b->grid, sizeof a->grid) || a->count != b->count || a->levels != b->levels)
+        return false;
+    for (int i = 0; i < 3; i++)
+        if (a->length[i] != b->length[i] || a->n[i] != b->n[i] || a->window[i] != b->window[i] ||
+            a->margin[i] != b->margin[i] || a->band[i] != b->band[i] || a->align[i] != b->align[i])
+            return false;
+    return true;
+}
