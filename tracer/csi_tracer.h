@@ -144,6 +144,13 @@ csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sampl
                            size_t n, uint64_t seed, float *rgb, csi_tracer_progress_fn progress,
                            void *user);
 
+/* The same for a subset of a larger set of samples: the random numbers of sample i depend on
+ * (seed, ids[i]), so samples traced here with their indices in the larger set get the values
+ * they get there (a tile of an image traced alone). ids = NULL is csi_tracer_eval. */
+csi_status csi_tracer_eval_ids(csi_tracer *tr, const csi_grid *grid, const csi_sample_pos *pos,
+                               const uint64_t *ids, size_t n, uint64_t seed, float *rgb,
+                               csi_tracer_progress_fn progress, void *user);
+
 /* Same at continuous points: uvs[3*i..] = (u, v, s) with u, v in [0, 1] (image space, v down)
  * and s in [0, 1] (shutter time; ignored when the plan has no motion). For references. */
 csi_status csi_tracer_eval_points(csi_tracer *tr, const float *uvs, size_t n, uint64_t seed,

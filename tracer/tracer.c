@@ -691,6 +691,7 @@ typedef struct job {
     csi_tracer *tr;
     const csi_grid *grid;
     const csi_sample_pos *pos;
+    const uint64_t *ids; /* sample indices in a larger set (NULL: 0 .. n - 1) */
     const float *uvs;
     size_t n;
     uint64_t seed;
@@ -738,7 +739,7 @@ static void *worker(void *arg)
             if (!motion)
                 s = 0;
             rng r;
-            rng_init(&r, jb->seed, i);
+            rng_init(&r, jb->seed, jb->ids ? jb->ids[i] : i);
             radiance(&cx, u, v, s, &r, jb->rgb + 3 * i);
             cx.c.samples++;
         }
@@ -814,6 +815,13 @@ csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sampl
                            size_t n, uint64_t seed, float *rgb, csi_tracer_progress_fn progress,
                            void *user)
 {
+    return csi_tracer_eval_ids(tr, grid, pos, NULL, n, seed, rgb, progress, user);
+}
+
+csi_status csi_tracer_eval_ids(csi_tracer *tr, const csi_grid *grid, const csi_sample_pos *pos,
+                               const uint64_t *ids, size_t n, uint64_t seed, float *rgb,
+                               csi_tracer_progress_fn progress, void *user)
+{
     if (!tr || !grid || (n && (!pos || !rgb)))
         return csi_fail(CSI_ERR_ARG, "csi_tracer_eval: NULL argument");
     if (grid->w == 0 || grid->h == 0 || grid->t == 0)
@@ -834,6 +842,7 @@ csi_status csi_tracer_eval(csi_tracer *tr, const csi_grid *grid, const csi_sampl
     jb.tr = tr;
     jb.grid = grid;
     jb.pos = pos;
+    jb.ids = ids;
     jb.n = n;
     jb.seed = seed;
     jb.rgb = rgb;

@@ -146,7 +146,9 @@ static uint32_t axis_window(const axis_req *a, uint32_t n)
         for (uint32_t i = 0; i < n && covers; i++) {
             const uint32_t s = win_start(L, n, a->align, (uint32_t)e, i);
             const uint32_t b0 = core_bound(L, n, a->align, i), b1 = core_bound(L, n, a->align, i + 1);
-            covers = (i == 0 || s + a->margin <= b0) && (i == n - 1 || s + e >= (uint64_t)b1 + a->margin);
+            /* margin beyond the core, or up to the image's edge when that is nearer */
+            covers = (i == 0 || s == 0 || s + a->margin <= b0) &&
+                     (i == n - 1 || s + e == L || s + e >= (uint64_t)b1 + a->margin);
         }
         if (covers)
             return (uint32_t)e;

@@ -1,0 +1,195 @@
+/* The tile layout (csi/tiles.h), checked against its definition by exhaustive enumeration:
+ *   - cores partition every axis; windows lie inside the image, have the layout's length, and
+ *     reach at least `margin` beyond the core on every interior side (or the image's edge);
+ *   - window lengths are valid transform sizes: fine length 7-smooth and, for Alg. 1, a
+ *     multiple of 2^levels; interior windows start on the coarse wavelet lattice;
+ *   - the blend weights are a partition of unity: at every pixel (frame) of every axis they sum
+ *     to 1 within 4 ulp of double (each weight is a product of two smooth steps, and 1 - S + S
+ *     rounds at most twice), lie in [0, 1], vanish outside the window, and equal exactly 1 on a
+ *     core outside the blend bands;
+ *   - the plan: a problem that fits is one tile; a budget forces a tiling whose modelled tile
+ *     fits it and whose windows cover the fewest cells among the layouts that fit, checked
+ *     against a brute-force search over every (nx, ny) with the same model; N asked gives N;
+ *     impossible requests are refused with a message naming the budget or the count. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/tiles.h"
+#include "testlib.h"
+
+static bool smooth7(uint64_t v)
+{
+    static const unsigned p[] = {2, 3, 5, 7};
+    for (int i = 0; i < 4; i++)
+        while (v && v % p[i] == 0)
+            v /= p[i];
+    return v == 1;
+}
+
+static void check_layout(const csi_tiling *tl, const char *what)
+{
+    const uint32_t cells[3] = {tl->grid.w / tl->grid.out_w, tl->grid.h / tl->grid.out_h, 1};
+    for (int a = 0; a < 3; a++) {
+        const uint32_t L = tl->length[a];
+        double *sum = calloc(L, sizeof *sum);
+        uint32_t *owner = calloc(L, sizeof *owner);
+        if (tl->n[a] > 1) {
+            const uint64_t f = (uint64_t)tl->window[a] * cells[a];
+            CHECK(smooth7(f), "%s: axis %d window %u x %u cells is not 7-smooth", what, a, tl->window[a], cells[a]);
+            if (a < 2 && tl->levels > 0)
+                CHECK(f % (1u << tl->levels) == 0, "%s: axis %d window %llu cells not a multiple of 2^%d", what, a,
+                      (unsigned long long)f, tl->levels);
+            CHECK(tl->window[a] < L, "%s: axis %d tiled with a window %u as long as the axis %u", what, a,
+                  tl->window[a], L);
+        } else {
+            CHECK(tl->window[a] == L, "%s: axis %d untiled but window %u != %u", what, a, tl->window[a], L);
+        }
+        /* Tiles along this axis: walk tile coordinates through indices with the other axes at 0. */
+        const uint32_t stride = a == 0 ? 1 : a == 1 ? tl->n[0] : tl->n[0] * tl->n[1];
+        uint32_t covered = 0;
+        for (uint32_t i = 0; i < tl->n[a]; i++) {
+            csi_tile t;
+            csi_tiling_tile(tl, i * stride, &t);
+            CHECK(t.pos[a] == i, "%s: tile %u has coordinate %u along axis %d, expected %u", what, i * stride,
+                  t.pos[a], a, i);
+            CHECK(t.core0[a] == covered, "%s: axis %d core %u starts at %u, expected %u", what, a, i, t.core0[a], covered);
+            CHECK(t.core1[a] > t.core0[a], "%s: axis %d core %u is empty", what, a, i);
+            covered = t.core1[a];
+            CHECK(t.win0[a] + tl->window[a] <= L, "%s: axis %d window %u leaves the image", what, a, i);
+            if (i > 0) {
+                CHECK(t.win0[a] == 0 || t.win0[a] + tl->margin[a] <= t.core0[a], "%s: axis %d window %u reaches only %u before its core",
+                      what, a, i, t.core0[a] - t.win0[a]);
+                if (a < 2 && tl->align[a] > 1 && t.win0[a] + tl->window[a] < L)
+                    CHECK(t.win0[a] % tl->align[a] == 0, "%s: axis %d window %u starts at %u, off the %u lattice",
+                          what, a, i, t.win0[a], tl->align[a]);
+            }
+            if (i + 1 < tl->n[a])
+                CHECK(t.win0[a] + tl->window[a] == L || t.win0[a] + tl->window[a] >= t.core1[a] + tl->margin[a], "%s: axis %d window %u reaches "
+                      "only %u beyond its core", what, a, i, t.win0[a] + tl->window[a] - t.core1[a]);
+            for (uint32_t c = 0; c < L; c++) {
+                const double w = csi_tile_weight(tl, &t, a, c);
+                CHECK(w >= 0 && w <= 1, "%s: axis %d tile %u weight %g at %u", what, a, i, w, c);
+                if (c < t.win0[a] || c >= t.win0[a] + tl->window[a])
+                    CHECK(w == 0, "%s: axis %d tile %u weight %g outside its window at %u", what, a, i, w, c);
+                const bool far = c >= t.core0[a] && c < t.core1[a] &&
+                                 (i == 0 || c >= t.core0[a] + tl->band[a]) &&
+                                 (i + 1 == tl->n[a] || c + tl->band[a] < t.core1[a]);
+                if (far)
+                    CHECK(w == 1, "%s: axis %d tile %u weight %.17g inside its core at %u", what, a, i, w, c);
+                sum[c] += w;
+                if (c >= t.core0[a] && c < t.core1[a])
+                    owner[c]++;
+            }
+        }
+        CHECK(covered == L, "%s: axis %d cores end at %u of %u", what, a, covered, L);
+        for (uint32_t c = 0; c < L; c++) {
+            CHECK(fabs(sum[c] - 1) <= 4 * 2.220446049250313e-16, "%s: axis %d weights sum to %.17g at %u", what, a,
+                  sum[c], c);
+            CHECK(owner[c] == 1, "%s: axis %d pixel %u is in %u cores", what, a, c, owner[c]);
+        }
+        free(sum);
+        free(owner);
+    }
+}
+
+int main(void)
+{
+    csi_recon_options o;
+    csi_recon_defaults(&o);
+
+    /* Layouts over image sizes, cell sizes, counts and margins (Alg. 1, 2-D). */
+    const uint32_t outs[][2] = {{64, 64}, {128, 96}, {256, 256}, {250, 130}, {1920, 1080}, {3840, 2160}};
+    const uint32_t factors[] = {4, 8, 16};
+    const uint32_t counts[] = {2, 3, 4, 6, 9, 16};
+    int laid = 0;
+    for (size_t i = 0; i < sizeof outs / sizeof outs[0]; i++)
+        for (size_t f = 0; f < sizeof factors / sizeof factors[0]; f++)
+            for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
+                const csi_grid g = {outs[i][0] * factors[f], outs[i][1] * factors[f], 1, outs[i][0], outs[i][1]};
+                if ((uint64_t)g.w > 65536 || (uint64_t)g.h > 65536)
+                    continue;
+                o.tiles = counts[c];
+                o.tile_margin = 8;
+                o.mem_budget = UINT64_C(1) << 50;
+                csi_tiling tl;
+                char what[96];
+                snprintf(what, sizeof what, "%ux%u x%u, %u tiles", g.out_w, g.out_h, factors[f], counts[c]);
+                if (csi_tiling_plan(NULL, &g, 3, (size_t)g.out_w * g.out_h * 4, &o, &tl) != CSI_OK) {
+                    /* Only a small image may refuse, and with a message. */
+                    CHECK(g.out_w * g.out_h <= 250 * 130, "%s refused: %s", what, csi_last_error());
+                    CHECK(strstr(csi_last_error(), "cannot be laid out") != NULL, "%s: %s", what, csi_last_error());
+                    continue;
+                }
+                CHECK(tl.count == counts[c] && tl.n[0] * tl.n[1] * tl.n[2] == tl.count, "%s: %u tiles (%ux%ux%u)",
+                      what, tl.count, tl.n[0], tl.n[1], tl.n[2]);
+                check_layout(&tl, what);
+                laid++;
+            }
+    CHECK(laid >= 80, "only %d layouts were made", laid);
+
+    /* Volumes: tiles along t too. */
+    {
+        const csi_grid g = {64, 48, 64, 64, 48};
+        o.tiles = 4;
+        o.tile_margin = 16;
+        o.tile_margin_t = 4;
+        csi_tiling tl;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl));
+        CHECK(tl.n[2] > 1, "a 64x48x64 volume in 4 tiles with 16-pixel margins splits t (n = %u %u %u)", tl.n[0],
+              tl.n[1], tl.n[2]);
+        check_layout(&tl, "volume 64x48x64, 4 tiles");
+    }
+
+    /* The plan from a budget. */
+    {
+        const csi_grid g = {2048, 2048, 1, 256, 256};
+        csi_recon_defaults(&o);
+        csi_tiling whole, tl;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &whole));
+        CHECK(whole.count == 1, "a 2048^2 grid fits the 1 GiB default (%u tiles, %llu bytes)", whole.count,
+              (unsigned long long)whole.whole_bytes);
+        o.mem_budget = whole.whole_bytes / 3;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &tl));
+        CHECK(tl.count > 1 && tl.tile_bytes <= o.mem_budget, "budget %llu: %u tiles of %llu bytes",
+              (unsigned long long)o.mem_budget, tl.count, (unsigned long long)tl.tile_bytes);
+        check_layout(&tl, "2048^2 under a third of its bytes");
+        /* No layout with the same model that fits covers fewer cells (brute force over N). */
+        const uint64_t work = (uint64_t)tl.count * tl.window[0] * tl.window[1];
+        for (uint32_t N = 2; N <= 64; N++) {
+            csi_recon_options q = o;
+            q.tiles = N;
+            csi_tiling t2;
+            if (csi_tiling_plan(NULL, &g, 3, 262144, &q, &t2) != CSI_OK)
+                continue;
+            CHECK((uint64_t)t2.count * t2.window[0] * t2.window[1] >= work, "%u tiles cover %llu cells, the "
+                  "plan's %u cover %llu", N, (unsigned long long)t2.count * t2.window[0] * t2.window[1] * 64,
+                  tl.count, (unsigned long long)work * 64);
+        }
+        o.mem_budget = 1u << 20;
+        CHECK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &tl) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "1048576") != NULL,
+              "a 1 MiB budget is refused naming it: %s", csi_last_error());
+        csi_recon_defaults(&o);
+        o.tiles = 1u << 20;
+        CHECK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &tl) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "cannot be laid out") != NULL,
+              "2^20 tiles on 256^2 pixels are refused: %s", csi_last_error());
+        /* Same inputs, same layout. */
+        o.tiles = 6;
+        csi_tiling a, b;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &a));
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &b));
+        CHECK(csi_tiling_equal(&a, &b) && !memcmp(&a, &b, sizeof a), "the layout is deterministic");
+    }
+    /* The sample mean never tiles. */
+    {
+        const csi_grid g = {4096, 4096, 1, 1024, 1024};
+        csi_recon_defaults(&o);
+        o.estimator = CSI_EST_MEAN;
+        o.mem_budget = 1u << 20;
+        csi_tiling tl;
+        CHECK_OK(csi_tiling_plan(NULL, &g, 3, 4u << 20, &o, &tl));
+        CHECK(tl.count == 1, "the sample mean is one tile (%u)", tl.count);
+    }
+    return test_done();
+}
