@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <sys/stat.h>
 
 struct csi_embedded_kernel {
@@ -43,6 +44,7 @@ struct csi_ctx {
     struct csi_kernel_slot kernels[CSI_MAX_KERNELS];
     int nkernels;
     bool clfft;
+    double t_build; /* seconds spent building programs and creating kernels */
 };
 
 /* clFFT keeps one library state per process; count the contexts that use it. */
@@ -370,6 +372,15 @@ static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
     return CSI_OK;
 }
 
+static double seconds_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+double csi_ctx_build_seconds(const csi_ctx *ctx) { return ctx->t_build; }
+
 csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_kernel *out)
 {
     for (int i = 0; i < ctx->nkernels; i++)
@@ -379,10 +390,13 @@ csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_
         }
     if (ctx->nkernels == CSI_MAX_KERNELS)
         return csi_fail(CSI_ERR_BUILD, "too many kernels (limit %d)", CSI_MAX_KERNELS);
+    const double t0 = seconds_now();
     cl_program prog;
-    CSI_TRY(build_program(ctx, program, &prog));
-    cl_int err;
-    cl_kernel k = clCreateKernel(prog, kernel, &err);
+    csi_status bst = build_program(ctx, program, &prog);
+    cl_int err = CL_SUCCESS;
+    cl_kernel k = bst == CSI_OK ? clCreateKernel(prog, kernel, &err) : NULL;
+    ctx->t_build += seconds_now() - t0;
+    CSI_TRY(bst);
     if (err != CL_SUCCESS)
         return csi_fail(CSI_ERR_BUILD, "kernel '%s' not found in kernels/%s.cl (%s)", kernel, program,
                         csi_cl_error_name(err));

@@ -41,4 +41,17 @@ void cli_progress_update(cli_progress *p, const char *phase, double fraction, co
 void cli_progress_end(cli_progress *p);
 double cli_now(void); /* seconds, monotonic */
 
+/* A reconstruction's progress (common_eta.c): the library's phases ("setup", "solve c/C",
+ * "integrate c/C") with the solver's step, and the time left once a channel is done. */
+typedef struct {
+    cli_progress *bar;
+    unsigned channel, channels, done; /* current channel (1-based, 0 before the first) */
+    double t_first, t_current;        /* when the first and the current channel began */
+} cli_recon_progress;
+void cli_recon_progress_init(cli_recon_progress *p, cli_progress *bar);
+/* A csi_progress_fn's arguments. */
+void cli_recon_progress_update(cli_recon_progress *p, const char *phase, int iter, double res);
+/* Seconds left, or < 0 while no channel is done. */
+double cli_recon_progress_eta(const cli_recon_progress *p, double now);
+
 #endif

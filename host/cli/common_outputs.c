@@ -118,6 +118,28 @@ void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_
     csi_json_end(j);
 }
 
+void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_result *r)
+{
+    static const char *names[4] = {"0", "1", "2", "3"};
+    csi_json_begin(j, "phases");
+    csi_json_num(j, "read_s", t->read);
+    csi_json_num(j, "device_s", t->device);
+    csi_json_num(j, "programs_s", r->t_programs);
+    csi_json_num(j, "setup_s", r->t_setup);
+    csi_json_begin(j, "solve_s");
+    for (uint32_t c = 0; c < r->channels; c++)
+        csi_json_num(j, names[c], r->report[c].t_total);
+    csi_json_end(j);
+    csi_json_begin(j, "integrate_s");
+    for (uint32_t c = 0; c < r->channels; c++)
+        csi_json_num(j, names[c], r->t_channel_integrate[c]);
+    csi_json_end(j);
+    csi_json_num(j, "write_s", t->write);
+    csi_json_end(j);
+    csi_json_num(j, "fixed_s", t->read + t->device + r->t_setup);
+    csi_json_num(j, "per_sample_us", r->n ? 1e6 * (r->t_solve + r->t_integrate) / (double)r->n : 0);
+}
+
 static csi_status write_one(const char *exr, const char *png, const float *planes, uint32_t w,
                             uint32_t h, uint32_t channels, const csi_attr *attrs, size_t nattrs)
 {

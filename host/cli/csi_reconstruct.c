@@ -46,19 +46,9 @@ static void usage(FILE *f)
 "exit status: 0 success, 2 bad input or usage, 1 other failure\n", f);
 }
 
-typedef struct {
-    cli_progress *bar;
-    uint32_t channel, channels;
-} prog_state;
-
 static void on_progress(void *user, const char *phase, int iter, double res)
 {
-    prog_state *ps = user;
-    char detail[96] = "";
-    if (res >= 0)
-        snprintf(detail, sizeof detail, "channel %u/%u  iter %d  residual %.2e", ps->channel + 1,
-                 ps->channels, iter, res);
-    cli_progress_update(ps->bar, phase, -1, detail);
+    cli_recon_progress_update(user, phase, iter, res);
 }
 
 int main(int argc, char **argv)
@@ -132,7 +122,10 @@ int main(int argc, char **argv)
     csi_dump dump = {0};
     csi_dump_report drep = {0};
     csi_dump_read_opts ropts = {.drop_invalid = drop};
+    cli_phase_times pt = {0};
+    double tp = cli_now();
     s = csi_dump_read(in, &ropts, &dump, &drep);
+    pt.read = cli_now() - tp;
     if (s != CSI_OK)
         return cli_error(prog, s, "%s", csi_last_error());
     if (!quiet && drep.dropped_invalid)
@@ -152,14 +145,17 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: warning: %s is a static dump (grid_t = 1): --frames writes nothing\n", prog, in);
 
     csi_ctx *ctx = NULL;
+    tp = cli_now();
     s = csi_ctx_create(&ctx, device);
+    pt.device = cli_now() - tp;
     if (s != CSI_OK) {
         csi_dump_free(&dump);
         return cli_error(prog, s, "%s", csi_last_error());
     }
     cli_progress bar;
     cli_progress_init(&bar, quiet);
-    prog_state ps = {&bar, 0, dump.channels};
+    cli_recon_progress ps;
+    cli_recon_progress_init(&ps, &bar);
     opt.progress = on_progress;
     opt.user = &ps;
     csi_recon_result res;
@@ -173,7 +169,9 @@ int main(int argc, char **argv)
         const char *method = opt.estimator == CSI_EST_MEAN ? "sample mean (Monte Carlo)"
                              : opt.estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
                              : dump.grid.t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)";
+        tp = cli_now();
         s = cli_write_images(&outs, &opt, &res, method);
+        pt.write = cli_now() - tp;
         if (s == CSI_OK && outs.stats) {
             csi_json *j = NULL;
             s = csi_json_new(&j);
@@ -190,6 +188,7 @@ int main(int argc, char **argv)
                 csi_json_int(j, "duplicates", (int64_t)drep.duplicates);
                 csi_json_int(j, "dropped_invalid", (int64_t)drep.dropped_invalid);
                 cli_stats_recon(j, &opt, &res);
+                cli_stats_phases(j, &pt, &res);
                 csi_json_num(j, "t_wall_s", cli_now() - t0);
                 s = csi_json_write(j, outs.stats);
                 csi_json_free(j);

@@ -61,6 +61,7 @@ static void usage(FILE *f)
 
 typedef struct {
     cli_progress *bar;
+    cli_recon_progress recon;
 } prog_state;
 
 static void on_trace(uint64_t done, uint64_t total, void *user)
@@ -75,10 +76,7 @@ static void on_trace(uint64_t done, uint64_t total, void *user)
 static void on_solve(void *user, const char *phase, int iter, double res)
 {
     prog_state *ps = user;
-    char detail[64] = "";
-    if (res >= 0)
-        snprintf(detail, sizeof detail, "iter %d  residual %.2e", iter, res);
-    cli_progress_update(ps->bar, phase, -1, detail);
+    cli_recon_progress_update(&ps->recon, phase, iter, res);
 }
 
 int main(int argc, char **argv)
@@ -272,7 +270,9 @@ int main(int argc, char **argv)
         goto done;
     }
     /* Device first: a missing OpenCL device should fail before minutes of tracing. */
+    double t_device = cli_now();
     s = csi_ctx_create(&ctx, device);
+    t_device = cli_now() - t_device;
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", csi_last_error());
         goto done;
@@ -289,7 +289,8 @@ int main(int argc, char **argv)
     }
     cli_progress bar;
     cli_progress_init(&bar, quiet);
-    prog_state ps = {&bar};
+    prog_state ps = {&bar, {0}};
+    cli_recon_progress_init(&ps.recon, &bar);
     double t0 = cli_now();
     s = csi_tracer_eval(tr, &grid, pos, n, seed, rgb, on_trace, &ps);
     double t_render = cli_now() - t0;
@@ -324,7 +325,10 @@ int main(int argc, char **argv)
              : opt.estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
                                               : "sample mean (Monte Carlo)",
              csi_pos_method_name(popts.method));
+    cli_phase_times pt = {.device = t_device};
+    double tw = cli_now();
     s = cli_write_images(&outs, &opt, &res, mdesc);
+    pt.write = cli_now() - tw;
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);
@@ -363,6 +367,7 @@ int main(int argc, char **argv)
             csi_json_int(j, "threads", info.threads);
             csi_json_begin(j, "reconstruction");
             cli_stats_recon(j, &opt, &res);
+            cli_stats_phases(j, &pt, &res);
             csi_json_end(j);
             s = csi_json_write(j, outs.stats);
             csi_json_free(j);

@@ -16,6 +16,16 @@ csi_status cli_outputs_check(const cli_outputs *o);
 /* The solver's figures as EXR attributes and JSON members. */
 void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_result *r);
 
+/* Wall-clock seconds of the phases the program runs itself (the library times the rest). */
+typedef struct cli_phase_times {
+    double read, device, write; /* reading the dump, making the OpenCL context, the outputs */
+} cli_phase_times;
+/* "phases" {read, device, programs, setup, solve: {channel: s}, integrate: {channel: s}, write}
+ * (programs is part of setup: building the kernels, a cost of the first run on a machine or of
+ * a cold cache); "fixed_s" = read + device + setup, what a run costs before its first solver
+ * step; "per_sample_us" = (solve + integrate) / samples. */
+void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_result *r);
+
 /* Writes the image (and frames) with attributes describing the run. */
 csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
                             const csi_recon_result *r, const char *method);

@@ -151,6 +151,8 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels; c++) {
+        if (csi_recon_channel_begin(st, opt, res, values, n, channels, c))
+            continue;
         for (size_t i = 0; i < n; i++)
             st->plane[i] = values[i * channels + c];
         CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
@@ -162,7 +164,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         CSI_TRY(csi_finish(ctx));
         double t1 = csi_recon_now();
         t_solve += t1 - t0;
-        csi_recon_progress(opt, "integrate");
+        csi_recon_progress_channel(opt, "integrate", c, channels);
         CSI_TRY(csi_linop_apply(st->Psi, st->x, st->f)); /* f_b = Psi x */
         cl_mem src = st->f;
         if (D > 1) {
@@ -182,7 +184,8 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
             CSI_TRY(csi_recon_cv_correct(ctx, g, opt, D > 1 ? st->A : st->S, D > 1 ? st->x : src,
                                          st->y, values, channels, c, pos, n,
                                          res->image + (size_t)c * np));
-        t_int += csi_recon_now() - t1;
+        res->t_channel_integrate[c] = csi_recon_now() - t1;
+        t_int += res->t_channel_integrate[c];
     }
     res->t_solve = t_solve;
     res->t_integrate = t_int;

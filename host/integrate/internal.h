@@ -21,6 +21,7 @@ typedef struct {
     /* A tile's reconstruction: the whole problem's figures the defaults follow (csi/tiles.h);
      * NULL when the problem is the whole. Borrowed, not freed. */
     const csi_tile_scope *scope;
+    uint32_t channel, channels; /* the channel being solved, for the progress reports */
 } csi_recon_state;
 
 /* Releases everything in st (not st itself). */
@@ -81,10 +82,21 @@ csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
                                 const csi_recon_options *opt, double image_spp, size_t motion_n,
                                 double tau_scale, csi_solve_report *rep);
 
+/* Starts channel c of `channels`: records it in st, reports "solve c/C", and when its samples
+ * are bitwise those of an earlier channel (a grey image's R, G and B) copies that channel's
+ * result (image plane, frames, report) and returns true: nothing is left to do for c. Solving
+ * is deterministic, so the copy has the bits solving again would give. */
+bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
+                             csi_recon_result *res, const float *values, size_t n,
+                             uint32_t channels, uint32_t c);
+
 /* Monotonic clock in seconds. */
 double csi_recon_now(void);
 /* Reports a phase to the caller's progress callback, if any. */
 void csi_recon_progress(const csi_recon_options *opt, const char *phase);
+/* The same for a phase of channel c of `channels`: "<phase> <c+1>/<channels>". */
+void csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
+                                uint32_t channels);
 /* CSI_ERR_NUMERIC naming `what` and the first non-finite element of a. */
 csi_status csi_recon_check_finite(const float *a, size_t n, const char *what);
 /* Integrates one channel's real volume `vol` (w x h x T) into the result: the image plane is the

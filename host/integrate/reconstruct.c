@@ -119,6 +119,7 @@ csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t c
     memset(&st, 0, sizeof st);
     st.scope = scope;
     double t0 = csi_recon_now();
+    const double b0 = csi_ctx_build_seconds(ctx);
     csi_recon_progress(&opt, "setup");
     csi_status s = CSI_OK;
     if (opt.estimator != CSI_EST_MEAN) {
@@ -142,6 +143,7 @@ csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t c
             s = csi_recon_motion(ctx, grid, channels, pos, values, n, &opt, out, &st);
     }
     out->t_setup = out->t_setup > t0 ? out->t_setup - t0 : 0;
+    out->t_programs = csi_ctx_build_seconds(ctx) - b0;
     csi_recon_state_free(&st);
     if (s != CSI_OK)
         csi_recon_result_free(out);

@@ -1,7 +1,9 @@
 /* The reconstruction result: integrating a fine volume into its image (and frames), the final
  * finiteness check, and freeing it. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "csi/integrate_ops.h"
@@ -16,6 +18,39 @@ void csi_recon_result_free(csi_recon_result *r)
     r->image = r->frames = NULL;
 }
 
+/* The first channel before c whose samples are bitwise those of channel c, or -1. */
+static int same_channel(const float *values, size_t n, uint32_t channels, uint32_t c)
+{
+    for (uint32_t e = 0; e < c; e++) {
+        size_t i = 0;
+        while (i < n && memcmp(&values[i * channels + e], &values[i * channels + c], sizeof(float)) == 0)
+            i++;
+        if (i == n)
+            return (int)e;
+    }
+    return -1;
+}
+
+bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
+                             csi_recon_result *res, const float *values, size_t n,
+                             uint32_t channels, uint32_t c)
+{
+    st->channel = c;
+    st->channels = channels;
+    csi_recon_progress_channel(opt, "solve", c, channels);
+    const int from = same_channel(values, n, channels, c);
+    if (from < 0)
+        return false;
+    const size_t np = (size_t)res->out_w * res->out_h;
+    memcpy(res->image + (size_t)c * np, res->image + (size_t)from * np, np * sizeof(float));
+    for (uint32_t t = 0; t < res->nframes; t++)
+        memcpy(res->frames + ((size_t)t * res->channels + c) * np,
+               res->frames + ((size_t)t * res->channels + (uint32_t)from) * np, np * sizeof(float));
+    res->report[c] = res->report[from];
+    res->report[c].t_total = 0;
+    return true;
+}
+
 double csi_recon_now(void)
 {
     struct timespec ts;
@@ -27,6 +62,14 @@ void csi_recon_progress(const csi_recon_options *opt, const char *phase)
 {
     if (opt->progress)
         opt->progress(opt->user, phase, 0, -1.0);
+}
+
+void csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
+                                uint32_t channels)
+{
+    char name[48];
+    snprintf(name, sizeof name, "%s %u/%u", phase, c + 1, channels);
+    csi_recon_progress(opt, name);
 }
 
 csi_status csi_recon_check_finite(const float *a, size_t n, const char *what)

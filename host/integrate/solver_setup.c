@@ -64,12 +64,29 @@ static void image_romp_defaults(image_romp *o, size_t N, bool published)
     o->lsq_iter = 1;
 }
 
+/* The solvers report their steps as "sparsa" / "romp" / "debias"; the caller sees them as
+ * "solve <c>/<channels>", the channel being solved. */
+typedef struct {
+    const csi_recon_options *opt;
+    char phase[32];
+} channel_progress;
+
+static void forward_progress(void *user, const char *phase, int iter, double rel_residual)
+{
+    const channel_progress *p = user;
+    (void)phase;
+    p->opt->progress(p->opt->user, p->phase, iter, rel_residual);
+}
+
 /* image_spp > 0: Alg. 1 with that many samples per output pixel (SpaRSA gets the image
  * defaults where the caller left a setting open); 0: Alg. 2. */
 csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
                                 const csi_recon_options *opt, double image_spp, size_t motion_n,
                                 double tau_scale, csi_solve_report *rep)
 {
+    channel_progress cp = {opt, ""};
+    snprintf(cp.phase, sizeof cp.phase, "solve %u/%u", st->channel + 1, st->channels);
+    csi_progress_fn progress = opt->progress ? forward_progress : NULL;
     if (kind == CSI_SOLVER_ROMP) {
         csi_romp_options o;
         csi_romp_defaults(&o);
@@ -124,8 +141,8 @@ csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
             o.seed_support = st->romp_seed;
             o.seed_count = st->romp_seed_n;
         }
-        o.progress = opt->progress;
-        o.user = opt->user;
+        o.progress = progress;
+        o.user = &cp;
         CSI_TRY(csi_romp_run(st->solver, st->y, st->x, &o, rep));
         if (o.max_support > 0 && rep->reason == CSI_SOLVE_SUPPORT_LIMIT) {
             /* A support limit set for images (csi's, or the caller's) is the stopping rule, as
@@ -168,7 +185,7 @@ csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
          * on the half spectrum), and with it whether it debiases. */
         o.debias = opt->motion_debias;
     }
-    o.progress = opt->progress;
-    o.user = opt->user;
+    o.progress = progress;
+    o.user = &cp;
     return csi_sparsa_run(st->solver, st->y, st->x, &o, rep);
 }

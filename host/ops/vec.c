@@ -29,6 +29,10 @@ csi_status csi_vec_ws_create(csi_ctx *ctx, csi_vec_ws **out)
     if (st == CSI_OK)
         st = csi_buffer(ctx, VEC_MAX_GROUPS * sizeof(cl_uint), CL_MEM_READ_WRITE,
                         "reduction partial indices", &ws->pidx);
+    /* Build the vector program now: a solver's first step should not pay for it. */
+    cl_kernel k;
+    if (st == CSI_OK)
+        st = csi_kernel(ctx, "vec", "vec_fill", &k);
     if (st != CSI_OK) {
         csi_vec_ws_free(ws);
         return st;

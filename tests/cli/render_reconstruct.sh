@@ -43,6 +43,11 @@ for sc in static moving; do
     h4="$(json "$T/$sc.r4.json" image_fnv1a64)"
     check "[[ '$h1' != '$h4' ]]" "$sc: another seed gives the same image"
 done
+# the stats give every phase's time, per channel for the solves (issue 13)
+for f in static.r static.c moving.c; do
+    check "grep -q '\"phases\": {' '$T/$f.json' && grep -q '\"read_s\": ' '$T/$f.json' && grep -q '\"write_s\": ' '$T/$f.json' && grep -q '\"fixed_s\": ' '$T/$f.json' && grep -q '\"per_sample_us\": ' '$T/$f.json'" "$f.json: phases missing"
+    check "sed -n '/\"solve_s\": {/,/}/p' '$T/$f.json' | grep -q '\"2\": '" "$f.json: no solve time of the third channel"
+done
 # static scenes trace no time; moving ones do
 check "grep -q '\"timed\": 0,' '$T/static.r.json'" "static render traced rays with time"
 check "! grep -q '\"timed\": 0,' '$T/moving.r.json'" "moving render traced no rays with time"

@@ -162,7 +162,9 @@ typedef struct csi_recon_options {
     uint32_t tiles;               /* 0: as few as fit the budget (1 when the whole fits); N: N */
     uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0: the default */
     uint32_t tile_margin_t;       /* the same in frames for a volume; 0: the default */
-    csi_progress_fn progress;     /* phase names: "setup", "solve R" ..., "integrate" */
+    csi_progress_fn progress;     /* phases: "setup", then per channel c of C "solve c/C"
+                                     (with the solver's step and relative residual) and
+                                     "integrate c/C" */
     void *user;
 } csi_recon_options;
 void csi_recon_defaults(csi_recon_options *o);
@@ -175,6 +177,8 @@ typedef struct csi_recon_result {
     csi_solver_kind solver; /* the solver used */
     csi_solve_report report[4];
     double t_setup, t_solve, t_integrate; /* seconds */
+    double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
+    double t_channel_integrate[4]; /* t_integrate per channel (the solves: report[c].t_total) */
     size_t k, n;            /* grid cells and measurements per channel (the whole problem's) */
     size_t unknowns;        /* the solver's unknowns per channel: k, or fewer on a model grid */
     uint32_t model_factor;  /* Alg. 1: the model grid's coarsening D (csi/model_grid.h), else 1 */

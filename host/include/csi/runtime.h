@@ -56,6 +56,9 @@ csi_status csi_cl_check(cl_int err, const char *call, const char *file, int line
  * it. Single-threaded use of one ctx is assumed. */
 csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_kernel *out);
 
+/* Seconds this context has spent building its programs and creating kernels (PoCL compiles
+ * or loads cached binaries on first use): the part of a run's fixed cost the programs take. */
+double csi_ctx_build_seconds(const csi_ctx *ctx);
 /* Buffers. Refuses sizes over the device's single-allocation limit with a message naming the
  * size, the limit and `what`; zero-size requests allocate one element so callers need no cases. */
 csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char *what, cl_mem *out);

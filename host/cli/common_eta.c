@@ -1,0 +1,46 @@
+/* The reconstruction's progress line: phase, the solver's step, and an estimate of the time
+ * left from the channels already done (csi_recon_options.progress names the phases
+ * "setup", "solve c/C", "integrate c/C"). */
+#include <stdio.h>
+#include <string.h>
+
+#include "common.h"
+
+void cli_recon_progress_init(cli_recon_progress *p, cli_progress *bar)
+{
+    memset(p, 0, sizeof *p);
+    p->bar = bar;
+}
+
+double cli_recon_progress_eta(const cli_recon_progress *p, double now)
+{
+    if (p->done == 0 || p->channels == 0)
+        return -1.0;
+    /* Channels cost about the same (one operator, the same sample count). */
+    double per = (p->t_current - p->t_first) / p->done;
+    double left = per * (p->channels - p->done) - (now - p->t_current);
+    return left > 0 ? left : 0;
+}
+
+void cli_recon_progress_update(cli_recon_progress *p, const char *phase, int iter, double res)
+{
+    unsigned c = 0, nc = 0;
+    const double now = cli_now();
+    if (sscanf(phase, "solve %u/%u", &c, &nc) == 2 && c >= 1 && c > p->channel) {
+        if (p->channel == 0)
+            p->t_first = now;
+        p->done = c - 1; /* every earlier channel is integrated */
+        p->channel = c;
+        p->channels = nc;
+        p->t_current = now;
+    }
+    char detail[128] = "", eta[32] = "";
+    double left = cli_recon_progress_eta(p, now);
+    if (left >= 0)
+        snprintf(eta, sizeof eta, "  eta %.0fs", left + 0.5);
+    if (res >= 0)
+        snprintf(detail, sizeof detail, "step %d  residual %.2e%s", iter, res, eta);
+    else
+        snprintf(detail, sizeof detail, "%s", eta[0] ? eta + 2 : "");
+    cli_progress_update(p->bar, phase, -1, detail);
+}

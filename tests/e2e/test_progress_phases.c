@@ -1,0 +1,112 @@
+/* The phases a reconstruction reports (csi_recon_options.progress) and the channels it solves:
+ * "setup", then per channel c of C "solve c/C" (with the solver's steps) and "integrate c/C";
+ * a channel whose samples repeat an earlier channel's bit for bit is not solved again and gets
+ * that channel's result (the solve is deterministic, so the bits are the same as solving it).
+ * Alg. 1 (static) and Alg. 2 (moving), small grids. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/positions.h"
+#include "csi/reconstruct.h"
+#include "testlib.h"
+
+#define MAXP 512
+
+typedef struct {
+    char phase[MAXP][32];
+    int steps[MAXP];
+    int n;
+} log_t;
+
+static void record(void *user, const char *phase, int iter, double res)
+{
+    log_t *l = user;
+    (void)res;
+    if (l->n > 0 && strcmp(l->phase[l->n - 1], phase) == 0) { /* one entry per phase */
+        l->steps[l->n - 1] = iter;
+        return;
+    }
+    if (l->n < MAXP) {
+        snprintf(l->phase[l->n], sizeof l->phase[0], "%s", phase);
+        l->steps[l->n++] = iter;
+    }
+}
+
+static int find(const log_t *l, const char *phase)
+{
+    for (int i = 0; i < l->n; i++)
+        if (!strcmp(l->phase[i], phase))
+            return i;
+    return -1;
+}
+
+/* Channels 0 and 2 bitwise equal, channel 1 different. */
+static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
+{
+    const csi_grid g = {64, 64, T, 16, 16};
+    const csi_pos_opts po = {.method = CSI_POS_POISSON, .spp = T > 1 ? 1 : 4, .seed = 3};
+    csi_sample_pos *pos = NULL;
+    size_t n = 0;
+    if (csi_positions(&g, &po, &pos, &n, NULL) != CSI_OK) {
+        CHECK(false, "positions: %s", csi_last_error());
+        return;
+    }
+    float *val = malloc(n * 3 * sizeof *val);
+    for (size_t i = 0; i < n; i++) {
+        float a = (float)((pos[i].x + 2 * pos[i].t) % 16 < 8) * 0.8f + 0.1f;
+        val[3 * i] = val[3 * i + 2] = a;
+        val[3 * i + 1] = (float)(pos[i].y % 10) / 10.0f;
+    }
+    if (!copy_equal) /* channel 2 one ulp away from channel 0 at one sample: solved on its own */
+        val[3 * (n / 2) + 2] = nextafterf(val[3 * (n / 2) + 2], 2.0f);
+    log_t l = {.n = 0};
+    csi_recon_options o;
+    csi_recon_defaults(&o);
+    o.progress = record;
+    o.user = &l;
+    csi_recon_result r;
+    csi_status st = csi_reconstruct(ctx, &g, 3, pos, val, n, &o, &r);
+    CHECK(st == CSI_OK, "reconstruct T = %u: %s", T, st == CSI_OK ? "" : csi_last_error());
+    if (st == CSI_OK) {
+        CHECK(l.n > 0 && !strcmp(l.phase[0], "setup"), "T = %u: the first phase is setup (%s)", T,
+              l.n ? l.phase[0] : "none");
+        int prev = 0;
+        for (int c = 1; c <= 3; c++) {
+            char sname[32], iname[32];
+            snprintf(sname, sizeof sname, "solve %d/3", c);
+            snprintf(iname, sizeof iname, "integrate %d/3", c);
+            int si = find(&l, sname), ii = find(&l, iname);
+            CHECK(si > prev, "T = %u: '%s' reported after the previous channel", T, sname);
+            const bool solved = !(copy_equal && c == 3);
+            if (solved) {
+                CHECK(ii > si, "T = %u: '%s' after '%s'", T, iname, sname);
+                CHECK(l.steps[si] > 0, "T = %u: '%s' carries the solver's steps (%d)", T, sname, l.steps[si]);
+                prev = ii;
+            } else {
+                CHECK(ii < 0, "T = %u: a repeated channel is not integrated again", T);
+                prev = si;
+            }
+        }
+        const size_t np = 16 * 16;
+        CHECK((memcmp(r.image, r.image + 2 * np, np * sizeof(float)) == 0) == copy_equal,
+              "T = %u: channels 0 and 2 %s", T, copy_equal ? "have the same bits" : "differ");
+        if (copy_equal)
+            CHECK(r.report[2].iterations == r.report[0].iterations && r.report[2].t_total == 0,
+                  "T = %u: the repeated channel reports the first one's solve, no time", T);
+        csi_recon_result_free(&r);
+    }
+    free(pos);
+    free(val);
+}
+
+int main(void)
+{
+    csi_ctx *ctx = test_ctx();
+    for (int copy = 0; copy < 2; copy++) {
+        run(ctx, 1, copy == 1);
+        run(ctx, 4, copy == 1);
+    }
+    return test_done();
+}
