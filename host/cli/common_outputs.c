@@ -138,6 +138,9 @@ void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_res
     csi_json_end(j);
     csi_json_num(j, "fixed_s", t->read + t->device + r->t_setup);
     csi_json_num(j, "per_sample_us", r->n ? 1e6 * (r->t_solve + r->t_integrate) / (double)r->n : 0);
+    csi_json_num(j, "cpu_setup_s", r->cpu_setup);
+    csi_json_num(j, "cpu_work_s", r->cpu_work);
+    csi_json_num(j, "cpu_per_sample_us", r->n ? 1e6 * r->cpu_work / (double)r->n : 0);
 }
 
 static csi_status write_one(const char *exr, const char *png, const float *planes, uint32_t w,

@@ -23,7 +23,8 @@ typedef struct cli_phase_times {
 /* "phases" {read, device, programs, setup, solve: {channel: s}, integrate: {channel: s}, write}
  * (programs is part of setup: building the kernels, a cost of the first run on a machine or of
  * a cold cache); "fixed_s" = read + device + setup, what a run costs before its first solver
- * step; "per_sample_us" = (solve + integrate) / samples. */
+ * step; "per_sample_us" = (solve + integrate) / samples; "cpu_setup_s", "cpu_work_s" and
+ * "cpu_per_sample_us": the same in process CPU time (all threads). */
 void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_result *r);
 
 /* Writes the image (and frames) with attributes describing the run. */

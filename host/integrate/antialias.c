@@ -148,6 +148,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the sharpened image", &st->tmp));
     CSI_TRY(csi_buffer(ctx, np * sizeof(float), CL_MEM_READ_WRITE, "the output image", &st->out));
     res->t_setup = csi_recon_now();
+    res->cpu_setup = csi_recon_cpu_now();
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels; c++) {

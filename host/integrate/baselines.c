@@ -31,6 +31,7 @@ csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels
     if (s == CSI_OK)
         s = csi_nc_init(ctx, g, st->idx, n, sigma, st->y, st->x, st->plane, &nc);
     res->t_setup = csi_recon_now();
+    res->cpu_setup = csi_recon_cpu_now();
     double t0 = csi_recon_now();
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
         for (size_t i = 0; i < n; i++)
@@ -63,6 +64,7 @@ csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t chann
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, np * channels * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
     res->t_setup = csi_recon_now();
+    res->cpu_setup = csi_recon_cpu_now();
     double t0 = csi_recon_now();
     size_t empty = 0;
     CSI_TRY(csi_splat_mean(ctx, g, channels, pos, values, n, st->out, &empty));

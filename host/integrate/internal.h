@@ -92,6 +92,8 @@ bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
 
 /* Monotonic clock in seconds. */
 double csi_recon_now(void);
+/* The process's CPU time in seconds (every thread, PoCL's workers included). */
+double csi_recon_cpu_now(void);
 /* Reports a phase to the caller's progress callback, if any. */
 void csi_recon_progress(const csi_recon_options *opt, const char *phase);
 /* The same for a phase of channel c of `channels`: "<phase> <c+1>/<channels>". */

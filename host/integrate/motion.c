@@ -84,6 +84,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
     }
     res->t_setup = csi_recon_now();
+    res->cpu_setup = csi_recon_cpu_now();
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {

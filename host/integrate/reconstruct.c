@@ -119,7 +119,7 @@ csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t c
     memset(&st, 0, sizeof st);
     st.scope = scope;
     double t0 = csi_recon_now();
-    const double b0 = csi_ctx_build_seconds(ctx);
+    const double b0 = csi_ctx_build_seconds(ctx), c0 = csi_recon_cpu_now();
     csi_recon_progress(&opt, "setup");
     csi_status s = CSI_OK;
     if (opt.estimator != CSI_EST_MEAN) {
@@ -144,6 +144,10 @@ csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t c
     }
     out->t_setup = out->t_setup > t0 ? out->t_setup - t0 : 0;
     out->t_programs = csi_ctx_build_seconds(ctx) - b0;
+    /* the methods set cpu_setup to the CPU clock when their setup ended */
+    const double c1 = csi_recon_cpu_now();
+    out->cpu_work = out->cpu_setup > c0 ? c1 - out->cpu_setup : 0;
+    out->cpu_setup = out->cpu_setup > c0 ? out->cpu_setup - c0 : c1 - c0;
     csi_recon_state_free(&st);
     if (s != CSI_OK)
         csi_recon_result_free(out);

@@ -51,6 +51,13 @@ bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
     return true;
 }
 
+double csi_recon_cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 double csi_recon_now(void)
 {
     struct timespec ts;

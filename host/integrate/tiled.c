@@ -318,6 +318,11 @@ csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t)
     out->t_setup += r->t_setup;
     out->t_solve += r->t_solve;
     out->t_integrate += r->t_integrate;
+    out->t_programs += r->t_programs;
+    out->cpu_setup += r->cpu_setup;
+    out->cpu_work += r->cpu_work;
+    for (uint32_t c = 0; c < out->channels; c++)
+        out->t_channel_integrate[c] += r->t_channel_integrate[c];
     b->next++;
     return CSI_OK;
 }

@@ -179,6 +179,9 @@ typedef struct csi_recon_result {
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
     double t_channel_integrate[4]; /* t_integrate per channel (the solves: report[c].t_total) */
+    double cpu_setup, cpu_work;    /* process CPU seconds (every thread) of the setup and of the
+                                      solves and integration: on a shared machine, less
+                                      disturbed by other jobs than wall time */
     size_t k, n;            /* grid cells and measurements per channel (the whole problem's) */
     size_t unknowns;        /* the solver's unknowns per channel: k, or fewer on a model grid */
     uint32_t model_factor;  /* Alg. 1: the model grid's coarsening D (csi/model_grid.h), else 1 */
