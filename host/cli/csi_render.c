@@ -217,25 +217,8 @@ int main(int argc, char **argv)
             goto done;
         }
         factor = grid_k / plan.width;
-    } else if (plan.frames > 1) {
-        factor = 1;
     } else {
-        /* Static: the compressive estimate converges to the mean over the fine grid's cell
-         * centres, a discretisation bias against the continuous image that a fixed 4x grid
-         * (16 cells per pixel) makes dominant once most cells are sampled (paper Sec. 4, 5.2,
-         * Fig. 7: a larger k). Measured (docs/bench/grid.md, 64x64, 4 seeds, MSE vs a 256-spp
-         * reference / stratified's MSE at equal spp): checkerboard 9 spp 1.20 at 4x, 0.93 at 8x;
-         * 16 spp 2.11 at 4x, 1.52 at 8x, 0.71 at 16x; garden 9 spp 1.22 / 0.65, 16 spp
-         * 1.46 / 0.68 / 0.55; 1 spp is best at 4x (0.28-0.41). Non-power-of-two multipliers
-         * (6x, 12x) lose on checkerboard (16 spp at 12x: 1.20). Rule: the smallest power of two
-         * F >= 4 with F^2 > 4 spp (more than 4 cells per sample), at most 16 (the sweep's
-         * largest; reconstruction at 16x costs about 3-10x that at 4x), halved while the grid
-         * would exceed 65536 cells across. */
-        factor = 4;
-        while (factor < 16 && factor * factor <= 4 * spp)
-            factor *= 2;
-        while (factor > 4 && ((uint64_t)plan.width * factor > 65536 || (uint64_t)plan.height * factor > 65536))
-            factor /= 2;
+        factor = csi_default_grid_factor(plan.width, plan.height, plan.frames, spp);
     }
     if ((uint64_t)plan.width * factor > 65536 || (uint64_t)plan.height * factor > 65536) {
         rc = cli_error(prog, CSI_ERR_ARG, "fine grid %llux%llu is too large",

@@ -172,6 +172,10 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
     uint32_t channels = le32(h + 28);
     uint64_t count = le64(h + 32);
     uint64_t seed = le64(h + 40);
+    if (channels == 0)
+        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte 28: channels = 0: a positions request (positions "
+                                          "only, no values), not samples: a renderer evaluates it and writes a dump "
+                                          "with values", path));
     /* Grid and channels before anything that depends on them; the byte offset names the field. */
     {
         csi_status st = csi_dump_check_grid(&g, channels, opts->max_cells);
@@ -332,7 +336,8 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
 
 csi_status csi_dump_write(const char *path, const csi_dump *d)
 {
-    if (csi_dump_check_grid(&d->grid, d->channels, 0) != CSI_OK)
+    /* channels = 0 is a positions request (records x, y, t only): its grid is checked alone. */
+    if (csi_dump_check_grid(&d->grid, d->channels ? d->channels : 1, 0) != CSI_OK)
         return csi_fail_context(CSI_ERR_ARG, "%s: cannot write dump: ", path);
     if (d->count == 0)
         return csi_fail(CSI_ERR_ARG, "%s: cannot write a dump with zero samples", path);

@@ -252,8 +252,25 @@ static int test_random_uniform(void)
     return 0;
 }
 
+/* The default grid rule, spelled out independently: static F = 4 for 1-3 spp, 8 for 4-15, 16
+ * from 16 (smallest power of two >= 4 with F^2 > 4 spp, at most 16); 1 when moving; halved
+ * (not below 4) while a side would pass 65536 cells. */
+static int test_default_grid(void)
+{
+    const struct { uint64_t spp; uint32_t f; } rule[] = {{1, 4}, {3, 4}, {4, 8}, {15, 8}, {16, 16}, {64, 16}, {65536, 16}};
+    for (size_t i = 0; i < sizeof rule / sizeof rule[0]; i++)
+        CHECK(csi_default_grid_factor(128, 96, 1, rule[i].spp) == rule[i].f, "%llu spp: %u",
+              (unsigned long long)rule[i].spp, csi_default_grid_factor(128, 96, 1, rule[i].spp));
+    CHECK(csi_default_grid_factor(128, 128, 8, 16) == 1, "moving: 1x");
+    CHECK(csi_default_grid_factor(4096, 64, 1, 16) == 16, "4096 * 16 = 65536 fits");
+    CHECK(csi_default_grid_factor(64, 4097, 1, 16) == 8, "4097 * 16 > 65536: halved to 8");
+    CHECK(csi_default_grid_factor(20000, 64, 1, 16) == 4, "never below 4 (the caller refuses the size)");
+    return 0;
+}
+
 int main(void)
 {
+    test_default_grid();
     test_prng();
     test_counts_and_errors();
     test_methods_basic();

@@ -58,6 +58,7 @@ csi_status csi_dump_check_grid(const csi_grid *g, uint32_t channels, uint64_t ma
 
 /* Reads and validates a dump. Errors (all CSI_ERR_FORMAT unless said otherwise; message
  * "path: byte B: ..." or "path: record R (byte B): ..."): wrong magic, unknown version,
+ * a positions request (channels = 0: no values to reconstruct from),
  * truncated header, non-zero reserved bytes, bad grid or channels (before allocating), zero
  * samples, count larger than the file or trailing bytes, positions outside the grid (also t != 0
  * when grid_t = 1), NaN/Inf values (unless opts->drop_invalid: then dropped and counted; a file
@@ -70,7 +71,9 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
 
 /* Writes a dump (temporary file, then rename: see csi/outfile.h). Refuses (CSI_ERR_ARG) what
  * the reader would refuse: a bad grid, zero samples, a position outside the grid, a non-finite
- * value. Duplicate positions are allowed (the format permits them). */
+ * value. Duplicate positions are allowed (the format permits them). channels = 0 writes a
+ * positions request (records x, y, t only; values unused, may be NULL): what csi-positions
+ * hands a renderer, which csi_dump_read refuses as samples. */
 csi_status csi_dump_write(const char *path, const csi_dump *d);
 
 /* Allocates pos and values for `count` samples (zeroed); grid/channels/seed set by the caller. */

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# csi-positions: the positions request (docs/dump-format.md, channels = 0) holds exactly the
+# grid and positions csi-render samples for the same size, spp and seed (static and moving), the
+# default grid follows csi-render's rule, csi-reconstruct refuses a request with a clear line,
+# and bad input exits 2 with one line and no file left behind.
+# usage: positions.sh BUILD_DIR SOURCE_DIR
+set -u
+B="$1"; S="$2"
+T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
+pass=0; fail=0
+ok()   { pass=$((pass + 1)); }
+bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
+check() { if eval "$1"; then ok; else bad "$2"; fi; }
+# header fields as unsigned 32-bit words: grid_w grid_h grid_t out_w out_h channels count_lo
+hdr() { od -An -v -tu4 -j8 -N28 "$1" | tr -s ' \n' ' ' | sed 's/^ //; s/ $//'; }
+# the (x, y, t) of every record of a file whose records are $2 bytes long
+xyt() { od -An -v -tu4 -j64 -w"$2" "$1" | awk '{print $1, $2, $3}'; }
+
+P="$B/csi-positions"
+"$P" --help > "$T/help" 2>&1; check "[[ $? == 0 ]] && grep -q usage '$T/help'" "--help"
+"$P" --version > "$T/ver" 2>&1; check "[[ $? == 0 ]] && grep -q csi-positions '$T/ver'" "--version"
+
+# --- the same positions as csi-render: static (default grid 8x at 4 spp), moving (1x, T = 8) --
+static="$S/tests/cli/scenes/small_triangle.scene"
+moving="$S/tests/cli/scenes/small_moving.scene"
+for spp in 1 4 16; do
+    "$B/csi-render" "$static" --spp $spp --seed 3 --dump "$T/r$spp.csid" -o "$T/r.exr" --max-iter 5 -q
+    "$P" --out 32x32 --spp $spp --seed 3 -o "$T/q$spp.csid" -q
+    check "[[ $? == 0 ]]" "static $spp spp: csi-positions failed"
+    # default grid: 4x to 3 spp, 8x for 4-15, 16x from 16 (csi_default_grid_factor)
+    f=$(( spp < 4 ? 4 : spp < 16 ? 8 : 16 ))
+    n=$(( spp * 32 * 32 ))
+    check "[[ '$(hdr "$T/q$spp.csid")' == '$((32 * f)) $((32 * f)) 1 32 32 0 $n' ]]" \
+          "static $spp spp header: $(hdr "$T/q$spp.csid")"
+    check "[[ '$(hdr "$T/r$spp.csid")' == '$((32 * f)) $((32 * f)) 1 32 32 3 $n' ]]" \
+          "csi-render's dump header at $spp spp: $(hdr "$T/r$spp.csid")"
+    check "[[ \$(stat -c %s '$T/q$spp.csid') == $((64 + 12 * n)) ]]" "request size at $spp spp"
+    check "cmp -s <(xyt '$T/q$spp.csid' 12) <(xyt '$T/r$spp.csid' 24)" "static $spp spp: positions differ from csi-render's"
+done
+"$B/csi-render" "$moving" --spp 2 --seed 5 --dump "$T/rm.csid" -o "$T/r.exr" --max-iter 5 -q
+"$P" --out 32x32 --spp 2 --seed 5 --time-steps 8 -o "$T/qm.csid" -q
+check "[[ '$(hdr "$T/qm.csid")' == '32 32 8 32 32 0 2048' ]]" "moving header: $(hdr "$T/qm.csid")"
+check "cmp -s <(xyt '$T/qm.csid' 12) <(xyt '$T/rm.csid' 24)" "moving: positions differ from csi-render's"
+"$P" --out 32x32 --spp 2 --seed 6 --time-steps 8 -o "$T/qm6.csid" -q
+check "! cmp -s '$T/qm.csid' '$T/qm6.csid'" "another seed gives the same positions"
+for m in stratified random; do
+    "$B/csi-render" "$static" --spp 4 --method $m --dump "$T/r$m.csid" -o "$T/r.exr" -q
+    "$P" --out 32x32 --spp 4 --method $m -o "$T/q$m.csid" -q
+    check "cmp -s <(xyt '$T/q$m.csid' 12) <(xyt '$T/r$m.csid' 24)" "--method $m: positions differ from csi-render's"
+done
+"$P" --out 32x16 --spp 2 --grid 64 -o "$T/g.csid" -q
+check "[[ '$(hdr "$T/g.csid")' == '64 32 1 32 16 0 1024' ]]" "--grid 64 on 32x16: $(hdr "$T/g.csid")"
+"$P" --out 32x32 --fraction 0.25 --grid 64 -o "$T/f.csid" -q
+check "[[ '$(hdr "$T/f.csid")' == '64 64 1 32 32 0 1024' ]]" "--fraction 0.25: $(hdr "$T/f.csid")"
+
+# --- bad input: exit 2, one line naming the problem, nothing written ---------------------------
+expect_fail() { # name, expected-substring, command...
+    local name="$1" want="$2"; shift 2
+    rm -f "$T/out.csid"
+    "$@" > "$T/o" 2> "$T/e"; local rc=$?
+    local lines; lines=$(wc -l < "$T/e")
+    if [[ $rc == 2 && $lines == 1 ]] && grep -q -- "$want" "$T/e" && [[ ! -e "$T/out.csid" && ! -e "$T/out.exr" ]] && \
+       ! ls -A "$T" | grep -q '^\.out'; then ok; else bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"; fi
+}
+expect_fail "request is not samples" "positions request" "$B/csi-reconstruct" "$T/q4.csid" -o "$T/out.exr"
+expect_fail "no output" "-o" "$P" --out 32x32
+expect_fail "no size" "--out" "$P" -o "$T/out.csid"
+expect_fail "bad size" "--out" "$P" --out 32x0 -o "$T/out.csid"
+expect_fail "grid not a multiple" "--grid" "$P" --out 32x32 --grid 50 -o "$T/out.csid"
+expect_fail "more samples than cells" "cells" "$P" --out 32x32 --grid 32 --spp 2 -o "$T/out.csid"
+expect_fail "unknown method" "poisson" "$P" --out 32x32 --method sobol -o "$T/out.csid"
+expect_fail "bad fraction" "--fraction" "$P" --out 32x32 --fraction 1.5 -o "$T/out.csid"
+expect_fail "unwritable output" "no-such-dir" "$P" --out 32x32 -o "$T/no-such-dir/out.csid"
+expect_fail "stray argument" "stray" "$P" --out 32x32 -o "$T/out.csid" stray
+expect_fail "unknown option" "--bogus" "$P" --out 32x32 -o "$T/out.csid" --bogus
+
+echo "$pass passed, $fail failed"
+[[ $fail == 0 ]]
