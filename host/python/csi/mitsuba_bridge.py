@@ -1,0 +1,321 @@
+"""Mitsuba 3 as csi's renderer: radiance at exactly csi's cell centres, and box-filtered references.
+
+    from csi import mitsuba_bridge as mb
+    scene = mb.load_scene("cornell", size=(128, 128))      # or an XML file, or a .py with scene()
+    req = mb.positions_request(out=(128, 128), spp=4, seed=1)   # csi-positions' grid and positions
+    s = mb.render_request(scene, req, paths=64, seed=1)     # numpy: s.values (n, 3), s.timing
+    csi.dump.write("s.csid", req.with_values(s.values))     # the dump for csi-reconstruct
+    ref = mb.render_reference(mb.load_scene("cornell", size=(128, 128), box_filter=True), spp=4096)
+
+Each sample is evaluated with Mitsuba's own sensor and integrator: the sensor's ray through image
+point ((x + 0.5) / grid_w, (y + 0.5) / grid_h) (v = 0 on the top row, the same convention as
+csi's dumps), at shutter time (t + 0.5) / grid_t of the sensor's shutter interval, then the
+scene's integrator along it; several paths per sample are averaged. The reference is
+`mi.render` with the film's reconstruction filter set to a box: Mitsuba's pixel (px, py) is
+then the mean over [px, px+1) x [py, py+1) of the film, which is csi's output pixel.
+
+The llvm_ad_rgb variant needs an LLVM >= 16 shared library; DRJIT_LIBLLVM_PATH is set to one
+found on the system when it is unset (see ../shared/TOOLCHAIN.md for the Debian 12 package).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob
+import os
+import re
+import runpy
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from . import dump as csid
+from . import programs
+
+VARIANT = "llvm_ad_rgb"
+LLVM_MIN = 16
+#: Lanes per Mitsuba launch: bounds memory (a few hundred bytes a lane) while keeping the
+#: per-launch overhead small. Part of the seeding, so fixed: changing it changes the noise.
+BATCH_LANES = 1 << 21
+
+
+class BridgeError(RuntimeError):
+    """Bad input or a missing dependency; the message is one line naming the problem."""
+
+
+# ---- Mitsuba and its LLVM ---------------------------------------------------------------------
+
+def find_libllvm():
+    """Path of an LLVM >= 16 shared library (newest first), or None."""
+    found = []
+    pats = ["/usr/lib/*-linux-gnu/libLLVM-*.so*", "/usr/lib/*-linux-gnu/libLLVM.so.*", "/usr/lib/llvm-*/lib/libLLVM*.so*",
+            "/usr/lib64/libLLVM*.so*", "/usr/local/lib/libLLVM*.so*", "/opt/homebrew/opt/llvm/lib/libLLVM.dylib"]
+    for pat in pats:
+        for p in glob.glob(pat):
+            m = re.search(r"libLLVM[-.](?:so\.)?(\d+)", os.path.basename(p)) or re.search(r"llvm-(\d+)", p)
+            if m and int(m.group(1)) >= LLVM_MIN and os.path.isfile(p):
+                found.append((int(m.group(1)), p))
+    if not found:
+        return None
+    found.sort(key=lambda vp: (-vp[0], len(vp[1])))
+    return found[0][1]
+
+
+_mi = None
+
+
+def mitsuba():
+    """Imports Mitsuba with the llvm_ad_rgb variant (once), setting DRJIT_LIBLLVM_PATH if unset."""
+    global _mi
+    if _mi is not None:
+        return _mi
+    if not os.environ.get("DRJIT_LIBLLVM_PATH"):
+        lib = find_libllvm()
+        if lib is None:
+            raise BridgeError(f"no LLVM >= {LLVM_MIN} shared library found for Mitsuba's {VARIANT} variant: install one "
+                              f"(Debian 12: apt-get install libllvm19) or set DRJIT_LIBLLVM_PATH to it")
+        os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    try:
+        import mitsuba as mi
+    except ImportError as e:
+        raise BridgeError(f"Mitsuba 3 is not installed in this Python ({e}): pip install -r tools/requirements.txt "
+                          f"(tools/setup does it)") from None
+    try:
+        mi.set_variant(VARIANT)
+    except Exception as e:  # Dr.Jit reports a missing or too old LLVM here
+        raise BridgeError(f"Mitsuba's {VARIANT} variant does not start (DRJIT_LIBLLVM_PATH="
+                          f"{os.environ.get('DRJIT_LIBLLVM_PATH')}): {_one_line(e)}") from None
+    _mi = mi
+    return mi
+
+
+def _one_line(e) -> str:
+    msg = " ".join(str(e).split())
+    return re.sub(r"\[[\w./-]+\.cpp:\d+\]\s*", "", msg)
+
+
+# ---- scenes -----------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Scene:
+    mi_scene: object
+    size: tuple  # (w, h) of the film = the output image
+    name: str
+
+
+def _film_dict_override(d, size, box_filter):
+    sensor = next((v for v in d.values() if isinstance(v, dict) and v.get("type") in SENSOR_TYPES), None)
+    if sensor is None:
+        raise BridgeError("the scene has no sensor")
+    film = sensor.setdefault("film", {"type": "hdrfilm"})
+    if size:
+        film["width"], film["height"] = int(size[0]), int(size[1])
+    if box_filter:
+        film["rfilter"] = {"type": "box"}
+    return d
+
+
+SENSOR_TYPES = ("perspective", "thinlens", "orthographic", "telecentric", "radiancemeter", "irradiancemeter",
+                "distant", "batch")
+
+
+def _xml_override(path, size, box_filter) -> str:
+    try:
+        tree = ET.parse(path)
+    except ET.ParseError as e:
+        raise BridgeError(f"{path}: not well-formed XML: {e}") from None
+    except OSError as e:
+        raise BridgeError(f"{path}: cannot read: {e.strerror}") from None
+    root = tree.getroot()
+    if root.tag != "scene":
+        raise BridgeError(f"{path}: the root element is <{root.tag}>, not a Mitsuba <scene>")
+    sensor = root.find("sensor")
+    if sensor is None:
+        raise BridgeError(f"{path}: the scene has no <sensor>")
+    film = sensor.find("film")
+    if film is None:
+        film = ET.SubElement(sensor, "film", {"type": "hdrfilm"})
+    if size:
+        for name, v in (("width", size[0]), ("height", size[1])):
+            el = next((e for e in film if e.get("name") == name), None)
+            if el is None:
+                el = ET.SubElement(film, "integer", {"name": name})
+            el.set("value", str(int(v)))
+    if box_filter:
+        for rf in film.findall("rfilter"):
+            film.remove(rf)
+        ET.SubElement(film, "rfilter", {"type": "box"})
+    return ET.tostring(root, encoding="unicode")
+
+
+def load_scene(spec, size=None, box_filter=False) -> Scene:
+    """spec: "cornell" (Mitsuba's built-in Cornell box), a Mitsuba XML file, or a Python file
+    defining scene() that returns a scene dictionary. size (w, h) overrides the film's; with
+    box_filter the film's reconstruction filter becomes a box (for references)."""
+    spec = os.fspath(spec)
+    if size is not None and (size[0] < 1 or size[1] < 1 or size[0] > csid.MAX_SIDE or size[1] > csid.MAX_SIDE):
+        raise BridgeError(f"image size {size[0]}x{size[1]} is not from 1x1 to {csid.MAX_SIDE}x{csid.MAX_SIDE}")
+    # What can be checked without Mitsuba first: a bad path fails fast and without the import.
+    if spec != "cornell" and not os.path.isfile(spec):
+        raise BridgeError(f"{spec}: no such scene file (give a Mitsuba XML file, a .py with scene(), or 'cornell')")
+    text = _xml_override(spec, size, box_filter) if spec != "cornell" and not spec.endswith(".py") else None
+    mi = mitsuba()
+    try:
+        if spec == "cornell":
+            scene = mi.load_dict(_film_dict_override(mi.cornell_box(), size, box_filter))
+        elif spec.endswith(".py"):
+            ns = runpy.run_path(spec)
+            if not callable(ns.get("scene")):
+                raise BridgeError(f"{spec}: defines no scene() function returning a Mitsuba scene dictionary")
+            scene = mi.load_dict(_film_dict_override(ns["scene"](), size, box_filter))
+        else:
+            resolver = mi.Thread.thread().file_resolver()
+            resolver.prepend(os.path.dirname(os.path.abspath(spec)))
+            scene = mi.load_string(text)
+    except BridgeError as e:
+        raise BridgeError(str(e) if str(e).startswith(spec) else f"{spec}: {e}") from None
+    except Exception as e:  # Mitsuba's parser and plugins raise RuntimeError with the reason
+        raise BridgeError(f"{spec}: Mitsuba cannot load the scene: {_one_line(e)}") from None
+    if not scene.sensors():
+        raise BridgeError(f"{spec}: the scene has no sensor")
+    film = scene.sensors()[0].film()
+    w, h = (int(v) for v in film.crop_size())
+    return Scene(mi_scene=scene, size=(w, h), name=os.path.basename(spec))
+
+
+# ---- positions --------------------------------------------------------------------------------
+
+def positions_request(out, spp=4, grid=None, method="poisson", seed=1, time_steps=1, fraction=None) -> csid.Dump:
+    """The grid and positions csi wants (csi-positions, so the same as csi-render's for a seed)."""
+    args = ["--out", f"{out[0]}x{out[1]}", "--method", method, "--seed", seed, "--time-steps", time_steps, "-q"]
+    args += ["--fraction", fraction] if fraction else ["--spp", spp]
+    if grid:
+        args += ["--grid", grid]
+    with tempfile.TemporaryDirectory(prefix="csi-positions-") as tmp:
+        path = os.path.join(tmp, "request.csid")
+        try:
+            programs.run("csi-positions", ["-o", path, *args])
+        except programs.ProgramError as e:
+            raise BridgeError(str(e)) from None
+        return csid.read(path, want="request")
+
+
+# ---- rendering --------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Samples:
+    values: np.ndarray  # (n, 3) float32: mean radiance over the paths of each sample
+    albedo: np.ndarray | None  # (n, 3) float32 at the first hit (aov), or None
+    normal: np.ndarray | None  # (n, 3) float32 shading normal at the first hit (0 on a miss), or None
+    paths: int
+    nonfinite: int  # paths whose radiance was NaN/Inf, counted as 0 (Mitsuba's film would keep them)
+    timing: dict
+
+
+def _batch_seed(seed: int, batch: int) -> int:
+    """A 32-bit seed per launch (splitmix64 of the user's seed and the batch number)."""
+    z = (seed * 0x9E3779B97F4A7C15 + batch + 1) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
+    return (z ^ (z >> 31)) & 0xFFFFFFFF
+
+
+def _launch(scene, integrator, u, v, time_, seed, aov=False):
+    """One Mitsuba launch over len(u) lanes: radiance (or the aov channels) at image points u, v."""
+    mi = mitsuba()
+    import drjit as dr
+
+    n = len(u)
+    sensor = scene.sensors()[0]
+    sampler = mi.load_dict({"type": "independent"})
+    sampler.seed(dr.opaque(mi.UInt32, seed), n)  # opaque: the seed is a kernel input, not a constant baked into (and recompiling) the kernel
+    pos = mi.Point2f(mi.Float(u.astype(np.float32)), mi.Float(v.astype(np.float32)))
+    t = mi.Float(time_.astype(np.float32))
+    ray, weight = sensor.sample_ray(t, sampler.next_1d(), pos, sampler.next_2d())
+    L, _, aovs = integrator.sample(scene, sampler, ray)
+    if aov:
+        out = np.stack([np.asarray(a) for a in aovs], axis=1)
+    else:
+        out = np.asarray(L * weight).T
+    dr.sync_thread()
+    return out.astype(np.float32, copy=False)
+
+
+def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, progress=None) -> Samples:
+    """Evaluates a positions request with the scene's sensor and integrator: `paths` paths per
+    sample, averaged. seed defaults to the request's. aov adds per-sample albedo and normal.
+    progress(done, total) is called after each launch."""
+    if req.out != scene.size:
+        raise BridgeError(f"the request is for a {req.out[0]}x{req.out[1]} image but the scene's film is "
+                          f"{scene.size[0]}x{scene.size[1]}: load the scene with size={req.out}")
+    if paths < 1:
+        raise BridgeError(f"paths per sample must be >= 1 (got {paths})")
+    mi = mitsuba()
+    seed = req.seed if seed is None else int(seed)
+    s = scene.mi_scene
+    sensor = s.sensors()[0]
+    u, v, tt = req.cell_centres()
+    time_ = sensor.shutter_open() + tt * sensor.shutter_open_time()
+    n = len(u)
+    integrator = s.integrator()
+
+    # The first launch compiles Mitsuba's kernels (seconds): time it apart on a few lanes so
+    # the per-path time below is the warm cost.
+    t0 = time.perf_counter()
+    k = min(n, 256)
+    _launch(s, integrator, u[:k], v[:k], time_[:k], _batch_seed(seed, 1 << 40))
+    jit_s = time.perf_counter() - t0
+
+    per = max(1, BATCH_LANES // paths)  # samples per launch
+    values = np.empty((n, 3), np.float32)
+    nonfinite = 0
+    t0 = time.perf_counter()
+    for b, i0 in enumerate(range(0, n, per)):
+        i1 = min(n, i0 + per)
+        rep = lambda a: np.repeat(a[i0:i1], paths)  # sample-major: a sample's paths are adjacent
+        L = _launch(s, integrator, rep(u), rep(v), rep(time_), _batch_seed(seed, b)).astype(np.float64)
+        bad = ~np.isfinite(L).all(axis=1)
+        if bad.any():
+            nonfinite += int(bad.sum())
+            L[bad] = 0.0
+        values[i0:i1] = L.reshape(i1 - i0, paths, 3).mean(axis=1)
+        if progress:
+            progress(i1, n)
+    render_s = time.perf_counter() - t0
+
+    albedo = normal = None
+    aov_s = 0.0
+    if aov:
+        aov_int = mi.load_dict({"type": "aov", "aovs": "a:albedo,n:sh_normal"})
+        _launch(s, aov_int, u[:k], v[:k], time_[:k], 0, aov=True)  # compile apart, as above
+        t0 = time.perf_counter()
+        a = np.empty((n, 6), np.float32)
+        for b, i0 in enumerate(range(0, n, BATCH_LANES)):
+            i1 = min(n, i0 + BATCH_LANES)
+            a[i0:i1] = _launch(s, aov_int, u[i0:i1], v[i0:i1], time_[i0:i1], _batch_seed(seed, (1 << 41) + b), aov=True)
+        aov_s = time.perf_counter() - t0
+        a[~np.isfinite(a)] = 0.0
+        albedo, normal = a[:, :3].copy(), a[:, 3:].copy()
+    timing = {"jit_s": jit_s, "render_s": render_s, "samples": n, "paths": n * paths,
+              "per_sample_us": 1e6 * render_s / n, "per_path_us": 1e6 * render_s / (n * paths), "aov_s": aov_s}
+    return Samples(values=values, albedo=albedo, normal=normal, paths=paths, nonfinite=nonfinite, timing=timing)
+
+
+def render_reference(scene: Scene, spp: int, seed=0, progress=None) -> np.ndarray:
+    """Mitsuba's own render of the scene (load it with box_filter=True for csi's box pixels):
+    (h, w, 3) float32, the mean of passes of mi.render with different seeds, each pass at most
+    BATCH_LANES samples, so memory stays bounded at any spp."""
+    mi = mitsuba()
+    w, h = scene.size
+    limit = max(1, BATCH_LANES // (w * h))
+    per = max(d for d in range(1, min(spp, limit) + 1) if spp % d == 0)
+    acc = np.zeros((h, w, 3))
+    passes = spp // per
+    for i in range(passes):
+        img = np.asarray(mi.render(scene.mi_scene, spp=per, seed=_batch_seed(seed, i)), dtype=np.float64)
+        acc += img[..., :3]
+        if progress:
+            progress(i + 1, passes)
+    return (acc / passes).astype(np.float32)

@@ -1,0 +1,267 @@
+"""csi-mitsuba: renders a Mitsuba 3 scene at csi's sample positions and reconstructs it (see --help)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+
+from . import atomic
+from . import dump as csid
+from . import exr
+from . import mitsuba_bridge as mb
+from . import programs
+
+PROG = "csi-mitsuba"
+
+DESCRIPTION = """\
+Renders SCENE with Mitsuba 3 (llvm_ad_rgb, the scene's own sensor and integrator) at exactly
+the fine-grid cell centres csi asks for (csi-positions: the grid and positions csi-render would
+use for the same size, spp and seed), N paths per sample averaged, and reconstructs the image
+with csi-reconstruct. With --reference it renders Mitsuba's own box-filtered image instead (the
+film's reconstruction filter set to a box: pixel (px, py) is the mean over [px, px+1) x
+[py, py+1), csi's output pixel), the ground truth to compare with.
+
+SCENE is 'cornell' (Mitsuba's built-in Cornell box), a Mitsuba XML scene file, or a Python file
+defining scene() that returns a Mitsuba scene dictionary (such as data/mitsuba/*.py).
+Arguments after '--' go to csi-reconstruct (e.g. -- --estimator mean)."""
+
+EPILOG = """\
+examples:
+  csi-mitsuba cornell --out 128x128 --spp 4 -o cornell.exr --dump cornell.csid
+  csi-mitsuba scene.xml --spp 4 --paths 64 -o out.exr -- --estimator mean
+  csi-mitsuba cornell --out 128x128 --reference 4096 -o ref.exr
+  csi-positions --out 128x128 --spp 4 -o req.csid && csi-mitsuba cornell --request req.csid --dump s.csid
+exit status: 0 success, 2 bad input or usage, 1 other failure"""
+
+
+class UsageError(Exception):
+    pass
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse prints usage + error otherwise)
+        raise UsageError(message)
+
+
+def _size(s):
+    try:
+        w, h = (int(v) for v in s.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{s}' is not a size WxH") from None
+    if not (1 <= w <= csid.MAX_SIDE and 1 <= h <= csid.MAX_SIDE):
+        raise argparse.ArgumentTypeError(f"'{s}' is not a size from 1x1 to {csid.MAX_SIDE}x{csid.MAX_SIDE}")
+    return (w, h)
+
+
+def _int_range(lo, hi):
+    def parse(s):
+        try:
+            v = int(s)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{s}' is not a whole number") from None
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"'{s}' is not from {lo} to {hi}")
+        return v
+    return parse
+
+
+def parser():
+    p = Parser(prog=PROG, description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scene", metavar="SCENE")
+    o = p.add_argument_group("outputs")
+    o.add_argument("-o", "--output", metavar="OUT.exr", help="the reconstructed image (float32 EXR; with --reference: Mitsuba's reference)")
+    o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction (csi-reconstruct's)")
+    o.add_argument("--dump", metavar="FILE.csid", help="the samples as a csi dump (docs/dump-format.md)")
+    o.add_argument("--aov", action="store_true", help="with --dump: also per-sample albedo and normal at the first hit, "
+                   "FILE.albedo.csid and FILE.normal.csid (OIDN's guides)")
+    o.add_argument("--npy", metavar="FILE.npy", help="with --reference: the reference as an (h, w, 3) float32 numpy array too")
+    o.add_argument("--stats", metavar="FILE.json", help="grid, Mitsuba's times (JIT apart, per sample, per path) and "
+                   "csi-reconstruct's statistics")
+    s = p.add_argument_group("sampling")
+    s.add_argument("--out", type=_size, metavar="WxH", help="output image size (default: the scene film's)")
+    s.add_argument("--spp", type=_int_range(1, 65536), default=4, help="samples per pixel (default 4)")
+    s.add_argument("--paths", type=_int_range(1, 1 << 20), default=1, help="Mitsuba paths per sample, averaged (default 1)")
+    s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
+                   help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
+    s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
+                   help="positions (default poisson, the compressive method's)")
+    s.add_argument("--time-steps", type=_int_range(1, 4096), default=1, metavar="T",
+                   help="frames across the shutter (default 1: a static image)")
+    s.add_argument("--seed", type=_int_range(0, (1 << 64) - 1), default=1, help="seed of the positions and of Mitsuba's sampler (default 1)")
+    s.add_argument("--request", metavar="REQ.csid", help="evaluate this positions request (csi-positions) instead; "
+                   "the size, grid and positions are its own")
+    s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
+                   "with SPP samples per pixel instead of samples")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
+    return p
+
+
+def _check_writable(path, what):
+    d = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(d):
+        raise UsageError(f"{path}: cannot write the {what}: no such directory {d}")
+    if not os.access(d, os.W_OK):
+        raise UsageError(f"{path}: cannot write the {what}: directory {d} is not writable")
+
+
+class _Progress:
+    def __init__(self, quiet):
+        self.on = not quiet and sys.stderr.isatty()
+
+    def __call__(self, phase, done, total):
+        if self.on:
+            sys.stderr.write(f"\r{PROG}: {phase} {done}/{total}   ")
+            sys.stderr.flush()
+
+    def end(self):
+        if self.on:
+            sys.stderr.write("\r\033[K")
+
+
+def reconstruct(dump_path, output, png=None, stats=None, extra=()):
+    """Reconstructs a dump into output (EXR) with csi-reconstruct; returns its stats (dict).
+    The one place that calls csi: when the Python binding arrives this becomes a library call."""
+    with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
+        sj = os.path.join(tmp, "stats.json")
+        args = [dump_path, "-q", "--stats", sj, *extra]
+        if output:
+            args += ["-o", output]
+        if png:
+            args += ["--png", png]
+        programs.run("csi-reconstruct", args)
+        with open(sj) as f:
+            return json.load(f)
+
+
+def _write_json(path, obj):
+    with atomic.target(path) as tmp, open(tmp, "w") as f:
+        json.dump(obj, f, indent=1)
+
+
+def run(a, extra):
+    prog = _Progress(a.quiet)
+    if a.reference:
+        for flag, v in (("--png", a.png), ("--dump", a.dump), ("--aov", a.aov), ("--request", a.request)):
+            if v:
+                raise UsageError(f"{flag} does not apply to --reference (it writes -o/--npy/--stats)")
+        if extra:
+            raise UsageError("csi-reconstruct arguments after '--' do not apply to --reference")
+    else:
+        if a.npy:
+            raise UsageError("--npy is only for --reference (the samples go to --dump)")
+        if a.aov and not a.dump:
+            raise UsageError("--aov needs --dump FILE.csid (the albedo and normal go beside it)")
+    if not (a.output or a.png or a.dump or a.npy):
+        raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
+    outs = [(a.output, "image"), (a.png, "preview"), (a.dump, "dump"), (a.npy, "array"), (a.stats, "statistics")]
+    for path, what in outs:
+        if path:
+            _check_writable(path, what)
+    aov_paths = None
+    if a.aov:
+        stem = a.dump[:-5] if a.dump.endswith(".csid") else a.dump
+        aov_paths = (stem + ".albedo.csid", stem + ".normal.csid")
+
+    req = None
+    if a.request:
+        req = csid.read(a.request, want="request")
+        size = req.out
+        if a.out and a.out != size:
+            raise UsageError(f"--out {a.out[0]}x{a.out[1]} differs from the request's {size[0]}x{size[1]}")
+    t_load = time.perf_counter()
+    scene = mb.load_scene(a.scene, size=a.out, box_filter=bool(a.reference))
+    if req is not None and scene.size != req.out:
+        scene = mb.load_scene(a.scene, size=req.out)
+    t_load = time.perf_counter() - t_load
+    size = scene.size
+
+    if a.reference:
+        t0 = time.perf_counter()
+        ref = mb.render_reference(scene, a.reference, seed=a.seed, progress=lambda d, n: prog("reference pass", d, n))
+        t_ref = time.perf_counter() - t0
+        prog.end()
+        if a.output:
+            exr.write(a.output, ref)
+        if a.npy:
+            import numpy as np
+
+            with atomic.target(a.npy, suffix=".npy") as tmp:
+                np.save(tmp, ref)
+        if a.stats:
+            _write_json(a.stats, {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
+                                  "seed": a.seed, "t_load_s": t_load, "t_render_s": t_ref,
+                                  "per_path_us": 1e6 * t_ref / (a.reference * size[0] * size[1])})
+        if not a.quiet:
+            print(f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {a.reference} spp, box filter: {t_ref:.2f} s "
+                  f"-> {a.output or a.npy}", file=sys.stderr)
+        return 0
+
+    if req is None:
+        req = mb.positions_request(size, spp=a.spp, grid=a.grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
+    seed = a.seed if not a.request else req.seed
+    s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
+                          progress=lambda d, n: prog("samples", d, n))
+    prog.end()
+    dump = req.with_values(s.values)
+    stats = {"tool": PROG, "scene": a.scene, "out": list(req.out), "grid": list(req.grid), "seed": seed,
+             "samples": len(req.xyt), "paths_per_sample": a.paths, "nonfinite_paths": s.nonfinite,
+             "t_load_s": t_load, "mitsuba": s.timing}
+    t_recon = None
+    if a.output or a.png:
+        with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
+            path = os.path.join(tmp, "samples.csid")
+            csid.write(path, dump)
+            t0 = time.perf_counter()
+            stats["reconstruction"] = reconstruct(path, a.output, a.png, extra=extra)
+            t_recon = time.perf_counter() - t0
+    # The samples last: a failed reconstruction leaves no dump behind either.
+    if a.dump:
+        csid.write(a.dump, dump)
+        if aov_paths:
+            csid.write(aov_paths[0], req.with_values(s.albedo))
+            csid.write(aov_paths[1], req.with_values(s.normal))
+    if a.stats:
+        _write_json(a.stats, stats)
+    if not a.quiet:
+        t = s.timing
+        msg = (f"{PROG}: {scene.name} {req.out[0]}x{req.out[1]}: {len(req.xyt)} samples x {a.paths} path"
+               f"{'s' if a.paths > 1 else ''} on a {req.grid[0]}x{req.grid[1]}x{req.grid[2]} grid; Mitsuba "
+               f"{t['render_s']:.2f} s ({t['per_sample_us']:.2f} us/sample, {t['per_path_us']:.3f} us/path; "
+               f"first call {t['jit_s']:.2f} s apart)")
+        if t_recon is not None:
+            msg += f", csi-reconstruct {t_recon:.2f} s"
+        if s.nonfinite:
+            msg += f"; warning: {s.nonfinite} NaN/Inf paths counted as 0"
+        print(msg, file=sys.stderr)
+    return 0
+
+
+def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    extra = []
+    if "--" in argv:
+        i = argv.index("--")
+        argv, extra = argv[:i], argv[i + 1:]
+    try:
+        a = parser().parse_args(argv)
+        return run(a, extra)
+    except UsageError as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return 2
+    except (mb.BridgeError, csid.DumpError) as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return 2
+    except programs.ProgramError as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return e.code
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

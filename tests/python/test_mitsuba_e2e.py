@@ -1,0 +1,159 @@
+"""csi-mitsuba end to end, as a user runs it: positions -> Mitsuba -> dump -> csi-reconstruct,
+compared with Mitsuba's own box-filtered reference; determinism; Mitsuba XML scenes; positions
+requests; bad input (exit 2, one line on stderr, nothing left behind).
+
+Scene: Mitsuba's Cornell box at 64x64, 4 samples per pixel of 16 paths each (csi's default grid
+for 4 spp: 8x, 512x512 cells), reference 1024 spp.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PYDIR = os.path.join(HERE, "..", "..", "host", "python")
+sys.path.insert(0, PYDIR)
+sys.path.insert(0, HERE)
+from checks import check, done  # noqa: E402
+from csi import dump as csid  # noqa: E402
+from csi import exr  # noqa: E402
+
+
+def cli(*args):
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR))
+    return subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", *map(str, args)], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, env=env)
+
+
+def ok(p, what):
+    check(p.returncode == 0, f"{what}: exit {p.returncode}: {p.stderr.strip()}")
+    return p.returncode == 0
+
+
+XML = """<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="30"/>
+      <rfilter type="gaussian"/></film>
+  </sensor>
+  <emitter type="constant"><rgb name="radiance" value="0.8, 0.9, 1.0"/></emitter>
+  <shape type="sphere"><float name="radius" value="0.8"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.3, 0.2"/></bsdf></shape>
+</scene>
+"""
+
+
+def main():
+    with tempfile.TemporaryDirectory() as T:
+        p = lambda name: os.path.join(T, name)  # noqa: E731
+        common = ["cornell", "--out", "64x64", "--spp", 4, "--paths", 16, "--seed", 2, "-q"]
+        ok(cli(*common, "--dump", p("a.csid"), "--aov", "-o", p("cs.exr"), "--stats", p("a.json")), "render + csi")
+        ok(cli(*common, "--dump", p("b.csid"), "-o", p("mean.exr"), "--", "--estimator", "mean"), "render + mean")
+        ok(cli("cornell", "--out", "64x64", "--reference", 1024, "--npy", p("ref.npy"), "-o", p("ref.exr"), "-q"),
+           "reference")
+        d = csid.read(p("a.csid"), want="samples")
+        check(d.grid == (512, 512, 1) and d.out == (64, 64) and len(d.xyt) == 4 * 64 * 64 and d.channels == 3,
+              f"dump header: grid {d.grid}, out {d.out}, {len(d.xyt)} samples, {d.channels} channels")
+        with open(p("a.csid"), "rb") as f1, open(p("b.csid"), "rb") as f2:
+            check(f1.read() == f2.read(), "the same seed gives different samples")
+        alb, nrm = csid.read(p("a.albedo.csid")), csid.read(p("a.normal.csid"))
+        check(np.array_equal(alb.xyt, d.xyt) and np.array_equal(nrm.xyt, d.xyt), "aov positions differ from the samples'")
+        check(alb.values.min() >= 0 and alb.values.max() <= 1, "albedo outside [0, 1]")
+        length = np.linalg.norm(nrm.values, axis=1)  # 0 where the ray leaves the box
+        check((np.minimum(np.abs(length - 1), length) < 1e-3).all() and (length > 0.5).mean() > 0.9,
+              f"normals neither unit length nor 0 (a miss): {np.unique(length.round(3))[:10]}")
+        with open(p("a.json")) as f:
+            st = json.load(f)
+        check(st["samples"] == 16384 and st["mitsuba"]["paths"] == 16 * 16384 and st["mitsuba"]["per_path_us"] > 0
+              and "reconstruction" in st, f"stats: {st}")
+
+        ref = np.load(p("ref.npy"))
+        check(np.allclose(exr.read(p("ref.exr")), ref, rtol=0, atol=0), "reference EXR differs from the .npy")
+        mean_img = exr.read(p("mean.exr")).astype(np.float64)
+        # csi-reconstruct's mean estimator is the per-pixel mean of the very samples in the dump
+        # (float32 output: relative rounding 6e-8, summation order apart).
+        m = d.pixel_means()
+        check(np.abs(mean_img - m).max() <= 1e-6 * max(1.0, np.abs(m).max()), "csi's mean != numpy's mean of the dump")
+        # Unbiased against Mitsuba's own box-filtered render: each pixel's mean of 4 samples has
+        # variance s2/4 (s2: the 4 samples' unbiased variance); the reference averages 1024
+        # paths per pixel where the mean has 4 x 16 = 64, so its variance is about 64/1024 of
+        # that. The image-wide sum of differences over its standard error is then ~N(0, 1):
+        # |z| < 5 unless the positions or pixel conventions disagree.
+        v = d.values.astype(np.float64)
+        bw = 512 // 64
+        pix = (d.xyt[:, 1] // bw) * 64 + d.xyt[:, 0] // bw
+        order = np.argsort(pix, kind="stable")
+        s = v[order].reshape(64 * 64, 4, 3)
+        var_pix = s.var(axis=1, ddof=1) / 4
+        diff = (m.reshape(-1, 3) - ref.reshape(-1, 3).astype(np.float64))
+        var_ref = var_pix * (4 * 16 / 1024)
+        z = diff.sum(axis=0) / np.sqrt((var_pix + var_ref).sum(axis=0))
+        check((np.abs(z) < 5).all(), f"mean of the samples is biased against the reference: z = {z}")
+        # and its MSE is at most what that variance predicts: s2 counts the signal's spread
+        # within a pixel as noise, which well-spread positions (Poisson-disk) partly cancel, so
+        # the ratio is below 1 (measured 0.55); misplaced samples would add the squared edge
+        # differences of a shifted image on top.
+        ratio = (diff ** 2).sum() / (var_pix + var_ref).sum()
+        check(ratio < 1.2, f"MSE(mean, reference) / predicted variance = {ratio:.3f}")
+        # csi's own estimate resembles the scene: far below the error of a flat image at the
+        # reference's mean (the reference's variance), which any image of the scene beats
+        cs = exr.read(p("cs.exr")).astype(np.float64)
+        mse_cs = ((cs - ref) ** 2).mean()
+        check(mse_cs < 0.05 * ref.var(), f"csi: MSE {mse_cs:.4g} vs the reference's variance {ref.var():.4g}")
+
+        # A Mitsuba XML scene: film size and filter overridden, a request evaluated as given.
+        with open(p("s.xml"), "w") as f:
+            f.write(XML)
+        ok(cli(p("s.xml"), "--out", "16x12", "--reference", 16, "--npy", p("x.npy"), "-q"), "XML reference")
+        check(os.path.exists(p("x.npy")) and np.load(p("x.npy")).shape == (12, 16, 3), "XML reference shape")
+        subprocess.run([os.path.join(os.environ.get("CSI_BUILD_DIR", ""), "csi-positions"), "--out", "16x12",
+                        "--spp", "2", "--method", "stratified", "--seed", "9", "-o", p("req.csid"), "-q"], check=True)
+        ok(cli(p("s.xml"), "--request", p("req.csid"), "--dump", p("x.csid"), "-q"), "XML + request")
+        req, x = csid.read(p("req.csid")), csid.read(p("x.csid"))
+        check(x.grid == req.grid and x.out == (16, 12) and np.array_equal(x.xyt, req.xyt) and x.seed == 9,
+              "the dump does not keep the request's grid, positions and seed")
+        # the sphere (radius 0.8 at distance 4, fov 40 along x) fills the middle: lit reddish
+        # diffuse there, the sky (0.8, 0.9, 1.0) at the corners
+        u, vv, _ = x.cell_centres()
+        corner = (np.abs(u - 0.5) > 0.4) & (np.abs(vv - 0.5) > 0.4)
+        check(np.allclose(x.values[corner], [0.8, 0.9, 1.0], atol=1e-5), "sky radiance at the corners")
+        centre = (np.abs(u - 0.5) < 0.1) & (np.abs(vv - 0.5) < 0.1)
+        check(centre.any() and (x.values[centre][:, 0] > x.values[centre][:, 2]).all(), "the red sphere in the middle")
+
+        # Bad input: exit 2, one line, nothing written.
+        with open(p("bad.xml"), "w") as f:
+            f.write('<scene version="3.0.0"><sensor type="perspective">')
+        with open(p("bad2.xml"), "w") as f:
+            f.write('<scene version="3.0.0"><sensor type="perspective"/><shape type="no_such_plugin"/></scene>')
+        before = set(os.listdir(T))
+        cases = [
+            ("missing scene", "nothere.xml", [p("nothere.xml"), "-o", p("o.exr")]),
+            ("malformed XML", "bad.xml", [p("bad.xml"), "-o", p("o.exr")]),
+            ("Mitsuba refuses the XML", "no_such_plugin", [p("bad2.xml"), "-o", p("o.exr")]),
+            ("bad size", "--out", ["cornell", "--out", "64x0", "-o", p("o.exr")]),
+            ("zero paths", "--paths", ["cornell", "--paths", "0", "-o", p("o.exr")]),
+            ("no output", "no output", ["cornell"]),
+            ("aov without dump", "--aov", ["cornell", "--aov", "-o", p("o.exr")]),
+            ("unwritable", "no-such-dir", ["cornell", "--out", "8x8", "-o", p("no-such-dir/o.exr")]),
+            ("request size", "differs", [p("s.xml"), "--request", p("req.csid"), "--out", "8x8", "--dump", p("o.csid")]),
+            ("samples as request", "not a positions request", [p("s.xml"), "--request", p("x.csid"), "--dump", p("o.csid")]),
+            ("bad csi-reconstruct option", "--lambda", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--dump", p("o.csid"),
+                                                        "--", "--lambda", "abc"]),
+        ]
+        for name, want, args in cases:
+            r = cli(*args)
+            lines = r.stderr.strip().splitlines()
+            check(r.returncode == 2 and len(lines) == 1 and want in r.stderr,
+                  f"{name}: exit {r.returncode}, stderr: {r.stderr.strip()!r}")
+        left = set(os.listdir(T)) - before
+        check(not left, f"failures left files behind: {sorted(left)}")
+    return done()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
