@@ -20,6 +20,7 @@ const char *csi_status_name(csi_status st)
     case CSI_ERR_BUILD: return "CSI_ERR_BUILD";
     case CSI_ERR_NUMERIC: return "CSI_ERR_NUMERIC";
     case CSI_ERR_SCENE: return "CSI_ERR_SCENE";
+    case CSI_ERR_TOO_LARGE: return "CSI_ERR_TOO_LARGE";
     }
     return "CSI_ERR_UNKNOWN";
 }

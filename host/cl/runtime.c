@@ -6,6 +6,7 @@
 #include <clFFT.h>
 #include <ctype.h>
 #include <errno.h>
+#include <stdatomic.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -46,6 +47,35 @@ struct csi_ctx {
     bool clfft;
     double t_build; /* seconds spent building programs and creating kernels */
 };
+
+/* Device bytes held through csi_buffer by this process (every context): live now, and the
+ * largest live total since the last reset. The resource plan (csi/plan.h) is tested against the
+ * peak, and csi_buffer refuses an allocation that would take the live total over the device's
+ * global memory (PoCL otherwise fails later, or aborts when the host runs out). */
+static _Atomic uint64_t csi_dev_live, csi_dev_peak;
+
+static void dev_bytes_add(uint64_t bytes)
+{
+    uint64_t now = atomic_fetch_add(&csi_dev_live, bytes) + bytes;
+    uint64_t peak = atomic_load(&csi_dev_peak);
+    while (now > peak && !atomic_compare_exchange_weak(&csi_dev_peak, &peak, now))
+        ;
+}
+
+uint64_t csi_device_bytes_live(void) { return atomic_load(&csi_dev_live); }
+uint64_t csi_device_bytes_peak(void) { return atomic_load(&csi_dev_peak); }
+void csi_device_bytes_reset_peak(void) { atomic_store(&csi_dev_peak, atomic_load(&csi_dev_live)); }
+
+void csi_mem_tally_add(csi_mem_tally *t, uint64_t bytes, const char *what)
+{
+    if (bytes == 0)
+        bytes = CSI_BUFFER_MIN_BYTES; /* as csi_buffer allocates */
+    t->total += bytes;
+    if (bytes > t->largest) {
+        t->largest = bytes;
+        t->largest_what = what;
+    }
+}
 
 /* clFFT keeps one library state per process; count the contexts that use it. */
 static int csi_clfft_users;
@@ -419,17 +449,37 @@ static void human_bytes(char *buf, size_t len, double b)
     snprintf(buf, len, "%.1f %s", b, u[i]);
 }
 
+csi_status csi_ctx_limit_memory(csi_ctx *ctx, uint64_t max_alloc, uint64_t global)
+{
+    if (!ctx)
+        return csi_fail(CSI_ERR_ARG, "csi_ctx_limit_memory: no context");
+    if (max_alloc && max_alloc < ctx->max_alloc)
+        ctx->max_alloc = (size_t)max_alloc;
+    if (global && global < ctx->global_mem)
+        ctx->global_mem = global;
+    return CSI_OK;
+}
+
 csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char *what, cl_mem *out)
 {
     *out = NULL;
     if (bytes == 0)
-        bytes = 16;
+        bytes = CSI_BUFFER_MIN_BYTES;
     if (bytes > ctx->max_alloc) {
         char a[32], b[32];
         human_bytes(a, sizeof a, (double)bytes);
         human_bytes(b, sizeof b, (double)ctx->max_alloc);
         return csi_fail(CSI_ERR_DEVICE, "%s needs a %s buffer, over the device's single-buffer limit "
                         "of %s (%s)", what ? what : "an operation", a, b, ctx->name);
+    }
+    const uint64_t live = csi_device_bytes_live();
+    if (ctx->global_mem && (uint64_t)bytes > ctx->global_mem - (live < ctx->global_mem ? live : ctx->global_mem)) {
+        char a[32], b[32], c[32];
+        human_bytes(a, sizeof a, (double)bytes);
+        human_bytes(b, sizeof b, (double)live);
+        human_bytes(c, sizeof c, (double)ctx->global_mem);
+        return csi_fail(CSI_ERR_DEVICE, "%s needs a %s buffer, but %s of the device's %s are in use (%s)",
+                        what ? what : "an operation", a, b, c, ctx->name);
     }
     cl_int err;
     cl_mem m = clCreateBuffer(ctx->context, flags, bytes, NULL, &err);
@@ -439,6 +489,7 @@ csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char
         csi_status st = CSI_CL(err);
         return csi_fail_context(st, "allocating %s for %s: ", a, what ? what : "a buffer");
     }
+    dev_bytes_add(bytes);
     *out = m;
     return CSI_OK;
 }
@@ -446,6 +497,9 @@ csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char
 void csi_buffer_release(cl_mem *buf)
 {
     if (buf && *buf) {
+        size_t bytes = 0;
+        if (clGetMemObjectInfo(*buf, CL_MEM_SIZE, sizeof bytes, &bytes, NULL) == CL_SUCCESS)
+            atomic_fetch_sub(&csi_dev_live, (uint64_t)bytes);
         clReleaseMemObject(*buf);
         *buf = NULL;
     }

@@ -18,6 +18,7 @@ int cli_exit_code(csi_status st)
     case CSI_ERR_FORMAT:
     case CSI_ERR_SCENE:
     case CSI_ERR_DEVICE:
+    case CSI_ERR_TOO_LARGE:
         return CLI_EXIT_USAGE;
     default:
         return CLI_EXIT_FAIL;

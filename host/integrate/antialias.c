@@ -15,16 +15,12 @@
 /* sigma_spacing when the caller leaves it (< 0). Measured: docs/bench/quality.md. */
 #define CSI_SIGMA_SPACING_DEFAULT 0.8
 
-/* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
- * borrowed from st->inner), on the model grid D times coarser when the filter allows it. The
- * filter width and the default levels follow the whole problem's cells per sample when st is a
- * tile's (a tile gets the whole grid's levels as opt->levels). *D_out: D; *km_out: the unknowns. */
-static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_solver_kind solver, csi_recon_state *st, unsigned *D_out, size_t *km_out)
+csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                              csi_solver_kind solver, const csi_recon_state *st, csi_aa_shape *out)
 {
     const size_t w = g->w, h = g->h, k = w * h;
-    const size_t dims[3] = {w, h, 1};
-    double sphi[3] = {0, 0, 0};
+    double *sphi = out->sphi;
+    sphi[0] = sphi[1] = sphi[2] = 0;
     csi_gauss_sigmas(w, g->out_w, &sphi[0], NULL);
     csi_gauss_sigmas(h, g->out_h, &sphi[1], NULL);
     sphi[0] *= opt->sigma_scale;
@@ -49,6 +45,7 @@ static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const c
     if (levels < 1)
         return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,
                         csi_wavelet_name(opt->wavelet));
+    out->levels = levels;
 
     /* With a wide filter the image model lives on a grid D times coarser than the samples'
      * (csi/model_grid.h): the same operator to ~1e-5, without the fine grid's FFTs. Only for
@@ -57,10 +54,30 @@ static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const c
     const unsigned D = opt->model_grid != CSI_SWITCH_OFF && opt->output == CSI_AA_SHARP &&
                                solver == CSI_SOLVER_SPARSA
                            ? csi_model_grid_factor(w, h, sphi, levels) : 1;
-    const size_t mw = w / D, mh = h / D;
-    int mlevels = levels;
+    out->D = D;
+    out->mw = w / D;
+    out->mh = h / D;
+    out->mlevels = levels;
     for (unsigned d = D; d > 1; d /= 2)
-        mlevels--;
+        out->mlevels--;
+    return CSI_OK;
+}
+
+/* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
+ * borrowed from st->inner), on the model grid D times coarser when the filter allows it. The
+ * filter width and the default levels follow the whole problem's cells per sample when st is a
+ * tile's (a tile gets the whole grid's levels as opt->levels). *D_out: D; *km_out: the unknowns. */
+static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
+                              csi_solver_kind solver, csi_recon_state *st, unsigned *D_out, size_t *km_out)
+{
+    const size_t w = g->w, h = g->h, k = w * h;
+    const size_t dims[3] = {w, h, 1};
+    csi_aa_shape sh;
+    CSI_TRY(csi_recon_aa_shape(g, n, opt, solver, st, &sh));
+    const double *sphi = sh.sphi;
+    const unsigned D = sh.D;
+    const size_t mw = sh.mw, mh = sh.mh;
+    const int mlevels = sh.mlevels;
     *D_out = D;
     *km_out = mw * mh;
 

@@ -74,6 +74,23 @@ csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t chann
                                  const csi_sample_pos *pos, const float *values, size_t n,
                                  csi_recon_result *res, csi_recon_state *st);
 
+/* The checks of csi_reconstruct that need only the sizes (CSI_ERR_ARG): 1 to 4 channels, no
+ * zero size, grid sides multiples of the output's, at most 2^32 cells, 1 <= n <= k. */
+csi_status csi_recon_check_sizes(const csi_grid *g, uint32_t channels, size_t n);
+
+/* The shape of Alg. 1's operator (antialias.c): the Gaussian widths (fine cells), the wavelet
+ * levels, and the model grid (mw x mh cells, D times coarser than the fine grid, mlevels levels;
+ * D = 1: the fine grid). st may be a tile's (its scope sets the widths); CSI_ERR_ARG when the grid
+ * allows no wavelet level. */
+typedef struct {
+    double sphi[3];
+    int levels, mlevels;
+    unsigned D;
+    size_t mw, mh;
+} csi_aa_shape;
+csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                              csi_solver_kind solver, const csi_recon_state *st, csi_aa_shape *out);
+
 /* Runs the solver on st->A, st->y into st->x. image_spp > 0: Alg. 1 with that many samples per
  * output pixel (SpaRSA gets the image defaults where the caller left a setting open); 0: Alg. 2
  * with motion_n samples. tau_scale > 0: SpaRSA's tau is tau_rel * tau_scale (a tile following

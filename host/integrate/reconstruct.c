@@ -29,8 +29,7 @@ void csi_recon_state_free(csi_recon_state *st)
     free(st->romp_seed);
 }
 
-static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
-                               const float *values, size_t n)
+csi_status csi_recon_check_sizes(const csi_grid *g, uint32_t channels, size_t n)
 {
     if (channels < 1 || channels > 4)
         return csi_fail(CSI_ERR_ARG, "%u channels (expected 1 to 4)", channels);
@@ -48,6 +47,13 @@ static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_s
                         (unsigned long long)k);
     if (n > k)
         return csi_fail(CSI_ERR_ARG, "%zu samples for %llu grid cells", n, (unsigned long long)k);
+    return CSI_OK;
+}
+
+static csi_status check_inputs(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                               const float *values, size_t n)
+{
+    CSI_TRY(csi_recon_check_sizes(g, channels, n));
     for (size_t i = 0; i < n; i++) {
         if (pos[i].x >= g->w || pos[i].y >= g->h || pos[i].t >= g->t)
             return csi_fail(CSI_ERR_ARG, "sample %zu at (%u, %u, %u) is outside the %ux%ux%u grid", i,

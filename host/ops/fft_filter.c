@@ -163,6 +163,81 @@ static csi_status pass_twiddles(csi_ctx *ctx, axis_plan *a)
     return st;
 }
 
+/* The buffers prepare_axis allocates for an axis of length L: its twiddles, and along x the
+ * per-pass tables. */
+static void axis_buffers(size_t L, bool x_axis, csi_mem_tally *t)
+{
+    axis_plan a = {.L = L};
+    plan_radices(&a);
+    csi_mem_tally_add(t, L * 8, "FFT twiddles");
+    if (x_axis) {
+        size_t total = 0, p = 1;
+        for (int i = 0; i < a.np; i++) {
+            total += (size_t)(a.radix[i] - 1) * p;
+            p *= (size_t)a.radix[i];
+        }
+        csi_mem_tally_add(t, (total ? total : 1) * 8, "FFT twiddles");
+    }
+}
+
+/* Bytes of each ping-pong volume of a real transform: the half spectrum (rows of hs values), or
+ * the packed rows plus the one element csi_fft_r2c_post reads past them. */
+static size_t spectrum_bytes(size_t M, size_t hs, size_t rows)
+{
+    size_t spec = hs * rows * 8, packed = (M * rows + 1) * 8;
+    return spec > packed ? spec : packed;
+}
+
+static size_t half_stride(size_t M) { return (M + 1 + 15) / 16 * 16; }
+
+void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
+{
+    const size_t M = c[0] / 2, hs = half_stride(M), rows = c[1] * c[2];
+    const size_t L[3] = {M, c[1], c[2]};
+    for (int a = 0; a < nd; a++)
+        axis_buffers(L[a], a == 0, t);
+    csi_mem_tally_add(t, (M + 1) * 8, "FFT twiddles");
+    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum");
+    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum scratch");
+    csi_mem_tally_add(t, hs * 4, "filter gains");
+    csi_mem_tally_add(t, c[1] * 4, "filter gains");
+    csi_mem_tally_add(t, c[2] * 4, "filter gains");
+    csi_mem_tally_add(t, 4, "filter gains");
+}
+
+void csi_fft_c2c_buffers(const size_t c[3], int nd, csi_mem_tally *t)
+{
+    size_t n = 1;
+    for (int a = 0; a < nd; a++) {
+        axis_buffers(c[a], a == 0, t);
+        n *= c[a];
+    }
+    csi_mem_tally_add(t, n * 8, "the FFT's scratch volume");
+}
+
+size_t csi_fft_half_count_for(const size_t c[3], int nd)
+{
+    size_t rows = 1;
+    for (int a = 1; a < nd; a++)
+        rows *= c[a];
+    return half_stride(c[0] / 2) * rows;
+}
+
+void csi_fft_half_buffers(const size_t c[3], int nd, csi_mem_tally *t)
+{
+    const size_t M = c[0] / 2, hs = half_stride(M);
+    size_t L[3] = {M, 1, 1}, rows = 1;
+    for (int a = 1; a < nd; a++) {
+        L[a] = c[a];
+        rows *= c[a];
+    }
+    for (int a = 0; a < nd; a++)
+        axis_buffers(L[a], a == 0, t);
+    csi_mem_tally_add(t, (M + 1) * 8, "FFT twiddles");
+    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the real FFT's spectrum");
+    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the real FFT's scratch");
+}
+
 void csi_fft_filter_free(csi_fft_filter *f)
 {
     if (!f)
@@ -226,9 +301,7 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     for (int a = 0; a < f->nd; a++)
         CSI_TRY(prepare_axis(ctx, &f->ax[a], a == 0, "row", true));
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
-    /* + 1 element: csi_fft_r2c_post at k = 0 reads one past the last packed row. */
-    size_t spec = f->hs * f->rows * 8, packed = (M * f->rows + 1) * 8;
-    size_t bytes = spec > packed ? spec : packed;
+    const size_t bytes = spectrum_bytes(M, f->hs, f->rows);
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
     CSI_TRY(gains(ctx, 2 * M, M + 1, f->hs, sigma[0], &f->gx));
@@ -258,7 +331,7 @@ csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const 
     memcpy(f->c, c, sizeof f->c);
     f->nd = nd;
     f->M = c[0] / 2;
-    f->hs = (f->M + 1 + 15) / 16 * 16;
+    f->hs = half_stride(f->M);
     f->rows = c[1] * c[2];
     f->wiener = wiener;
     f->lambda = wiener ? lambda : 0.0f;
@@ -338,6 +411,12 @@ static csi_status launch_col(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_pla
     /* Exact launch: the local size divides nc (the kernel has no bounds check). */
     size_t global[3] = {nc_, a->L / (size_t)R, nb_}, local[3] = {pow2_dividing(nc_, 16), 1, 1};
     return csi_run(ctx, k, 3, global, local);
+}
+
+void csi_fft_filter_factor_buffers(const size_t c[3], csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, 2 * half_stride(c[0] / 2) * sizeof(float), "filter factors");
+    csi_mem_tally_add(t, 2 * c[1] * sizeof(float), "filter factors");
 }
 
 csi_status csi_fft_filter_set_factor(csi_fft_filter *f, const double *fc, const double *fa)
@@ -651,7 +730,7 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
     for (int a = 0; a < 3; a++)
         h->c[a] = a < nd ? c[a] : 1;
     h->M = h->c[0] / 2;
-    h->hs = (h->M + 1 + 15) / 16 * 16;
+    h->hs = half_stride(h->M);
     h->rows = h->c[1] * h->c[2];
     csi_status st = CSI_OK;
     h->ax[0].L = h->M;
@@ -662,9 +741,7 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
     }
     if (st == CSI_OK)
         st = twiddles(ctx, 2 * h->M, h->M + 1, &h->wn);
-    /* + 1 element: csi_fft_r2c_post at k = 0 reads one past the last packed row. */
-    size_t spec = h->hs * h->rows * 8, packed = (h->M * h->rows + 1) * 8;
-    size_t bytes = spec > packed ? spec : packed;
+    const size_t bytes = spectrum_bytes(h->M, h->hs, h->rows);
     if (st == CSI_OK)
         st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's spectrum", &h->P);
     if (st == CSI_OK)

@@ -25,8 +25,11 @@ csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y);
  * factor must be Hermitian (fc[0] real, fa[-ky] = conj fa[ky]) and real at the Nyquist bins for
  * the output to be the real convolution it describes. */
 csi_status csi_fft_filter_set_factor(csi_fft_filter *f, const double *fc, const double *fa);
+void csi_fft_filter_factor_buffers(const size_t c[3], csi_mem_tally *t); /* what it allocates */
 /* The filter pass with the factor conjugated when conj (the adjoint of the pass with it). */
 csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool conj);
+/* Adds the device buffers csi_fft_filter_create allocates for this size (csi_mem_tally). */
+void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t);
 void csi_fft_filter_free(csi_fft_filter *f);
 
 /* Complex-to-complex transform of c[0] x c[1] x c[2] interleaved complex values (nd axes
@@ -44,6 +47,7 @@ csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float sca
 /* y = scale * sum_u x[u] exp(sign 2 pi i <u, v / c>): sign < 0 forward, > 0 inverse
  * (unnormalised except for scale). x is not modified; x, y must be different buffers. */
 csi_status csi_fft_c2c_run(csi_fft_c2c *f, cl_mem x, cl_mem y, int sign);
+void csi_fft_c2c_buffers(const size_t c[3], int nd, csi_mem_tally *t); /* what create allocates */
 void csi_fft_c2c_free(csi_fft_c2c *f);
 
 /* Half-spectrum transforms of a real signal of c[0] x c[1] x c[2] (c[0] even; the sizes
@@ -59,6 +63,8 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
                                csi_fft_half **out);
 size_t csi_fft_half_stride(const csi_fft_half *h); /* hs */
 size_t csi_fft_half_count(const csi_fft_half *h);  /* hs * c[1] * c[2] */
+size_t csi_fft_half_count_for(const size_t c[3], int nd); /* the same, before creating one */
+void csi_fft_half_buffers(const size_t c[3], int nd, csi_mem_tally *t); /* what create allocates */
 csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z);
 csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f);
 void csi_fft_half_free(csi_fft_half *h);

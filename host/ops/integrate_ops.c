@@ -50,6 +50,12 @@ csi_status csi_time_mean(csi_ctx *ctx, cl_mem vol, uint32_t w, uint32_t h, uint3
     return csi_run(ctx, k, 3, global, local);
 }
 
+void csi_splat_mean_buffers(size_t n, uint32_t channels, size_t pixels, csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, n * channels * sizeof(float), "splat sample values");
+    csi_mem_tally_add(t, (pixels + 1) * sizeof(uint32_t), "splat pixel index");
+}
+
 csi_status csi_splat_mean(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                           const float *values, size_t n, cl_mem out, size_t *empty)
 {

@@ -272,6 +272,18 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
     return st;
 }
 
+void csi_interp_buffers(size_t mw, size_t mh, unsigned D, size_t n, csi_mem_tally *t)
+{
+    const size_t Tx = mw / TILE_W > 0 ? mw / TILE_W : 1, Ty = mh / TILE_H > 0 ? mh / TILE_H : 1, nt = Tx * Ty;
+    csi_mem_tally_add(t, n * 4, "the samples' model cells");
+    csi_mem_tally_add(t, n * 4, "the samples' phases");
+    csi_mem_tally_add(t, n * 4, "the samples' order");
+    csi_mem_tally_add(t, D * CSI_INTERP_TAPS * sizeof(float), "the interpolation weights");
+    csi_mem_tally_add(t, D * 8 * sizeof(float), "the interpolation weights");
+    csi_mem_tally_add(t, (nt + 1) * 4, "the tiles' sample ranges");
+    csi_mem_tally_add(t, nt * 4, "the tile lists");
+}
+
 csi_status csi_interp_create(csi_ctx *ctx, size_t mw, size_t mh, unsigned D, const uint32_t *idx,
                              size_t n, csi_linop **out)
 {

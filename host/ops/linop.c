@@ -46,6 +46,11 @@ static void compose_destroy(csi_linop *op)
     op->state = NULL;
 }
 
+void csi_linop_compose_buffers(size_t inner_rows, bool complex_valued, csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, inner_rows * (complex_valued ? 8u : 4u), "an operator composition's scratch vector");
+}
+
 csi_status csi_linop_compose(const char *name, csi_linop *outer, csi_linop *inner, bool owns,
                              csi_linop **out)
 {

@@ -51,6 +51,12 @@ static double complex axis_factor(long v, size_t m, unsigned D, const double *lo
     return h * dir / ((double)D * csi_interp_kernel_ft((double)v / (double)m));
 }
 
+void csi_model_filter_buffers(size_t mw, size_t mh, csi_mem_tally *t)
+{
+    const size_t dims[3] = {mw, mh, 1};
+    csi_filter_factor_buffers(dims, t);
+}
+
 csi_status csi_model_filter_create(csi_ctx *ctx, size_t mw, size_t mh, unsigned D,
                                    const double sigma[2], float lambda, csi_wavelet_family f,
                                    unsigned box_x, unsigned box_y, csi_linop **out)

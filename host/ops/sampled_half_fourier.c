@@ -50,6 +50,14 @@ static void half_destroy(csi_linop *op)
     op->state = NULL;
 }
 
+void csi_half_fourier_sampling_buffers(const size_t dims[3], size_t n, csi_mem_tally *t)
+{
+    csi_fourier_half_buffers(dims, t);
+    csi_sampling_buffers(n, t);
+    csi_mem_tally_add(t, dims[0] * dims[1] * dims[2] * 4, "the motion operator's volume");
+    csi_mem_tally_add(t, n * 4, "the motion operator's samples");
+}
+
 csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], const uint32_t *idx,
                                             size_t n, csi_linop **out)
 {

@@ -42,6 +42,11 @@ static void sampling_destroy(csi_linop *op)
     op->state = NULL;
 }
 
+void csi_sampling_buffers(size_t n, csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, n * sizeof(uint32_t), "sample indices");
+}
+
 csi_status csi_sampling_create(csi_ctx *ctx, size_t k, const uint32_t *indices, size_t n,
                                bool complex_valued, csi_linop **out)
 {

@@ -368,6 +368,48 @@ csi_status csi_filter_create_factor(csi_ctx *ctx, const size_t dims[3], const do
     return CSI_OK;
 }
 
+/* What an operator on clFFT's path holds on the device beyond its own buffers, known only once
+ * its plans are baked and first run: each plan's intermediate buffer (clfftGetTmpBufSize,
+ * allocated here through csi_buffer), at most one complex copy of the transform; and the
+ * buffers clFFT allocates itself on the first transform. Measured on PoCL for first axes from 3
+ * to 59049 in 1-D to 3-D (tests/unit/test_recon_plan.c checks the bound against every
+ * allocation in the process): intermediate buffers of the half spectrum's size (real plans) or
+ * the transform's (complex ones); clFFT's own, up to 3.0 x 8 bytes per point and up to nine
+ * 128-byte buffers. Counted: 8 bytes per point per plan, and 4 x 8 bytes per point + 4 KiB. */
+static void clfft_buffers(const size_t c[3], int plans, csi_mem_tally *t)
+{
+    const uint64_t n = (uint64_t)c[0] * c[1] * c[2];
+    for (int i = 0; i < plans; i++)
+        csi_mem_tally_add(t, n * 8, "clFFT's intermediate buffer");
+    csi_mem_tally_add(t, 4 * n * 8 + 4096, "clFFT's own buffers");
+}
+
+void csi_filter_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    if (csi_fft_filter_supported(c, nd)) {
+        csi_fft_filter_buffers(c, nd, t);
+        return;
+    }
+    const size_t h0 = c[0] / 2 + 1;
+    csi_mem_tally_add(t, h0 * c[1] * c[2] * 8, "the filter's half spectrum");
+    csi_mem_tally_add(t, h0 * 4, "filter gains");
+    csi_mem_tally_add(t, c[1] * 4, "filter gains");
+    csi_mem_tally_add(t, c[2] * 4, "filter gains");
+    clfft_buffers(c, 2, t); /* forward and backward plans */
+}
+
+void csi_filter_factor_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    csi_fft_filter_buffers(c, nd, t);
+    csi_fft_filter_factor_buffers(c, t);
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Orthonormal Fourier basis                                                                   */
 
@@ -467,6 +509,17 @@ csi_status csi_fourier_create_backend(csi_ctx *ctx, const size_t dims[3], csi_ff
     return CSI_OK;
 }
 
+void csi_fourier_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    if (csi_fft_c2c_supported(c, nd))
+        csi_fft_c2c_buffers(c, nd, t);
+    else
+        clfft_buffers(c, 1, t);
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Real Fourier basis on the half spectrum                                                     */
 
@@ -486,6 +539,34 @@ csi_status csi_fourier_half_create(csi_ctx *ctx, const size_t dims[3], csi_fouri
                         "longer than 1 must be even and >= 4", dims[0], dims[1], dims[2]);
     float scale = (float)(1.0 / sqrt((double)c[0] * (double)c[1] * (double)c[2]));
     return csi_fft_half_create(ctx, c, nd, scale, out);
+}
+
+bool csi_fourier_half_supported(const size_t dims[3])
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    /* csi_fft_check_size's conditions, without recording a message */
+    for (int a = 0; a < 3; a++)
+        if (!radix_ok(dims[a]))
+            return false;
+    return nd > 0 && csi_fft_filter_supported(c, nd);
+}
+
+size_t csi_fourier_half_count_for(const size_t dims[3])
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    return csi_fft_half_count_for(c, nd);
+}
+
+void csi_fourier_half_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    csi_fft_half_buffers(c, nd, t);
 }
 
 size_t csi_fourier_half_count(const csi_fourier_half *h) { return csi_fft_half_count(h); }

@@ -17,6 +17,12 @@ struct csi_vec_ws {
     cl_uint hidx[VEC_MAX_GROUPS];
 };
 
+void csi_vec_ws_buffers(csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, 6 * VEC_MAX_GROUPS * sizeof(float), "reduction partials");
+    csi_mem_tally_add(t, VEC_MAX_GROUPS * sizeof(cl_uint), "reduction partial indices");
+}
+
 csi_status csi_vec_ws_create(csi_ctx *ctx, csi_vec_ws **out)
 {
     *out = NULL;

@@ -291,6 +291,14 @@ static void wavelet_destroy(csi_linop *op)
     op->state = NULL;
 }
 
+/* Rows of the scratch image: w + 16 floats (see csi_wavelet_create). */
+static size_t scratch_stride(size_t w) { return w + 16; }
+
+void csi_wavelet_buffers(size_t w, size_t h, csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, scratch_stride(w) * h * sizeof(float), "the wavelet's scratch image");
+}
+
 csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size_t h, int levels,
                               csi_linop **out)
 {
@@ -337,7 +345,7 @@ csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size
     /* The y passes read the scratch image down columns, F + 2 rows per item. With rows a power
      * of two apart (4 KiB at w = 1024) those rows fall in one L1 cache set and evict each other;
      * 16 floats of padding per row measured 25-30% faster y passes at 1024x1024. */
-    s->ts = w + 16;
+    s->ts = scratch_stride(w);
     char what[96];
     snprintf(what, sizeof what, "the %s wavelet's scratch image (%zux%zu)", name, w, h);
     if (s->ts > INT_MAX / h) {

@@ -61,6 +61,47 @@ void csi_solver_free(csi_solver *S)
     free(S);
 }
 
+void csi_solver_buffers(size_t rows, size_t cols, bool complex_valued, csi_mem_tally *t)
+{
+    const size_t w = complex_valued ? 2 : 1, nfN = rows * w, nfk = cols * w;
+    csi_vec_ws_buffers(t);
+    static const char *const meas[4] = {"solver residual", "solver measurement scratch", "solver A x",
+                                        "solver A x (trial)"};
+    static const char *const coef[4] = {"solver gradient", "solver direction", "solver coefficient scratch",
+                                        "solver trial iterate"};
+    for (int i = 0; i < 4; i++)
+        csi_mem_tally_add(t, nfN * 4, meas[i]);
+    for (int i = 0; i < 4; i++)
+        csi_mem_tally_add(t, nfk * 4, coef[i]);
+    csi_mem_tally_add(t, cols, "solver support mask");
+}
+
+void csi_solver_romp_tally(size_t cols, csi_mem_tally *t)
+{
+    csi_mem_tally_add(t, ROMP_BINS * 4, "ROMP histogram");
+    csi_mem_tally_add(t, 4, "ROMP candidate count");
+    csi_mem_tally_add(t, cols * 4, "ROMP candidates");
+    csi_mem_tally_add(t, cols * 4, "ROMP candidate values");
+    csi_mem_tally_add(t, cols * 4, "ROMP selection");
+}
+
+uint64_t csi_solver_host_bytes(size_t rows, size_t cols, bool complex_valued, bool romp)
+{
+    (void)rows;
+    (void)complex_valued;
+    uint64_t b = cols; /* the support mask */
+    if (romp) /* histogram, candidate indices, selection, values; the sorted candidates (romp.c) */
+        b += ROMP_BINS * 4 + 3 * (uint64_t)cols * 4 + (uint64_t)cols * 8;
+    return b;
+}
+
+void csi_column_norms_buffers(size_t rows, size_t cols, bool complex_valued, csi_mem_tally *t)
+{
+    const size_t w = complex_valued ? 2 : 1;
+    csi_mem_tally_add(t, rows * w * 4, "column-norm probe");
+    csi_mem_tally_add(t, cols * w * 4, "column-norm probe image");
+}
+
 csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
 {
     *out = NULL;

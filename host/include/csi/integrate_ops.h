@@ -36,6 +36,10 @@ csi_status csi_time_mean(csi_ctx *ctx, cl_mem vol, uint32_t w, uint32_t h, uint3
 csi_status csi_splat_mean(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                           const float *values, size_t n, cl_mem out, size_t *empty);
 
+/* The device buffers csi_splat_mean allocates while it runs (and frees), for n samples and
+ * `pixels` output pixels; its host arrays hold (pixels + 1) * 8 + n * (4 + 4 * channels) bytes. */
+void csi_splat_mean_buffers(size_t n, uint32_t channels, size_t pixels, csi_mem_tally *t);
+
 #ifdef __cplusplus
 }
 #endif

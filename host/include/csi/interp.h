@@ -39,6 +39,8 @@ double csi_interp_kernel_ft(double xi);
  * index or size. Device memory: 12 bytes per sample plus the tile lists. */
 csi_status csi_interp_create(csi_ctx *ctx, size_t mw, size_t mh, unsigned D, const uint32_t *idx,
                              size_t n, csi_linop **out);
+/* The device buffers csi_interp_create allocates (csi/runtime.h's tally). */
+void csi_interp_buffers(size_t mw, size_t mh, unsigned D, size_t n, csi_mem_tally *t);
 
 #ifdef __cplusplus
 }

@@ -49,6 +49,9 @@ void csi_linop_free(csi_linop *op);
 csi_status csi_linop_compose(const char *name, csi_linop *outer, csi_linop *inner, bool owns,
                              csi_linop **out);
 
+/* The device buffer csi_linop_compose allocates: a vector of the inner operator's rows. */
+void csi_linop_compose_buffers(size_t inner_rows, bool complex_valued, csi_mem_tally *t);
+
 #ifdef __cplusplus
 }
 #endif

@@ -51,6 +51,8 @@ unsigned csi_model_grid_factor(size_t w, size_t h, const double sigma[2], int le
 csi_status csi_model_filter_create(csi_ctx *ctx, size_t mw, size_t mh, unsigned D,
                                    const double sigma[2], float lambda, csi_wavelet_family f,
                                    unsigned box_x, unsigned box_y, csi_linop **out);
+/* The device buffers csi_model_filter_create allocates (csi/runtime.h's tally). */
+void csi_model_filter_buffers(size_t mw, size_t mh, csi_mem_tally *t);
 
 #ifdef __cplusplus
 }

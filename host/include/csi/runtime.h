@@ -59,10 +59,37 @@ csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_
 /* Seconds this context has spent building its programs and creating kernels (PoCL compiles
  * or loads cached binaries on first use): the part of a run's fixed cost the programs take. */
 double csi_ctx_build_seconds(const csi_ctx *ctx);
-/* Buffers. Refuses sizes over the device's single-allocation limit with a message naming the
- * size, the limit and `what`; zero-size requests allocate one element so callers need no cases. */
+
+/* Lowers the memory limits this context enforces and reports (csi_ctx_max_alloc,
+ * csi_ctx_global_mem) to at most max_alloc bytes per buffer and global bytes in all; 0 keeps the
+ * current limit, and a limit is never raised above what the device reports. For a budget below
+ * the device's, and for tests of limits, which must not depend on the machine's free memory
+ * (PoCL derives its limits from it at start-up). */
+csi_status csi_ctx_limit_memory(csi_ctx *ctx, uint64_t max_alloc, uint64_t global);
+
+/* Buffers. Refuses (CSI_ERR_DEVICE, naming the size, the limit and `what`) a buffer over the
+ * single-allocation limit, and one that would take the bytes live through csi_buffer over the
+ * global limit; zero-size requests allocate CSI_BUFFER_MIN_BYTES so callers need no cases. */
+#define CSI_BUFFER_MIN_BYTES 16u
 csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char *what, cl_mem *out);
 void csi_buffer_release(cl_mem *buf); /* releases and sets to NULL; NULL is fine */
+/* Device bytes this process holds through csi_buffer (all contexts): live now, and the peak of
+ * the live total since the last reset (csi_device_bytes_reset_peak sets it to the live total). */
+uint64_t csi_device_bytes_live(void);
+uint64_t csi_device_bytes_peak(void);
+void csi_device_bytes_reset_peak(void);
+
+/* The device buffers an operation will allocate, added up before it runs (the resource plan,
+ * csi/plan.h): their total and the largest one. Each module that allocates device buffers has a
+ * `*_buffers` function that adds exactly what its create function allocates. */
+typedef struct csi_mem_tally {
+    uint64_t total;           /* bytes of all buffers */
+    uint64_t largest;         /* bytes of the largest one */
+    const char *largest_what; /* what it holds (NULL when empty) */
+} csi_mem_tally;
+/* Adds one buffer of `bytes` (0 counts as CSI_BUFFER_MIN_BYTES, as csi_buffer allocates). */
+void csi_mem_tally_add(csi_mem_tally *t, uint64_t bytes, const char *what);
+
 csi_status csi_write(csi_ctx *ctx, cl_mem dst, size_t offset, size_t bytes, const void *src);
 csi_status csi_read(csi_ctx *ctx, cl_mem src, size_t offset, size_t bytes, void *dst);
 csi_status csi_fill_zero(csi_ctx *ctx, cl_mem buf, size_t bytes);

@@ -23,6 +23,9 @@ extern "C" {
  * operator made when the size has no half spectrum (an odd first axis). */
 csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], const uint32_t *idx,
                                             size_t n, csi_linop **out);
+/* The device buffers csi_half_fourier_sampling_create allocates (csi/runtime.h's tally), for a
+ * size csi_fourier_half_supported accepts. */
+void csi_half_fourier_sampling_buffers(const size_t dims[3], size_t n, csi_mem_tally *t);
 /* f = H z: the real volume (k floats) of half-spectrum coefficients z, without sampling. */
 csi_status csi_half_fourier_synthesize(const csi_linop *op, cl_mem z, cl_mem f);
 /* The operator's own k-float volume buffer, which the caller may use as scratch between

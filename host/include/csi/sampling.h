@@ -24,6 +24,9 @@ extern "C" {
 csi_status csi_sampling_create(csi_ctx *ctx, size_t k, const uint32_t *indices, size_t n,
                                bool complex_valued, csi_linop **out);
 
+/* The device buffers csi_sampling_create allocates for n samples (csi/runtime.h's tally). */
+void csi_sampling_buffers(size_t n, csi_mem_tally *t);
+
 #ifdef __cplusplus
 }
 #endif

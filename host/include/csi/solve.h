@@ -71,6 +71,12 @@ typedef struct csi_solve_report {
 typedef struct csi_solver csi_solver;
 csi_status csi_solver_create(const csi_linop *A, csi_solver **out);
 void csi_solver_free(csi_solver *s);
+/* What a workspace for a rows x cols operator holds: the device buffers csi_solver_create
+ * allocates, and those ROMP's first run adds (csi_solver_romp_tally), added to a tally
+ * (csi/runtime.h); and its host arrays' bytes (with romp: ROMP's too), at most. */
+void csi_solver_buffers(size_t rows, size_t cols, bool complex_valued, csi_mem_tally *t);
+void csi_solver_romp_tally(size_t cols, csi_mem_tally *t);
+uint64_t csi_solver_host_bytes(size_t rows, size_t cols, bool complex_valued, bool romp);
 
 /* ---- ROMP ---------------------------------------------------------------------------------
  * Each iteration: u = A^H r; J = the s largest |u_i| among indices not yet in the support I
@@ -134,6 +140,8 @@ csi_status csi_romp_multi(const csi_linop *A, size_t nrhs, const cl_mem *y, cons
  * rank correlations); columns A cannot see come out exactly 0. Costs `probes` adjoints.
  * Deterministic for a given seed. */
 csi_status csi_column_norms(const csi_linop *A, int probes, uint64_t seed, cl_mem norms);
+/* The device buffers csi_column_norms allocates while it runs (and frees before returning). */
+void csi_column_norms_buffers(size_t rows, size_t cols, bool complex_valued, csi_mem_tally *t);
 
 /* ---- SpaRSA -------------------------------------------------------------------------------
  * Iteration (WNF09 Alg. 1 for the l1 regulariser): x+ = soft(x - g/alpha, tau/alpha) with

@@ -14,6 +14,7 @@
 #ifndef CSI_SPECTRAL_H
 #define CSI_SPECTRAL_H
 
+#include <stdbool.h>
 #include <stddef.h>
 
 #include "csi/linop.h"
@@ -71,6 +72,8 @@ csi_status csi_filter_create_backend(csi_ctx *ctx, const size_t dims[3], const d
 csi_status csi_filter_create_factor(csi_ctx *ctx, const size_t dims[3], const double sigma_phi[3],
                                     csi_filter_kind kind, float lambda, const double *fx,
                                     const double *fy, csi_linop **out);
+/* The device buffers csi_filter_create_factor allocates (csi/runtime.h's tally). */
+void csi_filter_factor_buffers(const size_t dims[3], csi_mem_tally *t);
 
 /* Orthonormal Fourier basis over dims (1-D, 2-D or 3-D; complex operator, rows = cols =
  * product): apply = F^H (coefficients -> signal, unitary inverse DFT), adjoint = F (unitary
@@ -79,6 +82,12 @@ csi_status csi_filter_create_factor(csi_ctx *ctx, const size_t dims[3], const do
  * u0 + dims[0] * (u1 + dims[1] * u2), matching np.fft.fftn(a, norm="ortho") of an array of
  * shape (dims[2], dims[1], dims[0]). */
 csi_status csi_fourier_create(csi_ctx *ctx, const size_t dims[3], csi_linop **out);
+
+/* The device buffers csi_filter_create and csi_fourier_create (AUTO backend) allocate for a size
+ * the create function accepts, added to a tally (csi/runtime.h). On clFFT's path its
+ * intermediate buffers are known only once a plan is baked: their bound is counted. */
+void csi_filter_buffers(const size_t dims[3], csi_mem_tally *t);
+void csi_fourier_buffers(const size_t dims[3], csi_mem_tally *t);
 
 /* The same basis on a chosen FFT implementation. AUTO (what csi_fourier_create does): csi's own
  * Stockham kernels (kernels/fft.cl; every size csi_fft_check_size accepts, below 2^32 points),
@@ -113,6 +122,11 @@ size_t csi_fourier_half_stride(const csi_fourier_half *h);
 csi_status csi_fourier_half_forward(csi_fourier_half *h, cl_mem f, cl_mem z);
 csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f);
 void csi_fourier_half_free(csi_fourier_half *h);
+/* Before creating one: whether this size has a half spectrum, its coefficient count, and the
+ * device buffers csi_fourier_half_create allocates (added to a tally). */
+bool csi_fourier_half_supported(const size_t dims[3]);
+size_t csi_fourier_half_count_for(const size_t dims[3]);
+void csi_fourier_half_buffers(const size_t dims[3], csi_mem_tally *t);
 
 /* CSI_OK if clFFT can transform an axis of length n (n >= 1 and only factors 2, 3, 5, 7);
  * otherwise CSI_ERR_ARG with a message naming `what` and the size. */

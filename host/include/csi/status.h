@@ -21,6 +21,8 @@ typedef enum csi_status {
     CSI_ERR_BUILD,        /* a kernel program failed to build (message holds the log's start) */
     CSI_ERR_NUMERIC,      /* a computation produced NaN/Inf or cannot proceed numerically */
     CSI_ERR_SCENE,        /* a scene file has an error */
+    CSI_ERR_TOO_LARGE,    /* the input needs more memory than the device or host has (refused
+                             before any work: csi/plan.h) */
 } csi_status;
 
 /* Short name of a status ("CSI_ERR_IO"). */

@@ -41,6 +41,7 @@ extern "C" {
 typedef struct csi_vec_ws csi_vec_ws;
 csi_status csi_vec_ws_create(csi_ctx *ctx, csi_vec_ws **out);
 void csi_vec_ws_free(csi_vec_ws *ws);
+void csi_vec_ws_buffers(csi_mem_tally *t); /* the device buffers csi_vec_ws_create allocates */
 csi_ctx *csi_vec_ws_ctx(const csi_vec_ws *ws);
 
 /* ---- element-wise (nf = number of floats) ---- */

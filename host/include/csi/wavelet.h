@@ -64,6 +64,9 @@ csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size
 
 /* Size of the approximation (coarsest scaling) block: the top-left cw x ch of the coefficient
  * array, cw = w >> levels, ch = h >> levels. op must come from csi_wavelet_create. */
+/* The device buffers csi_wavelet_create allocates for a w x h image (csi/runtime.h's tally). */
+void csi_wavelet_buffers(size_t w, size_t h, csi_mem_tally *t);
+
 void csi_wavelet_coarse_block(const csi_linop *op, size_t *cw, size_t *ch);
 
 /* The family and level count op was made with. op must come from csi_wavelet_create. */

@@ -1,0 +1,378 @@
+/* The resource plan of a reconstruction (csi/plan.h): the buffers each method of
+ * csi_reconstruct allocates, in the order it allocates them, from the modules' own `*_buffers`
+ * functions, so that the model changes with the code it describes. */
+#include "csi/plan.h"
+
+#include <inttypes.h>
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "csi/host_memory.h"
+#include "csi/integrate_ops.h"
+#include "csi/interp.h"
+#include "csi/model_grid.h"
+#include "csi/sampled_half_fourier.h"
+#include "csi/sampling.h"
+#include "csi/solve.h"
+#include "csi/spectral.h"
+#include "csi/tiles.h"
+#include "csi/vec.h"
+#include "csi/wavelet.h"
+#include "internal.h"
+
+const char *csi_bytes_text(uint64_t bytes, char *buf, size_t len)
+{
+    static const char *u[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB"};
+    double b = (double)bytes;
+    int i = 0;
+    while (b >= 1024.0 && i < 5) {
+        b /= 1024.0;
+        i++;
+    }
+    if (i == 0)
+        snprintf(buf, len, "%" PRIu64 " B", bytes);
+    else
+        snprintf(buf, len, "%.1f %s", b, u[i]);
+    return buf;
+}
+
+void csi_mem_budget_of(const csi_ctx *ctx, csi_mem_budget *out)
+{
+    memset(out, 0, sizeof *out);
+    out->device_global = csi_ctx_global_mem(ctx);
+    out->device_buffer = csi_ctx_max_alloc(ctx);
+    out->host = csi_host_available_bytes();
+    cl_device_type type = 0;
+    cl_bool unified = CL_FALSE;
+    clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_TYPE, sizeof type, &type, NULL);
+    clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_HOST_UNIFIED_MEMORY, sizeof unified, &unified, NULL);
+    /* PoCL's CPU device keeps its buffers in this process's memory. */
+    out->device_in_host = (type & CL_DEVICE_TYPE_CPU) || unified;
+    out->device_name = csi_ctx_device_name(ctx);
+}
+
+/* A tally of what is held for the whole run, and the largest of the sets held only for a while
+ * (or, like ROMP's buffers, allocated last, after another such set was freed). */
+typedef struct {
+    csi_mem_tally dev;        /* device buffers held to the end */
+    uint64_t dev_transient;   /* the largest set of device buffers held for a while */
+    uint64_t host;            /* host bytes held to the end */
+    uint64_t host_transient;  /* the largest set of host bytes held for a while */
+} model;
+
+static void transient_dev(model *m, const csi_mem_tally *t)
+{
+    if (t->total > m->dev_transient)
+        m->dev_transient = t->total;
+    if (t->largest > m->dev.largest) {
+        m->dev.largest = t->largest;
+        m->dev.largest_what = t->largest_what;
+    }
+}
+
+static void transient_host(model *m, uint64_t bytes)
+{
+    if (bytes > m->host_transient)
+        m->host_transient = bytes;
+}
+
+/* csi_sampling_create's duplicate check: a bitmap over the grid, freed before it returns. */
+static uint64_t sampling_bitmap(uint64_t k) { return (k + 7) / 8; }
+
+/* The host tables an FFT-domain operator fills while it is made (twiddles, gains: at most
+ * 16 bytes per element of the longest axis, doubled for the per-pass tables). */
+static uint64_t fft_tables_host(const size_t dims[3])
+{
+    size_t L = dims[0] > dims[1] ? dims[0] : dims[1];
+    L = L > dims[2] ? L : dims[2];
+    return 32 * (uint64_t)L + 64;
+}
+
+/* What csi_wavelet_create refuses for Alg. 1's model grid (wavelet.c). */
+static csi_status check_wavelet(const csi_aa_shape *sh, csi_wavelet_family f)
+{
+    const size_t w = sh->mw, h = sh->mh;
+    if (sh->mlevels < 1 || w % ((size_t)1 << sh->mlevels) || h % ((size_t)1 << sh->mlevels))
+        return csi_fail(CSI_ERR_ARG, "wavelet %s: image size %zux%zu is not divisible by 2^%d as %d levels need",
+                        csi_wavelet_name(f), w, h, sh->mlevels, sh->mlevels);
+    if ((w + 16) > INT_MAX / h)
+        return csi_fail(CSI_ERR_ARG, "wavelet %s: image size %zux%zu is too large for the kernels' 32-bit "
+                        "indexing", csi_wavelet_name(f), w, h);
+    return CSI_OK;
+}
+
+static csi_status check_unknowns(uint64_t rows, uint64_t cols)
+{
+    if (cols > 0x7fffffffu || rows > 0x7fffffffu)
+        return csi_fail(CSI_ERR_ARG, "solver: the problem (%" PRIu64 " x %" PRIu64 ") exceeds the 31-bit index "
+                        "range", rows, cols);
+    return CSI_OK;
+}
+
+/* Normalized convolution (normconv.c: csi_nc_init): S, the Gaussian, density, filtered samples,
+ * the estimate at the samples. */
+static void nc_buffers(const size_t dims[3], size_t n, model *m)
+{
+    const uint64_t k = (uint64_t)dims[0] * dims[1] * dims[2];
+    csi_sampling_buffers(n, &m->dev);
+    csi_filter_buffers(dims, &m->dev);
+    csi_mem_tally_add(&m->dev, k * 4, "the filtered sample density");
+    csi_mem_tally_add(&m->dev, k * 4, "the filtered samples");
+    csi_mem_tally_add(&m->dev, n * 4, "the estimate at the samples");
+    transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
+}
+
+/* csi_interp_create's host arrays while it sorts the samples by tile (interp.c), at most. */
+static uint64_t interp_host(size_t mw, size_t mh, size_t n)
+{
+    return 16 * (uint64_t)n + 12 * ((uint64_t)mw + mh) + 16 * ((uint64_t)mw * mh / 512 + 1);
+}
+
+/* Alg. 1 (antialias.c), on the fine grid or the model grid D times coarser. */
+static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                                 csi_solver_kind solver, csi_recon_plan *p, model *m)
+{
+    const size_t w = g->w, h = g->h, k = w * h, np = (size_t)g->out_w * g->out_h;
+    const size_t dims[3] = {w, h, 1};
+    csi_recon_state whole;
+    memset(&whole, 0, sizeof whole);
+    csi_aa_shape sh;
+    CSI_TRY(csi_recon_aa_shape(g, n, opt, solver, &whole, &sh));
+    CSI_TRY(check_wavelet(&sh, opt->wavelet));
+    const size_t km = sh.mw * sh.mh;
+    if (sh.D == 1)
+        CSI_TRY(csi_fft_check_size("Wiener inverse filter", dims));
+    CSI_TRY(check_unknowns(n, km));
+    const bool romp = solver == CSI_SOLVER_ROMP;
+    p->method = sh.D > 1 ? "Alg. 1 (model grid)" : "Alg. 1";
+    p->unknowns = km;
+    csi_wavelet_buffers(sh.mw, sh.mh, &m->dev);
+    if (sh.D > 1)
+        csi_model_filter_buffers(sh.mw, sh.mh, &m->dev);
+    else
+        csi_filter_buffers(dims, &m->dev);
+    csi_linop_compose_buffers(km, false, &m->dev); /* Phi^-1 Psi */
+    if (sh.D > 1)
+        csi_interp_buffers(sh.mw, sh.mh, sh.D, n, &m->dev);
+    else
+        csi_sampling_buffers(n, &m->dev);
+    csi_linop_compose_buffers(km, false, &m->dev); /* S Phi^-1 Psi */
+    if (sh.D > 1) { /* the box means at the pixels */
+        csi_model_filter_buffers(sh.mw, sh.mh, &m->dev);
+        csi_interp_buffers(sh.mw, sh.mh, sh.D, np, &m->dev);
+        transient_host(m, interp_host(sh.mw, sh.mh, n > np ? n : np) + (uint64_t)np * 4 +
+                              fft_tables_host(dims));
+    } else {
+        transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
+    }
+    csi_solver_buffers(n, km, false, &m->dev);
+    csi_mem_tally_add(&m->dev, n * 4, "the measurements");
+    csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the wavelet coefficients");
+    csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the fine image");
+    csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the sharpened image");
+    csi_mem_tally_add(&m->dev, np * 4, "the output image");
+    m->host += csi_solver_host_bytes(n, km, false, romp);
+    /* the per-pixel correction (cv_correct.c), per channel */
+    transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 12);
+    if (romp) {
+        /* solver_setup.c: the column norms first (their probes freed before ROMP runs), then
+         * ROMP's buffers, held to the end: the peak holds one or the other. */
+        csi_mem_tally probes = {0}, rb = {0};
+        if (opt->romp_normalize == CSI_SWITCH_ON) {
+            csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the ROMP column norms");
+            csi_column_norms_buffers(n, km, false, &probes);
+            transient_host(m, (uint64_t)n * 4);
+        }
+        csi_solver_romp_tally(km, &rb);
+        transient_dev(m, &probes);
+        transient_dev(m, &rb);
+        /* the seed support: at most the coarse block widened by its levels (k / 4 indices) */
+        m->host += (uint64_t)km;
+    }
+    return CSI_OK;
+}
+
+/* Alg. 2 (motion.c). */
+static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                              csi_solver_kind solver, csi_recon_plan *p, model *m)
+{
+    const size_t w = g->w, h = g->h, T = g->t, k = w * h * T, wh = w * h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const size_t dims[3] = {w, h, T};
+    if (solver == CSI_SOLVER_ROMP)
+        return csi_fail(CSI_ERR_ARG, "ROMP is real-valued and the 3-D Fourier problem is complex: "
+                                     "use --solver sparsa for a volume (grid_t = %zu)", T);
+    const bool half = !opt->motion_full_spectrum && csi_fourier_half_supported(dims);
+    size_t ncoef;
+    if (half) {
+        ncoef = csi_fourier_half_count_for(dims);
+        p->method = "Alg. 2 (half spectrum)";
+        csi_half_fourier_sampling_buffers(dims, n, &m->dev);
+    } else {
+        CSI_TRY(csi_fft_check_size("Fourier basis", dims));
+        ncoef = k;
+        p->method = "Alg. 2 (full spectrum)";
+        csi_fourier_buffers(dims, &m->dev);
+        csi_sampling_buffers(n, &m->dev);
+        csi_linop_compose_buffers(k, true, &m->dev); /* S F3^H */
+    }
+    CSI_TRY(check_unknowns(n, ncoef));
+    p->unknowns = ncoef;
+    csi_solver_buffers(n, ncoef, true, &m->dev);
+    csi_mem_tally_add(&m->dev, (uint64_t)n * 8, "the measurements");
+    csi_mem_tally_add(&m->dev, (uint64_t)ncoef * 8, "the Fourier coefficients");
+    if (!half)
+        csi_mem_tally_add(&m->dev, (uint64_t)k * 8, "the reconstructed volume");
+    csi_mem_tally_add(&m->dev, (uint64_t)k * 4, "the real volume");
+    csi_mem_tally_add(&m->dev, (uint64_t)(np > wh ? np : wh) * 4, "the output image");
+    csi_mem_tally_add(&m->dev, (uint64_t)wh * 4, "the time mean");
+    csi_mem_tally_add(&m->dev, (uint64_t)n * 4, "the real measurements");
+    m->host += csi_solver_host_bytes(n, ncoef, true, false);
+    transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
+    if (opt->motion_resid_sigma >= 0) {
+        CSI_TRY(csi_fft_check_size("Gaussian filter", dims));
+        nc_buffers(dims, n, m);
+        m->host += (uint64_t)n * 4; /* the residuals on the host */
+    }
+    return CSI_OK;
+}
+
+/* The Gaussian baseline (baselines.c). */
+static csi_status plan_gauss(const csi_grid *g, size_t n, csi_recon_plan *p, model *m)
+{
+    const size_t k = (size_t)g->w * g->h * g->t, wh = (size_t)g->w * g->h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const size_t dims[3] = {g->w, g->h, g->t};
+    CSI_TRY(csi_fft_check_size("Gaussian filter", dims));
+    p->method = "Gaussian baseline";
+    csi_mem_tally_add(&m->dev, (uint64_t)n * 4, "the measurements");
+    csi_mem_tally_add(&m->dev, (uint64_t)k * 4, "the scattered samples");
+    csi_mem_tally_add(&m->dev, (uint64_t)k * 4, "the interpolated samples");
+    csi_mem_tally_add(&m->dev, (uint64_t)(np > wh ? np : wh) * 4, "the output image");
+    csi_mem_tally_add(&m->dev, (uint64_t)wh * 4, "a frame");
+    nc_buffers(dims, n, m);
+    if (g->t == 1) /* the per-pixel correction, when asked for */
+        transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 12);
+    return CSI_OK;
+}
+
+/* The sample mean (baselines.c, csi_splat_mean). */
+static void plan_mean(const csi_grid *g, uint32_t channels, size_t n, csi_recon_plan *p, model *m)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    p->method = "sample mean";
+    csi_mem_tally_add(&m->dev, (uint64_t)np * channels * 4, "the output image");
+    csi_mem_tally t = {0};
+    csi_splat_mean_buffers(n, channels, np, &t);
+    transient_dev(m, &t);
+    transient_host(m, ((uint64_t)np + 1) * 8 + (uint64_t)n * (4 + 4 * (uint64_t)channels));
+}
+
+/* The plan of one problem solved whole (csi_reconstruct_scoped). */
+static csi_status plan_whole(const csi_grid *g, uint32_t channels, size_t n, const csi_recon_options *opt,
+                             csi_recon_plan *out)
+{
+    memset(out, 0, sizeof *out);
+    CSI_TRY(csi_recon_check_sizes(g, channels, n));
+    const uint64_t k = (uint64_t)g->w * g->h * g->t;
+    const csi_solver_kind solver = opt->solver != CSI_SOLVER_DEFAULT ? opt->solver : CSI_SOLVER_SPARSA;
+    const uint64_t np = (uint64_t)g->out_w * g->out_h;
+    model m;
+    memset(&m, 0, sizeof m);
+    /* The result (reconstruct.c) */
+    m.host += np * channels * 4;
+    if (g->t > 1 && opt->frames && opt->estimator != CSI_EST_MEAN)
+        m.host += np * channels * g->t * 4;
+    csi_status st;
+    if (opt->estimator == CSI_EST_MEAN) {
+        plan_mean(g, channels, n, out, &m);
+        st = CSI_OK;
+    } else {
+        m.host += (uint64_t)n * 8; /* sample indices and one channel's values */
+        if (opt->estimator == CSI_EST_GAUSS)
+            st = plan_gauss(g, n, out, &m);
+        else if (g->t == 1)
+            st = plan_antialias(g, n, opt, solver, out, &m);
+        else
+            st = plan_motion(g, n, opt, solver, out, &m);
+    }
+    if (st != CSI_OK) {
+        memset(out, 0, sizeof *out);
+        return st;
+    }
+    out->cells = k;
+    out->tiles = 1;
+    out->device_bytes = m.dev.total + m.dev_transient;
+    out->largest_buffer = m.dev.largest;
+    out->largest_what = m.dev.largest_what;
+    out->host_bytes = m.host + m.host_transient;
+    return CSI_OK;
+}
+
+csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                               const csi_recon_options *opt_in, csi_recon_plan *out)
+{
+    memset(out, 0, sizeof *out);
+    csi_recon_options opt;
+    if (opt_in)
+        opt = *opt_in;
+    else
+        csi_recon_defaults(&opt);
+    CSI_TRY(plan_whole(g, channels, n, &opt, out));
+    /* csi_reconstruct's layout (csi/tiles.h): when it tiles, the device holds one tile's
+     * problem at a time, and the host the whole result besides. */
+    csi_tiling tl;
+    CSI_TRY(csi_tiling_plan(ctx, g, channels, n, &opt, &tl));
+    if (tl.count <= 1)
+        return CSI_OK;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const csi_grid tg = {.w = tl.window[0] * bw, .h = tl.window[1] * bh, .t = tl.window[2],
+                         .out_w = tl.window[0], .out_h = tl.window[1]};
+    const uint64_t tk = (uint64_t)tg.w * tg.h * tg.t;
+    /* A tile holds the samples inside its window: at most all of them, and at most its cells
+     * (clustered samples may all fall in one window). */
+    const size_t tn = (size_t)(n < tk ? n : tk);
+    csi_recon_options to = opt;
+    to.levels = tl.levels > 0 ? tl.levels : opt.levels;
+    to.frames = opt.frames || tl.n[2] > 1;
+    to.tiles = 0;
+    csi_recon_plan tp;
+    CSI_TRY(plan_whole(&tg, channels, tn, &to, &tp));
+    const uint64_t whole_result = (uint64_t)g->out_w * g->out_h * channels * 4 *
+                                  (g->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN ? 1 + (uint64_t)g->t : 1);
+    out->tiles = tl.count;
+    out->method = tp.method;
+    out->unknowns = tp.unknowns;
+    out->device_bytes = tp.device_bytes;
+    out->largest_buffer = tp.largest_buffer;
+    out->largest_what = tp.largest_what;
+    /* the whole result, one tile's problem (its samples copied: 12 + 4 per channel bytes each)
+     * and everything its reconstruction holds on the host */
+    out->host_bytes = whole_result + (uint64_t)tn * (12 + 4 * (uint64_t)channels) + tp.host_bytes;
+    return CSI_OK;
+}
+
+csi_status csi_recon_plan_check(const csi_recon_plan *p, const csi_mem_budget *b, uint64_t extra_host,
+                                const char *subject)
+{
+    char need[32], lim[32], dev[300] = "";
+    if (b->device_name)
+        snprintf(dev, sizeof dev, " (%.280s)", b->device_name);
+    const char *s = subject ? subject : "reconstruction";
+    if (b->device_buffer && p->largest_buffer > b->device_buffer)
+        return csi_fail(CSI_ERR_TOO_LARGE, "%s: %s needs a %s device buffer (%s), more than the device's "
+                        "single-buffer limit of %s%s", s, p->method, csi_bytes_text(p->largest_buffer, need, sizeof need),
+                        p->largest_what ? p->largest_what : "?", csi_bytes_text(b->device_buffer, lim, sizeof lim), dev);
+    if (b->device_global && p->device_bytes > b->device_global)
+        return csi_fail(CSI_ERR_TOO_LARGE, "%s: %s needs %s of device memory, more than the device's %s%s", s,
+                        p->method, csi_bytes_text(p->device_bytes, need, sizeof need),
+                        csi_bytes_text(b->device_global, lim, sizeof lim), dev);
+    const uint64_t host = p->host_bytes + extra_host + (b->device_in_host ? p->device_bytes : 0);
+    if (b->host && host > b->host)
+        return csi_fail(CSI_ERR_TOO_LARGE, "%s: %s needs %s of host memory%s, more than the %s available", s,
+                        p->method, csi_bytes_text(host, need, sizeof need),
+                        b->device_in_host ? " (the device's buffers included)" : "",
+                        csi_bytes_text(b->host, lim, sizeof lim));
+    return CSI_OK;
+}
