@@ -73,6 +73,7 @@ void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_
     csi_json_int(j, "k", (int64_t)r->k);
     csi_json_int(j, "n", (int64_t)r->n);
     csi_json_num(j, "sampling_fraction", r->k ? (double)r->n / (double)r->k : 0);
+    csi_json_int(j, "tiles", r->tiles);
     csi_json_int(j, "unknowns", (int64_t)r->unknowns);
     csi_json_int(j, "model_grid_factor", r->model_factor);
     csi_json_str(j, "wavelet", csi_wavelet_name(opt->wavelet));
@@ -183,6 +184,7 @@ csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
         {.name = "csi:lambda", .type = CSI_ATTR_FLOAT, .f = opt->lambda},
         {.name = "csi:samples", .type = CSI_ATTR_DOUBLE, .f = (double)r->n},
         {.name = "csi:unknowns", .type = CSI_ATTR_DOUBLE, .f = (double)r->k},
+        {.name = "csi:tiles", .type = CSI_ATTR_DOUBLE, .f = (double)r->tiles},
         {.name = "csi:iterations", .type = CSI_ATTR_DOUBLE, .f = iters},
         {.name = "csi:max_rel_residual", .type = CSI_ATTR_DOUBLE, .f = resid},
         {.name = "csi:t_solve_s", .type = CSI_ATTR_DOUBLE, .f = r->t_solve},

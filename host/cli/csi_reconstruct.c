@@ -13,6 +13,7 @@
 #include "csi/stats.h"
 #include "outputs.h"
 #include "recon_opts.h"
+#include "tile.h"
 
 static const char *prog = "csi-reconstruct";
 
@@ -32,6 +33,7 @@ static void usage(FILE *f)
 "      --stats FILE.json     timings, iterations and residuals as JSON\n"
 );
     cli_recon_usage(f);
+    cli_tile_usage(f);
     fputs(
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
@@ -51,6 +53,67 @@ static void on_progress(void *user, const char *phase, int iter, double res)
     cli_recon_progress_update(user, phase, iter, res);
 }
 
+static const char *method_name(const csi_recon_options *opt, const csi_grid *g)
+{
+    return opt->estimator == CSI_EST_MEAN    ? "sample mean (Monte Carlo)"
+           : opt->estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
+           : g->t > 1                        ? "compressive motion (Alg. 2)"
+                                             : "compressive antialias (Alg. 1)";
+}
+
+/* --tile I/N and --tile-info: the layout, the whole problem's scope, then one tile's partial or
+ * the layout as JSON. */
+static int run_tile(csi_ctx *ctx, const csi_dump *d, const char *in, csi_recon_options *opt,
+                    const cli_tile_opts *tile, const cli_outputs *outs, bool quiet)
+{
+    const size_t nv = d->count * d->channels;
+    uint64_t id = cli_hash64(0, &d->grid, sizeof d->grid);
+    id = cli_hash64(id, &d->channels, sizeof d->channels);
+    for (size_t i = 0; i < d->count; i++) {
+        const uint32_t xyt[3] = {d->pos[i].x, d->pos[i].y, d->pos[i].t};
+        id = cli_hash64(id, xyt, sizeof xyt);
+    }
+    id = cli_hash64(id, d->values, nv * sizeof(float));
+    csi_tiling tl;
+    csi_status s = cli_tile_layout(ctx, &d->grid, d->channels, d->count, tile, opt, &tl);
+    csi_tile_scope scope;
+    if (s == CSI_OK && !cli_tile_given_scope(tile, &d->grid, d->channels, d->count, &scope))
+        s = csi_tile_scope_make(ctx, &d->grid, d->channels, d->pos, d->values, d->count, opt, &tl, &scope);
+    if (s == CSI_OK && tile->info)
+        s = cli_tile_info_print(&tl, &scope, opt, id);
+    if (s != CSI_OK || tile->info)
+        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", in, csi_last_error());
+    const double t0 = cli_now();
+    csi_tile_result res;
+    s = csi_reconstruct_tile(ctx, &d->grid, d->channels, d->pos, d->values, d->count, opt, &tl, &scope,
+                             tile->index, &res);
+    if (s != CSI_OK)
+        return cli_error(prog, s, "%s: %s", in, csi_last_error());
+    s = cli_tile_write(outs->exr, method_name(opt, &d->grid), in, id, opt, &tl, &scope, &res);
+    if (s == CSI_OK && outs->stats) {
+        csi_json *j = NULL;
+        s = csi_json_new(&j);
+        if (s == CSI_OK) {
+            csi_json_str(j, "tool", "csi-reconstruct");
+            csi_json_str(j, "input", in);
+            csi_json_int(j, "tile", tile->index);
+            csi_json_int(j, "tile_count", tl.count);
+            csi_json_int(j, "window_x0", res.x0);
+            csi_json_int(j, "window_y0", res.y0);
+            csi_json_int(j, "window_t0", res.t0);
+            cli_stats_recon(j, opt, &res.r);
+            csi_json_num(j, "t_wall_s", cli_now() - t0);
+            s = csi_json_write(j, outs->stats);
+            csi_json_free(j);
+        }
+    }
+    if (s == CSI_OK && !quiet)
+        fprintf(stderr, "%s: tile %u/%u (%ux%u pixels at %u,%u) from %zu samples in %.2f s\n", prog,
+                tile->index, tl.count, res.r.out_w, res.r.out_h, res.x0, res.y0, res.r.n, cli_now() - t0);
+    csi_tile_result_free(&res);
+    return s == CSI_OK ? 0 : cli_error(prog, s, "%s", csi_last_error());
+}
+
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED };
@@ -60,8 +123,10 @@ int main(int argc, char **argv)
         {"drop-invalid", no_argument, 0, O_DROP},
         {"device", required_argument, 0, O_DEVICE}, 
         {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
-        {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
+        {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
+        {0, 0, 0, 0}};
     cli_outputs outs = {0};
+    cli_tile_opts tile = {0};
     csi_recon_options opt;
     csi_recon_defaults(&opt);
     bool quiet = false, drop = false, seed_given = false;
@@ -93,7 +158,9 @@ int main(int argc, char **argv)
         case 'h': usage(stdout); return 0;
         case O_VERSION: printf("csi-reconstruct %s\n", CSI_VERSION); return 0;
         default: {
-            int rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], &opt);
+            int rc = cli_tile_option(prog, c, optarg, &tile);
+            if (rc < 0)
+                rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], &opt);
             if (rc) {
                 free(all_opts);
                 return rc;
@@ -113,7 +180,14 @@ int main(int argc, char **argv)
         return cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no sample dump given (see --help)"
                                                           : "more than one input given (see --help)");
     const char *in = argv[optind];
-    if (!outs.exr && !outs.png)
+    int trc = cli_tile_check(prog, &tile, outs.png != NULL, outs.frames_dir != NULL);
+    if (trc)
+        return trc;
+    if (tile.one && !outs.exr)
+        return cli_error(prog, CSI_ERR_ARG, "--tile needs -o PARTIAL (the tile's partial result)");
+    if (tile.frames)
+        opt.frames = true;
+    if (!outs.exr && !outs.png && !tile.info)
         return cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
     csi_status s = cli_outputs_check(&outs);
     if (s != CSI_OK)
@@ -158,6 +232,13 @@ int main(int argc, char **argv)
     cli_recon_progress_init(&ps, &bar);
     opt.progress = on_progress;
     opt.user = &ps;
+    if (tile.one || tile.info) {
+        int rc = run_tile(ctx, &dump, in, &opt, &tile, &outs, quiet);
+        cli_progress_end(&bar);
+        csi_ctx_release(ctx);
+        csi_dump_free(&dump);
+        return rc;
+    }
     csi_recon_result res;
     double t0 = cli_now();
     s = csi_reconstruct(ctx, &dump.grid, dump.channels, dump.pos, dump.values, dump.count, &opt, &res);
@@ -166,9 +247,7 @@ int main(int argc, char **argv)
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", in, csi_last_error());
     } else {
-        const char *method = opt.estimator == CSI_EST_MEAN ? "sample mean (Monte Carlo)"
-                             : opt.estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
-                             : dump.grid.t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)";
+        const char *method = method_name(&opt, &dump.grid);
         tp = cli_now();
         s = cli_write_images(&outs, &opt, &res, method);
         pt.write = cli_now() - tp;

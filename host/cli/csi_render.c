@@ -15,6 +15,7 @@
 #include "csi/stats.h"
 #include "outputs.h"
 #include "recon_opts.h"
+#include "tile.h"
 
 static const char *prog = "csi-render";
 
@@ -50,7 +51,10 @@ static void usage(FILE *f)
 "      --threads N           tracing threads, default: all cores\n"
 );
     cli_recon_usage(f);
+    cli_tile_usage(f);
     fputs(
+"      (csi-render --tile traces only the samples inside the tile's window; without --tile-scale\n"
+"      each tile scales tau by its own samples, as an untiled run of the window would)\n"
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
 "  -q, --quiet               no progress on stderr\n"
@@ -79,6 +83,104 @@ static void on_solve(void *user, const char *phase, int iter, double res)
     cli_recon_progress_update(&ps->recon, phase, iter, res);
 }
 
+/* The input's identity for tile partials: the scene file's bytes and what decides the samples. */
+static csi_status render_id(const char *scene_path, const csi_grid *g, const csi_pos_opts *po, uint64_t *id)
+{
+    FILE *fp = fopen(scene_path, "rb");
+    if (!fp)
+        return csi_fail(CSI_ERR_IO, "%s: cannot open", scene_path);
+    uint64_t h = 0x637369726e646572ull; /* "csirnder" */
+    unsigned char buf[1 << 16];
+    size_t got;
+    while ((got = fread(buf, 1, sizeof buf, fp)) > 0)
+        h = cli_hash64(h, buf, got);
+    fclose(fp);
+    const uint64_t fields[9] = {g->w, g->h, g->t, g->out_w, g->out_h, (uint64_t)po->method, po->spp, po->seed,
+                                (uint64_t)(po->fraction * 1e9)};
+    *id = cli_hash64(h, fields, sizeof fields);
+    return CSI_OK;
+}
+
+/* --tile I/N: traces the samples inside the tile's window only (with their indices among all
+ * the samples, so they get the values an untiled render gives them), reconstructs the tile and
+ * writes its partial. --tile-info: the layout as JSON. */
+static int render_tile(const char *scene_path, csi_ctx *ctx, csi_tracer *tr, const csi_grid *grid,
+                       const csi_pos_opts *po, const csi_sample_pos *pos, size_t n, uint64_t seed,
+                       csi_recon_options *opt, const cli_tile_opts *tile, const cli_outputs *outs, bool quiet)
+{
+    uint64_t id;
+    csi_tiling tl;
+    opt->seed = seed; /* as the untiled render reconstructs */
+    csi_status s = render_id(scene_path, grid, po, &id);
+    if (s == CSI_OK)
+        s = cli_tile_layout(ctx, grid, 3, n, tile, opt, &tl);
+    csi_tile_scope scope;
+    if (s == CSI_OK && !cli_tile_given_scope(tile, grid, 3, n, &scope))
+        csi_tile_scope_init(grid, 3, n, &scope); /* each tile scales tau by its own samples */
+    if (s == CSI_OK && tile->info)
+        s = cli_tile_info_print(&tl, &scope, opt, id);
+    if (s != CSI_OK || tile->info)
+        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+    csi_tile t;
+    csi_tiling_tile(&tl, tile->index, &t);
+    const uint32_t bw = grid->w / grid->out_w, bh = grid->h / grid->out_h;
+    const uint32_t x0 = t.win0[0] * bw, x1 = x0 + tl.window[0] * bw, y0 = t.win0[1] * bh,
+                   y1 = y0 + tl.window[1] * bh, t0 = t.win0[2], t1 = t0 + tl.window[2];
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        m += pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1;
+    csi_sample_pos *sub = malloc((m ? m : 1) * sizeof *sub);
+    uint64_t *ids = malloc((m ? m : 1) * sizeof *ids);
+    float *rgb = malloc((m ? m : 1) * 3 * sizeof *rgb);
+    if (!sub || !ids || !rgb)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the %zu samples of tile %u", m, tile->index);
+    for (size_t i = 0, j = 0; i < n && s == CSI_OK; i++)
+        if (pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1) {
+            sub[j] = pos[i];
+            ids[j++] = i;
+        }
+    const double tstart = cli_now();
+    if (s == CSI_OK)
+        s = csi_tracer_eval_ids(tr, grid, sub, ids, m, seed, rgb, NULL, NULL);
+    const double t_render = cli_now() - tstart;
+    csi_tile_result res;
+    memset(&res, 0, sizeof res);
+    if (s == CSI_OK)
+        s = csi_reconstruct_tile(ctx, grid, 3, sub, rgb, m, opt, &tl, &scope, tile->index, &res);
+    char mdesc[96];
+    snprintf(mdesc, sizeof mdesc, "%s, %s positions",
+             opt->estimator == CSI_EST_CS ? (grid->t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)")
+             : opt->estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
+                                               : "sample mean (Monte Carlo)",
+             csi_pos_method_name(po->method));
+    if (s == CSI_OK)
+        s = cli_tile_write(outs->exr, mdesc, scene_path, id, opt, &tl, &scope, &res);
+    if (s == CSI_OK && outs->stats) {
+        csi_json *j = NULL;
+        s = csi_json_new(&j);
+        if (s == CSI_OK) {
+            csi_json_str(j, "tool", "csi-render");
+            csi_json_str(j, "scene", scene_path);
+            csi_json_int(j, "tile", tile->index);
+            csi_json_int(j, "tile_count", tl.count);
+            csi_json_int(j, "samples", (int64_t)m);
+            csi_json_num(j, "t_render_s", t_render);
+            cli_stats_recon(j, opt, &res.r);
+            s = csi_json_write(j, outs->stats);
+            csi_json_free(j);
+        }
+    }
+    if (s == CSI_OK && !quiet)
+        fprintf(stderr, "%s: tile %u/%u (%ux%u pixels at %u,%u): %zu samples, render %.2f s, reconstruct %.2f s\n",
+                prog, tile->index, tl.count, tl.window[0], tl.window[1], t.win0[0], t.win0[1], m, t_render,
+                cli_now() - tstart - t_render);
+    csi_tile_result_free(&res);
+    free(sub);
+    free(ids);
+    free(rgb);
+    return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+}
+
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
@@ -92,8 +194,9 @@ int main(int argc, char **argv)
         {"threads", required_argument, 0, O_THREADS}, {"plan", no_argument, 0, O_PLAN},
         {"time-steps", required_argument, 0, O_TSTEPS},
         {"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'},
-        {"version", no_argument, 0, O_VERSION}, {0, 0, 0, 0}};
+        {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS, {0, 0, 0, 0}};
     cli_outputs outs = {0};
+    cli_tile_opts tile = {0};
     csi_recon_options opt;
     csi_recon_defaults(&opt);
     bool quiet = false, plan_only = false;
@@ -149,7 +252,9 @@ int main(int argc, char **argv)
         case 'h': usage(stdout); return 0;
         case O_VERSION: printf("csi-render %s\n", CSI_VERSION); return 0;
         default: {
-            int rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], &opt);
+            int rc = cli_tile_option(prog, c, optarg, &tile);
+            if (rc < 0)
+                rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], &opt);
             if (rc) {
                 free(all_opts);
                 return rc;
@@ -189,10 +294,17 @@ int main(int argc, char **argv)
             rc = cli_error(prog, s, "%s", csi_last_error());
         goto done;
     }
-    if (!outs.exr && !outs.png) {
+    rc = cli_tile_check(prog, &tile, outs.png != NULL, outs.frames_dir != NULL);
+    if (!rc && (tile.one || tile.info) && (dump_path || ref_spp))
+        rc = cli_error(prog, CSI_ERR_ARG, "--tile and --tile-info do not go with --%s", dump_path ? "dump" : "reference");
+    if (!rc && tile.one && !outs.exr)
+        rc = cli_error(prog, CSI_ERR_ARG, "--tile needs -o PARTIAL (the tile's partial result)");
+    if (!rc && !outs.exr && !outs.png && !tile.info)
         rc = cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
+    if (rc)
         goto done;
-    }
+    if (tile.frames)
+        opt.frames = true;
     if (tsteps && !plan.motion && !quiet)
         fprintf(stderr, "%s: warning: %s has no motion in the shutter: --time-steps ignored (T = 1)\n",
                 prog, scene_path);
@@ -263,6 +375,10 @@ int main(int argc, char **argv)
     s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        goto done;
+    }
+    if (tile.one || tile.info) {
+        rc = render_tile(scene_path, ctx, tr, &grid, &popts, pos, n, seed, &opt, &tile, &outs, quiet);
         goto done;
     }
     rgb = malloc(n * 3 * sizeof(float));

@@ -65,10 +65,7 @@ static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32
     return CSI_OK;
 }
 
-csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
-                               const csi_sample_pos *pos, const float *values, size_t n,
-                               const csi_recon_options *opt, const csi_tiling *tl,
-                               csi_tile_scope *out)
+void csi_tile_scope_init(const csi_grid *g, uint32_t channels, size_t n, csi_tile_scope *out)
 {
     memset(out, 0, sizeof *out);
     out->k = (uint64_t)g->w * g->h * g->t;
@@ -76,6 +73,14 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     out->out_w = g->out_w;
     out->out_h = g->out_h;
     out->channels = channels;
+}
+
+csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                               const csi_sample_pos *pos, const float *values, size_t n,
+                               const csi_recon_options *opt, const csi_tiling *tl,
+                               csi_tile_scope *out)
+{
+    csi_tile_scope_init(g, channels, n, out);
     if (opt->estimator != CSI_EST_CS || channels > 4)
         return CSI_OK;
     if (g->t > 1) {

@@ -113,6 +113,9 @@ typedef struct csi_tile_scope {
     bool has_scale;
 } csi_tile_scope;
 
+/* The scope's sizes (k, n, out_w, out_h, channels) for a grid with n samples, and no scale. */
+void csi_tile_scope_init(const csi_grid *g, uint32_t channels, size_t n, csi_tile_scope *out);
+
 /* The scope of a problem from all its samples: k, n and, for the compressive estimator, the
  * tau scale (Alg. 1: one operator setup and one adjoint per tile and channel; Alg. 2: a pass
  * over the samples). ctx is needed for Alg. 1. */

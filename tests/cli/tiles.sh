@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Tiles on the command line (docs/tiles.md): a run tiled in one process, the same tiles run one
+# by one with --tile I/N (in any order, the scale given or computed) and blended by csi-merge,
+# and csi-render tracing only each tile's samples, all give the same pixels, bit for bit (image
+# hashes in the statistics, frame PNGs byte for byte); csi-merge refuses a missing, repeated,
+# foreign, damaged or non-partial input with one line, exit 2 and no output.
+# usage: tiles.sh BUILD_DIR SOURCE_DIR
+set -u
+B="$1"; S="$2"
+T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
+pass=0; fail=0
+ok()   { pass=$((pass + 1)); }
+bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
+check() { if eval "$1"; then ok; else bad "$2"; fi; }
+json() { sed -n "s/.*\"$2\": \"\\{0,1\\}\\([^\",]*\\).*/\\1/p" "$1" | head -1; }
+static="$S/tests/cli/scenes/small_triangle.scene"
+moving="$S/tests/cli/scenes/small_moving.scene"
+# 32x32 pixels: 4-pixel margins (2 frames in t) let a 32-pixel image hold several tiles
+tiles=(--tile-margin 4 --tile-margin-t 2 --max-iter 40 -q)
+
+# --- static: one process, tile by tile, csi-render tile by tile --------------------------------
+"$B/csi-render" "$static" --dump "$T/s.csid" -o "$T/s.exr" --stats "$T/s.json" --tiles 4 "${tiles[@]}"
+check "[[ $? == 0 ]] && grep -q '\"tiles\": 4,' '$T/s.json'" "csi-render --tiles 4"
+ha="$(json "$T/s.json" image_fnv1a64)"
+"$B/csi-reconstruct" "$T/s.csid" -o "$T/s2.exr" --stats "$T/s2.json" --tiles 4 "${tiles[@]}"
+check "[[ '$(json "$T/s2.json" image_fnv1a64)' == '$ha' ]]" "csi-reconstruct --tiles 4 differs from csi-render's"
+"$B/csi-reconstruct" "$T/s.csid" --tiles 4 --tile-info "${tiles[@]}" > "$T/info.json"
+check "[[ $? == 0 ]] && grep -q '\"tiles\": 4,' '$T/info.json'" "--tile-info: $(cat "$T/info.json")"
+scale="$(json "$T/info.json" tile_scale)"
+check "[[ -n '$scale' ]]" "--tile-info gives the scale"
+for i in 3 1; do
+    "$B/csi-reconstruct" "$T/s.csid" --tile $i/4 --tile-scale "$scale" -o "$T/p$i.csip" "${tiles[@]}"
+    check "[[ $? == 0 && -s '$T/p$i.csip' ]]" "--tile $i/4 --tile-scale"
+done
+for i in 0 2; do # the scale computed by the tile run itself
+    "$B/csi-reconstruct" "$T/s.csid" --tile $i/4 -o "$T/p$i.csip" "${tiles[@]}"
+    check "[[ $? == 0 && -s '$T/p$i.csip' ]]" "--tile $i/4"
+done
+"$B/csi-merge" "$T/p2.csip" "$T/p0.csip" "$T/p3.csip" "$T/p1.csip" -o "$T/m.exr" --png "$T/m.png" --stats "$T/m.json" -q
+check "[[ $? == 0 && -s '$T/m.exr' && -s '$T/m.png' ]]" "csi-merge outputs"
+check "[[ '$(json "$T/m.json" image_fnv1a64)' == '$ha' ]]" "merged tiles differ from the tiled run"
+for i in 0 1 2 3; do
+    "$B/csi-render" "$static" --tile $i/4 --tile-scale "$scale" -o "$T/r$i.csip" "${tiles[@]}"
+    check "[[ $? == 0 ]]" "csi-render --tile $i/4"
+done
+"$B/csi-merge" "$T"/r?.csip -o "$T/rm.exr" --stats "$T/rm.json" -q
+check "[[ '$(json "$T/rm.json" image_fnv1a64)' == '$ha' ]]" "csi-render's tiles differ from the tiled run"
+
+# --- moving: time and space tiles, frames ---------------------------------------------------
+"$B/csi-render" "$moving" --dump "$T/m.csid" -o "$T/mv.exr" --stats "$T/mv.json" --frames "$T/f1" --tiles 3 "${tiles[@]}"
+check "[[ $? == 0 ]] && grep -q '\"tiles\": 3,' '$T/mv.json'" "moving --tiles 3"
+for i in 0 1 2; do
+    "$B/csi-reconstruct" "$T/m.csid" --tile $i/3 --partial-frames -o "$T/q$i.csip" "${tiles[@]}"
+done
+"$B/csi-merge" "$T"/q?.csip -o "$T/mm.exr" --frames "$T/f2" --stats "$T/mm.json" -q
+check "[[ $? == 0 && '$(json "$T/mm.json" image_fnv1a64)' == '$(json "$T/mv.json" image_fnv1a64)' ]]" "moving tiles differ"
+same=1; for f in "$T"/f1/*.png; do cmp -s "$f" "$T/f2/$(basename "$f")" || same=0; done
+check "[[ $same == 1 && -s '$T/f2/frame_0007.png' ]]" "merged frames differ from the tiled run's"
+
+# --- bad input: exit 2, one line naming the problem, no output ---------------------------------
+expect_fail() { # name, expected-substring, command...
+    local name="$1" want="$2"; shift 2
+    rm -f "$T/out.exr"
+    "$@" > "$T/o" 2> "$T/e"; local rc=$?
+    local lines; lines=$(wc -l < "$T/e")
+    if [[ $rc == 2 && $lines == 1 ]] && grep -q -- "$want" "$T/e" && [[ ! -e "$T/out.exr" ]] && \
+       ! ls -a "$T" | grep -q '^\.out\.exr'; then ok; else bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"; fi
+}
+expect_fail "missing tile" "tile 3 of 4 is missing" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/p2.csip" -o "$T/out.exr"
+expect_fail "repeated tile" "both hold tile 1" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/p1.csip" "$T/p3.csip" -o "$T/out.exr"
+"$B/csi-reconstruct" "$T/s.csid" --tile 1/4 --tile-scale "$scale" -o "$T/other1.csip" --tile-margin 4 --max-iter 41 -q
+expect_fail "foreign options" "reconstruction options" "$B/csi-merge" "$T/p0.csip" "$T/other1.csip" "$T/p2.csip" "$T/p3.csip" -o "$T/out.exr"
+expect_fail "foreign input" "the input" "$B/csi-merge" "$T/p0.csip" "$T/r1.csip" "$T/p2.csip" "$T/p3.csip" -o "$T/out.exr"
+"$B/csi-reconstruct" "$T/s.csid" --tile 1/2 -o "$T/half1.csip" "${tiles[@]}"
+expect_fail "another layout" "layout" "$B/csi-merge" "$T/p0.csip" "$T/half1.csip" -o "$T/out.exr"
+head -c 300 "$T/p2.csip" > "$T/trunc.csip"
+expect_fail "truncated partial" "trunc.csip" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/trunc.csip" "$T/p3.csip" -o "$T/out.exr"
+expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
+expect_fail "no frames" "no frames" "$B/csi-merge" "$T"/p?.csip -o "$T/out.exr" --frames "$T/f3"
+expect_fail "tile out of range" "--tile" "$B/csi-reconstruct" "$T/s.csid" --tile 4/4 -o "$T/out.exr"
+expect_fail "tile and png" "csi-merge" "$B/csi-reconstruct" "$T/s.csid" --tile 0/4 -o "$T/out.exr" --png "$T/x.png"
+expect_fail "too many tiles" "cannot be laid out" "$B/csi-reconstruct" "$T/s.csid" --tile 0/999 -o "$T/out.exr"
+
+echo "$pass passed, $fail failed"
+[[ $fail == 0 ]]
