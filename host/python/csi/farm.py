@@ -1,0 +1,328 @@
+"""csi-farm: the tiles of a reconstruction, and the frames of an animation, on a Dask cluster.
+
+A dump's reconstruction is split into the tiles of csi's own layout (docs/tiles.md) and each tile
+runs as one Dask task (``csi-reconstruct DUMP --tile I/N``); the partials come back through Dask
+and ``csi-merge`` blends them here into the image, which is the same bits as one process tiling by
+itself, for any number of workers and any completion order. ``render`` does the same for scenes
+(the frames of an animation, or one moving scene's volume): ``csi-render --dump`` per scene as a
+task, then its tiles, each scene merged as soon as its tiles are in.
+
+Dask distributed is the engine: a LocalCluster on this machine by default (worker processes
+bound to 127.0.0.1), or the scheduler at ``--scheduler ADDRESS`` of a cluster a site already
+runs. Tasks that fail, or whose worker dies, are run again by Dask (up to ``--retries`` times for
+a failure; a lost worker's tasks go to another worker). Inputs and the csi programs must be
+reachable under the same paths from every worker (a shared file system on a real cluster);
+partials travel through Dask, and nothing is written next to the outputs until the merge.
+
+    csi-farm reconstruct scene.csid -o scene.exr --workers 2
+    csi-farm render frame_*.scene -o out/frame_%04d.exr --spp 4 --scheduler tcp://head:8786
+"""
+
+import argparse
+import json
+import os
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+
+class FarmError(RuntimeError):
+    """A csi program failed (its one-line message), or the farm was misused."""
+
+
+# ---- what runs on a worker --------------------------------------------------------------------
+
+def _die_with_parent():
+    """The child is killed when the worker that started it dies (Linux PR_SET_PDEATHSIG), so a
+    killed worker leaves no csi process running on behind it."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)
+    except OSError:
+        pass
+
+
+def _run(cmd):
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_die_with_parent)
+    if p.returncode != 0:
+        msg = p.stderr.decode(errors="replace").strip().splitlines()
+        raise FarmError(msg[-1] if msg else f"{shlex.join(cmd)} exited with {p.returncode}")
+    return p.stdout
+
+
+def task_info(program, source, args):
+    """The layout and the whole problem's scale of one dump: csi-reconstruct --tile-info."""
+    return json.loads(_run([program, source, "--tile-info", "-q"] + list(args)))
+
+
+def task_tile(program, source, index, count, scale, args, scratch=None):
+    """One tile's partial, as bytes (written in a private directory under `scratch`, which is
+    then removed; a worker killed meanwhile leaves it to whoever removes `scratch`)."""
+    if scratch:
+        os.makedirs(scratch, exist_ok=True)
+    d = tempfile.mkdtemp(prefix="csi-farm-tile-", dir=scratch)
+    try:
+        out = os.path.join(d, "tile.csip")
+        cmd = [program, source, "--tile", f"{index}/{count}", "-o", out, "-q"] + list(args)
+        if scale:
+            cmd += ["--tile-scale", scale]
+        _run(cmd)
+        with open(out, "rb") as f:
+            return f.read()
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def task_render(program, scene, dump, args):
+    """Traces a scene into a dump (csi-render --dump; the per-pixel mean it also writes is
+    discarded): the input of that scene's tiles."""
+    d = tempfile.mkdtemp(prefix="csi-farm-render-")
+    try:
+        _run([program, scene, "--dump", dump, "--estimator", "mean", "-o", os.path.join(d, "mean.exr"), "-q"]
+             + list(args))
+        return dump
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+# ---- the client side --------------------------------------------------------------------------
+
+def find_programs(bin_dir=None):
+    """Paths of csi-reconstruct, csi-render and csi-merge: bin_dir, $CSI_BIN, the build directory
+    of this checkout, then $PATH."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    dirs = [bin_dir, os.environ.get("CSI_BIN"), os.path.join(here, "..", "..", "..", "build")]
+    out = {}
+    for name in ("csi-reconstruct", "csi-render", "csi-merge"):
+        for d in dirs:
+            if d and os.access(os.path.join(d, name), os.X_OK):
+                out[name] = os.path.abspath(os.path.join(d, name))
+                break
+        else:
+            found = shutil.which(name)
+            if not found:
+                raise FarmError(f"{name} not found: give --bin DIR (or set CSI_BIN) to the directory of the csi programs")
+            out[name] = found
+    return out
+
+
+class Progress:
+    """One line on stderr per finished task: count, what, where, seconds."""
+
+    def __init__(self, total, quiet=False, stream=None):
+        self.total, self.done, self.quiet = total, 0, quiet
+        self.stream = stream or sys.stderr
+        self.t0 = time.perf_counter()
+
+    def add(self, n):
+        self.total += n
+
+    def step(self, what):
+        self.done += 1
+        if not self.quiet:
+            self.stream.write(f"csi-farm: [{self.done}/{self.total}] {what} ({time.perf_counter() - self.t0:.1f} s)\n")
+            self.stream.flush()
+
+
+def _client(scheduler=None, workers=None):
+    """A client of the scheduler at `scheduler`, or of a new LocalCluster with `workers` worker
+    processes (one thread each: a tile already uses every core through PoCL) on 127.0.0.1."""
+    from distributed import Client, LocalCluster
+    if scheduler:
+        return Client(scheduler), None
+    n = workers or max(1, (os.cpu_count() or 2) // 2)
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def _merge(progs, partials, output, png, frames_dir, stats, quiet):
+    d = tempfile.mkdtemp(prefix="csi-farm-merge-")
+    try:
+        paths = []
+        for i, data in enumerate(partials):
+            p = os.path.join(d, f"tile_{i:06d}.csip")
+            with open(p, "wb") as f:
+                f.write(data)
+            paths.append(p)
+        cmd = [progs["csi-merge"]] + paths + ["-q"]
+        for flag, val in (("-o", output), ("--png", png), ("--frames", frames_dir), ("--stats", stats)):
+            if val:
+                cmd += [flag, val]
+        _run(cmd)
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def _submit_tiles(client, progs, source, info, args, retries, scratch):
+    n = int(info["tiles"])
+    scale = info.get("tile_scale") or ""
+    futs = []
+    for i in range(n):
+        futs.append(client.submit(task_tile, progs["csi-reconstruct"], source, i, n, scale, args, scratch,
+                                  retries=retries, pure=False))
+    return futs
+
+
+def _scratch(client):
+    """Where tasks keep their files: a directory of ours, removed at the end, when every worker
+    runs on this machine (127.0.0.1); else each worker's own temporary directory."""
+    workers = client.scheduler_info().get("workers", {})
+    local = workers and all(w.split("://")[-1].startswith(("127.0.0.1:", "localhost:")) for w in workers)
+    return tempfile.mkdtemp(prefix="csi-farm-scratch-") if local else None
+
+
+def reconstruct(dump, output=None, *, png=None, frames_dir=None, stats=None, tiles=None, options=(),
+                client=None, scheduler=None, workers=None, bin_dir=None, retries=2, quiet=False):
+    """Reconstructs one dump in tiles on a Dask cluster and writes the outputs with csi-merge.
+    `options` are csi-reconstruct's reconstruction options (a list of arguments). Returns the
+    layout (the --tile-info JSON as a dict)."""
+    progs = find_programs(bin_dir)
+    dump = os.path.abspath(dump)
+    args = list(options) + (["--tiles", str(tiles)] if tiles else []) + (["--partial-frames"] if frames_dir else [])
+    own = None
+    if client is None:
+        client, own = _client(scheduler, workers)
+    scratch = _scratch(client)
+    try:
+        from distributed import as_completed
+        info = client.submit(task_info, progs["csi-reconstruct"], dump, args, pure=False, retries=retries).result()
+        futs = _submit_tiles(client, progs, dump, info, args, retries, scratch)
+        prog = Progress(len(futs), quiet)
+        index = {f.key: i for i, f in enumerate(futs)}
+        parts = [None] * len(futs)
+        for f in as_completed(futs):
+            parts[index[f.key]] = f.result()
+            prog.step(f"{os.path.basename(dump)} tile {index[f.key]}")
+        _merge(progs, parts, output, png, frames_dir, stats, quiet)
+        return info
+    finally:
+        if own is not None:
+            client.close()
+            own.close()
+        if scratch:
+            shutil.rmtree(scratch, ignore_errors=True)
+
+
+def render(scenes, output_pattern, *, render_options=(), options=(), png_pattern=None, frames_pattern=None,
+           tiles=None, work_dir=None, client=None, scheduler=None, workers=None, bin_dir=None, retries=2,
+           quiet=False):
+    """Renders and reconstructs every scene (the frames of an animation): one csi-render --dump
+    task per scene, then the tiles of its dump, each scene merged when its tiles are in. Output
+    patterns take the frame number (the scene's position in `scenes`) as %d. The dumps go to
+    `work_dir` (default: a temporary directory, which only a cluster on this machine can share)
+    and are removed at the end. Returns the output paths."""
+    progs = find_programs(bin_dir)
+    own_dir = work_dir is None
+    args = list(options) + (["--tiles", str(tiles)] if tiles else []) + (["--partial-frames"] if frames_pattern else [])
+    fill = (lambda pat, i: (pat % i) if pat and "%" in pat else pat)
+    outputs = [fill(output_pattern, i) for i in range(len(scenes))]
+    if len(set(outputs)) != len(outputs):
+        raise FarmError(f"{output_pattern}: several scenes would write one output: put %d (the frame number) in it")
+    own = None
+    if client is None:
+        client, own = _client(scheduler, workers)
+    scratch = _scratch(client)
+    work = tempfile.mkdtemp(prefix="csi-farm-") if own_dir else os.path.abspath(work_dir)
+    os.makedirs(work, exist_ok=True)
+    try:
+        from distributed import as_completed
+        prog = Progress(2 * len(scenes), quiet)
+        pending = as_completed()
+        what = {}
+        for i, sc in enumerate(scenes):
+            dump = os.path.join(work, f"frame_{i:06d}.csid")
+            f = client.submit(task_render, progs["csi-render"], os.path.abspath(sc), dump, list(render_options),
+                              pure=False, retries=retries)
+            what[f.key] = ("render", i, None)
+            pending.add(f)
+        parts, infos = {}, {}
+        for f in pending:
+            kind, i, extra = what.pop(f.key)
+            res = f.result()
+            if kind == "render":
+                prog.step(f"{os.path.basename(scenes[i])} rendered")
+                g = client.submit(task_info, progs["csi-reconstruct"], res, args, pure=False, retries=retries)
+                what[g.key] = ("info", i, res)
+                pending.add(g)
+            elif kind == "info":
+                infos[i] = res
+                futs = _submit_tiles(client, progs, extra, res, args, retries, scratch)
+                prog.add(len(futs))
+                parts[i] = [None] * len(futs)
+                for t, g in enumerate(futs):
+                    what[g.key] = ("tile", i, t)
+                    pending.add(g)
+            else:
+                parts[i][extra] = res
+                prog.step(f"{os.path.basename(scenes[i])} tile {extra}")
+                if all(p is not None for p in parts[i]):
+                    _merge(progs, parts[i], outputs[i], fill(png_pattern, i), fill(frames_pattern, i), None, quiet)
+                    parts[i] = None
+                    os.remove(os.path.join(work, f"frame_{i:06d}.csid"))
+                    prog.step(f"{outputs[i]} written")
+        return outputs
+    finally:
+        if own is not None:
+            client.close()
+            own.close()
+        if own_dir:
+            shutil.rmtree(work, ignore_errors=True)
+        if scratch:
+            shutil.rmtree(scratch, ignore_errors=True)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        prog="csi-farm",
+        description="Tiles of a csi reconstruction, and frames of an animation, on a Dask cluster "
+                    "(a LocalCluster on this machine by default). Options after -- go to the csi programs.")
+    ap.add_argument("--scheduler", help="address of a Dask scheduler (default: start a LocalCluster on 127.0.0.1)")
+    ap.add_argument("--workers", type=int, help="worker processes of the LocalCluster (default: half the cores, at least 1)")
+    ap.add_argument("--tiles", type=int, help="tiles per image (default: as few as fit the memory budget)")
+    ap.add_argument("--retries", type=int, default=2, help="times a failed task is run again (default 2)")
+    ap.add_argument("--bin", help="directory of csi-reconstruct, csi-render, csi-merge (default: $CSI_BIN, the build, $PATH)")
+    ap.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("reconstruct", help="one dump, in tiles")
+    r.add_argument("dump")
+    r.add_argument("-o", "--output", required=True)
+    r.add_argument("--png")
+    r.add_argument("--frames", help="directory for every frame of a volume")
+    r.add_argument("--stats")
+    s = sub.add_parser("render", help="scenes (the frames of an animation): render, then tiles")
+    s.add_argument("scenes", nargs="+")
+    s.add_argument("-o", "--output", required=True, help="output path; %%d (or %%04d ...) is the frame number")
+    s.add_argument("--png", help="preview path pattern")
+    s.add_argument("--frames", help="directory pattern for every frame of a moving scene's volume")
+    s.add_argument("--spp", type=int, help="samples per pixel (csi-render --spp)")
+    s.add_argument("--seed", type=int, help="csi-render --seed")
+    s.add_argument("--work-dir", help="directory for the dumps, reachable by every worker (default: a temporary one)")
+    argv = sys.argv[1:] if argv is None else list(argv)
+    extra = []
+    if "--" in argv:
+        k = argv.index("--")
+        argv, extra = argv[:k], argv[k + 1:]
+    a = ap.parse_args(argv)
+    try:
+        if a.cmd == "reconstruct":
+            reconstruct(a.dump, a.output, png=a.png, frames_dir=a.frames, stats=a.stats, tiles=a.tiles,
+                        options=extra, scheduler=a.scheduler, workers=a.workers, bin_dir=a.bin,
+                        retries=a.retries, quiet=a.quiet)
+        else:
+            ropts = (["--spp", str(a.spp)] if a.spp else []) + (["--seed", str(a.seed)] if a.seed is not None else [])
+            render(a.scenes, a.output, render_options=ropts, options=extra, png_pattern=a.png,
+                   frames_pattern=a.frames, tiles=a.tiles, work_dir=a.work_dir, scheduler=a.scheduler,
+                   workers=a.workers, bin_dir=a.bin, retries=a.retries, quiet=a.quiet)
+    except FarmError as e:
+        sys.stderr.write(f"csi-farm: error: {e}\n")
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
