@@ -4,6 +4,7 @@
 #define CSI_INTEGRATE_INTERNAL_H
 
 #include "csi/linop.h"
+#include "csi/plan.h"
 #include "csi/reconstruct.h"
 #include "csi/tiles.h"
 
@@ -77,6 +78,10 @@ csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t chann
 /* The checks of csi_reconstruct that need only the sizes (CSI_ERR_ARG): 1 to 4 channels, no
  * zero size, grid sides multiples of the output's, at most 2^32 cells, 1 <= n <= k. */
 csi_status csi_recon_check_sizes(const csi_grid *g, uint32_t channels, size_t n);
+/* The plan (csi/plan.h) of one problem solved whole (csi_reconstruct_scoped), no tiling, with
+ * the checks of csi_recon_plan_make; scope: a tile's whole problem (NULL: this is the whole). */
+csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n, const csi_recon_options *opt,
+                                const csi_tile_scope *scope, csi_recon_plan *out);
 
 /* The shape of Alg. 1's operator (antialias.c): the Gaussian widths (fine cells), the wavelet
  * levels, and the model grid (mw x mh cells, D times coarser than the fine grid, mlevels levels;

@@ -131,12 +131,14 @@ static uint64_t interp_host(size_t mw, size_t mh, size_t n)
 
 /* Alg. 1 (antialias.c), on the fine grid or the model grid D times coarser. */
 static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_options *opt,
-                                 csi_solver_kind solver, csi_recon_plan *p, model *m)
+                                 csi_solver_kind solver, const csi_tile_scope *scope, csi_recon_plan *p,
+                                 model *m)
 {
     const size_t w = g->w, h = g->h, k = w * h, np = (size_t)g->out_w * g->out_h;
     const size_t dims[3] = {w, h, 1};
     csi_recon_state whole;
     memset(&whole, 0, sizeof whole);
+    whole.scope = scope; /* a tile's filter (and so its grid) follows the whole's sampling */
     csi_aa_shape sh;
     CSI_TRY(csi_recon_aa_shape(g, n, opt, solver, &whole, &sh));
     CSI_TRY(check_wavelet(&sh, opt->wavelet));
@@ -269,9 +271,8 @@ static void plan_mean(const csi_grid *g, uint32_t channels, size_t n, csi_recon_
     transient_host(m, ((uint64_t)np + 1) * 8 + (uint64_t)n * (4 + 4 * (uint64_t)channels));
 }
 
-/* The plan of one problem solved whole (csi_reconstruct_scoped). */
-static csi_status plan_whole(const csi_grid *g, uint32_t channels, size_t n, const csi_recon_options *opt,
-                             csi_recon_plan *out)
+csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n, const csi_recon_options *opt,
+                                const csi_tile_scope *scope, csi_recon_plan *out)
 {
     memset(out, 0, sizeof *out);
     CSI_TRY(csi_recon_check_sizes(g, channels, n));
@@ -293,7 +294,7 @@ static csi_status plan_whole(const csi_grid *g, uint32_t channels, size_t n, con
         if (opt->estimator == CSI_EST_GAUSS)
             st = plan_gauss(g, n, out, &m);
         else if (g->t == 1)
-            st = plan_antialias(g, n, opt, solver, out, &m);
+            st = plan_antialias(g, n, opt, solver, scope, out, &m);
         else
             st = plan_motion(g, n, opt, solver, out, &m);
     }
@@ -319,7 +320,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
         opt = *opt_in;
     else
         csi_recon_defaults(&opt);
-    CSI_TRY(plan_whole(g, channels, n, &opt, out));
+    CSI_TRY(csi_recon_plan_whole(g, channels, n, &opt, NULL, out));
     /* csi_reconstruct's layout (csi/tiles.h): when it tiles, the device holds one tile's
      * problem at a time, and the host the whole result besides. */
     csi_tiling tl;
@@ -330,15 +331,17 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     const csi_grid tg = {.w = tl.window[0] * bw, .h = tl.window[1] * bh, .t = tl.window[2],
                          .out_w = tl.window[0], .out_h = tl.window[1]};
     const uint64_t tk = (uint64_t)tg.w * tg.h * tg.t;
-    /* A tile holds the samples inside its window: at most all of them, and at most its cells
-     * (clustered samples may all fall in one window). */
-    const size_t tn = (size_t)(n < tk ? n : tk);
+    /* A tile holds the samples inside its window: the layout's assumption (its share of evenly
+     * spread samples, with headroom; csi_tiling.tile_samples). */
+    const size_t tn = (size_t)(tl.tile_samples < tk ? tl.tile_samples : tk);
     csi_recon_options to = opt;
     to.levels = tl.levels > 0 ? tl.levels : opt.levels;
     to.frames = opt.frames || tl.n[2] > 1;
     to.tiles = 0;
     csi_recon_plan tp;
-    CSI_TRY(plan_whole(&tg, channels, tn, &to, &tp));
+    csi_tile_scope scope;
+    csi_tile_scope_init(g, channels, n, &scope);
+    CSI_TRY(csi_recon_plan_whole(&tg, channels, tn, &to, &scope, &tp));
     const uint64_t whole_result = (uint64_t)g->out_w * g->out_h * channels * 4 *
                                   (g->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN ? 1 + (uint64_t)g->t : 1);
     out->tiles = tl.count;

@@ -16,8 +16,8 @@
 #define TILE_MARGIN_MIN_PX 4u
 #define TILE_MARGIN_MOTION_PX 16u
 #define TILE_MARGIN_MOTION_T 4u
-/* Headroom on the per-sample part of the memory model: a tile holds about its share of the
- * samples when they are spread evenly (Poisson-disk, stratified or uniform positions). */
+/* Headroom on a tile's samples: a tile holds about its share of the samples when they are
+ * spread evenly (Poisson-disk, stratified or uniform positions). */
 #define TILE_SAMPLE_HEADROOM 1.25
 
 uint64_t csi_tile_default_budget(const csi_ctx *ctx)
@@ -40,39 +40,6 @@ static tile_method method_of(const csi_grid *g, const csi_recon_options *opt)
     if (opt->estimator == CSI_EST_GAUSS)
         return M_GAUSS;
     return g->t > 1 ? M_MOTION : M_AA;
-}
-
-/* Device bytes of one reconstruction of k cells and n samples: every buffer the method creates,
- * counted with PoCL's allocation log (POCL_DEBUG=memory) per method, as bytes per cell and per
- * sample (docs/bench/scale.md has the counts). The largest single buffer is about 4 bytes per
- * cell for images (8 for the complex volume of the full-spectrum Alg. 2). */
-static uint64_t model_bytes(tile_method m, const csi_recon_options *opt, uint64_t k, uint64_t n,
-                            uint64_t *largest)
-{
-    double per_cell, per_sample;
-    switch (m) {
-    case M_AA:
-        per_cell = opt->solver == CSI_SOLVER_ROMP ? 60 : 49;
-        per_sample = 40;
-        *largest = 4 * k + 16 * (uint64_t)sqrt((double)k) * 8; /* the half spectrum's padding */
-        break;
-    case M_MOTION:
-        per_cell = opt->motion_full_spectrum ? 100 : 62;
-        per_sample = 64;
-        *largest = (opt->motion_full_spectrum ? 8 : 5) * k;
-        break;
-    case M_GAUSS:
-        per_cell = 30;
-        per_sample = 16;
-        *largest = 5 * k;
-        break;
-    default:
-        per_cell = 0;
-        per_sample = 24;
-        *largest = 16 * n;
-        break;
-    }
-    return (uint64_t)ceil(per_cell * (double)k + per_sample * (double)n) + (UINT64_C(1) << 20);
 }
 
 static bool smooth7(uint64_t v)
@@ -171,15 +138,18 @@ typedef struct {
     tile_method m;
     axis_req ax[3];
     uint64_t k, n;
-    uint32_t bw, bh;
+    uint32_t bw, bh, channels;
     int levels;
+    csi_tile_scope scope; /* the whole's sizes, which a tile's defaults follow */
 } plan_ctx;
 
 typedef struct {
     uint32_t n[3], window[3];
-    uint64_t bytes, largest, work;
+    uint64_t bytes, largest, work, samples;
 } candidate;
 
+/* The layout of n[] tiles, and one tile's bytes: its resource plan (csi/plan.h) with its share
+ * of the samples. false when the layout cannot be made or the tile's problem is refused. */
 static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint32_t n[3], candidate *c)
 {
     for (int a = 0; a < 3; a++) {
@@ -197,7 +167,19 @@ static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint
         if (ns > p->n)
             ns = p->n;
     }
-    c->bytes = model_bytes(p->m, opt, cells, ns, &c->largest);
+    const csi_grid tg = {.w = c->window[0] * p->bw, .h = c->window[1] * p->bh, .t = c->window[2],
+                         .out_w = c->window[0], .out_h = c->window[1]};
+    csi_recon_options to = *opt;
+    if (p->m == M_AA && p->levels > 0)
+        to.levels = p->levels;
+    to.frames = opt->frames || n[2] > 1; /* a time window keeps its frames for its share */
+    to.tiles = 0;
+    csi_recon_plan plan;
+    if (csi_recon_plan_whole(&tg, p->channels, (size_t)ns, &to, count > 1 ? &p->scope : NULL, &plan) != CSI_OK)
+        return false;
+    c->bytes = plan.device_bytes;
+    c->largest = plan.largest_buffer;
+    c->samples = ns;
     c->work = cells * count;
     return true;
 }
@@ -243,6 +225,8 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     p.n = n;
     p.bw = g->w / g->out_w;
     p.bh = g->h / g->out_h;
+    p.channels = channels;
+    csi_tile_scope_init(g, channels, n, &p.scope);
     if (p.m == M_AA) {
         p.levels = opt->levels;
         if (p.levels <= 0) {
@@ -283,9 +267,14 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     const uint32_t one[3] = {1, 1, 1};
     candidate whole, best;
     memset(&best, 0, sizeof best);
-    evaluate(&p, opt, one, &whole);
+    memset(&whole, 0, sizeof whole);
+    /* The whole may be refused outright (too many cells for one problem): tiles may still do. */
+    const bool whole_ok = p.m == M_MEAN || evaluate(&p, opt, one, &whole);
+    if (!whole_ok)
+        whole.bytes = whole.largest = UINT64_MAX;
     out->whole_bytes = whole.bytes;
     out->tile_bytes = whole.bytes;
+    out->tile_samples = n;
     bool have = false;
     if (p.m == M_MEAN || (opt->tiles <= 1 && fits(&whole, budget, max_alloc))) {
         if (opt->tiles > 1)
@@ -351,6 +340,10 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
             if (have && best.n[2] < nt)
                 break;
         }
+        if (!have && !whole_ok) {
+            csi_recon_plan pw;
+            return csi_recon_plan_whole(g, channels, n, opt, NULL, &pw); /* its message */
+        }
         if (!have)
             return csi_fail(CSI_ERR_ARG, "no tiling of the %ux%ux%u grid fits the device budget of "
                             "%llu bytes (the whole needs %llu)", g->w, g->h, g->t,
@@ -358,6 +351,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     }
     out->count = best.n[0] * best.n[1] * best.n[2];
     out->tile_bytes = best.bytes;
+    out->tile_samples = best.samples;
     for (int a = 0; a < 3; a++) {
         out->n[a] = best.n[a];
         out->window[a] = best.window[a];

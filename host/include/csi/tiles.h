@@ -64,8 +64,10 @@ typedef struct csi_tiling {
     uint32_t align[3];   /* interior core boundaries are multiples of this */
     int levels;          /* Alg. 1: wavelet levels of every tile (the whole grid's); else 0 */
     uint64_t budget;     /* the device budget it was planned for (bytes) */
-    uint64_t tile_bytes; /* the device bytes the memory model gives one tile */
+    uint64_t tile_bytes; /* the device bytes one tile needs (csi/plan.h) ... */
     uint64_t whole_bytes;/* ... and the whole problem untiled */
+    uint64_t tile_samples; /* the samples a tile is assumed to hold: its share of samples spread
+                              evenly, with 25% headroom, at most all and at most its cells */
 } csi_tiling;
 
 /* One tile: its core and window along each axis, [core0, core1) and [win0, win0 + window). */
@@ -82,8 +84,9 @@ typedef struct csi_tile {
  * fewest cells in all (count 1 when the whole problem fits); N > 0: exactly N tiles (the
  * factorisation n[0] n[1] n[2] = N that fits and covers the fewest cells). CSI_ERR_ARG when no
  * layout fits (the message names the budget and the smallest tile's bytes) or when N tiles
- * cannot be laid out on the image (fewer pixels than tiles along every factorisation). The
- * per-sample part of the memory model assumes the samples are spread evenly (25% headroom). */
+ * cannot be laid out on the image (fewer pixels than tiles along every factorisation). A tile's
+ * bytes are its resource plan (csi/plan.h) with tile_samples samples: samples clustered in one
+ * window beyond that headroom make that tile larger than planned. */
 csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_tiling *out);
 
