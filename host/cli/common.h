@@ -22,9 +22,6 @@ int cli_exit_code(csi_status st);
 /* Strict number parsing: the whole string must be a number in [lo, hi]. */
 bool cli_parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
 bool cli_parse_double(const char *s, double lo, double hi, double *out);
-/* A byte count: a whole number, optionally followed by K, M, G or T (powers of 1024; "KiB",
- * "MB" and the like are read the same way). */
-bool cli_parse_bytes(const char *s, uint64_t *out);
 /* "WxH" -> w, h (both >= 1). */
 bool cli_parse_size(const char *s, uint32_t *w, uint32_t *h);
 

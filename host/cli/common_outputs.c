@@ -63,39 +63,37 @@ static uint64_t image_hash(const float *a, size_t n)
     return h;
 }
 
-void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_result *r)
+void cli_stats_recon(csi_json *j, const csi_recon_result *r)
 {
     char hash[32];
     snprintf(hash, sizeof hash, "%016llx",
              (unsigned long long)image_hash(r->image, (size_t)r->out_w * r->out_h * r->channels));
     csi_json_str(j, "image_fnv1a64", hash);
-    csi_json_str(j, "solver", csi_solver_kind_name(r->solver));
+    csi_json_str(j, "solver", csi_recon_choice_name("solver", r->options.solver));
     csi_json_int(j, "k", (int64_t)r->k);
     csi_json_int(j, "n", (int64_t)r->n);
     csi_json_num(j, "sampling_fraction", r->k ? (double)r->n / (double)r->k : 0);
     csi_json_int(j, "tiles", r->tiles);
     csi_json_int(j, "unknowns", (int64_t)r->unknowns);
     csi_json_int(j, "model_grid_factor", r->model_factor);
-    csi_json_str(j, "wavelet", csi_wavelet_name(opt->wavelet));
-    csi_json_num(j, "lambda", opt->lambda);
-    csi_json_num(j, "sigma_scale", opt->sigma_scale);
-    csi_json_str(j, "integrate", csi_aa_output_name(opt->output));
-    csi_json_str(j, "estimator", csi_estimator_name(opt->estimator));
-    csi_json_str(j, "correct", csi_aa_correct_name(opt->correct));
-    csi_json_num(j, "cv_n0", opt->cv_n0);
-    csi_json_num(j, "sigma_spacing", opt->sigma_spacing);
-    csi_json_str(j, "stop", csi_recon_stop_name(opt->stop));
-    csi_json_str(j, "continuation", csi_switch_name(opt->continuation));
-    csi_json_str(j, "debias", csi_switch_name(opt->debias));
-    csi_json_num(j, "tau_rel_option", opt->tau_rel);
-    if (r->solver == CSI_SOLVER_ROMP) { /* the ROMP options as given (0 / auto: the method's) */
-        csi_json_str(j, "romp_preset", opt->romp_published ? "published" : "csi");
-        csi_json_int(j, "romp_s_option", (int64_t)opt->romp_s);
-        csi_json_num(j, "romp_max_support_option", opt->romp_max_support);
-        csi_json_str(j, "romp_normalize", csi_switch_name(opt->romp_normalize));
-        csi_json_int(j, "romp_seed_levels_option", opt->romp_seed_levels);
-        csi_json_int(j, "romp_lsq_iter_option", opt->romp_lsq_iter);
+    /* Every option, as used: the autos that apply resolved, the others "auto". */
+    csi_json_begin(j, "options");
+    for (size_t i = 0; i < csi_option_count(); i++) {
+        csi_option_info info;
+        char key[64], text[64];
+        double v;
+        if (csi_option_describe(i, &info) != CSI_OK)
+            continue;
+        snprintf(key, sizeof key, "%s", info.name);
+        for (char *p = key; *p; p++)
+            *p = *p == '-' ? '_' : *p;
+        if (csi_recon_option_number(&r->options, info.name, &v) == CSI_OK)
+            csi_json_num(j, key, v);
+        else if (csi_recon_option_get(&r->options, info.name, text, sizeof text) == CSI_OK)
+            csi_json_str(j, key, text);
     }
+    csi_json_end(j);
+    csi_clear_error();
     csi_json_num(j, "t_setup_s", r->t_setup);
     csi_json_num(j, "t_solve_s", r->t_solve);
     csi_json_num(j, "t_integrate_s", r->t_integrate);
@@ -159,8 +157,7 @@ static csi_status write_one(const char *exr, const char *png, const float *plane
     return s;
 }
 
-csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
-                            const csi_recon_result *r, const char *method)
+csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, const char *method)
 {
     double iters = 0, resid = 0;
     for (uint32_t c = 0; c < r->channels; c++) {
@@ -170,27 +167,38 @@ csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
     }
     char ver[64];
     snprintf(ver, sizeof ver, "csi %s", CSI_VERSION);
-    csi_attr attrs[] = {
-        {.name = "csi:software", .type = CSI_ATTR_STRING, .s = ver},
-        {.name = "csi:method", .type = CSI_ATTR_STRING, .s = method},
-        {.name = "csi:solver", .type = CSI_ATTR_STRING, .s = csi_solver_kind_name(r->solver)},
-        {.name = "csi:wavelet", .type = CSI_ATTR_STRING, .s = csi_wavelet_name(opt->wavelet)},
-        {.name = "csi:integrate", .type = CSI_ATTR_STRING, .s = csi_aa_output_name(opt->output)},
-        {.name = "csi:correct", .type = CSI_ATTR_STRING, .s = csi_aa_correct_name(opt->correct)},
-        {.name = "csi:stop", .type = CSI_ATTR_STRING, .s = csi_recon_stop_name(opt->stop)},
-        {.name = "csi:sigma_scale", .type = CSI_ATTR_DOUBLE, .f = opt->sigma_scale},
-        {.name = "csi:sigma_spacing", .type = CSI_ATTR_DOUBLE, .f = opt->sigma_spacing},
-        {.name = "csi:tau", .type = CSI_ATTR_DOUBLE, .f = r->report[0].tau},
-        {.name = "csi:lambda", .type = CSI_ATTR_FLOAT, .f = opt->lambda},
-        {.name = "csi:samples", .type = CSI_ATTR_DOUBLE, .f = (double)r->n},
-        {.name = "csi:unknowns", .type = CSI_ATTR_DOUBLE, .f = (double)r->k},
-        {.name = "csi:tiles", .type = CSI_ATTR_DOUBLE, .f = (double)r->tiles},
-        {.name = "csi:iterations", .type = CSI_ATTR_DOUBLE, .f = iters},
-        {.name = "csi:max_rel_residual", .type = CSI_ATTR_DOUBLE, .f = resid},
-        {.name = "csi:t_solve_s", .type = CSI_ATTR_DOUBLE, .f = r->t_solve},
-        {.name = "csi:t_total_s", .type = CSI_ATTR_DOUBLE, .f = r->t_setup + r->t_solve + r->t_integrate},
-    };
-    const size_t nattrs = sizeof attrs / sizeof attrs[0];
+    /* The run's figures, then every option as used ("csi:option:NAME"; numbers as doubles,
+     * choices, flags, auto and off as strings). */
+    enum { MAX_ATTRS = 160 };
+    csi_attr attrs[MAX_ATTRS];
+    char texts[MAX_ATTRS][48], names[MAX_ATTRS][64];
+    size_t nattrs = 0;
+    attrs[nattrs++] = CSI_ATTR_S("csi:software", ver);
+    attrs[nattrs++] = CSI_ATTR_S("csi:method", method);
+    attrs[nattrs++] = CSI_ATTR_S("csi:solver", csi_recon_choice_name("solver", r->options.solver));
+    attrs[nattrs++] = CSI_ATTR_D("csi:tau", r->report[0].tau);
+    attrs[nattrs++] = CSI_ATTR_D("csi:samples", (double)r->n);
+    attrs[nattrs++] = CSI_ATTR_D("csi:unknowns", (double)r->k);
+    attrs[nattrs++] = CSI_ATTR_D("csi:tiles", (double)r->tiles);
+    attrs[nattrs++] = CSI_ATTR_D("csi:iterations", iters);
+    attrs[nattrs++] = CSI_ATTR_D("csi:max_rel_residual", resid);
+    attrs[nattrs++] = CSI_ATTR_D("csi:t_solve_s", r->t_solve);
+    attrs[nattrs++] = CSI_ATTR_D("csi:t_total_s", r->t_setup + r->t_solve + r->t_integrate);
+    for (size_t i = 0; i < csi_option_count() && nattrs < MAX_ATTRS; i++) {
+        csi_option_info info;
+        double v;
+        if (csi_option_describe(i, &info) != CSI_OK)
+            continue;
+        snprintf(names[nattrs], sizeof names[nattrs], "csi:option:%s", info.name);
+        if (csi_recon_option_number(&r->options, info.name, &v) == CSI_OK) {
+            attrs[nattrs] = CSI_ATTR_D(names[nattrs], v);
+        } else {
+            csi_recon_option_get(&r->options, info.name, texts[nattrs], sizeof texts[nattrs]);
+            attrs[nattrs] = CSI_ATTR_S(names[nattrs], texts[nattrs]);
+        }
+        nattrs++;
+    }
+    csi_clear_error();
     CSI_TRY(write_one(o->exr, o->png, r->image, r->out_w, r->out_h, r->channels, attrs, nattrs));
     if (o->frames_dir && r->nframes) {
         const size_t plane = (size_t)r->out_w * r->out_h * r->channels;

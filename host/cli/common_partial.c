@@ -42,7 +42,7 @@ static const struct {
     OPT(T_INT, output), OPT(T_INT, correct), OPT(T_F64, cv_n0), OPT(T_F64, tol), OPT(T_INT, max_iter),
     OPT(T_F64, tau_rel), OPT(T_INT, model_grid), OPT(T_INT, stop), OPT(T_INT, continuation),
     OPT(T_INT, debias), OPT(T_SIZE, romp_s), OPT(T_F64, romp_max_support), OPT(T_INT, romp_normalize),
-    OPT(T_INT, romp_seed_levels), OPT(T_INT, romp_lsq_iter), OPT(T_BOOL, romp_published),
+    OPT(T_INT, romp_seed_levels), OPT(T_INT, romp_lsq_iter), OPT(T_INT, romp_preset),
     OPT(T_BOOL, frames), OPT(T_U64, seed), OPT(T_F64, motion_resid_sigma),
     OPT(T_BOOL, motion_full_spectrum), OPT(T_BOOL, motion_debias),
     /* the tile options decide the layout, which the partial holds itself */
@@ -326,7 +326,7 @@ static void put_header(wbuf *w, const cli_partial *p)
     put_u32(w, r->out_h);
     put_u32(w, r->channels);
     put_u32(w, r->nframes);
-    put_u32(w, (uint32_t)r->solver);
+    put_u32(w, (uint32_t)r->options.solver);
     put_u32(w, r->model_factor);
     put_u64(w, r->k);
     put_u64(w, r->n);
@@ -431,7 +431,7 @@ csi_status cli_partial_read(const char *path, bool with_data, cli_partial *out)
         res->out_h = get_u32(&r);
         res->channels = get_u32(&r);
         res->nframes = get_u32(&r);
-        res->solver = (csi_solver_kind)get_u32(&r);
+        res->options.solver = (csi_solver_kind)get_u32(&r);
         res->model_factor = get_u32(&r);
         res->k = (size_t)get_u64(&r);
         res->n = (size_t)get_u64(&r);

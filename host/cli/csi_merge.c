@@ -136,8 +136,11 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = csi_tiles_end(&b);
     res.n = first.scope.n;
+    const csi_solver_kind used = res.options.solver; /* the tiles' (their partials hold it) */
+    res.options = first.options;                     /* the options as the tiles were given them */
+    res.options.solver = used;
     if (s == CSI_OK)
-        s = cli_write_images(&outs, &first.options, &res, first.method);
+        s = cli_write_images(&outs, &res, first.method);
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);
@@ -149,7 +152,7 @@ int main(int argc, char **argv)
             csi_json_int(j, "grid_t", first.tiling.grid.t);
             csi_json_int(j, "out_w", first.tiling.grid.out_w);
             csi_json_int(j, "out_h", first.tiling.grid.out_h);
-            cli_stats_recon(j, &first.options, &res);
+            cli_stats_recon(j, &res);
             csi_json_num(j, "t_wall_s", cli_now() - t0);
             s = csi_json_write(j, outs.stats);
             csi_json_free(j);

@@ -101,7 +101,7 @@ static int run_tile(csi_ctx *ctx, const csi_dump *d, const char *in, csi_recon_o
             csi_json_int(j, "window_x0", res.x0);
             csi_json_int(j, "window_y0", res.y0);
             csi_json_int(j, "window_t0", res.t0);
-            cli_stats_recon(j, opt, &res.r);
+            cli_stats_recon(j, &res.r);
             csi_json_num(j, "t_wall_s", cli_now() - t0);
             s = csi_json_write(j, outs->stats);
             csi_json_free(j);
@@ -241,7 +241,7 @@ int main(int argc, char **argv)
     }
     csi_recon_result res;
     double t0 = cli_now();
-    s = csi_reconstruct(ctx, &dump.grid, dump.channels, dump.pos, dump.values, dump.count, &opt, &res);
+    s = csi_recon(ctx, &dump.grid, dump.channels, dump.pos, dump.values, dump.count, &opt, &res);
     cli_progress_end(&bar);
     int rc = 0;
     if (s != CSI_OK) {
@@ -249,7 +249,7 @@ int main(int argc, char **argv)
     } else {
         const char *method = method_name(&opt, &dump.grid);
         tp = cli_now();
-        s = cli_write_images(&outs, &opt, &res, method);
+        s = cli_write_images(&outs, &res, method);
         pt.write = cli_now() - tp;
         if (s == CSI_OK && outs.stats) {
             csi_json *j = NULL;
@@ -266,7 +266,7 @@ int main(int argc, char **argv)
                 csi_json_int(j, "records", (int64_t)drep.records);
                 csi_json_int(j, "duplicates", (int64_t)drep.duplicates);
                 csi_json_int(j, "dropped_invalid", (int64_t)drep.dropped_invalid);
-                cli_stats_recon(j, &opt, &res);
+                cli_stats_recon(j, &res);
                 cli_stats_phases(j, &pt, &res);
                 csi_json_num(j, "t_wall_s", cli_now() - t0);
                 s = csi_json_write(j, outs.stats);
@@ -284,7 +284,8 @@ int main(int argc, char **argv)
                 }
             fprintf(stderr, "%s: %ux%u from %zu samples of a %ux%ux%u grid (%s) in %.2f s%s\n", prog,
                     res.out_w, res.out_h, res.n, dump.grid.w, dump.grid.h, dump.grid.t,
-                    opt.estimator == CSI_EST_CS ? csi_solver_kind_name(res.solver) : csi_estimator_name(opt.estimator), cli_now() - t0, all ? "" : " (not converged)");
+                    opt.estimator == CSI_EST_CS ? csi_recon_choice_name("solver", res.options.solver)
+                                                : csi_recon_choice_name("estimator", opt.estimator), cli_now() - t0, all ? "" : " (not converged)");
         }
         csi_recon_result_free(&res);
     }

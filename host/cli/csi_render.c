@@ -165,7 +165,7 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_tracer *tr, con
             csi_json_int(j, "tile_count", tl.count);
             csi_json_int(j, "samples", (int64_t)m);
             csi_json_num(j, "t_render_s", t_render);
-            cli_stats_recon(j, opt, &res.r);
+            cli_stats_recon(j, &res.r);
             s = csi_json_write(j, outs->stats);
             csi_json_free(j);
         }
@@ -204,9 +204,6 @@ int main(int argc, char **argv)
     uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
     int c;
     opterr = 0;
-    /* --estimator defaults by --method: remember whether it was given. */
-    const csi_estimator unset = (csi_estimator)-1;
-    opt.estimator = unset;
     struct option *all_opts = cli_longopts_with_recon(longopts);
     if (!all_opts)
         return cli_error(prog, CSI_ERR_NOMEM, "out of memory");
@@ -263,9 +260,7 @@ int main(int argc, char **argv)
         }
     }
     free(all_opts);
-    const bool est_given = opt.estimator != unset;
-    if (!est_given)
-        opt.estimator = CSI_EST_CS;
+    const bool est_given = cli_recon_given("estimator"); /* else it follows --method */
     if (optind != argc - 1)
         return cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no scene given (see --help)"
                                                           : "more than one scene given (see --help)");
@@ -410,7 +405,7 @@ int main(int argc, char **argv)
     opt.progress = on_solve;
     opt.user = &ps;
     double t1 = cli_now();
-    s = csi_reconstruct(ctx, &grid, 3, pos, rgb, n, &opt, &res);
+    s = csi_recon(ctx, &grid, 3, pos, rgb, n, &opt, &res);
     double t_recon = cli_now() - t1;
     cli_progress_end(&bar);
     if (s != CSI_OK) {
@@ -426,7 +421,7 @@ int main(int argc, char **argv)
              csi_pos_method_name(popts.method));
     cli_phase_times pt = {.device = t_device};
     double tw = cli_now();
-    s = cli_write_images(&outs, &opt, &res, mdesc);
+    s = cli_write_images(&outs, &res, mdesc);
     pt.write = cli_now() - tw;
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
@@ -465,7 +460,7 @@ int main(int argc, char **argv)
             csi_json_int(j, "embree_motion_geometries", info.motion_geometries);
             csi_json_int(j, "threads", info.threads);
             csi_json_begin(j, "reconstruction");
-            cli_stats_recon(j, &opt, &res);
+            cli_stats_recon(j, &res);
             cli_stats_phases(j, &pt, &res);
             csi_json_end(j);
             s = csi_json_write(j, outs.stats);

@@ -13,8 +13,8 @@ typedef struct cli_outputs {
 /* Checks that every output's directory exists and is writable before any work is done. */
 csi_status cli_outputs_check(const cli_outputs *o);
 
-/* The solver's figures as EXR attributes and JSON members. */
-void cli_stats_recon(csi_json *j, const csi_recon_options *opt, const csi_recon_result *r);
+/* The solver's figures and every option as used, as JSON members. */
+void cli_stats_recon(csi_json *j, const csi_recon_result *r);
 
 /* Wall-clock seconds of the phases the program runs itself (the library times the rest). */
 typedef struct cli_phase_times {
@@ -28,7 +28,6 @@ typedef struct cli_phase_times {
 void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_result *r);
 
 /* Writes the image (and frames) with attributes describing the run. */
-csi_status cli_write_images(const cli_outputs *o, const csi_recon_options *opt,
-                            const csi_recon_result *r, const char *method);
+csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, const char *method);
 
 #endif

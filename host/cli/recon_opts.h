@@ -1,8 +1,10 @@
-/* Reconstruction options shared by csi-render and csi-reconstruct (see common_recon.c). */
+/* Reconstruction options shared by csi-render and csi-reconstruct, made from the library's option
+ * table (see common_recon.c). */
 #ifndef CSI_CLI_RECON_OPTS_H
 #define CSI_CLI_RECON_OPTS_H
 
 #include <getopt.h>
+#include <stdbool.h>
 #include <stdio.h>
 
 #include "csi/reconstruct.h"
@@ -12,6 +14,8 @@
 
 /* own (terminated by a zero entry) followed by the shared options; free() the result. */
 struct option *cli_longopts_with_recon(const struct option *own);
+/* Whether the command line gave shared option `name` (after the getopt loop). */
+bool cli_recon_given(const char *name);
 /* The help lines of the shared options. */
 void cli_recon_usage(FILE *f);
 /* Applies option c if it is a shared one: returns 0 when applied, -1 when c is not a shared

@@ -12,11 +12,8 @@
 #include "csi/wavelet.h"
 #include "internal.h"
 
-/* sigma_spacing when the caller leaves it (< 0). Measured: docs/bench/quality.md. */
-#define CSI_SIGMA_SPACING_DEFAULT 0.8
-
 csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_solver_kind solver, const csi_recon_state *st, csi_aa_shape *out)
+                              const csi_recon_state *st, csi_aa_shape *out)
 {
     const size_t w = g->w, h = g->h, k = w * h;
     double *sphi = out->sphi;
@@ -28,20 +25,10 @@ csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_optio
     /* The filter follows the sampling rate: below a few samples per pixel the paper's width
      * (set by the output size alone) is narrower than the gaps between samples, and the
      * reconstruction rings between them (docs/bench/quality.md). */
-    const double spacing = (opt->sigma_spacing >= 0 ? opt->sigma_spacing : CSI_SIGMA_SPACING_DEFAULT) *
-                           sqrt(csi_recon_scope_k(st, k) / csi_recon_scope_n(st, n));
+    const double spacing = opt->sigma_spacing * sqrt(csi_recon_scope_k(st, k) / csi_recon_scope_n(st, n));
     sphi[0] = fmax(sphi[0], spacing);
     sphi[1] = fmax(sphi[1], spacing);
-    /* Default: as many levels as the grid allows, at most 5. The tau rule (image_sparsa_defaults)
-     * is relative to ||A^H y||_inf, which the coarse band dominates and which doubles with each
-     * extra level; with 7 levels at 1024^2 the rule's tau was 2x off (MSE 8.5e-4 against 4.6e-4
-     * with 5 levels, texture 1 spp), while 5 against 6 levels at 512^2 differ by < 5%. */
-    int levels = opt->levels;
-    if (levels <= 0) {
-        levels = csi_wavelet_default_levels(opt->wavelet, w, h);
-        if (levels > 5)
-            levels = 5;
-    }
+    const int levels = opt->levels; /* resolved: csi_recon_resolve */
     if (levels < 1)
         return csi_fail(CSI_ERR_ARG, "grid %zux%zu is too small or odd for a %s wavelet level", w, h,
                         csi_wavelet_name(opt->wavelet));
@@ -52,7 +39,7 @@ csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_optio
      * what it reproduces: the sharp estimate, solved by SpaRSA (ROMP and the filtered estimate
      * keep the fine grid). */
     const unsigned D = opt->model_grid != CSI_SWITCH_OFF && opt->output == CSI_AA_SHARP &&
-                               solver == CSI_SOLVER_SPARSA
+                               opt->solver == CSI_SOLVER_SPARSA
                            ? csi_model_grid_factor(w, h, sphi, levels) : 1;
     out->D = D;
     out->mw = w / D;
@@ -64,16 +51,16 @@ csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_optio
 }
 
 /* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
- * borrowed from st->inner), on the model grid D times coarser when the filter allows it. The
- * filter width and the default levels follow the whole problem's cells per sample when st is a
- * tile's (a tile gets the whole grid's levels as opt->levels). *D_out: D; *km_out: the unknowns. */
+ * borrowed from st->inner), on the model grid D times coarser when the filter allows it. opt is
+ * resolved (csi_recon_resolve_scoped); the filter width follows the whole problem's cells per
+ * sample when st is a tile's. *D_out: D; *km_out: the unknowns. */
 static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_solver_kind solver, csi_recon_state *st, unsigned *D_out, size_t *km_out)
+                              csi_recon_state *st, unsigned *D_out, size_t *km_out)
 {
     const size_t w = g->w, h = g->h, k = w * h;
     const size_t dims[3] = {w, h, 1};
     csi_aa_shape sh;
-    CSI_TRY(csi_recon_aa_shape(g, n, opt, solver, st, &sh));
+    CSI_TRY(csi_recon_aa_shape(g, n, opt, st, &sh));
     const double *sphi = sh.sphi;
     const unsigned D = sh.D;
     const size_t mw = sh.mw, mh = sh.mh;
@@ -126,7 +113,7 @@ csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t c
 {
     unsigned D;
     size_t km;
-    CSI_TRY(aa_operator(ctx, g, n, opt, CSI_SOLVER_SPARSA, st, &D, &km));
+    CSI_TRY(aa_operator(ctx, g, n, opt, st, &D, &km));
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
     csi_vec_ws *ws = NULL;
@@ -154,7 +141,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     const size_t np = (size_t)g->out_w * g->out_h;
     unsigned D;
     size_t km;
-    CSI_TRY(aa_operator(ctx, g, n, opt, res->solver, st, &D, &km));
+    CSI_TRY(aa_operator(ctx, g, n, opt, st, &D, &km));
     res->model_factor = D;
     res->unknowns = km;
     CSI_TRY(csi_solver_create(st->A, &st->solver));
@@ -177,8 +164,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         CSI_TRY(csi_fill_zero(ctx, st->x, km * sizeof(float)));
         double t0 = csi_recon_now();
         const double tau_scale = st->scope && st->scope->has_scale ? st->scope->scale[c] : 0;
-        CSI_TRY(csi_recon_run_solver(st, res->solver, opt, csi_recon_scope_spp(st, n, np), 0, tau_scale,
-                                     &res->report[c]));
+        CSI_TRY(csi_recon_run_solver(st, opt, tau_scale, &res->report[c]));
         CSI_TRY(csi_finish(ctx));
         double t1 = csi_recon_now();
         t_solve += t1 - t0;

@@ -14,11 +14,7 @@ csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels
                               csi_recon_state *st)
 {
     const size_t k = (size_t)g->w * g->h * g->t, wh = (size_t)g->w * g->h;
-    const int nd = g->t > 1 ? 3 : 2;
-    const double sigma = opt->gauss_sigma > 0
-                             ? opt->gauss_sigma
-                             : csi_gauss_nc_default_sigma((size_t)csi_recon_scope_k(st, k),
-                                                          (size_t)csi_recon_scope_n(st, n), nd);
+    const double sigma = opt->gauss_sigma;
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the scattered samples", &st->x));

@@ -3,9 +3,6 @@
 
 #include "internal.h"
 
-/* The CV shrinkage when the caller leaves it (cv_n0 < 0). Measured: docs/bench/quality.md. */
-#define CSI_CV_N0_DEFAULT 8.0
-
 csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
                                 const csi_linop *S, cl_mem fine, cl_mem gathered,
                                 const float *values, uint32_t channels, uint32_t c,
@@ -13,7 +10,7 @@ csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const double n0 = opt->cv_n0 >= 0 ? opt->cv_n0 : CSI_CV_N0_DEFAULT;
+    const double n0 = opt->cv_n0;
     float *gs = malloc(n * sizeof *gs);
     double *sum = calloc(np, sizeof *sum);
     uint32_t *cnt = calloc(np, sizeof *cnt);

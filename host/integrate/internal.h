@@ -28,8 +28,8 @@ typedef struct {
 /* Releases everything in st (not st itself). */
 void csi_recon_state_free(csi_recon_state *st);
 
-/* The cells and samples the size-dependent defaults follow: the whole problem's when st is a
- * tile's, else k and n. */
+/* The cells and samples the filter width follows: the whole problem's when st is a tile's,
+ * else k and n. */
 static inline double csi_recon_scope_k(const csi_recon_state *st, size_t k)
 {
     return st->scope ? (double)st->scope->k : (double)k;
@@ -38,19 +38,19 @@ static inline double csi_recon_scope_n(const csi_recon_state *st, size_t n)
 {
     return st->scope ? (double)st->scope->n : (double)n;
 }
-/* Samples per output pixel of the whole problem (st a tile's) or of this one. */
-static inline double csi_recon_scope_spp(const csi_recon_state *st, size_t n, size_t np)
-{
-    return st->scope ? (double)st->scope->n / ((double)st->scope->out_w * st->scope->out_h)
-                     : (double)n / (double)np;
-}
 
-/* The dispatch of csi_reconstruct on one problem (no tiling): the whole when scope is NULL, a
- * tile's window otherwise. */
-csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
-                                  const csi_sample_pos *pos, const float *values, size_t n,
-                                  const csi_recon_options *opt, const csi_tile_scope *scope,
-                                  csi_recon_result *out);
+/* csi_recon_resolve for one problem: a tile's (scope non-NULL) follows the whole problem's
+ * cells, samples and pixels where a default depends on them (csi/tiles.h), its own grid for the
+ * wavelet levels and its own samples for Alg. 2's tau rule (its tau scale is rescaled to them). */
+csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid *g, size_t n,
+                                    const csi_tile_scope *scope, csi_recon_options *out);
+
+/* The dispatch of csi_recon on one problem (no tiling): the whole when scope is NULL, a tile's
+ * window otherwise. Resolves the options' autos for it (csi_recon_resolve_scoped). */
+csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
+                            const csi_sample_pos *pos, const float *values, size_t n,
+                            const csi_recon_options *opt, const csi_tile_scope *scope,
+                            csi_recon_result *out);
 
 /* Alg. 1's tau scale of one problem: ||A^H y||_inf per channel, A built as csi_recon_antialias
  * builds it (st->idx and st->plane filled by the caller; st freed by the caller). */
@@ -58,7 +58,7 @@ csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t c
                                      const float *values, size_t n, const csi_recon_options *opt,
                                      csi_recon_state *st, double scale[4]);
 
-/* The methods (each fills res and st; csi_reconstruct frees st). */
+/* The methods, with resolved options (each fills res and st; csi_recon_scoped frees st). */
 csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                const csi_sample_pos *pos, const float *values, size_t n,
                                const csi_recon_options *opt, csi_recon_result *res,
@@ -75,7 +75,7 @@ csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t chann
                                  const csi_sample_pos *pos, const float *values, size_t n,
                                  csi_recon_result *res, csi_recon_state *st);
 
-/* The checks of csi_reconstruct that need only the sizes (CSI_ERR_ARG): 1 to 4 channels, no
+/* The checks of csi_recon that need only the sizes (CSI_ERR_ARG): 1 to 4 channels, no
  * zero size, grid sides multiples of the output's, at most 2^32 cells, 1 <= n <= k. */
 csi_status csi_recon_check_sizes(const csi_grid *g, uint32_t channels, size_t n);
 /* The plan (csi/plan.h) of one problem solved whole (csi_reconstruct_scoped), no tiling, with
@@ -85,8 +85,8 @@ csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n, 
 
 /* The shape of Alg. 1's operator (antialias.c): the Gaussian widths (fine cells), the wavelet
  * levels, and the model grid (mw x mh cells, D times coarser than the fine grid, mlevels levels;
- * D = 1: the fine grid). st may be a tile's (its scope sets the widths); CSI_ERR_ARG when the grid
- * allows no wavelet level. */
+ * D = 1: the fine grid), for resolved options (csi_recon_resolve). st may be a tile's (its scope
+ * sets the widths); CSI_ERR_ARG when the grid allows no wavelet level. */
 typedef struct {
     double sphi[3];
     int levels, mlevels;
@@ -94,15 +94,15 @@ typedef struct {
     size_t mw, mh;
 } csi_aa_shape;
 csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_solver_kind solver, const csi_recon_state *st, csi_aa_shape *out);
+                              const csi_recon_state *st, csi_aa_shape *out);
 
-/* Runs the solver on st->A, st->y into st->x. image_spp > 0: Alg. 1 with that many samples per
- * output pixel (SpaRSA gets the image defaults where the caller left a setting open); 0: Alg. 2
- * with motion_n samples. tau_scale > 0: SpaRSA's tau is tau_rel * tau_scale (a tile following
- * the whole problem's scale) instead of tau_rel * ||A^H y||_inf. */
-csi_status csi_recon_run_solver(csi_recon_state *st, csi_solver_kind kind,
-                                const csi_recon_options *opt, double image_spp, size_t motion_n,
-                                double tau_scale, csi_solve_report *rep);
+/* Runs the solver opt->solver on st->A, st->y into st->x, with the resolved options
+ * (csi_recon_resolve). tau_scale > 0: SpaRSA's tau is tau_rel * tau_scale (a tile following the
+ * whole problem's scale) instead of tau_rel * ||A^H y||_inf. */
+csi_status csi_recon_run_solver(csi_recon_state *st, const csi_recon_options *opt, double tau_scale,
+                                csi_solve_report *rep);
+/* ROMP's support limit for N samples: romp_max_support as a count, or as a fraction of N. */
+size_t csi_recon_romp_support_limit(const csi_recon_options *o, size_t N);
 
 /* Starts channel c of `channels`: records it in st, reports "solve c/C", and when its samples
  * are bitwise those of an earlier channel (a grey image's R, G and B) copies that channel's

@@ -27,7 +27,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
 {
     const size_t w = g->w, h = g->h, T = g->t, k = w * h * T, wh = w * h;
     const size_t dims[3] = {w, h, T};
-    if (res->solver == CSI_SOLVER_ROMP)
+    if (opt->solver == CSI_SOLVER_ROMP)
         return csi_fail(CSI_ERR_ARG, "ROMP is real-valued and the 3-D Fourier problem is complex: "
                                      "use --solver sparsa for a volume (grid_t = %zu)", T);
     bool half = !opt->motion_full_spectrum;
@@ -71,17 +71,13 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_nc_op rnc;
     memset(&rnc, 0, sizeof rnc);
     float *yhost = NULL;
-    const bool correct = opt->motion_resid_sigma >= 0;
+    const bool correct = opt->motion_resid_sigma > 0;
     if (s == CSI_OK && correct) {
         yhost = malloc(n * sizeof *yhost);
         if (!yhost)
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
-        const double sig = opt->motion_resid_sigma > 0
-                               ? opt->motion_resid_sigma
-                               : csi_gauss_nc_default_sigma((size_t)csi_recon_scope_k(st, k),
-                                                            (size_t)csi_recon_scope_n(st, n), 3);
         if (s == CSI_OK)
-            s = csi_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
+            s = csi_nc_init(ctx, g, st->idx, n, opt->motion_resid_sigma, real_y, scratch, yhost, &rnc);
     }
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
@@ -107,7 +103,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         const double tau_scale = st->scope && st->scope->has_scale
                                      ? (double)n * fabs(st->scope->scale[c]) / sqrt((double)k) : 0;
         if (s == CSI_OK)
-            s = csi_recon_run_solver(st, res->solver, opt, 0.0, n, tau_scale, &res->report[c]);
+            s = csi_recon_run_solver(st, opt, tau_scale, &res->report[c]);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = csi_recon_now();

@@ -1,123 +1,425 @@
-/* Reconstruction options: names, parsers, defaults and the default rules that depend on the
- * problem size. See csi/reconstruct.h. */
+/* Reconstruction options as data: one table of rows (name, field, kind, range, default, help)
+ * from which the defaults, the parsers, the programs' getopt tables and help, the statistics
+ * and the EXR attributes are all made. See csi/reconstruct.h. To add an option: a field in
+ * csi_recon_options, a row here, and the code that reads it (and, if its default depends on the
+ * problem, its rule in resolve.c). */
 #include "csi/reconstruct.h"
 
+#include <errno.h>
 #include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
-const char *csi_solver_kind_name(csi_solver_kind k)
+_Static_assert(sizeof(csi_solver_kind) == sizeof(int) && sizeof(csi_switch) == sizeof(int) &&
+               sizeof(csi_wavelet_family) == sizeof(int), "choice options are stored as int");
+
+/* K_BYTES: a uint64_t byte count, read with an optional K, M, G or T (powers of 1024). */
+typedef enum { K_CHOICE, K_DOUBLE, K_FLOAT, K_INT, K_U32, K_SIZE, K_U64, K_BYTES, K_BOOL } storage;
+
+typedef struct {
+    const char *name;
+    int value;
+} choice;
+
+/* Flags of a row. */
+enum {
+    F_AUTO = 1,     /* 0 (or the enum's AUTO) means auto: resolved from the problem */
+    F_OFF = 2,      /* -1 means off; a negative number given is off */
+    F_WHOLE1 = 4,   /* a value >= 1 must be whole (a count; below 1 a fraction) */
+    F_LIBRARY = 8,  /* not a --name of the programs (they set it through their own flags) */
+};
+
+typedef struct {
+    const char *name;
+    storage st;
+    size_t offset;
+    double lo, hi;          /* range of a given number */
+    const choice *choices;  /* K_CHOICE: terminated by a NULL name */
+    unsigned flags;
+    const char *def;        /* default as text */
+    const char *metavar;
+    const char *help;
+    const char *auto_rule;  /* F_AUTO: what auto becomes */
+} row;
+
+static const choice estimators[] = {{"cs", CSI_EST_CS}, {"mean", CSI_EST_MEAN}, {"gauss", CSI_EST_GAUSS}, {0}};
+static const choice solvers[] = {{"auto", CSI_SOLVER_AUTO}, {"romp", CSI_SOLVER_ROMP}, {"sparsa", CSI_SOLVER_SPARSA}, {0}};
+static const choice wavelets[] = {{"db4", CSI_WAVELET_DB4}, {"db8", CSI_WAVELET_DB8}, {0}};
+static const choice outputs[] = {{"filtered", CSI_AA_FILTERED}, {"sharp", CSI_AA_SHARP}, {0}};
+static const choice corrects[] = {{"auto", CSI_CORRECT_AUTO}, {"none", CSI_CORRECT_NONE}, {"cv", CSI_CORRECT_CV}, {0}};
+static const choice stops[] = {{"auto", CSI_STOP_AUTO}, {"gap", CSI_STOP_GAP}, {"objective", CSI_STOP_OBJECTIVE}, {0}};
+static const choice switches[] = {{"auto", CSI_SWITCH_AUTO}, {"on", CSI_SWITCH_ON}, {"off", CSI_SWITCH_OFF}, {0}};
+static const choice presets[] = {{"csi", CSI_ROMP_PRESET_CSI}, {"published", CSI_ROMP_PRESET_PUBLISHED}, {0}};
+
+#define AT(field) offsetof(csi_recon_options, field)
+
+static const row table[] = {
+    {"estimator", K_CHOICE, AT(estimator), 0, 0, estimators, 0, "cs", "cs|mean|gauss",
+     "cs: compressive; baselines: mean = per-pixel sample mean (Monte Carlo), gauss = Gaussian "
+     "normalized convolution", NULL},
+    {"gauss-sigma", K_DOUBLE, AT(gauss_sigma), 1e-3, 1e4, NULL, F_AUTO, "auto", "S",
+     "width of the gauss baseline in grid cells", "0.5 (k/N)^(1/d), d = 2 or 3"},
+    {"solver", K_CHOICE, AT(solver), 0, 0, solvers, F_AUTO, "auto", "romp|sparsa",
+     "sparse solver", "sparsa, measured best (docs/BENCHMARKS.md)"},
+    {"wavelet", K_CHOICE, AT(wavelet), 0, 0, wavelets, 0, "db4", "db4|db8",
+     "Alg. 1 basis (db4: 8 taps, db8: 16 taps)", NULL},
+    {"levels", K_INT, AT(levels), 1, 16, NULL, F_AUTO, "auto", "L", "wavelet levels",
+     "as many as the grid allows, at most 5"},
+    {"lambda", K_FLOAT, AT(lambda), 1e-12, 1e6, NULL, 0, "0.3", "L",
+     "Wiener regularisation of the inverse filter", NULL},
+    {"sigma-scale", K_DOUBLE, AT(sigma_scale), 1e-3, 100, NULL, 0, "1", "S",
+     "multiply the paper's Gaussian width", NULL},
+    /* 0.8 and 8 below: measured in docs/bench/quality.md. */
+    {"sigma-spacing", K_DOUBLE, AT(sigma_spacing), 0, 100, NULL, 0, "0.8", "C",
+     "Gaussian width at least C times the sample spacing sqrt(k/N) (0: the paper's width only)",
+     NULL},
+    {"integrate", K_CHOICE, AT(output), 0, 0, outputs, 0, "sharp", "filtered|sharp",
+     "integrate f_b (the paper's) or Phi^-1 f_b", NULL},
+    {"correct", K_CHOICE, AT(correct), 0, 0, corrects, F_AUTO, "auto", "auto|none|cv",
+     "correct each pixel with its own samples (control variate: box(g) + mean of the pixel's "
+     "residuals y - g)", "cv for cs, none for the gauss baseline"},
+    {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
+     "shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
+    {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",
+     "SpaRSA stopping rule (relative duality gap or objective change)",
+     "objective for images, gap for volumes"},
+    {"continuation", K_CHOICE, AT(continuation), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "SpaRSA continuation on tau", "on"},
+    {"debias", K_CHOICE, AT(debias), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "SpaRSA's final least squares on the support (images; volumes: --motion-debias)", "off"},
+    {"tol", K_DOUBLE, AT(tol), 1e-12, 1, NULL, F_AUTO, "auto", "T", "solver tolerance (relative)",
+     "3e-3 for images with SpaRSA, else the solver's (1e-5)"},
+    {"max-iter", K_INT, AT(max_iter), 1, 1000000, NULL, F_AUTO, "auto", "N",
+     "solver iteration cap", "300 for images with SpaRSA, 2000 for volumes; ROMP: its support "
+     "limit + 10"},
+    {"tau", K_DOUBLE, AT(tau_rel), 1e-12, 1, NULL, F_AUTO, "auto", "T",
+     "SpaRSA: tau relative to ||A^H y||_inf", "3e-3 / spp for images (at least 1e-5), "
+     "0.25 / sqrt(N) for volumes (in [1e-4, 3e-2])"},
+    {"romp-preset", K_CHOICE, AT(romp_preset), 0, 0, presets, 0, "csi", "csi|published",
+     "ROMP defaults: csi's for images or Needell & Vershynin's (s from N, stop at 2s); the "
+     "--romp-* below override", NULL},
+    {"romp-s", K_SIZE, AT(romp_s), 1, 1u << 30, NULL, F_AUTO, "auto", "S",
+     "ROMP: candidates per step", "csi: N / 64, at least 16; published: the largest s with "
+     "2 s ln(k/s) <= N"},
+    {"romp-max-support", K_DOUBLE, AT(romp_max_support), 1e-6, 4294967296.0, NULL, F_AUTO | F_WHOLE1,
+     "auto", "M", "ROMP: support size that ends the run (a count, or in (0, 1) a fraction of the "
+     "samples)", "csi: 0.15; published: 2s"},
+    {"romp-normalize", K_CHOICE, AT(romp_normalize), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "ROMP: rank correlations by column norm", "off"},
+    {"romp-seed-levels", K_INT, AT(romp_seed_levels), 1, 16, NULL, F_AUTO | F_OFF, "auto", "off|auto|L",
+     "ROMP: start the support with the coarse wavelet block (L = 1) and the L - 1 coarsest "
+     "detail levels", "csi: 2; published: off"},
+    {"romp-lsq-iter", K_INT, AT(romp_lsq_iter), 1, 100000, NULL, F_AUTO, "auto", "N",
+     "ROMP: CG iterations per least squares", "csi: 1; published: 60"},
+    {"motion-resid-sigma", K_DOUBLE, AT(motion_resid_sigma), -1e6, 1e4, NULL, F_AUTO | F_OFF, "auto",
+     "S", "volumes: width (cells) of the normalized convolution that adds the samples' residual "
+     "back after the solve; off or < 0: none (the paper's)", "0.5 (k/N)^(1/3)"},
+    {"full-spectrum", K_BOOL, AT(motion_full_spectrum), 0, 0, NULL, 0, "off", NULL,
+     "volumes: solve on the full complex spectrum (the paper's form) rather than the half "
+     "spectrum of the real volume (same minimiser, 2x work)", NULL},
+    {"motion-debias", K_BOOL, AT(motion_debias), 0, 0, NULL, 0, "off", NULL,
+     "volumes: SpaRSA's debiasing least squares", NULL},
+    {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
+     "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},
+    /* Tiles (csi/tiles.h): bounded memory. */
+    {"mem-budget", K_BYTES, AT(mem_budget), 1048576.0, 18446744073709551615.0, NULL, F_AUTO, "auto",
+     "SIZE", "device memory one reconstruction may use, e.g. 512M, 2G (bytes, or K/M/G = "
+     "KiB/MiB/GiB); the image is solved in overlapping tiles when the whole would need more",
+     "1G, at most half the device's"},
+    {"tiles", K_U32, AT(tiles), 1, 1048576, NULL, F_AUTO, "auto", "N|auto",
+     "exactly N tiles (blended seamlessly)", "as few as fit the budget"},
+    {"tile-margin", K_U32, AT(tile_margin), 1, 65536, NULL, F_AUTO, "auto", "P",
+     "overlap beyond a tile's core in output pixels", "128 grid cells, at least 4 pixels; 16 "
+     "for volumes"},
+    {"tile-margin-t", K_U32, AT(tile_margin_t), 1, 65536, NULL, F_AUTO, "auto", "F",
+     "the same in frames for a volume", "4"},
+    {"frames", K_BOOL, AT(frames), 0, 0, NULL, F_LIBRARY, "off", NULL,
+     "volumes: also return every frame", NULL},
+    {"seed", K_U64, AT(seed), 0, 18446744073709551615.0, NULL, F_LIBRARY, "1", "S",
+     "seed of the solver's randomised parts (ROMP's column-norm probes)", NULL},
+};
+#define NROWS (sizeof table / sizeof table[0])
+
+static const row *find(const char *name)
 {
-    switch (k) {
-    case CSI_SOLVER_ROMP: return "romp";
-    case CSI_SOLVER_SPARSA: return "sparsa";
-    default: return "default";
+    for (size_t i = 0; name && i < NROWS; i++)
+        if (!strcmp(table[i].name, name))
+            return &table[i];
+    return NULL;
+}
+
+static void *field(const csi_recon_options *o, const row *r)
+{
+    return (char *)o + r->offset;
+}
+
+/* Stores a number (already checked) into the row's field. */
+static void store(csi_recon_options *o, const row *r, double v)
+{
+    void *p = field(o, r);
+    switch (r->st) {
+    case K_CHOICE:
+    case K_INT: *(int *)p = (int)v; break;
+    case K_DOUBLE: *(double *)p = v; break;
+    case K_FLOAT: *(float *)p = (float)v; break;
+    case K_U32: *(uint32_t *)p = (uint32_t)v; break;
+    case K_SIZE: *(size_t *)p = (size_t)v; break;
+    case K_BOOL: *(bool *)p = v != 0; break;
+    case K_U64:
+    case K_BYTES: *(uint64_t *)p = (uint64_t)v; break;
     }
 }
 
-csi_status csi_solver_kind_parse(const char *s, csi_solver_kind *out)
+static double load(const csi_recon_options *o, const row *r)
 {
-    if (s && !strcasecmp(s, "romp"))
-        *out = CSI_SOLVER_ROMP;
-    else if (s && !strcasecmp(s, "sparsa"))
-        *out = CSI_SOLVER_SPARSA;
-    else
-        return csi_fail(CSI_ERR_ARG, "unknown solver '%s' (expected romp or sparsa)", s ? s : "");
+    const void *p = field(o, r);
+    switch (r->st) {
+    case K_CHOICE:
+    case K_INT: return *(const int *)p;
+    case K_DOUBLE: return *(const double *)p;
+    case K_FLOAT: return *(const float *)p;
+    case K_U32: return *(const uint32_t *)p;
+    case K_SIZE: return (double)*(const size_t *)p;
+    case K_BOOL: return *(const bool *)p;
+    case K_U64:
+    case K_BYTES: return (double)*(const uint64_t *)p;
+    }
+    return 0;
+}
+
+static void choices_text(const row *r, char *buf, size_t len)
+{
+    size_t at = 0;
+    buf[0] = '\0';
+    for (const choice *c = r->choices; c->name && at < len; c++)
+        at += (size_t)snprintf(buf + at, len - at, "%s%s", c == r->choices ? "" : ", ", c->name);
+}
+
+/* A byte count: a whole number, optionally followed by K, M, G or T (powers of 1024; "KiB",
+ * "MB" and the like read the same way), within the row's range. */
+static csi_status parse_bytes(const row *r, const char *v, csi_recon_options *o)
+{
+    bool ok = *v && *v != '-' && *v != '+';
+    char *end = NULL;
+    errno = 0;
+    unsigned long long u = ok ? strtoull(v, &end, 10) : 0;
+    ok = ok && !errno && end != v;
+    int shift = 0;
+    if (ok) {
+        switch (*end) {
+        case 'k': case 'K': shift = 10; break;
+        case 'm': case 'M': shift = 20; break;
+        case 'g': case 'G': shift = 30; break;
+        case 't': case 'T': shift = 40; break;
+        case '\0': break;
+        default: ok = false;
+        }
+    }
+    if (ok && shift) {
+        end++;
+        if (!strcmp(end, "iB") || !strcmp(end, "B") || !strcmp(end, "ib") || !strcmp(end, "b"))
+            end += strlen(end);
+    }
+    ok = ok && !*end && u <= (UINT64_MAX >> shift);
+    const uint64_t bytes = ok ? (uint64_t)u << shift : 0;
+    if (!ok || (double)bytes < r->lo || (double)bytes > r->hi)
+        return csi_fail(CSI_ERR_ARG, "%s: '%s' is not a size of at least %.0fM (bytes, or a number "
+                        "with K, M, G or T)%s", r->name, v, r->lo / 1048576.0,
+                        (r->flags & F_AUTO) ? " or auto" : "");
+    *(uint64_t *)field(o, r) = bytes;
     return CSI_OK;
 }
 
-const char *csi_aa_output_name(csi_aa_output o)
+static csi_status parse(const row *r, const char *s, csi_recon_options *o)
 {
-    return o == CSI_AA_SHARP ? "sharp" : "filtered";
-}
-
-csi_status csi_aa_output_parse(const char *s, csi_aa_output *out)
-{
-    if (s && !strcasecmp(s, "filtered"))
-        *out = CSI_AA_FILTERED;
-    else if (s && !strcasecmp(s, "sharp"))
-        *out = CSI_AA_SHARP;
-    else
-        return csi_fail(CSI_ERR_ARG, "unknown integration target '%s' (expected filtered or sharp)",
-                        s ? s : "");
+    const char *v = s ? s : "";
+    if (r->st == K_CHOICE) {
+        for (const choice *c = r->choices; c->name; c++)
+            if (!strcasecmp(v, c->name)) {
+                store(o, r, c->value);
+                return CSI_OK;
+            }
+        char list[160];
+        choices_text(r, list, sizeof list);
+        return csi_fail(CSI_ERR_ARG, "%s: '%s' is not one of %s", r->name, v, list);
+    }
+    if (r->st == K_BOOL) {
+        if (!strcasecmp(v, "on") || !strcasecmp(v, "true") || !strcmp(v, "1"))
+            store(o, r, 1);
+        else if (!strcasecmp(v, "off") || !strcasecmp(v, "false") || !strcmp(v, "0"))
+            store(o, r, 0);
+        else
+            return csi_fail(CSI_ERR_ARG, "%s: '%s' is not on or off", r->name, v);
+        return CSI_OK;
+    }
+    if ((r->flags & F_AUTO) && !strcasecmp(v, "auto")) {
+        store(o, r, 0);
+        return CSI_OK;
+    }
+    if ((r->flags & F_OFF) && !strcasecmp(v, "off")) {
+        store(o, r, -1);
+        return CSI_OK;
+    }
+    const bool whole = r->st == K_INT || r->st == K_U32 || r->st == K_SIZE || r->st == K_U64 ||
+                       r->st == K_BYTES;
+    errno = 0;
+    char *end = NULL;
+    double d;
+    bool ok;
+    if (r->st == K_U64) {
+        /* the full 64-bit range, exactly (a double cannot hold every seed; the range is not
+     * checked: K_U64 options take any 64-bit value) */
+        ok = *v && *v != '-' && *v != '+';
+        unsigned long long u = ok ? strtoull(v, &end, 10) : 0;
+        ok = ok && !errno && end && !*end;
+        if (ok) {
+            *(uint64_t *)field(o, r) = u;
+            return CSI_OK;
+        }
+        return csi_fail(CSI_ERR_ARG, "%s: '%s' is not a whole number from 0 to 2^64 - 1", r->name, v);
+    }
+    if (r->st == K_BYTES)
+        return parse_bytes(r, v, o);
+    d = strtod(v, &end);
+    ok = *v && !errno && end && !*end && isfinite(d);
+    if (ok && whole && d != floor(d))
+        ok = false;
+    if (ok && (r->flags & F_OFF) && d < 0 && r->lo >= 0)
+        ok = false; /* "off" is spelled off; a negative count is a mistake */
+    if (ok && (d < r->lo || d > r->hi))
+        ok = false;
+    if (ok && (r->flags & F_WHOLE1) && d >= 1 && d != floor(d))
+        ok = false;
+    if (!ok) {
+        char extra[64] = "";
+        if ((r->flags & (F_AUTO | F_OFF)) == (F_AUTO | F_OFF))
+            snprintf(extra, sizeof extra, ", auto or off");
+        else if (r->flags & F_AUTO)
+            snprintf(extra, sizeof extra, " or auto");
+        if (r->flags & F_WHOLE1)
+            return csi_fail(CSI_ERR_ARG, "%s: '%s' is neither a fraction in (0, 1) nor a whole count%s",
+                            r->name, v, extra);
+        return csi_fail(CSI_ERR_ARG, "%s: '%s' is not a %s in [%g, %g]%s", r->name, v,
+                        whole ? "whole number" : "number", r->lo, r->hi, extra);
+    }
+    if ((r->flags & F_OFF) && d < 0)
+        d = -1; /* every negative is off, spelled -1 */
+    store(o, r, d);
     return CSI_OK;
 }
 
-const char *csi_aa_correct_name(csi_aa_correct c)
+/* The shortest decimal that reads back as the same value. */
+static void format_number(double v, bool single, char *buf, size_t len)
 {
-    return c == CSI_CORRECT_CV ? "cv" : c == CSI_CORRECT_NONE ? "none" : "auto";
-}
-
-csi_status csi_aa_correct_parse(const char *s, csi_aa_correct *out)
-{
-    if (s && !strcasecmp(s, "auto"))
-        *out = CSI_CORRECT_AUTO;
-    else if (s && !strcasecmp(s, "none"))
-        *out = CSI_CORRECT_NONE;
-    else if (s && !strcasecmp(s, "cv"))
-        *out = CSI_CORRECT_CV;
-    else
-        return csi_fail(CSI_ERR_ARG, "unknown correction '%s' (expected none, cv or auto)", s ? s : "");
-    return CSI_OK;
-}
-
-const char *csi_switch_name(csi_switch s)
-{
-    return s == CSI_SWITCH_ON ? "on" : s == CSI_SWITCH_OFF ? "off" : "auto";
-}
-
-csi_status csi_switch_parse(const char *s, csi_switch *out)
-{
-    if (s && !strcasecmp(s, "auto"))
-        *out = CSI_SWITCH_AUTO;
-    else if (s && !strcasecmp(s, "on"))
-        *out = CSI_SWITCH_ON;
-    else if (s && !strcasecmp(s, "off"))
-        *out = CSI_SWITCH_OFF;
-    else
-        return csi_fail(CSI_ERR_ARG, "'%s' is not on, off or auto", s ? s : "");
-    return CSI_OK;
-}
-
-const char *csi_recon_stop_name(csi_recon_stop s)
-{
-    return s == CSI_STOP_GAP ? "gap" : s == CSI_STOP_OBJECTIVE ? "objective" : "auto";
-}
-
-csi_status csi_recon_stop_parse(const char *s, csi_recon_stop *out)
-{
-    if (s && !strcasecmp(s, "auto"))
-        *out = CSI_STOP_AUTO;
-    else if (s && !strcasecmp(s, "gap"))
-        *out = CSI_STOP_GAP;
-    else if (s && !strcasecmp(s, "objective"))
-        *out = CSI_STOP_OBJECTIVE;
-    else
-        return csi_fail(CSI_ERR_ARG, "unknown stopping rule '%s' (expected gap, objective or auto)",
-                        s ? s : "");
-    return CSI_OK;
-}
-
-const char *csi_estimator_name(csi_estimator e)
-{
-    switch (e) {
-    case CSI_EST_MEAN: return "mean";
-    case CSI_EST_GAUSS: return "gauss";
-    default: return "cs";
+    for (int prec = 6; prec <= 17; prec++) {
+        snprintf(buf, len, "%.*g", prec, v);
+        double back = strtod(buf, NULL);
+        if (single ? (float)back == (float)v : back == v)
+            return;
     }
 }
 
-csi_status csi_estimator_parse(const char *s, csi_estimator *out)
+static void format(const csi_recon_options *o, const row *r, char *buf, size_t len)
 {
-    if (s && !strcasecmp(s, "cs"))
-        *out = CSI_EST_CS;
-    else if (s && !strcasecmp(s, "mean"))
-        *out = CSI_EST_MEAN;
-    else if (s && !strcasecmp(s, "gauss"))
-        *out = CSI_EST_GAUSS;
-    else
-        return csi_fail(CSI_ERR_ARG, "unknown estimator '%s' (expected cs, mean or gauss)", s ? s : "");
+    if (r->st == K_U64 || (r->st == K_BYTES && load(o, r) != 0)) {
+        snprintf(buf, len, "%llu", (unsigned long long)*(const uint64_t *)field(o, r));
+        return;
+    }
+    const double v = load(o, r);
+    if (r->st == K_CHOICE) {
+        snprintf(buf, len, "%s", csi_recon_choice_name(r->name, (int)v));
+    } else if (r->st == K_BOOL) {
+        snprintf(buf, len, "%s", v != 0 ? "on" : "off");
+    } else if ((r->flags & F_AUTO) && v == 0) {
+        snprintf(buf, len, "auto");
+    } else if ((r->flags & F_OFF) && v < 0) {
+        snprintf(buf, len, "off");
+    } else {
+        format_number(v, r->st == K_FLOAT, buf, len);
+    }
+}
+
+void csi_recon_defaults(csi_recon_options *o)
+{
+    memset(o, 0, sizeof *o);
+    for (size_t i = 0; i < NROWS; i++) {
+        csi_status s = parse(&table[i], table[i].def, o);
+        (void)s; /* the table's defaults parse (checked by tests/unit/test_options.c) */
+    }
+    csi_clear_error();
+}
+
+size_t csi_option_count(void)
+{
+    return NROWS;
+}
+
+csi_status csi_option_describe(size_t i, csi_option_info *out)
+{
+    if (i >= NROWS)
+        return csi_fail(CSI_ERR_ARG, "option %zu of %zu", i, (size_t)NROWS);
+    const row *r = &table[i];
+    out->name = r->name;
+    out->kind = r->st == K_CHOICE ? CSI_OPTION_CHOICE
+                : r->st == K_BOOL ? CSI_OPTION_FLAG
+                : r->st == K_DOUBLE || r->st == K_FLOAT ? CSI_OPTION_NUMBER
+                                                        : CSI_OPTION_INTEGER;
+    out->metavar = r->metavar;
+    out->help = r->help;
+    out->def = r->def;
+    out->auto_rule = r->auto_rule;
+    out->program = !(r->flags & F_LIBRARY);
     return CSI_OK;
+}
+
+csi_status csi_recon_option_set(csi_recon_options *o, const char *name, const char *value)
+{
+    const row *r = find(name);
+    if (!r)
+        return csi_fail(CSI_ERR_ARG, "no option named '%s'", name ? name : "");
+    csi_recon_options tmp = *o;
+    CSI_TRY(parse(r, value, &tmp));
+    *o = tmp;
+    return CSI_OK;
+}
+
+csi_status csi_recon_option_get(const csi_recon_options *o, const char *name, char *buf, size_t len)
+{
+    const row *r = find(name);
+    if (!r)
+        return csi_fail(CSI_ERR_ARG, "no option named '%s'", name ? name : "");
+    if (!buf || len == 0)
+        return csi_fail(CSI_ERR_ARG, "option %s: no room for its value", name);
+    format(o, r, buf, len);
+    return CSI_OK;
+}
+
+csi_status csi_recon_option_number(const csi_recon_options *o, const char *name, double *out)
+{
+    const row *r = find(name);
+    if (!r)
+        return csi_fail(CSI_ERR_ARG, "no option named '%s'", name ? name : "");
+    if (r->st == K_CHOICE || r->st == K_BOOL)
+        return csi_fail(CSI_ERR_ARG, "option %s is not a number", name);
+    const double v = load(o, r);
+    if (((r->flags & F_AUTO) && v == 0) || ((r->flags & F_OFF) && v < 0))
+        return csi_fail(CSI_ERR_ARG, "option %s is %s", name, v == 0 ? "auto" : "off");
+    *out = v;
+    return CSI_OK;
+}
+
+const char *csi_recon_choice_name(const char *name, int v)
+{
+    const row *r = find(name);
+    if (r && r->st == K_CHOICE)
+        for (const choice *c = r->choices; c->name; c++)
+            if (c->value == v)
+                return c->name;
+    return "?";
 }
 
 double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims)
@@ -133,19 +435,4 @@ double csi_motion_tau_rel(size_t n)
         return CSI_MOTION_TAU_MAX;
     double t = CSI_MOTION_TAU_C / sqrt((double)n);
     return t < CSI_MOTION_TAU_MIN ? CSI_MOTION_TAU_MIN : t > CSI_MOTION_TAU_MAX ? CSI_MOTION_TAU_MAX : t;
-}
-
-void csi_recon_defaults(csi_recon_options *o)
-{
-    memset(o, 0, sizeof *o);
-    o->solver = CSI_SOLVER_DEFAULT;
-    o->wavelet = CSI_WAVELET_DB4;
-    o->lambda = 0.3f;
-    o->seed = 1;
-    o->sigma_scale = 1.0;
-    o->output = CSI_AA_SHARP;
-    o->correct = CSI_CORRECT_AUTO;
-    o->cv_n0 = -1.0;
-    o->sigma_spacing = -1.0;
-    o->motion_resid_sigma = 0.0; /* on, width from the sampling density */
 }

@@ -1,5 +1,5 @@
 /* The resource plan of a reconstruction (csi/plan.h): the buffers each method of
- * csi_reconstruct allocates, in the order it allocates them, from the modules' own `*_buffers`
+ * csi_recon allocates, in the order it allocates them, from the modules' own `*_buffers`
  * functions, so that the model changes with the code it describes. */
 #include "csi/plan.h"
 
@@ -140,7 +140,7 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
     memset(&whole, 0, sizeof whole);
     whole.scope = scope; /* a tile's filter (and so its grid) follows the whole's sampling */
     csi_aa_shape sh;
-    CSI_TRY(csi_recon_aa_shape(g, n, opt, solver, &whole, &sh));
+    CSI_TRY(csi_recon_aa_shape(g, n, opt, &whole, &sh));
     CSI_TRY(check_wavelet(&sh, opt->wavelet));
     const size_t km = sh.mw * sh.mh;
     if (sh.D == 1)
@@ -271,13 +271,19 @@ static void plan_mean(const csi_grid *g, uint32_t channels, size_t n, csi_recon_
     transient_host(m, ((uint64_t)np + 1) * 8 + (uint64_t)n * (4 + 4 * (uint64_t)channels));
 }
 
-csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n, const csi_recon_options *opt,
-                                const csi_tile_scope *scope, csi_recon_plan *out)
+/* The plan of one problem solved whole (csi_recon_scoped), or of a tile's (scope non-NULL). */
+csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n,
+                                const csi_recon_options *given, const csi_tile_scope *scope,
+                                csi_recon_plan *out)
 {
     memset(out, 0, sizeof *out);
     CSI_TRY(csi_recon_check_sizes(g, channels, n));
+    csi_recon_options resolved;
+    /* the autos as csi_recon_scoped sets them */
+    CSI_TRY(csi_recon_resolve_scoped(given, g, n, scope, &resolved));
+    const csi_recon_options *opt = &resolved;
     const uint64_t k = (uint64_t)g->w * g->h * g->t;
-    const csi_solver_kind solver = opt->solver != CSI_SOLVER_DEFAULT ? opt->solver : CSI_SOLVER_SPARSA;
+    const csi_solver_kind solver = opt->solver;
     const uint64_t np = (uint64_t)g->out_w * g->out_h;
     model m;
     memset(&m, 0, sizeof m);
@@ -321,7 +327,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     else
         csi_recon_defaults(&opt);
     CSI_TRY(csi_recon_plan_whole(g, channels, n, &opt, NULL, out));
-    /* csi_reconstruct's layout (csi/tiles.h): when it tiles, the device holds one tile's
+    /* csi_recon's layout (csi/tiles.h): when it tiles, the device holds one tile's
      * problem at a time, and the host the whole result besides. */
     csi_tiling tl;
     CSI_TRY(csi_tiling_plan(ctx, g, channels, n, &opt, &tl));

@@ -75,9 +75,9 @@ static csi_status check_options(const csi_recon_options *opt)
     return CSI_OK;
 }
 
-csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
-                           const csi_sample_pos *pos, const float *values, size_t n,
-                           const csi_recon_options *opt_in, csi_recon_result *out)
+csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
+                     const float *values, size_t n, const csi_recon_options *opt_in,
+                     csi_recon_result *out)
 {
     memset(out, 0, sizeof *out);
     csi_recon_options opt;
@@ -89,18 +89,33 @@ csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
     csi_tiling tl;
     CSI_TRY(csi_tiling_plan(ctx, grid, channels, n, &opt, &tl));
-    if (tl.count > 1)
-        return csi_reconstruct_tiled(ctx, grid, channels, pos, values, n, &opt, &tl, out);
-    return csi_reconstruct_scoped(ctx, grid, channels, pos, values, n, &opt, NULL, out);
+    if (tl.count > 1) {
+        /* Each tile resolves its own autos (csi_recon_resolve_scoped); the whole's are reported. */
+        CSI_TRY(csi_reconstruct_tiled(ctx, grid, channels, pos, values, n, &opt, &tl, out));
+        CSI_TRY(csi_recon_resolve(&opt, grid, n, &out->options));
+    } else {
+        CSI_TRY(csi_recon_scoped(ctx, grid, channels, pos, values, n, &opt, NULL, out));
+    }
+    /* The tiling's autos, as planned. */
+    csi_recon_options *r = &out->options;
+    r->mem_budget = tl.budget;
+    r->tiles = tl.count;
+    if (tl.count > 1) {
+        r->tile_margin = tl.margin[0];
+        if (grid->t > 1)
+            r->tile_margin_t = tl.margin[2];
+    }
+    return CSI_OK;
 }
 
-csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
-                                  const csi_sample_pos *pos, const float *values, size_t n,
-                                  const csi_recon_options *opt_in, const csi_tile_scope *scope,
-                                  csi_recon_result *out)
+csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
+                            const csi_sample_pos *pos, const float *values, size_t n,
+                            const csi_recon_options *opt_in, const csi_tile_scope *scope,
+                            csi_recon_result *out)
 {
     memset(out, 0, sizeof *out);
-    csi_recon_options opt = *opt_in;
+    csi_recon_options opt;
+    CSI_TRY(csi_recon_resolve_scoped(opt_in, grid, n, scope, &opt));
 
     const size_t np = (size_t)grid->out_w * grid->out_h;
     out->out_w = grid->out_w;
@@ -111,7 +126,7 @@ csi_status csi_reconstruct_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t c
     out->model_factor = 1;
     out->n = n;
     out->tiles = 1;
-    out->solver = opt.solver != CSI_SOLVER_DEFAULT ? opt.solver : CSI_SOLVER_SPARSA;
+    out->options = opt;
     out->image = calloc(np * channels, sizeof(float));
     if (grid->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN) {
         out->nframes = grid->t;

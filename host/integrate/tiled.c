@@ -107,6 +107,8 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
             memset(&st, 0, sizeof st);
             csi_tile_scope whole = *out; /* the filter follows the whole's cells per sample */
             st.scope = &whole;
+            csi_recon_options ro;
+            s = csi_recon_resolve_scoped(&o, &p.g, p.n, &whole, &ro);
             st.idx = malloc(p.n * sizeof *st.idx);
             st.plane = malloc(p.n * sizeof *st.plane);
             if (!st.idx || !st.plane)
@@ -114,7 +116,7 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
             for (size_t j = 0; j < p.n && s == CSI_OK; j++)
                 st.idx[j] = (uint32_t)csi_grid_index(&p.g, p.pos[j]);
             if (s == CSI_OK)
-                s = csi_recon_antialias_scale(ctx, &p.g, channels, p.values, p.n, &o, &st, sc);
+                s = csi_recon_antialias_scale(ctx, &p.g, channels, p.values, p.n, &ro, &st, sc);
             csi_recon_state_free(&st);
         }
         tile_problem_free(&p);
@@ -160,16 +162,16 @@ csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channe
         r->k = (size_t)p.g.w * p.g.h * p.g.t;
         r->model_factor = 1;
         r->tiles = 1;
-        r->solver = o.solver != CSI_SOLVER_DEFAULT ? o.solver : CSI_SOLVER_SPARSA;
+        s = csi_recon_resolve_scoped(&o, &p.g, 0, scope, &r->options);
         for (uint32_t c = 0; c < channels; c++) {
             r->report[c].converged = true;
             r->report[c].reason = CSI_SOLVE_ZERO;
             snprintf(r->report[c].message, sizeof r->report[c].message, "tile %u has no sample", index);
         }
-        if (!r->image || (r->nframes && !r->frames))
+        if (s == CSI_OK && (!r->image || (r->nframes && !r->frames)))
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for tile %u", index);
     } else {
-        s = csi_reconstruct_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, scope, &out->r);
+        s = csi_recon_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, scope, &out->r);
     }
     tile_problem_free(&p);
     if (s != CSI_OK) {
@@ -289,7 +291,7 @@ csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t)
     /* The run's figures: operator calls, iterations and times add up; the residual is the worst
      * tile's; converged when every tile did. */
     if (t->index == 0) {
-        out->solver = r->solver;
+        out->options = r->options;
         out->model_factor = r->model_factor;
     }
     out->unknowns += r->unknowns;

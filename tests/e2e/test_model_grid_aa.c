@@ -1,5 +1,5 @@
 /* Alg. 1 on the model grid (csi/model_grid.h) against Alg. 1 on the samples' own grid, end to end
- * (csi_reconstruct, defaults otherwise) on the same samples of the analytic images: the model
+ * (csi_recon, defaults otherwise) on the same samples of the analytic images: the model
  * grid must be taken where the filter allows it, and give the same image.
  *
  * Cases: 512 x 512 -> 64 x 64 at 4 spp (8 x 8 cells per pixel, Gaussian width 3.2 cells: D = 2;
@@ -58,7 +58,7 @@ static outcome compare(csi_ctx *ctx, analytic_fn fn, uint32_t grid, uint32_t out
         csi_recon_options opt;
         csi_recon_defaults(&opt);
         opt.model_grid = k == 0 ? CSI_SWITCH_AUTO : CSI_SWITCH_OFF;
-        csi_status st = csi_reconstruct(ctx, &g, 1, pos, val, n, &opt, &r[k]);
+        csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &opt, &r[k]);
         CHECK(st == CSI_OK, "reconstruct: %s", st == CSI_OK ? "" : csi_last_error());
         ok = ok && st == CSI_OK;
     }

@@ -67,7 +67,7 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
     o.progress = record;
     o.user = &l;
     csi_recon_result r;
-    csi_status st = csi_reconstruct(ctx, &g, 3, pos, val, n, &o, &r);
+    csi_status st = csi_recon(ctx, &g, 3, pos, val, n, &o, &r);
     CHECK(st == CSI_OK, "reconstruct T = %u: %s", T, st == CSI_OK ? "" : csi_last_error());
     if (st == CSI_OK) {
         CHECK(l.n > 0 && !strcmp(l.phase[0], "setup"), "T = %u: the first phase is setup (%s)", T,

@@ -1,4 +1,4 @@
-/* Quality of Alg. 1 (csi_reconstruct with its defaults) against stratified Monte Carlo, on dumps
+/* Quality of Alg. 1 (csi_recon with its defaults) against stratified Monte Carlo, on dumps
  * made here from analytic images (issue 4, "Quality"; the paper's Figs. 5 and 6).
  *
  * Images (the same functions as tools/bench/quality_sweep.py, coordinates in [0,1]^2, y down):
@@ -54,8 +54,8 @@ static bool run(csi_ctx *ctx, const analytic_scene *s, csi_pos_method method, cs
     csi_recon_defaults(&o);
     o.estimator = est;
     csi_recon_result r;
-    csi_status st = csi_reconstruct(ctx, &g, 1, pos, val, n, &o, &r);
-    CHECK(st == CSI_OK, "reconstruct (%s, spp %u, seed %llu): %s", csi_estimator_name(est), spp,
+    csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &o, &r);
+    CHECK(st == CSI_OK, "reconstruct (%s, spp %u, seed %llu): %s", csi_recon_choice_name("estimator", (int)est), spp,
           (unsigned long long)seed, st == CSI_OK ? "" : csi_last_error());
     if (st == CSI_OK) {
         memcpy(img, r.image, NP * sizeof(float));

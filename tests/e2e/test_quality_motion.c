@@ -1,4 +1,4 @@
-/* Quality of Alg. 2 (compressive motion blur, csi_reconstruct on a volume) against the paper's
+/* Quality of Alg. 2 (compressive motion blur, csi_recon on a volume) against the paper's
  * linear baseline, a 3-D Gaussian normalized convolution whose width is tuned by an oracle, on
  * an analytic moving scene (issue 4's 3-D claim).
  *
@@ -13,9 +13,9 @@
  *     space-time footprint (csi_pos_opts.spp = 1: 1/T = 6.25% of the cells),
  * written with csi_dump_write and read back with csi_dump_read (the path a user's dump takes).
  *
- * Baseline: csi_reconstruct with CSI_EST_GAUSS for every width sigma = 0.5 * 1.15^j <= 6 cells;
+ * Baseline: csi_recon with CSI_EST_GAUSS for every width sigma = 0.5 * 1.15^j <= 6 cells;
  * the oracle keeps, separately for each figure, the width with the lowest error (the most
- * favourable choice for the baseline). Compressive: csi_reconstruct with the defaults.
+ * favourable choice for the baseline). Compressive: csi_recon with the defaults.
  * Asserted, at both rates: image MSE(CS) < image MSE(Gauss, best sigma) and mean per-frame
  * PSNR(CS) > mean per-frame PSNR(Gauss, best sigma). No tolerance is given to either side; the
  * measured margins (printed, and in docs/bench/motion.md) are 1-3 dB.
@@ -146,7 +146,7 @@ int main(void)
             go.gauss_sigma = sig;
             go.frames = true;
             csi_recon_result res;
-            if (csi_reconstruct(ctx, &d.grid, 1, d.pos, d.values, d.count, &go, &res) != CSI_OK) {
+            if (csi_recon(ctx, &d.grid, 1, d.pos, d.values, d.count, &go, &res) != CSI_OK) {
                 CHECK(false, "Gaussian NC sigma %g: %s", sig, csi_last_error());
                 continue;
             }
@@ -167,7 +167,7 @@ int main(void)
         csi_recon_defaults(&o);
         o.frames = true;
         csi_recon_result cs;
-        csi_status st = csi_reconstruct(ctx, &d.grid, 1, d.pos, d.values, d.count, &o, &cs);
+        csi_status st = csi_recon(ctx, &d.grid, 1, d.pos, d.values, d.count, &o, &cs);
         CHECK(st == CSI_OK, "%s compressive: %s", rates[r].name, csi_last_error());
         if (st == CSI_OK) {
             figs f = measure(vol, &cs);
@@ -191,9 +191,9 @@ int main(void)
             of.motion_resid_sigma = -1.0; /* compare the solves alone */
             of.frames = false;
             csi_recon_result a, b;
-            CHECK_OK(csi_reconstruct(ctx, &d.grid, 1, d.pos, d.values, d.count, &of, &a));
+            CHECK_OK(csi_recon(ctx, &d.grid, 1, d.pos, d.values, d.count, &of, &a));
             of.motion_full_spectrum = true;
-            CHECK_OK(csi_reconstruct(ctx, &d.grid, 1, d.pos, d.values, d.count, &of, &b));
+            CHECK_OK(csi_recon(ctx, &d.grid, 1, d.pos, d.values, d.count, &of, &b));
             if (a.image && b.image) {
                 double e = test_rel_l2(a.image, b.image, (size_t)W * H);
                 printf("half vs full spectrum: image rel L2 %.2e (%d vs %d steps)\n", e,
@@ -229,7 +229,7 @@ int main(void)
         csi_recon_options o;
         csi_recon_defaults(&o);
         csi_recon_result res;
-        csi_status st = csi_reconstruct(ctx, &g, 1, pos, val, n, &o, &res);
+        csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &o, &res);
         CHECK(st == CSI_OK, "odd width 15: %s", csi_last_error());
         if (st == CSI_OK) {
             double e = 0, e0 = 0;

@@ -8,10 +8,10 @@
  *              with csi's integration (sharp target, per-pixel correction): --romp-preset published
  *   paper      the same ROMP with the paper's integration (f_b, no correction, the paper's
  *              Gaussian width): the paper's Alg. 1 as written
- *   csi        csi's ROMP settings for images (csi_reconstruct's ROMP defaults: s = N/64,
+ *   csi        csi's ROMP settings for images (csi_recon's ROMP defaults: s = N/64,
  *              support limit 0.15 N, coarse block + coarsest detail level seeded, one CG
  *              step per least squares)
- *   sparsa     csi_reconstruct's defaults (SpaRSA), the default solver of Alg. 1
+ *   sparsa     csi_recon's defaults (SpaRSA), the default solver of Alg. 1
  *   mean       stratified Monte Carlo (the per-pixel mean of stratified samples)
  * Claims, MSE averaged over position seeds 1..3 at 4 spp, on both images:
  *   1. csi's ROMP settings have a lower MSE than the published ROMP, with either integration;
@@ -66,21 +66,21 @@ static bool run(csi_ctx *ctx, const analytic_scene *s, config cfg, uint32_t spp,
         o.correct = CSI_CORRECT_NONE;
         o.sigma_spacing = 0;
         /* fall through */
-    case CFG_PUBLISHED: o.solver = CSI_SOLVER_ROMP; o.romp_published = true; break;
+    case CFG_PUBLISHED: o.solver = CSI_SOLVER_ROMP; o.romp_preset = CSI_ROMP_PRESET_PUBLISHED; break;
     case CFG_CSI: o.solver = CSI_SOLVER_ROMP; break;
     case CFG_SPARSA: break;
     case CFG_MEAN: o.estimator = CSI_EST_MEAN; break;
     default: break;
     }
     csi_recon_result r;
-    csi_status st = csi_reconstruct(ctx, &g, 1, pos, val, n, &o, &r);
+    csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &o, &r);
     CHECK(st == CSI_OK, "reconstruct (%s, spp %u, seed %llu): %s", cfg_name[cfg], spp,
           (unsigned long long)seed, st == CSI_OK ? "" : csi_last_error());
     if (st == CSI_OK) {
-        CHECK(cfg != CFG_SPARSA || r.solver == CSI_SOLVER_SPARSA, "the default solver is %s",
-              csi_solver_kind_name(r.solver));
+        CHECK(cfg != CFG_SPARSA || r.options.solver == CSI_SOLVER_SPARSA, "the default solver is %s",
+              csi_recon_choice_name("solver", r.options.solver));
         /* csi's support limit is the stopping rule for images: reported as such */
-        CHECK(cfg != CFG_CSI || (r.report[0].converged && r.solver == CSI_SOLVER_ROMP),
+        CHECK(cfg != CFG_CSI || (r.report[0].converged && r.options.solver == CSI_SOLVER_ROMP),
               "csi's ROMP: %s", r.report[0].message);
         memcpy(img, r.image, NP * sizeof(float));
         csi_recon_result_free(&r);

@@ -10,7 +10,7 @@
  *      the difference away from them, i.e. the tiles disagree with the whole no more where they
  *      meet than where they do not (the ratio is printed);
  *   3. a pixel outside every blend band is its tile's own value, bit for bit;
- *   4. determinism: csi_reconstruct tiling by itself (a budget below the whole's bytes) gives
+ *   4. determinism: csi_recon tiling by itself (a budget below the whole's bytes) gives
  *      the same bits as the tiles computed one by one in reverse order, one of them in a second
  *      OpenCL context, and blended in index order; blending out of order is refused; one tile
  *      gives the untiled bits.
@@ -111,14 +111,14 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
         csi_recon_options o;
         csi_recon_defaults(&o);
         csi_recon_result whole, tiled, hand;
-        CHECK_OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &o, &whole));
+        CHECK_OK(csi_recon(ctx, &g, 1, pos, val, n, &o, &whole));
         CHECK(whole.tiles == 1, "the whole fits the default budget (%u tiles)", whole.tiles);
         o.tiles = 4;
         o.tile_margin = 16;
         csi_tiling tl;
         CHECK_OK(csi_tiling_plan(ctx, &g, 1, n, &o, &tl));
         CHECK(tl.count == 4, "4 tiles (%u)", tl.count);
-        /* The same layout chosen by csi_reconstruct from a budget below the whole's bytes. */
+        /* The same layout chosen by csi_recon from a budget below the whole's bytes. */
         csi_recon_options ob = o;
         ob.tiles = 0;
         ob.mem_budget = tl.tile_bytes;
@@ -126,14 +126,14 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
         CHECK_OK(csi_tiling_plan(ctx, &g, 1, n, &ob, &tb));
         CHECK(csi_tiling_equal(&tb, &tl), "budget %llu gives the 4-tile layout (%u tiles)",
               (unsigned long long)ob.mem_budget, tb.count);
-        CHECK_OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &ob, &tiled));
-        CHECK(tiled.tiles == 4, "csi_reconstruct tiled by itself (%u tiles)", tiled.tiles);
+        CHECK_OK(csi_recon(ctx, &g, 1, pos, val, n, &ob, &tiled));
+        CHECK(tiled.tiles == 4, "csi_recon tiled by itself (%u tiles)", tiled.tiles);
         csi_tile_result tiles[4];
         memset(tiles, 0, sizeof tiles);
         CHECK_OK(by_hand(ctx, ctx2, &g, pos, val, n, &o, &tl, &hand, tiles));
         if (tiled.image && hand.image)
             CHECK(!memcmp(tiled.image, hand.image, np * sizeof(float)),
-                  "seed %llu: tiles by hand (reverse order, two contexts) = csi_reconstruct's bits",
+                  "seed %llu: tiles by hand (reverse order, two contexts) = csi_recon's bits",
                   (unsigned long long)seed);
         if (tiled.image && whole.image) {
             const double ew = mse_vs(whole.image, truth, np), et = mse_vs(tiled.image, truth, np);
@@ -170,7 +170,7 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
         csi_recon_options o1 = o;
         o1.tiles = 1;
         csi_recon_result one;
-        CHECK_OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &o1, &one));
+        CHECK_OK(csi_recon(ctx, &g, 1, pos, val, n, &o1, &one));
         if (one.image && whole.image)
             CHECK(!memcmp(one.image, whole.image, np * sizeof(float)), "one tile = the untiled bits");
         csi_recon_result_free(&one);
@@ -226,13 +226,13 @@ static void alg2(csi_ctx *ctx)
     csi_recon_defaults(&o);
     o.frames = true;
     csi_recon_result whole, tiled;
-    CHECK_OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &o, &whole));
+    CHECK_OK(csi_recon(ctx, &g, 1, pos, val, n, &o, &whole));
     o.tiles = 2;
     csi_tiling tl;
     CHECK_OK(csi_tiling_plan(ctx, &g, 1, n, &o, &tl));
     CHECK(tl.n[2] == 2 && tl.count == 2, "a 32x32x48 volume in 2 tiles is split in t (%u %u %u)", tl.n[0],
           tl.n[1], tl.n[2]);
-    CHECK_OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &o, &tiled));
+    CHECK_OK(csi_recon(ctx, &g, 1, pos, val, n, &o, &tiled));
     if (whole.image && tiled.image && tiled.frames) {
         const double ew = mse_vs(whole.image, mean, wh), et = mse_vs(tiled.image, mean, wh);
         printf("Alg. 2: blurred-image MSE whole %.4e, 2 time windows %.4e (ratio %.4f)\n", ew, et, et / ew);

@@ -102,7 +102,7 @@ static double run(csi_tracer *tr, const csi_grid *g, csi_pos_method m, csi_estim
         csi_recon_defaults(&o);
         o.estimator = est;
         csi_recon_result res;
-        if (csi_reconstruct(test_ctx(), g, 1, pos, lum, n, &o, &res) == CSI_OK) {
+        if (csi_recon(test_ctx(), g, 1, pos, lum, n, &o, &res) == CSI_OK) {
             double acc = 0;
             for (size_t p = 0; p < (size_t)OUT * OUT; p++) {
                 double d = (double)res.image[p] - ref[p];

@@ -108,7 +108,7 @@ static void one(const run_case *rc)
     csi_device_bytes_reset_peak();
     ic_peak = ic_live;
     csi_recon_result res;
-    csi_status st = csi_reconstruct(ctx, &rc->g, rc->channels, pos, val, n, &rc->opt, &res);
+    csi_status st = csi_recon(ctx, &rc->g, rc->channels, pos, val, n, &rc->opt, &res);
     CHECK(st == CSI_OK, "%s: %s", rc->name, csi_last_error());
     const uint64_t peak = csi_device_bytes_peak() - live0, ipeak = ic_peak - ic0;
     printf("%-34s k %7llu n %6zu  tiles %2u  plan %9llu  peak %9llu  (interposed %9llu)  host plan %8llu  %s\n",
@@ -250,13 +250,13 @@ int main(void)
     CHECK_OK(csi_recon_plan_check(&p, &b, 0, "big.csid"));
     st = csi_recon_plan_check(&p, &b, p.device_bytes, "big.csid");
     CHECK(st == CSI_ERR_TOO_LARGE, "the caller's own host bytes count: %s", csi_last_error());
-    /* With the default budget csi_reconstruct tiles it: the plan is one tile's. */
+    /* With the default budget csi_recon tiles it: the plan is one tile's. */
     csi_recon_options tiled = opts();
     tiled.mem_budget = 256ull << 20;
     CHECK_OK(csi_recon_plan_make(NULL, &big, 3, big_n, &tiled, &p));
     CHECK(p.tiles > 1 && p.largest_buffer < (1ull << 30), "tiled: %u tiles, largest buffer %llu", p.tiles,
           (unsigned long long)p.largest_buffer);
-    /* Sizes csi_reconstruct refuses are refused by the plan with its messages. */
+    /* Sizes csi_recon refuses are refused by the plan with its messages. */
     const csi_grid odd = {22, 22, 1, 11, 11}; /* 11: no FFT size */
     CHECK(csi_recon_plan_make(NULL, &odd, 1, 10, NULL, &p) == CSI_ERR_ARG && strstr(csi_last_error(), "prime factor"),
           "FFT size: %s", csi_last_error());

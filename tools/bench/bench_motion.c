@@ -7,7 +7,7 @@
  *       csi's native kernels vs clFFT, median of N runs after a warm-up.
  *   csi-bench-motion solve   [--size WxHxT] [--fraction F | --spp S] [--scene NAME] [--seed S]
  *                            [--tau-rel X] [--max-iter N] [--tol X] [--no-cont] [--gauss SIGMA]
- *       one csi_reconstruct of the scene with every frame (Alg. 2 and Sec. 6.1): setup, solve
+ *       one csi_recon of the scene with every frame (Alg. 2 and Sec. 6.1): setup, solve
  *       and integration times, SpaRSA iterations and seconds per iteration, the image PSNR and
  *       the mean per-frame PSNR against the exact volume, peak resident memory of the process
  *       (PoCL's CPU buffers are host memory, so this bounds the device memory used). With
@@ -468,10 +468,10 @@ static void bench_solve(csi_ctx *ctx, const bench_opts *o)
         for (size_t i = 0; i < n; i++)
             for (int c = 0; c < 3; c++)
                 v3[3 * i + c] = powf(val[i], 1.0f + 0.3f * (float)c);
-        OK(csi_reconstruct(ctx, &g, 3, pos, v3, n, &ro, &res));
+        OK(csi_recon(ctx, &g, 3, pos, v3, n, &ro, &res));
         free(v3);
     } else {
-        OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &ro, &res));
+        OK(csi_recon(ctx, &g, 1, pos, val, n, &ro, &res));
     }
     double total = now() - a;
     if (o->rgb)
@@ -506,7 +506,7 @@ static void bench_solve(csi_ctx *ctx, const bench_opts *o)
         go.gauss_sigma = o->gauss;
         go.frames = true;
         a = now();
-        OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &go, &res));
+        OK(csi_recon(ctx, &g, 1, pos, val, n, &go, &res));
         f = measure(vol, o->w, o->h, o->T, res.image, res.frames);
         printf("gauss NC sigma %g: %.1f s, image PSNR %.2f, frame PSNR %.2f\n", o->gauss, now() - a,
                f.img_psnr, f.frame_psnr);
@@ -532,7 +532,7 @@ static void gauss_oracle(csi_ctx *ctx, const csi_grid *g, const float *vol, cons
         go.gauss_sigma = s;
         go.frames = true;
         csi_recon_result res;
-        OK(csi_reconstruct(ctx, g, 1, pos, val, n, &go, &res));
+        OK(csi_recon(ctx, g, 1, pos, val, n, &go, &res));
         figures f = measure(vol, g->w, g->h, g->t, res.image, res.frames);
         if (f.img_psnr > best->img_psnr) {
             best->img_psnr = f.img_psnr;
@@ -615,7 +615,7 @@ static void bench_quality(csi_ctx *ctx, const bench_opts *o)
                 apply_solver_opts(&ro, &so);
                 ro.frames = true;
                 csi_recon_result res;
-                OK(csi_reconstruct(ctx, &g, 1, pos, val, n, &ro, &res));
+                OK(csi_recon(ctx, &g, 1, pos, val, n, &ro, &res));
                 figures f = measure(vol, o->w, o->h, o->T, res.image, res.frames);
                 printf("| %s | %s | %zu | CS %s | %.2f | %.2f | %d | %.2f |\n", sc, rt, n, set[s].label,
                        f.img_psnr, f.frame_psnr, res.report[0].iterations, res.t_solve);

@@ -1,11 +1,11 @@
-/* The resource plan of a reconstruction: the memory csi_reconstruct will use, computed from the
+/* The resource plan of a reconstruction: the memory csi_recon will use, computed from the
  * sizes alone (no device, no allocation, microseconds), and whether it fits a budget.
  *
  * Callers make the plan from a dump's header or a scene's grid before reading samples or
  * tracing, and refuse what cannot fit with one line naming the input, the size and the limit
  * (CSI_ERR_TOO_LARGE), instead of failing after minutes or inside the OpenCL implementation.
  *
- * Device memory: every buffer csi_reconstruct allocates, per method (Alg. 1 with SpaRSA or ROMP,
+ * Device memory: every buffer csi_recon allocates, per method (Alg. 1 with SpaRSA or ROMP,
  * Alg. 2 on the half or full spectrum, the Gaussian and sample-mean baselines), from the
  * `*_buffers` functions beside each module's create function; the peak is the buffers held for
  * the whole run plus the largest set held only for a while (ROMP's column-norm probes, the
@@ -49,21 +49,21 @@ typedef struct csi_recon_plan {
     const char *method;        /* "Alg. 1", "Alg. 1 (model grid)", "Alg. 2 (half spectrum)",
                                   "Alg. 2 (full spectrum)", "Gaussian baseline", "sample mean" */
     uint64_t cells;            /* k = w * h * t */
-    uint32_t tiles;            /* tiles csi_reconstruct will solve it in (1: the whole at once);
+    uint32_t tiles;            /* tiles csi_recon will solve it in (1: the whole at once);
                                   the device figures are then one tile's */
     uint64_t unknowns;         /* the solver's unknowns (complex for Alg. 2); 0 for baselines */
     uint64_t device_bytes;     /* the most device bytes live at once */
     uint64_t largest_buffer;   /* the largest single device buffer */
     const char *largest_what;  /* what it holds */
-    uint64_t host_bytes;       /* the most host bytes csi_reconstruct holds at once */
+    uint64_t host_bytes;       /* the most host bytes csi_recon holds at once */
 } csi_recon_plan;
 
-/* The plan for csi_reconstruct(ctx, g, channels, pos, values, n, opt, ...) (opt NULL: the
+/* The plan for csi_recon(ctx, g, channels, pos, values, n, opt, ...) (opt NULL: the
  * defaults; ctx may be NULL: then the tile layout follows the budget alone, as csi_tiling_plan
- * does). When csi_reconstruct will solve the problem in tiles (csi/tiles.h), the device figures
+ * does). When csi_recon will solve the problem in tiles (csi/tiles.h), the device figures
  * are those of one tile holding as many samples as its window can (all of them, at most its
  * cells), and the host's hold the whole result and one tile's problem. Checks what
- * csi_reconstruct checks from the sizes alone, with the same CSI_ERR_ARG messages: zero or
+ * csi_recon checks from the sizes alone, with the same CSI_ERR_ARG messages: zero or
  * non-divisible sizes, more than 2^32 cells, n = 0 or n > k, ROMP on a volume, FFT sizes with a
  * prime factor other than 2, 3, 5, 7, grids too small for a wavelet level, and csi_tiling_plan's
  * refusal when no layout fits the budget. */

@@ -33,17 +33,26 @@
 extern "C" {
 #endif
 
-typedef enum { CSI_SOLVER_DEFAULT = 0, CSI_SOLVER_ROMP, CSI_SOLVER_SPARSA } csi_solver_kind;
-const char *csi_solver_kind_name(csi_solver_kind k);
-csi_status csi_solver_kind_parse(const char *s, csi_solver_kind *out);
+/* ---- options ------------------------------------------------------------------------------
+ * Every option is a row of one table (options.c): its name (the programs' --name, the Python
+ * keyword with '-' as '_', the key in the statistics), its field below, its kind, the range a
+ * given value must lie in, its default and its help. The programs' getopt tables and help text,
+ * the statistics and the EXR attributes are made from the table; csi_recon_defaults fills the
+ * defaults from it.
+ *
+ * "Unset" is spelled one way: 0. An option whose default depends on the problem (the grid, the
+ * number of samples, the method) is "auto" while it holds 0 (enums: the *_AUTO member, which is
+ * 0); csi_recon resolves it and reports the value it used in csi_recon_result.options. Where
+ * an option can also be switched off, off is -1 (VkFFT's convention: -1 off, 0 auto, 1 on or a
+ * value). Options with a fixed default hold their value. */
+
+typedef enum { CSI_SOLVER_AUTO = 0, CSI_SOLVER_ROMP, CSI_SOLVER_SPARSA } csi_solver_kind;
 
 /* Which signal Alg. 1 integrates over each pixel. */
 typedef enum {
     CSI_AA_FILTERED = 0, /* the paper's: the filtered estimate f_b = Psi x (biased: blurred) */
     CSI_AA_SHARP,        /* Phi^-1 f_b, the estimate of f the samples constrain */
 } csi_aa_output;
-const char *csi_aa_output_name(csi_aa_output o);
-csi_status csi_aa_output_parse(const char *s, csi_aa_output *out);
 
 /* After integration, Alg. 1 can correct each pixel with its own samples (csi's addition, not
  * the paper's). CV treats the fine estimate g (f_b, Phi^-1 f_b, or the Gaussian baseline's
@@ -60,18 +69,12 @@ typedef enum {
     CSI_CORRECT_NONE,     /* the image is box(g) */
     CSI_CORRECT_CV,       /* the control-variate correction above */
 } csi_aa_correct;
-const char *csi_aa_correct_name(csi_aa_correct c);
-csi_status csi_aa_correct_parse(const char *s, csi_aa_correct *out);
 
 /* A setting that is on, off, or left to the method's measured default. */
-typedef enum { CSI_SWITCH_AUTO = 0, CSI_SWITCH_ON, CSI_SWITCH_OFF } csi_switch;
-csi_status csi_switch_parse(const char *s, csi_switch *out); /* "auto", "on", "off" */
-const char *csi_switch_name(csi_switch s);
+typedef enum { CSI_SWITCH_OFF = -1, CSI_SWITCH_AUTO = 0, CSI_SWITCH_ON = 1 } csi_switch;
 
 /* SpaRSA's stopping rule as a reconstruction option: AUTO lets the method choose. */
 typedef enum { CSI_STOP_AUTO = 0, CSI_STOP_GAP, CSI_STOP_OBJECTIVE } csi_recon_stop;
-csi_status csi_recon_stop_parse(const char *s, csi_recon_stop *out); /* "auto", "gap", "objective" */
-const char *csi_recon_stop_name(csi_recon_stop s);
 
 /* The estimator: csi's compressive method, or one of the baselines it is measured against. */
 typedef enum {
@@ -80,8 +83,9 @@ typedef enum {
     CSI_EST_GAUSS,  /* normalized convolution with a 2-D / 3-D Gaussian (the paper's linear
                        baseline, Sec. 6.1): f = G*(S^T y) / G*(S^T 1), then integrated like CS */
 } csi_estimator;
-const char *csi_estimator_name(csi_estimator e);
-csi_status csi_estimator_parse(const char *s, csi_estimator *out);
+
+/* ROMP's defaults for images: csi's (measured, docs/bench/romp.md) or the published ROMP's. */
+typedef enum { CSI_ROMP_PRESET_CSI = 0, CSI_ROMP_PRESET_PUBLISHED } csi_romp_preset;
 
 /* The Gaussian baseline's default width (grid cells, every axis): the spacing of N samples
  * spread evenly over k cells in d dimensions, (k/N)^(1/d), times 0.5. */
@@ -102,79 +106,110 @@ double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims);
 #define CSI_MOTION_TAU_MAX 3e-2
 double csi_motion_tau_rel(size_t n);
 
+/* The fields; each one's meaning, range and default are in its row of the table (options.c,
+ * printed by the programs' --help). */
 typedef struct csi_recon_options {
-    csi_estimator estimator;      /* default CSI_EST_CS */
-    double gauss_sigma;           /* CSI_EST_GAUSS: width in grid cells; 0: the default rule */
-    csi_solver_kind solver;       /* DEFAULT: the measured best per method (docs/BENCHMARKS.md) */
-    csi_wavelet_family wavelet;   /* Alg. 1 basis, default db4 */
-    int levels;                   /* 0: csi_wavelet_default_levels */
-    float lambda;                 /* Wiener regularisation, default 0.3 (the paper's) */
-    double sigma_scale;           /* multiplies the paper's sigma_Phi, default 1 */
+    csi_estimator estimator;
+    double gauss_sigma;           /* CSI_EST_GAUSS: width in grid cells; 0 auto */
+    csi_solver_kind solver;
+    csi_wavelet_family wavelet;   /* Alg. 1 basis */
+    int levels;                   /* wavelet levels; 0 auto */
+    float lambda;                 /* Wiener regularisation */
+    double sigma_scale;           /* multiplies the paper's sigma_Phi */
     double sigma_spacing;         /* Alg. 1: sigma_Phi is at least this times the sample spacing
                                      sqrt(k/N) (csi's rule: the filter follows the sampling
-                                     rate); 0: the paper's width only; < 0: the default */
-    csi_aa_output output;         /* default CSI_AA_SHARP (measured better at 1-16 spp; the
-                                     paper's is CSI_AA_FILTERED) */
-    csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS): default AUTO */
-    double cv_n0;                 /* CV shrinkage (see csi_aa_correct); < 0: the default, 8 */
-    double tol;                   /* solver tolerance; 0: the method's default */
-    int max_iter;                 /* 0: the method's default */
-    double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0: the method's
-                                     default (Alg. 1's rule, csi_motion_tau_rel(N) for Alg. 2) */
+                                     rate); 0: the paper's width only */
+    csi_aa_output output;
+    csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS) */
+    double cv_n0;                 /* CV shrinkage (see csi_aa_correct) */
+    double tol;                   /* solver tolerance; 0 auto */
+    int max_iter;                 /* 0 auto */
+    double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
     csi_switch model_grid;        /* Alg. 1 on a grid coarser than the samples' where the filter
-                                     allows it (csi/model_grid.h: the same operator to ~1e-5, a
-                                     fraction of the cost); OFF: always on the samples' grid */
-    csi_recon_stop stop;          /* SpaRSA stopping rule; AUTO: the method's default */
-    csi_switch continuation;      /* SpaRSA continuation on tau; AUTO: the method's default */
-    csi_switch debias;            /* SpaRSA debiasing phase; AUTO: the method's default */
+                                     allows it (csi/model_grid.h) */
+    csi_recon_stop stop;
+    csi_switch continuation;      /* SpaRSA continuation on tau */
+    csi_switch debias;            /* SpaRSA debiasing phase (images) */
     /* ROMP (Alg. 1 only; docs/bench/romp.md has the measurements behind the defaults) */
-    size_t romp_s;                /* candidates per step (csi_romp_options.s); 0: the method's
-                                     default */
+    csi_romp_preset romp_preset;
+    size_t romp_s;                /* candidates per step (csi_romp_options.s); 0 auto */
     double romp_max_support;      /* support size that ends the run: >= 1 a count, in (0, 1) a
-                                     fraction of N; 0: the method's default */
-    csi_switch romp_normalize;    /* rank correlations by column norm (csi_column_norms);
-                                     AUTO: the method's default */
+                                     fraction of N; 0 auto */
+    csi_switch romp_normalize;    /* rank correlations by column norm (csi_column_norms) */
     int romp_seed_levels;         /* support seeded before the first step with the top-left
                                      block of the coefficient array: 1 = the coarse scaling
                                      block, 1 + j = it and the j coarsest detail levels;
-                                     -1: none (the published ROMP); 0: the method's default */
-    int romp_lsq_iter;            /* CG iterations per least squares; 0: the method's default */
-    bool romp_published;          /* the method's ROMP defaults are the published ROMP's (s
-                                     from N, stop at 2s, no seed) instead of csi's */
+                                     -1 off (the published ROMP); 0 auto */
+    int romp_lsq_iter;            /* CG iterations per least squares; 0 auto */
+    /* Alg. 2 */
+    double motion_resid_sigma;    /* width of the residual correction (see the table); -1 off
+                                     (the paper's), 0 auto */
+    bool motion_full_spectrum;
+    bool motion_debias;
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
-                                     everything else is deterministic. Default 1 */
-    /* Alg. 2 residual correction (csi's extension): after the solve, the samples' residual
-     * r = y - S f is interpolated by Gaussian normalized convolution and added to f, so that
-     * what the sparse Fourier model misses near the samples (edges, small movers) comes back.
-     * < 0: off (the paper's); 0 (default): width csi_gauss_nc_default_sigma; > 0: width in grid
-     * cells. */
-    double motion_resid_sigma;
-    /* Alg. 2 on the full complex spectrum (the paper's formulation: twice the unknowns and
-     * about twice the FFT work of csi's default, the half spectrum of the real volume; the
-     * same minimiser). Used anyway when the half spectrum cannot be (an odd grid width). */
-    bool motion_full_spectrum;
-    bool motion_debias;           /* Alg. 2: SpaRSA's debiasing step (default off) */
+                                     everything else is deterministic */
     /* Tiles (csi/tiles.h): the problem is solved in overlapping tiles when the whole would need
      * more device memory than mem_budget, or when `tiles` asks for a number of them. */
-    uint64_t mem_budget;          /* device bytes one reconstruction may use; 0: the default
-                                     (csi_tile_default_budget: 1 GiB, at most half the device) */
-    uint32_t tiles;               /* 0: as few as fit the budget (1 when the whole fits); N: N */
-    uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0: the default */
-    uint32_t tile_margin_t;       /* the same in frames for a volume; 0: the default */
+    uint64_t mem_budget;          /* device bytes one reconstruction may use; 0 auto */
+    uint32_t tiles;               /* 0 auto: as few as fit the budget (1 when the whole fits) */
+    uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0 auto */
+    uint32_t tile_margin_t;       /* the same in frames for a volume; 0 auto */
     csi_progress_fn progress;     /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
                                      "integrate c/C" */
     void *user;
 } csi_recon_options;
+
+/* Every field its default from the table (autos 0), progress NULL. */
 void csi_recon_defaults(csi_recon_options *o);
+
+/* What a program or a binding needs to know of one option (the table's row, without its
+ * storage). */
+typedef enum {
+    CSI_OPTION_CHOICE,  /* one of a list of names */
+    CSI_OPTION_NUMBER,  /* a real number */
+    CSI_OPTION_INTEGER, /* a whole number */
+    CSI_OPTION_FLAG,    /* on or off; on the command line a flag without a value */
+} csi_option_kind;
+
+typedef struct csi_option_info {
+    const char *name;      /* "sigma-scale" */
+    csi_option_kind kind;
+    const char *metavar;   /* the value's placeholder in the help ("S", "romp|sparsa") */
+    const char *help;      /* one or more sentences, no trailing newline */
+    const char *def;       /* the default as text ("0.3", "auto", "off") */
+    const char *auto_rule; /* what "auto" resolves to, NULL when the default is fixed */
+    bool program;          /* the programs take it as --name (false: set by them otherwise) */
+} csi_option_info;
+
+size_t csi_option_count(void);
+/* Row i of the table (i < csi_option_count()), or CSI_ERR_ARG. */
+csi_status csi_option_describe(size_t i, csi_option_info *out);
+
+/* Sets option `name` from text, as the programs' --name VALUE does: a choice by name, a number
+ * in the option's range, "auto" (options with a problem-dependent default), "off" (options
+ * that can be switched off), "on"/"off" (flags). CSI_ERR_ARG with "name: 'value' is not ..."
+ * otherwise; o is unchanged then. */
+csi_status csi_recon_option_set(csi_recon_options *o, const char *name, const char *value);
+/* The value of option `name` as text, the form csi_recon_option_set reads back. */
+csi_status csi_recon_option_get(const csi_recon_options *o, const char *name, char *buf, size_t len);
+/* The value as a number (choices and flags: CSI_ERR_ARG; auto and off: CSI_ERR_ARG too). */
+csi_status csi_recon_option_number(const csi_recon_options *o, const char *name, double *out);
+/* The name of value v of choice option `name` ("?" if none). */
+const char *csi_recon_choice_name(const char *name, int v);
+
+/* Fills every auto option that applies to this problem (grid, n samples) and these options
+ * with the value csi_recon uses; options that do not apply stay as they are. */
+csi_status csi_recon_resolve(const csi_recon_options *in, const csi_grid *g, size_t n,
+                             csi_recon_options *out);
 
 typedef struct csi_recon_result {
     uint32_t out_w, out_h, channels;
     uint32_t nframes;       /* grid.t when frames were asked for, else 0 */
     float *image;           /* out_w * out_h * channels, planar */
     float *frames;          /* nframes * channels * out_w * out_h (frame-major, then planar) */
-    csi_solver_kind solver; /* the solver used */
+    csi_recon_options options; /* the options used: every auto that applies resolved */
     csi_solve_report report[4];
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
@@ -191,9 +226,9 @@ void csi_recon_result_free(csi_recon_result *r);
 
 /* values: n * channels floats, sample-major (values[i * channels + c]). Positions must be
  * unique and inside the grid (csi_dump_read guarantees both). */
-csi_status csi_reconstruct(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
-                           const csi_sample_pos *pos, const float *values, size_t n,
-                           const csi_recon_options *opt, csi_recon_result *out);
+csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
+                     const float *values, size_t n, const csi_recon_options *opt,
+                     csi_recon_result *out);
 
 #ifdef __cplusplus
 }

@@ -139,7 +139,7 @@ typedef struct csi_tile_result {
 void csi_tile_result_free(csi_tile_result *t);
 
 /* Reconstructs tile `index` of layout tl from the whole problem's samples (pos, values, n as for
- * csi_reconstruct; the tile takes those inside its window). scope from csi_tile_scope_make, or
+ * csi_recon; the tile takes those inside its window). scope from csi_tile_scope_make, or
  * made by the caller from values it was given (a tile run on another machine). */
 csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
@@ -161,7 +161,7 @@ csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t);
 csi_status csi_tiles_end(csi_tiles_blend *b);
 
 /* The whole tiled reconstruction in this process: layout tl (count >= 1), scope, every tile in
- * index order, blended. csi_reconstruct calls it when its plan needs more than one tile. */
+ * index order, blended. csi_recon calls it when its plan needs more than one tile. */
 csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                  const csi_sample_pos *pos, const float *values, size_t n,
                                  const csi_recon_options *opt, const csi_tiling *tl,

@@ -1,0 +1,155 @@
+/* The defaults that depend on the problem: every "auto" option resolved to the value the method
+ * uses, so that a caller (and the statistics) can see what ran. See csi/reconstruct.h. */
+#include <math.h>
+
+#include "csi/solve.h"
+#include "csi/tiles.h"
+#include "csi/wavelet.h"
+#include "internal.h"
+
+/* SpaRSA for Alg. 1 (the image problem), where the caller left a setting open. Measured in
+ * docs/bench/quality.md. */
+static void image_sparsa(csi_recon_options *o, double spp)
+{
+    /* The image stops changing long before the duality gap closes (with continuation the
+     * default gap rule ran 2000 steps in an intermediate stage): stop on the relative change of
+     * the objective instead. 3e-3 stops after 15-55 steps with the MSE within a few % of 300. */
+    if (o->stop == CSI_STOP_AUTO)
+        o->stop = CSI_STOP_OBJECTIVE;
+    if (o->tol == 0)
+        o->tol = 3e-3;
+    if (o->max_iter == 0)
+        o->max_iter = 300;
+    /* The final least squares on the support refits the samples exactly and cost up to 2x in
+     * MSE (e.g. 9.6e-4 against 4.6e-4, triangle 4 spp); without it never worse. */
+    if (o->debias == CSI_SWITCH_AUTO)
+        o->debias = CSI_SWITCH_OFF;
+    /* The best tau falls with the samples per pixel, about 3e-3 / spp of ||A^H y||_inf
+     * (measured 1 to 16 spp, 4x4 and 8x8 cells per pixel): few samples want a smoother fit. */
+    if (o->tau_rel == 0)
+        o->tau_rel = fmin(3e-3, fmax(1e-5, 3e-3 / spp));
+    csi_sparsa_options d;
+    csi_sparsa_defaults(&d);
+    if (o->continuation == CSI_SWITCH_AUTO)
+        o->continuation = d.continuation ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+}
+
+/* SpaRSA for Alg. 2: the solver's own defaults but tau, which follows the number of samples
+ * (csi_motion_tau_rel). The debiasing (least squares on the support) only when asked for with
+ * motion_debias: the video's spectrum is compressible, not sparse, and refitting its support to
+ * the samples overfits them (docs/bench/motion.md). That also keeps the half- and full-spectrum
+ * solves alike: the solver's support count differs between them (conjugate pairs count once on
+ * the half spectrum), and with it whether it debiases. */
+static void motion_sparsa(csi_recon_options *o, size_t n)
+{
+    csi_sparsa_options d;
+    csi_sparsa_defaults(&d);
+    if (o->stop == CSI_STOP_AUTO)
+        o->stop = d.stop == CSI_SPARSA_STOP_GAP ? CSI_STOP_GAP : CSI_STOP_OBJECTIVE;
+    if (o->tol == 0)
+        o->tol = d.tol;
+    if (o->max_iter == 0)
+        o->max_iter = d.max_iter;
+    if (o->tau_rel == 0)
+        o->tau_rel = csi_motion_tau_rel(n);
+    o->debias = o->motion_debias ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+    if (o->continuation == CSI_SWITCH_AUTO)
+        o->continuation = d.continuation ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+}
+
+/* ROMP for Alg. 1 (docs/bench/romp.md): csi's settings, or the published ROMP's (Needell &
+ * Vershynin: s from N, stop at 2s, raw correlations, its least squares). */
+static void image_romp(csi_recon_options *o, size_t N, size_t k)
+{
+    csi_romp_options d;
+    csi_romp_defaults(&d);
+    const bool published = o->romp_preset == CSI_ROMP_PRESET_PUBLISHED;
+    if (o->romp_s == 0)
+        o->romp_s = published ? csi_romp_default_s(N, k) : (N / 64 > 16 ? N / 64 : 16);
+    /* csi: a support limit as a fraction of N (early stopping is ROMP's only regulariser: the
+     * least squares interpolate the samples). */
+    if (o->romp_max_support == 0)
+        o->romp_max_support = published ? (double)(2 * o->romp_s) : 0.15;
+    if (o->romp_normalize == CSI_SWITCH_AUTO)
+        o->romp_normalize = CSI_SWITCH_OFF;
+    /* csi: the coarse block and the coarsest detail level seeded (raw correlations never pick
+     * the scaling block on point samples). */
+    if (o->romp_seed_levels == 0)
+        o->romp_seed_levels = published ? -1 : 2;
+    /* csi: one warm-started CG step per support growth instead of ROMP's least squares (60
+     * steps): the exact fits interpolate the samples on the support, which is what makes ROMP's
+     * images spiky; fewer steps measured monotonically better and 3-10x faster
+     * (docs/bench/romp.md). With one step the update is a steepest-descent step on the support
+     * (closer to gradient pursuit than to Needell & Vershynin's projection); --romp-lsq-iter
+     * restores the exact least squares. */
+    if (o->romp_lsq_iter == 0)
+        o->romp_lsq_iter = published ? d.lsq_iter : 1;
+    if (o->tol == 0)
+        o->tol = d.tol;
+    if (o->max_iter == 0) /* each iteration adds at least one index */
+        o->max_iter = (int)(csi_recon_romp_support_limit(o, N) + 10);
+}
+
+size_t csi_recon_romp_support_limit(const csi_recon_options *o, size_t N)
+{
+    if (o->romp_max_support >= 1)
+        return (size_t)o->romp_max_support;
+    return (size_t)fmax(1.0, floor(o->romp_max_support * (double)N));
+}
+
+csi_status csi_recon_resolve(const csi_recon_options *in, const csi_grid *g, size_t n,
+                             csi_recon_options *out)
+{
+    return csi_recon_resolve_scoped(in, g, n, NULL, out);
+}
+
+csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid *g, size_t n,
+                                    const csi_tile_scope *scope, csi_recon_options *o)
+{
+    *o = *in;
+    /* The figures the density-dependent defaults follow: the whole problem's for a tile. */
+    const size_t k = scope ? (size_t)scope->k : (size_t)g->w * g->h * g->t;
+    const size_t nd = scope ? (size_t)scope->n : n;
+    const size_t np = scope ? (size_t)scope->out_w * scope->out_h : (size_t)g->out_w * g->out_h;
+    const bool still = g->t == 1;
+    if (o->estimator == CSI_EST_MEAN)
+        return CSI_OK;
+    if (o->estimator == CSI_EST_GAUSS) {
+        if (o->gauss_sigma == 0)
+            o->gauss_sigma = csi_gauss_nc_default_sigma(k, nd, still ? 2 : 3);
+        if (still && o->correct == CSI_CORRECT_AUTO)
+            o->correct = CSI_CORRECT_NONE;
+        return CSI_OK;
+    }
+    if (o->solver == CSI_SOLVER_AUTO)
+        o->solver = CSI_SOLVER_SPARSA;
+    if (!still) {
+        if (o->motion_resid_sigma == 0)
+            o->motion_resid_sigma = csi_gauss_nc_default_sigma(k, nd, 3);
+        if (o->solver == CSI_SOLVER_SPARSA)
+            motion_sparsa(o, n);
+        return CSI_OK;
+    }
+    /* Default: as many levels as the grid allows, at most 5. The tau rule (image_sparsa) is
+     * relative to ||A^H y||_inf, which the coarse band dominates and which doubles with each
+     * extra level; with 7 levels at 1024^2 the rule's tau was 2x off (MSE 8.5e-4 against 4.6e-4
+     * with 5 levels, texture 1 spp), while 5 against 6 levels at 512^2 differ by < 5%. A grid
+     * that allows no level keeps 0, and Alg. 1 refuses it. */
+    if (o->levels == 0) {
+        int l = csi_wavelet_default_levels(o->wavelet, g->w, g->h);
+        o->levels = l > 5 ? 5 : l;
+    }
+    if (o->correct == CSI_CORRECT_AUTO)
+        o->correct = CSI_CORRECT_CV;
+    /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
+     * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
+    if (o->model_grid == CSI_SWITCH_AUTO)
+        o->model_grid = o->output == CSI_AA_SHARP && o->solver == CSI_SOLVER_SPARSA ? CSI_SWITCH_ON
+                                                                                    : CSI_SWITCH_OFF;
+    if (o->solver == CSI_SOLVER_ROMP) {
+        image_romp(o, n, (size_t)g->w * g->h); /* each problem's own operator (tiles too) */
+    } else {
+        image_sparsa(o, (double)nd / (double)np);
+    }
+    return CSI_OK;
+}
