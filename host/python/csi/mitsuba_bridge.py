@@ -47,6 +47,13 @@ class BridgeError(RuntimeError):
 
 # ---- Mitsuba and its LLVM ---------------------------------------------------------------------
 
+def _llvm_version(path):
+    """The LLVM major version a library's path names (libLLVM-19.so, libLLVM.so.19.1,
+    /usr/lib/llvm-19/...), or None."""
+    m = re.search(r"libLLVM[-.](?:so\.)?(\d+)", os.path.basename(path)) or re.search(r"llvm-(\d+)", path)
+    return int(m.group(1)) if m else None
+
+
 def find_libllvm():
     """Path of an LLVM >= 16 shared library (newest first), or None."""
     found = []
@@ -54,9 +61,9 @@ def find_libllvm():
             "/usr/lib64/libLLVM*.so*", "/usr/local/lib/libLLVM*.so*", "/opt/homebrew/opt/llvm/lib/libLLVM.dylib"]
     for pat in pats:
         for p in glob.glob(pat):
-            m = re.search(r"libLLVM[-.](?:so\.)?(\d+)", os.path.basename(p)) or re.search(r"llvm-(\d+)", p)
-            if m and int(m.group(1)) >= LLVM_MIN and os.path.isfile(p):
-                found.append((int(m.group(1)), p))
+            v = _llvm_version(p)
+            if v is not None and v >= LLVM_MIN and os.path.isfile(p):
+                found.append((v, p))
     if not found:
         return None
     found.sort(key=lambda vp: (-vp[0], len(vp[1])))
@@ -71,12 +78,22 @@ def mitsuba():
     global _mi
     if _mi is not None:
         return _mi
-    if not os.environ.get("DRJIT_LIBLLVM_PATH"):
+    given = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if not given:
         lib = find_libllvm()
         if lib is None:
             raise BridgeError(f"no LLVM >= {LLVM_MIN} shared library found for Mitsuba's {VARIANT} variant: install one "
                               f"(Debian 12: apt-get install libllvm19) or set DRJIT_LIBLLVM_PATH to it")
         os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    else:
+        # Checked here because Dr.Jit reports a missing library on several lines, and an older
+        # LLVM aborts the process inside code generation ("Cannot select ... fminimum").
+        if not os.path.isfile(given):
+            raise BridgeError(f"DRJIT_LIBLLVM_PATH={given}: no such file (unset it to let csi find LLVM >= {LLVM_MIN})")
+        v = _llvm_version(os.path.realpath(given)) or _llvm_version(given)
+        if v is not None and v < LLVM_MIN:
+            raise BridgeError(f"DRJIT_LIBLLVM_PATH={given} is LLVM {v}; Mitsuba's {VARIANT} variant needs LLVM >= "
+                              f"{LLVM_MIN} (Debian 12: apt-get install libllvm19)")
     try:
         import mitsuba as mi
     except ImportError as e:
@@ -261,8 +278,9 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
     n = len(u)
     integrator = s.integrator()
 
-    # The first launch compiles Mitsuba's kernels (seconds): time it apart on a few lanes so
-    # the per-path time below is the warm cost.
+    # The first launch compiles Mitsuba's kernels (seconds): time it apart on a few lanes.
+    # (Dr.Jit still builds a variant per new launch size, once per machine: it caches kernels on
+    # disk, so render_s below is the warm cost from the second run of a size on.)
     t0 = time.perf_counter()
     k = min(n, 256)
     _launch(s, integrator, u[:k], v[:k], time_[:k], _batch_seed(seed, 1 << 40))
