@@ -1,6 +1,7 @@
 """Mitsuba 3 as csi's renderer: radiance at exactly csi's cell centres, and box-filtered references.
 
     from csi import mitsuba_bridge as mb
+    dump, s = mb.render("cornell", size=(128, 128), spp=4, paths=64)   # all in one call, or:
     scene = mb.load_scene("cornell", size=(128, 128))      # or an XML file, or a .py with scene()
     req = mb.positions_request(out=(128, 128), spp=4, seed=1)   # csi-positions' grid and positions
     s = mb.render_request(scene, req, paths=64, seed=1)     # numpy: s.values (n, 3), s.timing
@@ -319,6 +320,16 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
     timing = {"jit_s": jit_s, "render_s": render_s, "samples": n, "paths": n * paths,
               "per_sample_us": 1e6 * render_s / n, "per_path_us": 1e6 * render_s / (n * paths), "aov_s": aov_s}
     return Samples(values=values, albedo=albedo, normal=normal, paths=paths, nonfinite=nonfinite, timing=timing)
+
+
+def render(spec, size=None, spp=4, paths=1, seed=1, method="poisson", grid=None, aov=False):
+    """Everything in one call: the scene (see load_scene) at csi's positions for `spp` samples
+    per pixel, `paths` paths each. Returns (dump, samples): dump a csi.dump.Dump with the values
+    (write it with csi.dump.write), samples the Samples (values, albedo, normal, timing)."""
+    scene = load_scene(spec, size=size)
+    req = positions_request(scene.size, spp=spp, grid=grid, method=method, seed=seed)
+    s = render_request(scene, req, paths=paths, seed=seed, aov=aov)
+    return req.with_values(s.values), s
 
 
 def render_reference(scene: Scene, spp: int, seed=0, progress=None) -> np.ndarray:
