@@ -6,7 +6,7 @@
 Scenes: Mitsuba's Cornell box and the generators in data/mitsuba/ (procedural, no downloads).
 Per scene, spp and paths per sample (default 1, 4, 16 spp x 1, 64 paths at 128x128), the very
 same samples (csi's default grid for the spp, stratified positions: exactly spp samples in
-every pixel) go to every method:
+every pixel; --positions poisson for csi's own) go to every method:
   mean          csi-reconstruct --estimator mean (the per-pixel Monte Carlo mean)
   csi           csi-reconstruct with its defaults
   oidn          Intel Open Image Denoise (pyoidn, HDR, quality high) on the mean, colour only
@@ -200,7 +200,7 @@ def fmt(v):
 
 def report(results, args):
     L = []
-    L.append(f"Size {args.size}, reference {args.reference_spp} spp (Mitsuba, box filter), stratified positions on csi's "
+    L.append(f"Size {args.size}, reference {args.reference_spp} spp (Mitsuba, box filter), {args.positions} positions on csi's "
              f"default grid. Method columns: MSE / relMSE as ratios to the mean of the same samples (< 1: better "
              f"than the mean). avg = (oidn+aux + csi>oidn+aux) / 2; mix>oidn+aux = OIDN with guides on (mean + csi) / 2.\n")
     for scene, r in results["scenes"].items():
@@ -243,6 +243,9 @@ def main(argv=None):
     ap.add_argument("--size", default="128x128")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--positions", choices=("stratified", "poisson"), default="stratified",
+                    help="the samples' positions: stratified (every pixel gets spp samples, default) or poisson "
+                         "(csi's own default; at 1 spp some pixels get none and the mean leaves them 0)")
     a = ap.parse_args(argv)
     if a.quick:
         a.scenes = a.scenes or "cornell,glossy_sun"
@@ -264,7 +267,7 @@ def main(argv=None):
             cells, rows = {}, []
             for spp in spps:
                 for paths in paths_list:
-                    files, info = md.samples(a.data, scene, size, spp, paths, seed=a.seed, log=log)
+                    files, info = md.samples(a.data, scene, size, spp, paths, seed=a.seed, method=a.positions, log=log)
                     res, imgs = run_cell(files, ref, tmp, f"{scene}_{spp}_{paths}")
                     cells[f"s{spp}_p{paths}"] = {"spp": spp, "paths": paths, "grid": info["grid"], "methods": res,
                                                   "mitsuba_when_cached": info["mitsuba"]}

@@ -123,6 +123,11 @@ class Scene:
     name: str
 
 
+#: Mitsuba's sensor plugins: how a scene dictionary's sensor entry is recognised.
+SENSOR_TYPES = ("perspective", "thinlens", "orthographic", "telecentric", "radiancemeter", "irradiancemeter",
+                "distant", "batch")
+
+
 def _film_dict_override(d, size, box_filter):
     sensor = next((v for v in d.values() if isinstance(v, dict) and v.get("type") in SENSOR_TYPES), None)
     if sensor is None:
@@ -133,10 +138,6 @@ def _film_dict_override(d, size, box_filter):
     if box_filter:
         film["rfilter"] = {"type": "box"}
     return d
-
-
-SENSOR_TYPES = ("perspective", "thinlens", "orthographic", "telecentric", "radiancemeter", "irradiancemeter",
-                "distant", "batch")
 
 
 def _xml_override(path, size, box_filter) -> str:
