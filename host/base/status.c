@@ -6,6 +6,7 @@
 #include <string.h>
 
 static _Thread_local char csi_msg[2048];
+static _Thread_local csi_status csi_last;
 
 const char *csi_status_name(csi_status st)
 {
@@ -21,13 +22,20 @@ const char *csi_status_name(csi_status st)
     case CSI_ERR_NUMERIC: return "CSI_ERR_NUMERIC";
     case CSI_ERR_SCENE: return "CSI_ERR_SCENE";
     case CSI_ERR_TOO_LARGE: return "CSI_ERR_TOO_LARGE";
+    case CSI_ERR_CANCELLED: return "CSI_ERR_CANCELLED";
     }
     return "CSI_ERR_UNKNOWN";
 }
 
 const char *csi_last_error(void) { return csi_msg; }
 
-void csi_clear_error(void) { csi_msg[0] = '\0'; }
+csi_status csi_last_status(void) { return csi_last; }
+
+void csi_clear_error(void)
+{
+    csi_msg[0] = '\0';
+    csi_last = CSI_OK;
+}
 
 csi_status csi_fail(csi_status st, const char *fmt, ...)
 {
@@ -35,6 +43,7 @@ csi_status csi_fail(csi_status st, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(csi_msg, sizeof csi_msg, fmt, ap);
     va_end(ap);
+    csi_last = st;
     return st;
 }
 
@@ -47,5 +56,6 @@ csi_status csi_fail_context(csi_status st, const char *fmt, ...)
     va_end(ap);
     memcpy(old, csi_msg, sizeof old);
     snprintf(csi_msg, sizeof csi_msg, "%.1023s%.1000s", prefix, old);
+    csi_last = st;
     return st;
 }

@@ -335,6 +335,61 @@ csi_status csi_ctx_create(csi_ctx **out, const char *spec)
     return CSI_OK;
 }
 
+csi_status csi_ctx_wrap(cl_context context, cl_device_id device, cl_command_queue queue,
+                        csi_ctx **out)
+{
+    *out = NULL;
+    if (!context || !device || !queue)
+        return csi_fail(CSI_ERR_ARG, "an OpenCL device needs a context, a device and a queue "
+                                     "(got %s%s%s NULL)", context ? "" : "context ",
+                        device ? "" : "device ", queue ? "" : "queue");
+    setup_caches();
+    cl_context qctx = NULL;
+    cl_device_id qdev = NULL;
+    cl_command_queue_properties props = 0;
+    cl_platform_id platform = NULL;
+    CSI_CL_TRY(clGetCommandQueueInfo(queue, CL_QUEUE_CONTEXT, sizeof qctx, &qctx, NULL));
+    CSI_CL_TRY(clGetCommandQueueInfo(queue, CL_QUEUE_DEVICE, sizeof qdev, &qdev, NULL));
+    CSI_CL_TRY(clGetCommandQueueInfo(queue, CL_QUEUE_PROPERTIES, sizeof props, &props, NULL));
+    CSI_CL_TRY(clGetDeviceInfo(device, CL_DEVICE_PLATFORM, sizeof platform, &platform, NULL));
+    if (qctx != context || qdev != device)
+        return csi_fail(CSI_ERR_ARG, "the OpenCL queue belongs to another %s than the one given",
+                        qctx != context ? "context" : "device");
+    /* Every module enqueues a step and relies on the previous one being done. */
+    if (props & CL_QUEUE_OUT_OF_ORDER_EXEC_MODE_ENABLE)
+        return csi_fail(CSI_ERR_ARG, "the OpenCL queue executes out of order; csi needs an in-order "
+                                     "queue");
+    csi_ctx *ctx = calloc(1, sizeof *ctx);
+    if (!ctx)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory creating the OpenCL context");
+    char pname[256] = "", dname[256] = "";
+    clGetPlatformInfo(platform, CL_PLATFORM_NAME, sizeof pname, pname, NULL);
+    clGetDeviceInfo(device, CL_DEVICE_NAME, sizeof dname, dname, NULL);
+    snprintf(ctx->name, sizeof ctx->name, "%s / %s", pname, dname);
+    cl_ulong maxalloc = 0, gmem = 0;
+    clGetDeviceInfo(device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof maxalloc, &maxalloc, NULL);
+    clGetDeviceInfo(device, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof gmem, &gmem, NULL);
+    ctx->max_alloc = (size_t)maxalloc;
+    ctx->global_mem = gmem;
+    ctx->platform = platform;
+    ctx->device = device;
+    /* csi's own references, released in csi_ctx_release; the caller keeps its own. */
+    cl_int err = clRetainContext(context);
+    if (err == CL_SUCCESS) {
+        ctx->context = context;
+        err = clRetainCommandQueue(queue);
+    }
+    if (err == CL_SUCCESS)
+        ctx->queue = queue;
+    if (err != CL_SUCCESS) {
+        csi_status st = CSI_CL(err);
+        csi_ctx_release(ctx);
+        return st;
+    }
+    *out = ctx;
+    return CSI_OK;
+}
+
 void csi_ctx_release(csi_ctx *ctx)
 {
     if (!ctx)

@@ -48,9 +48,10 @@ static void usage(FILE *f)
 "exit status: 0 success, 2 bad input or usage, 1 other failure\n", f);
 }
 
-static void on_progress(void *user, const char *phase, int iter, double res)
+static bool on_progress(void *user, const char *phase, int iter, double res)
 {
     cli_recon_progress_update(user, phase, iter, res);
+    return true;
 }
 
 static const char *method_name(const csi_recon_options *opt, const csi_grid *g)

@@ -77,10 +77,11 @@ static void on_trace(uint64_t done, uint64_t total, void *user)
     cli_progress_update(ps->bar, "trace", total ? (double)done / (double)total : -1, detail);
 }
 
-static void on_solve(void *user, const char *phase, int iter, double res)
+static bool on_solve(void *user, const char *phase, int iter, double res)
 {
     prog_state *ps = user;
     cli_recon_progress_update(&ps->recon, phase, iter, res);
+    return true;
 }
 
 /* The input's identity for tile partials: the scene file's bytes and what decides the samples. */

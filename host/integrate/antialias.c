@@ -156,7 +156,9 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels; c++) {
-        if (csi_recon_channel_begin(st, opt, res, values, n, channels, c))
+        bool copied;
+        CSI_TRY(csi_recon_channel_begin(st, opt, res, values, n, channels, c, &copied));
+        if (copied)
             continue;
         for (size_t i = 0; i < n; i++)
             st->plane[i] = values[i * channels + c];
@@ -168,7 +170,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         CSI_TRY(csi_finish(ctx));
         double t1 = csi_recon_now();
         t_solve += t1 - t0;
-        csi_recon_progress_channel(opt, "integrate", c, channels);
+        CSI_TRY(csi_recon_progress_channel(opt, "integrate", c, channels));
         CSI_TRY(csi_linop_apply(st->Psi, st->x, st->f)); /* f_b = Psi x */
         cl_mem src = st->f;
         if (D > 1) {

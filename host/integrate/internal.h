@@ -106,21 +106,23 @@ size_t csi_recon_romp_support_limit(const csi_recon_options *o, size_t N);
 
 /* Starts channel c of `channels`: records it in st, reports "solve c/C", and when its samples
  * are bitwise those of an earlier channel (a grey image's R, G and B) copies that channel's
- * result (image plane, frames, report) and returns true: nothing is left to do for c. Solving
- * is deterministic, so the copy has the bits solving again would give. */
-bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
-                             csi_recon_result *res, const float *values, size_t n,
-                             uint32_t channels, uint32_t c);
+ * result (image plane, frames, report) and sets *copied: nothing is left to do for c. Solving
+ * is deterministic, so the copy has the bits solving again would give. CSI_ERR_CANCELLED when
+ * the progress callback asks to stop. */
+csi_status csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
+                                   csi_recon_result *res, const float *values, size_t n,
+                                   uint32_t channels, uint32_t c, bool *copied);
 
 /* Monotonic clock in seconds. */
 double csi_recon_now(void);
 /* The process's CPU time in seconds (every thread, PoCL's workers included). */
 double csi_recon_cpu_now(void);
-/* Reports a phase to the caller's progress callback, if any. */
-void csi_recon_progress(const csi_recon_options *opt, const char *phase);
+/* Reports a phase to the caller's progress callback, if any: CSI_ERR_CANCELLED when it asks to
+ * stop. */
+csi_status csi_recon_progress(const csi_recon_options *opt, const char *phase);
 /* The same for a phase of channel c of `channels`: "<phase> <c+1>/<channels>". */
-void csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
-                                uint32_t channels);
+csi_status csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
+                                      uint32_t channels);
 /* CSI_ERR_NUMERIC naming `what` and the first non-finite element of a. */
 csi_status csi_recon_check_finite(const float *a, size_t n, const char *what);
 /* Integrates one channel's real volume `vol` (w x h x T) into the result: the image plane is the

@@ -84,8 +84,10 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
 
     double t_solve = 0, t_int = 0;
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
-        if (csi_recon_channel_begin(st, opt, res, values, n, channels, c))
-            continue;
+        bool copied = false;
+        s = csi_recon_channel_begin(st, opt, res, values, n, channels, c, &copied);
+        if (s != CSI_OK || copied)
+            continue; /* the loop ends on a failure */
         for (size_t i = 0; i < n; i++)
             st->plane[i] = values[i * channels + c];
         cl_uint nn = (cl_uint)n, nk = (cl_uint)k;
@@ -108,7 +110,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_finish(ctx);
         double t1 = csi_recon_now();
         t_solve += t1 - t0;
-        csi_recon_progress_channel(opt, "integrate", c, channels);
+        if (s == CSI_OK)
+            s = csi_recon_progress_channel(opt, "integrate", c, channels);
         if (half) {
             if (s == CSI_OK)
                 s = csi_half_fourier_synthesize(st->A, st->x, st->tmp); /* f = H z, real */

@@ -233,6 +233,7 @@ static csi_status parse_bytes(const row *r, const char *v, csi_recon_options *o)
     *(uint64_t *)field(o, r) = bytes;
     return CSI_OK;
 }
+static csi_status store_number(const row *r, double d, bool ok, const char *text, csi_recon_options *o);
 
 static csi_status parse(const row *r, const char *s, csi_recon_options *o)
 {
@@ -264,15 +265,13 @@ static csi_status parse(const row *r, const char *s, csi_recon_options *o)
         store(o, r, -1);
         return CSI_OK;
     }
-    const bool whole = r->st == K_INT || r->st == K_U32 || r->st == K_SIZE || r->st == K_U64 ||
-                       r->st == K_BYTES;
     errno = 0;
     char *end = NULL;
     double d;
     bool ok;
     if (r->st == K_U64) {
-        /* the full 64-bit range, exactly (a double cannot hold every seed; the range is not
-     * checked: K_U64 options take any 64-bit value) */
+        /* the full 64-bit range, exactly (a double cannot hold every seed; K_U64 options take
+         * any 64-bit value) */
         ok = *v && *v != '-' && *v != '+';
         unsigned long long u = ok ? strtoull(v, &end, 10) : 0;
         ok = ok && !errno && end && !*end;
@@ -285,7 +284,21 @@ static csi_status parse(const row *r, const char *s, csi_recon_options *o)
     if (r->st == K_BYTES)
         return parse_bytes(r, v, o);
     d = strtod(v, &end);
-    ok = *v && !errno && end && !*end && isfinite(d);
+    ok = *v && !errno && end && !*end;
+    return store_number(r, d, ok, v, o);
+}
+
+/* Checks number d (ok: it was read) against the row and stores it; `text` names it in messages. */
+static csi_status store_number(const row *r, double d, bool ok, const char *text, csi_recon_options *o)
+{
+    const char *v = text;
+    const bool whole = r->st == K_INT || r->st == K_U32 || r->st == K_SIZE || r->st == K_U64 ||
+                       r->st == K_BYTES;
+    ok = ok && isfinite(d);
+    if (ok && (r->flags & F_AUTO) && d == 0) {
+        store(o, r, 0);
+        return CSI_OK;
+    }
     if (ok && whole && d != floor(d))
         ok = false;
     if (ok && (r->flags & F_OFF) && d < 0 && r->lo >= 0)
@@ -350,7 +363,6 @@ void csi_recon_defaults(csi_recon_options *o)
         csi_status s = parse(&table[i], table[i].def, o);
         (void)s; /* the table's defaults parse (checked by tests/unit/test_options.c) */
     }
-    csi_clear_error();
 }
 
 size_t csi_option_count(void)
@@ -387,6 +399,34 @@ csi_status csi_recon_option_set(csi_recon_options *o, const char *name, const ch
     return CSI_OK;
 }
 
+csi_status csi_recon_option_set_number(csi_recon_options *o, const char *name, double value)
+{
+    const row *r = find(name);
+    if (!r)
+        return csi_fail(CSI_ERR_ARG, "no option named '%s'", name ? name : "");
+    if (r->st == K_CHOICE)
+        return csi_fail(CSI_ERR_ARG, "%s: a choice is set by name, not by a number", r->name);
+    if (r->st == K_BOOL) {
+        if (value != 0 && value != 1)
+            return csi_fail(CSI_ERR_ARG, "%s: %g is not on (1) or off (0)", r->name, value);
+        store(o, r, value);
+        return CSI_OK;
+    }
+    char text[32];
+    snprintf(text, sizeof text, "%.17g", value);
+    csi_recon_options tmp = *o;
+    if (r->st == K_U64) {
+        if (!(value >= 0 && value <= 9007199254740992.0 && value == floor(value)))
+            return csi_fail(CSI_ERR_ARG, "%s: '%s' is not a whole number from 0 to 2^53 (give larger "
+                            "seeds as text)", r->name, text);
+        *(uint64_t *)field(&tmp, r) = (uint64_t)value;
+    } else {
+        CSI_TRY(store_number(r, value, true, text, &tmp));
+    }
+    *o = tmp;
+    return CSI_OK;
+}
+
 csi_status csi_recon_option_get(const csi_recon_options *o, const char *name, char *buf, size_t len)
 {
     const row *r = find(name);
@@ -410,6 +450,21 @@ csi_status csi_recon_option_number(const csi_recon_options *o, const char *name,
         return csi_fail(CSI_ERR_ARG, "option %s is %s", name, v == 0 ? "auto" : "off");
     *out = v;
     return CSI_OK;
+}
+
+bool csi_recon_option_value(const csi_recon_options *o, size_t i, double *num, char *buf, size_t len)
+{
+    if (i >= NROWS || !buf || !len)
+        return false;
+    const row *r = &table[i];
+    format(o, r, buf, len);
+    if (r->st == K_CHOICE || r->st == K_BOOL || r->st == K_U64)
+        return false;
+    const double v = load(o, r);
+    if (((r->flags & F_AUTO) && v == 0) || ((r->flags & F_OFF) && v < 0))
+        return false;
+    *num = v;
+    return true;
 }
 
 const char *csi_recon_choice_name(const char *name, int v)

@@ -141,9 +141,8 @@ csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channel
     st.scope = scope;
     double t0 = csi_recon_now();
     const double b0 = csi_ctx_build_seconds(ctx), c0 = csi_recon_cpu_now();
-    csi_recon_progress(&opt, "setup");
-    csi_status s = CSI_OK;
-    if (opt.estimator != CSI_EST_MEAN) {
+    csi_status s = csi_recon_progress(&opt, "setup");
+    if (s == CSI_OK && opt.estimator != CSI_EST_MEAN) {
         /* What every operator-based path needs: the samples' linear grid indices, and one
          * channel's values at a time (st.plane). */
         st.idx = malloc(n * sizeof *st.idx);

@@ -31,16 +31,17 @@ static int same_channel(const float *values, size_t n, uint32_t channels, uint32
     return -1;
 }
 
-bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
-                             csi_recon_result *res, const float *values, size_t n,
-                             uint32_t channels, uint32_t c)
+csi_status csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
+                                   csi_recon_result *res, const float *values, size_t n,
+                                   uint32_t channels, uint32_t c, bool *copied)
 {
     st->channel = c;
     st->channels = channels;
-    csi_recon_progress_channel(opt, "solve", c, channels);
+    *copied = false;
+    CSI_TRY(csi_recon_progress_channel(opt, "solve", c, channels));
     const int from = same_channel(values, n, channels, c);
     if (from < 0)
-        return false;
+        return CSI_OK;
     const size_t np = (size_t)res->out_w * res->out_h;
     memcpy(res->image + (size_t)c * np, res->image + (size_t)from * np, np * sizeof(float));
     for (uint32_t t = 0; t < res->nframes; t++)
@@ -48,7 +49,8 @@ bool csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options *opt,
                res->frames + ((size_t)t * res->channels + (uint32_t)from) * np, np * sizeof(float));
     res->report[c] = res->report[from];
     res->report[c].t_total = 0;
-    return true;
+    *copied = true;
+    return CSI_OK;
 }
 
 double csi_recon_cpu_now(void)
@@ -65,18 +67,19 @@ double csi_recon_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-void csi_recon_progress(const csi_recon_options *opt, const char *phase)
+csi_status csi_recon_progress(const csi_recon_options *opt, const char *phase)
 {
-    if (opt->progress)
-        opt->progress(opt->user, phase, 0, -1.0);
+    if (opt->progress && !opt->progress(opt->user, phase, 0, -1.0))
+        return csi_fail(CSI_ERR_CANCELLED, "reconstruction cancelled by the caller (at %s)", phase);
+    return CSI_OK;
 }
 
-void csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
-                                uint32_t channels)
+csi_status csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
+                                      uint32_t channels)
 {
     char name[48];
     snprintf(name, sizeof name, "%s %u/%u", phase, c + 1, channels);
-    csi_recon_progress(opt, name);
+    return csi_recon_progress(opt, name);
 }
 
 csi_status csi_recon_check_finite(const float *a, size_t n, const char *what)

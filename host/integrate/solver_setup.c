@@ -11,7 +11,7 @@
  * 18% per column, enough to rank correlations (csi/solve.h). */
 #define CSI_ROMP_NORM_PROBES 64
 
-static csi_status run_romp(csi_recon_state *st, const csi_recon_options *opt, csi_progress_fn progress,
+static csi_status run_romp(csi_recon_state *st, const csi_recon_options *opt, csi_solve_progress_fn progress,
                            void *user, csi_solve_report *rep)
 {
     csi_romp_options o;
@@ -76,11 +76,11 @@ typedef struct {
     char phase[32];
 } channel_progress;
 
-static void forward_progress(void *user, const char *phase, int iter, double rel_residual)
+static bool forward_progress(void *user, const char *phase, int iter, double rel_residual)
 {
     const channel_progress *p = user;
     (void)phase;
-    p->opt->progress(p->opt->user, p->phase, iter, rel_residual);
+    return p->opt->progress(p->opt->user, p->phase, iter, rel_residual);
 }
 
 csi_status csi_recon_run_solver(csi_recon_state *st, const csi_recon_options *opt, double tau_scale,
@@ -88,7 +88,7 @@ csi_status csi_recon_run_solver(csi_recon_state *st, const csi_recon_options *op
 {
     channel_progress cp = {opt, ""};
     snprintf(cp.phase, sizeof cp.phase, "solve %u/%u", st->channel + 1, st->channels);
-    csi_progress_fn progress = opt->progress ? forward_progress : NULL;
+    csi_solve_progress_fn progress = opt->progress ? forward_progress : NULL;
     if (opt->solver == CSI_SOLVER_ROMP)
         return run_romp(st, opt, progress, &cp, rep);
     csi_sparsa_options o;

@@ -358,12 +358,12 @@ typedef struct {
     uint32_t index, count;
 } tile_progress;
 
-static void on_tile_progress(void *user, const char *phase, int iter, double res)
+static bool on_tile_progress(void *user, const char *phase, int iter, double res)
 {
     const tile_progress *tp = user;
     char name[64];
     snprintf(name, sizeof name, "tile %u/%u %s", tp->index + 1, tp->count, phase);
-    tp->opt->progress(tp->opt->user, name, iter, res);
+    return tp->opt->progress(tp->opt->user, name, iter, res);
 }
 
 csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
@@ -373,8 +373,7 @@ csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t chann
 {
     memset(out, 0, sizeof *out);
     csi_tile_scope scope;
-    if (opt->progress)
-        opt->progress(opt->user, "tile scale", 0, -1.0);
+    CSI_TRY(csi_recon_progress(opt, "tile scale"));
     CSI_TRY(csi_tile_scope_make(ctx, g, channels, pos, values, n, opt, tl, &scope));
     csi_tiles_blend b;
     CSI_TRY(csi_tiles_begin(tl, channels, opt->frames, &b, out));

@@ -301,8 +301,8 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
         rep->inner_iterations += cg;
         rep->t_lsq += csi_solve_now() - tl;
         it++;
-        if (o.progress)
-            o.progress(o.user, "romp", it, rn / ynorm);
+        if (o.progress && !o.progress(o.user, "romp", it, rn / ynorm))
+            return csi_fail(CSI_ERR_CANCELLED, "ROMP cancelled by the caller after %d iterations", it);
     }
     rep->iterations = it;
     support += o.seed_count;

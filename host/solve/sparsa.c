@@ -219,8 +219,8 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                 alpha = o.alpha_min;
             if (alpha > o.alpha_max)
                 alpha = o.alpha_max;
-            if (o.progress)
-                o.progress(o.user, "sparsa", it, sqrt(rn2) / ynorm);
+            if (o.progress && !o.progress(o.user, "sparsa", it, sqrt(rn2) / ynorm))
+                return csi_fail(CSI_ERR_CANCELLED, "SpaRSA cancelled by the caller after %d iterations", it);
             /* Stopping rules. */
             double hr;
             CSI_TRY(csi_vec_amax(S->ws, S->k, S->cplx, h, &hr, NULL));
@@ -299,8 +299,8 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
         rep->inner_iterations += cg;
         if (!isfinite(rn))
             return csi_fail(CSI_ERR_NUMERIC, "SpaRSA debiasing gave a non-finite residual");
-        if (o.progress)
-            o.progress(o.user, "debias", it, rn / ynorm);
+        if (o.progress && !o.progress(o.user, "debias", it, rn / ynorm))
+            return csi_fail(CSI_ERR_CANCELLED, "SpaRSA cancelled by the caller after debiasing");
     }
     rep->t_debias = csi_solve_now() - td;
     rep->rel_residual = rn / ynorm;

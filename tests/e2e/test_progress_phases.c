@@ -20,18 +20,19 @@ typedef struct {
     int n;
 } log_t;
 
-static void record(void *user, const char *phase, int iter, double res)
+static bool record(void *user, const char *phase, int iter, double res)
 {
     log_t *l = user;
     (void)res;
     if (l->n > 0 && strcmp(l->phase[l->n - 1], phase) == 0) { /* one entry per phase */
         l->steps[l->n - 1] = iter;
-        return;
+        return true;
     }
     if (l->n < MAXP) {
         snprintf(l->phase[l->n], sizeof l->phase[0], "%s", phase);
         l->steps[l->n++] = iter;
     }
+    return true;
 }
 
 static int find(const log_t *l, const char *phase)

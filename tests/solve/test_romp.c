@@ -70,7 +70,7 @@ struct prog {
     char phase[16];
 };
 
-static void progress_cb(void *user, const char *phase, int iter, double rel)
+static bool progress_cb(void *user, const char *phase, int iter, double rel)
 {
     struct prog *p = user;
     p->calls++;
@@ -78,6 +78,7 @@ static void progress_cb(void *user, const char *phase, int iter, double rel)
     p->last_iter = iter;
     p->last_res = rel;
     snprintf(p->phase, sizeof p->phase, "%s", phase);
+    return true;
 }
 
 int main(void)

@@ -215,7 +215,7 @@ static void test_properties(test_rng *r, int memory, bool cplx)
     problem_free(&P);
 }
 
-static void progress_cb(void *user, const char *phase, int iter, double rel)
+static bool progress_cb(void *user, const char *phase, int iter, double rel)
 {
     struct {
         int steps, debias, order_bad;
@@ -230,6 +230,7 @@ static void progress_cb(void *user, const char *phase, int iter, double rel)
         p->order_bad++;
     }
     p->last = rel;
+    return true;
 }
 
 int main(void)

@@ -409,11 +409,11 @@ typedef struct {
     int verbose;
 } prog_state;
 
-static void on_progress(void *user, const char *phase, int iter, double res)
+static bool on_progress(void *user, const char *phase, int iter, double res)
 {
     prog_state *p = user;
     double t = now();
-    if (!strcmp(phase, "sparsa")) {
+    if (!strncmp(phase, "solve", 5)) { /* "solve c/C": the solver's steps */
         if (p->iters == 0)
             p->t_first = t;
         p->t_last = t;
@@ -423,6 +423,7 @@ static void on_progress(void *user, const char *phase, int iter, double res)
     } else if (p->verbose) {
         fprintf(stderr, "  phase %s\n", phase);
     }
+    return true;
 }
 
 static void apply_solver_opts(csi_recon_options *ro, const bench_opts *o)

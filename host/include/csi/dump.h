@@ -13,7 +13,7 @@
 #include <stdint.h>
 
 #include "csi/samples.h"
-#include "csi/status.h"
+#include "csi/status.h" /* and csi/csi.h: csi_dump and its reader and writer */
 
 #ifdef __cplusplus
 extern "C" {
@@ -29,56 +29,21 @@ extern "C" {
 #define CSI_DUMP_MAX_SIDE 65536u
 #define CSI_DUMP_MAX_CELLS (UINT64_C(1) << 31)
 
-/* A dump in memory. Samples are unique and sorted by csi_grid_index after csi_dump_read. */
-typedef struct csi_dump {
-    csi_grid grid;
-    uint32_t channels;     /* 1..4 */
-    uint64_t seed;         /* the producer's seed, 0 if none */
-    size_t count;          /* number of samples */
-    csi_sample_pos *pos;   /* count positions */
-    float *values;         /* count x channels, sample-major: values[i * channels + c] */
-} csi_dump;
-
-typedef struct csi_dump_read_opts {
-    bool drop_invalid;  /* drop records holding NaN/Inf (counted) instead of refusing the file */
-    uint64_t max_cells; /* refuse grids with w*h*t above this; 0 = CSI_DUMP_MAX_CELLS */
-} csi_dump_read_opts;
-
-typedef struct csi_dump_report {
-    uint64_t records;         /* records in the file */
-    uint64_t dropped_invalid; /* records dropped for NaN/Inf values (only with drop_invalid) */
-    uint64_t duplicates;      /* records merged into another at the same position (averaged) */
-    uint64_t first_invalid;   /* record number of the first dropped record (if any) */
-} csi_dump_report;
-
-/* Checks a grid and channel count as the reader does: sides non-zero, at most
- * CSI_DUMP_MAX_SIDE, w % out_w == 0 and h % out_h == 0, w*h*t <= max_cells (0 = default),
- * channels 1..4. CSI_ERR_FORMAT with a message naming the field otherwise. */
-csi_status csi_dump_check_grid(const csi_grid *g, uint32_t channels, uint64_t max_cells);
-
-/* Reads and validates a dump. Errors (all CSI_ERR_FORMAT unless said otherwise; message
- * "path: byte B: ..." or "path: record R (byte B): ..."): wrong magic, unknown version,
- * a positions request (channels = 0: no values to reconstruct from),
- * truncated header, non-zero reserved bytes, bad grid or channels (before allocating), zero
- * samples, count larger than the file or trailing bytes, positions outside the grid (also t != 0
- * when grid_t = 1), NaN/Inf values (unless opts->drop_invalid: then dropped and counted; a file
- * with no valid record left is still an error). CSI_ERR_IO if the file cannot be opened/read.
- * Records at the same position are averaged per channel (in double) and counted in
- * report->duplicates. The result is sorted by linear index, unique. opts and report may be
- * NULL. On failure *out is zeroed. */
-csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_dump *out,
-                         csi_dump_report *report);
-
-/* Writes a dump (temporary file, then rename: see csi/outfile.h). Refuses (CSI_ERR_ARG) what
- * the reader would refuse: a bad grid, zero samples, a position outside the grid, a non-finite
- * value. Duplicate positions are allowed (the format permits them). channels = 0 writes a
- * positions request (records x, y, t only; values unused, may be NULL): what csi-positions
- * hands a renderer, which csi_dump_read refuses as samples. */
-csi_status csi_dump_write(const char *path, const csi_dump *d);
-
-/* Allocates pos and values for `count` samples (zeroed); grid/channels/seed set by the caller. */
-csi_status csi_dump_alloc(csi_dump *d, size_t count, uint32_t channels);
-void csi_dump_free(csi_dump *d);
+/* csi_dump_read (declared in csi/csi.h) validates everything. Errors (all CSI_ERR_FORMAT unless
+ * said otherwise; message "path: byte B: ..." or "path: record R (byte B): ..."): wrong magic,
+ * unknown version, truncated header, non-zero reserved bytes, bad grid or channels (before
+ * allocating), zero samples, count larger than the file or trailing bytes, positions outside the
+ * grid (also t != 0 when grid_t = 1), NaN/Inf values (unless opts->drop_invalid: then dropped and
+ * counted; a file with no valid record left is still an error). CSI_ERR_IO if the file cannot be
+ * opened/read. Records at the same position are averaged per channel (in double) and counted in
+ * report->duplicates. The result is sorted by linear index, unique. opts and report may be NULL.
+ * On failure *out is zeroed. */
+/* csi_dump_write (csi/csi.h) writes a temporary file, then renames it (csi/outfile.h). It refuses
+ * (CSI_ERR_ARG) what the reader would refuse: a bad grid, zero samples, a position outside the
+ * grid, a non-finite value. Duplicate positions are allowed (the format permits them). channels = 0
+ * writes a positions request (records x, y, t only; values unused, may be NULL): what
+ * csi-positions hands a renderer, which csi_dump_read refuses as samples ("a positions request
+ * (channels = 0: no values to reconstruct from)"). */
 
 #ifdef __cplusplus
 }

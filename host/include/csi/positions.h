@@ -46,7 +46,7 @@
 #include <stdint.h>
 
 #include "csi/samples.h"
-#include "csi/status.h"
+#include "csi/status.h" /* and csi/csi.h: the methods, their options and csi_positions */
 
 #ifdef __cplusplus
 extern "C" {
@@ -67,50 +67,6 @@ uint64_t csi_rng_below(csi_rng *r, uint64_t n);
 double csi_rng_uniform(csi_rng *r);
 /* splitmix64's output function: a good 64-bit mix, used for hashing. */
 uint64_t csi_mix64(uint64_t x);
-
-typedef enum csi_pos_method {
-    CSI_POS_POISSON = 0,
-    CSI_POS_STRATIFIED,
-    CSI_POS_RANDOM,
-} csi_pos_method;
-
-typedef struct csi_pos_opts {
-    csi_pos_method method;
-    uint32_t spp;    /* samples per output pixel (see above); used when fraction == 0 */
-    double fraction; /* > 0: N = round(fraction * k) */
-    uint64_t seed;
-} csi_pos_opts;
-
-typedef struct csi_pos_info {
-    size_t count;        /* N */
-    double radius;       /* POISSON: minimum distance between any two samples, in cells */
-    double radius_max;   /* POISSON: r_max of the densest packing (for comparison) */
-    uint32_t strata[3];  /* STRATIFIED: a, b, c (x, y, t); {0,0,0} for the 1-D split */
-} csi_pos_info;
-
-/* "poisson", "stratified", "random". */
-const char *csi_pos_method_name(csi_pos_method m);
-/* Parses a method name; CSI_ERR_ARG naming the choices otherwise. */
-csi_status csi_pos_method_parse(const char *s, csi_pos_method *m);
-
-/* N for a grid and options (validates both: CSI_ERR_ARG with a message otherwise). */
-csi_status csi_positions_count(const csi_grid *g, const csi_pos_opts *o, size_t *n);
-
-/* The default fine-grid factor F (grid = F out_w x F out_h cells, T frames) for `spp` samples
- * per output pixel, the rule csi-render and csi-positions share. Moving (t > 1): 1 (the time
- * axis already gives each pixel t cells). Static: the smallest power of two F >= 4 with
- * F^2 > 4 spp (more than 4 cells per sample), at most 16, so F = 4 up to 3 spp, 8 for 4-15,
- * 16 from 16; halved (not below 4) while a side would exceed 65536 cells. Why: the compressive
- * estimate converges to the mean over the cell centres, a discretisation bias against the
- * continuous image that a fixed 4x grid makes dominant once most cells are sampled (paper
- * Sec. 4, 5.2, Fig. 7: a larger k); the sweep behind the rule is docs/bench/grid.md. The
- * caller still checks the resulting sides against its limits. */
-uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp);
-
-/* Makes the positions: *out (malloc'd, free with free()) holds *n unique positions sorted by
- * linear index. info may be NULL. */
-csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out, size_t *n,
-                         csi_pos_info *info);
 
 #ifdef __cplusplus
 }

@@ -155,47 +155,30 @@ typedef struct csi_recon_options {
     uint32_t tiles;               /* 0 auto: as few as fit the budget (1 when the whole fits) */
     uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0 auto */
     uint32_t tile_margin_t;       /* the same in frames for a volume; 0 auto */
-    csi_progress_fn progress;     /* phases: "setup", then per channel c of C "solve c/C"
+    csi_solve_progress_fn progress; /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
-                                     "integrate c/C" */
+                                     "integrate c/C"; returning false cancels
+                                     (CSI_ERR_CANCELLED) */
     void *user;
 } csi_recon_options;
 
 /* Every field its default from the table (autos 0), progress NULL. */
 void csi_recon_defaults(csi_recon_options *o);
 
-/* What a program or a binding needs to know of one option (the table's row, without its
- * storage). */
-typedef enum {
-    CSI_OPTION_CHOICE,  /* one of a list of names */
-    CSI_OPTION_NUMBER,  /* a real number */
-    CSI_OPTION_INTEGER, /* a whole number */
-    CSI_OPTION_FLAG,    /* on or off; on the command line a flag without a value */
-} csi_option_kind;
-
-typedef struct csi_option_info {
-    const char *name;      /* "sigma-scale" */
-    csi_option_kind kind;
-    const char *metavar;   /* the value's placeholder in the help ("S", "romp|sparsa") */
-    const char *help;      /* one or more sentences, no trailing newline */
-    const char *def;       /* the default as text ("0.3", "auto", "off") */
-    const char *auto_rule; /* what "auto" resolves to, NULL when the default is fixed */
-    bool program;          /* the programs take it as --name (false: set by them otherwise) */
-} csi_option_info;
-
-size_t csi_option_count(void);
-/* Row i of the table (i < csi_option_count()), or CSI_ERR_ARG. */
-csi_status csi_option_describe(size_t i, csi_option_info *out);
-
 /* Sets option `name` from text, as the programs' --name VALUE does: a choice by name, a number
  * in the option's range, "auto" (options with a problem-dependent default), "off" (options
  * that can be switched off), "on"/"off" (flags). CSI_ERR_ARG with "name: 'value' is not ..."
  * otherwise; o is unchanged then. */
 csi_status csi_recon_option_set(csi_recon_options *o, const char *name, const char *value);
+/* The same with a number (exactly; choices refuse it, flags take 0 or 1). */
+csi_status csi_recon_option_set_number(csi_recon_options *o, const char *name, double value);
 /* The value of option `name` as text, the form csi_recon_option_set reads back. */
 csi_status csi_recon_option_get(const csi_recon_options *o, const char *name, char *buf, size_t len);
 /* The value as a number (choices and flags: CSI_ERR_ARG; auto and off: CSI_ERR_ARG too). */
 csi_status csi_recon_option_number(const csi_recon_options *o, const char *name, double *out);
+/* Option i's value as text in buf, and as a number in *num when it is one (not a choice, a flag,
+ * a seed, auto or off): returns whether it is. Never fails (for statistics and attributes). */
+bool csi_recon_option_value(const csi_recon_options *o, size_t i, double *num, char *buf, size_t len);
 /* The name of value v of choice option `name` ("?" if none). */
 const char *csi_recon_choice_name(const char *name, int v);
 

@@ -29,6 +29,11 @@ typedef struct csi_ctx csi_ctx;
  * clFFT's cache goes to $XDG_CACHE_HOME/csi/clfft or ~/.cache/csi/clfft unless
  * CLFFT_CACHE_PATH is already set. */
 csi_status csi_ctx_create(csi_ctx **out, const char *spec);
+/* A context on the caller's OpenCL objects (csi/csi_opencl.h): the queue must belong to context
+ * and device and execute in order. csi retains the context and the queue and releases its
+ * references in csi_ctx_release; the caller keeps its own. */
+csi_status csi_ctx_wrap(cl_context context, cl_device_id device, cl_command_queue queue,
+                        csi_ctx **out);
 void csi_ctx_release(csi_ctx *ctx);
 
 /* Lists every platform/device pair as lines "platform / device (type)" into buf. */

@@ -10,24 +10,12 @@
 
 #include <stdint.h>
 
+#include "csi/csi.h" /* csi_sample_pos, csi_grid, csi_grid_index */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-typedef struct csi_sample_pos {
-    uint32_t x, y, t;
-} csi_sample_pos;
-
-typedef struct csi_grid {
-    uint32_t w, h, t;   /* fine grid: the paper's k = w * h * t */
-    uint32_t out_w, out_h; /* final image; w % out_w == 0 and h % out_h == 0 */
-} csi_grid;
-
-/* Linear index of a position in a row-major (t, y, x) volume. */
-static inline uint64_t csi_grid_index(const csi_grid *g, csi_sample_pos p)
-{
-    return ((uint64_t)p.t * g->h + p.y) * g->w + p.x;
-}
 
 #ifdef __cplusplus
 }

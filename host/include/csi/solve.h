@@ -35,8 +35,9 @@ extern "C" {
 
 /* Progress: called after every outer iteration (and each debiasing / least-squares phase) with
  * the phase name ("romp", "sparsa", "debias"), the iteration count so far and the current
- * relative residual ||y - A x|| / ||y||. May be NULL. */
-typedef void (*csi_progress_fn)(void *user, const char *phase, int iter, double rel_residual);
+ * relative residual ||y - A x|| / ||y||. May be NULL. Returning false cancels the solve: it
+ * returns CSI_ERR_CANCELLED at once (x holds the last iterate). */
+typedef bool (*csi_solve_progress_fn)(void *user, const char *phase, int iter, double rel_residual);
 
 typedef enum csi_solve_reason {
     CSI_SOLVE_CONVERGED = 0,     /* the stopping criterion was met */
@@ -99,7 +100,7 @@ typedef struct csi_romp_options {
     int max_iter;        /* 0: max_support + 10 (each iteration adds >= 1 index) */
     int lsq_iter;        /* CG iterations per least-squares solve, default 60 */
     double lsq_tol;      /* CG stops when ||A_I^H r|| falls by this factor, default 1e-6 */
-    csi_progress_fn progress;
+    csi_solve_progress_fn progress;
     void *user;
     cl_mem col_norms;        /* optional (NULL): k floats, ||A e_i||. When given, selection ranks
                                 |u_i| / ||A e_i|| (ROMP on the column-normalised operator A D,
@@ -186,7 +187,7 @@ typedef struct csi_sparsa_options {
     bool debias;             /* default true */
     int debias_iter;         /* CG iterations, default 200 */
     double debias_tol;       /* CG relative tolerance, default 1e-6 */
-    csi_progress_fn progress;
+    csi_solve_progress_fn progress;
     void *user;
     void (*trace)(void *user, const csi_sparsa_step *step); /* every accepted step; may be NULL */
 } csi_sparsa_options;

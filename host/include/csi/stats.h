@@ -15,33 +15,6 @@
 #ifndef CSI_STATS_H
 #define CSI_STATS_H
 
-#include <stdbool.h>
-#include <stdint.h>
+#include "csi/status.h" /* and csi/csi.h, which declares the builder (public) */
 
-#include "csi/status.h"
-
-#ifdef __cplusplus
-extern "C" {
-#endif
-
-typedef struct csi_json csi_json;
-
-csi_status csi_json_new(csi_json **out); /* an open top-level object */
-void csi_json_free(csi_json *j);
-
-void csi_json_str(csi_json *j, const char *key, const char *value); /* NULL value -> null */
-void csi_json_num(csi_json *j, const char *key, double value);
-void csi_json_int(csi_json *j, const char *key, int64_t value);
-void csi_json_bool(csi_json *j, const char *key, bool value);
-void csi_json_begin(csi_json *j, const char *key); /* opens a nested object */
-void csi_json_end(csi_json *j);                   /* closes it */
-
-/* The document (closed top-level object, newline-terminated); valid until the next call on j. */
-csi_status csi_json_text(csi_json *j, const char **text);
-/* Writes the document (temporary file, then rename). */
-csi_status csi_json_write(csi_json *j, const char *path);
-
-#ifdef __cplusplus
-}
-#endif
 #endif

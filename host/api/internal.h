@@ -1,0 +1,23 @@
+/* What the public API's files share (not installed): the handles behind csi/csi.h's opaque types
+ * and the per-device error record. */
+#ifndef CSI_API_INTERNAL_H
+#define CSI_API_INTERNAL_H
+
+#include "csi/reconstruct.h"
+
+struct csi_device {
+    csi_ctx *ctx;
+    csi_status error;     /* the first failure not yet read by csi_device_error */
+    char message[2048];   /* its message */
+    char reported[2048];  /* the message handed out by the last csi_device_error */
+};
+
+struct csi_options {
+    csi_recon_options o;
+};
+
+/* Records st's failure (this thread's last message) on dev, unless an earlier one is still
+ * unread; returns st. dev may be NULL. */
+csi_status csi_device_record(csi_device *dev, csi_status st);
+
+#endif

@@ -1,0 +1,149 @@
+/* Reconstruction through the public API (csi/csi.h): samples in host arrays, options by name, a
+ * progress callback that can cancel, and the result behind accessors. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "result.h"
+
+_Static_assert((int)CSI_OUTCOME_STALLED == (int)CSI_SOLVE_STALLED &&
+                   (int)CSI_OUTCOME_NOT_IDENTIFIABLE == (int)CSI_SOLVE_NOT_IDENTIFIABLE &&
+                   (int)CSI_OUTCOME_CONVERGED == (int)CSI_SOLVE_CONVERGED,
+               "csi_outcome mirrors csi_solve_reason");
+
+static const char *method_of(const csi_recon_options *o, const csi_grid *g)
+{
+    switch (o->estimator) {
+    case CSI_EST_MEAN: return "sample mean (Monte Carlo)";
+    case CSI_EST_GAUSS: return "Gaussian normalized convolution";
+    default: return g->t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)";
+    }
+}
+
+/* The library's progress reports, passed on as csi/csi.h's. */
+typedef struct {
+    csi_progress_fn fn;
+    void *user;
+} progress_relay;
+
+static bool relay(void *user, const char *phase, int iter, double rel_residual)
+{
+    const progress_relay *r = user;
+    const csi_progress p = {phase, iter, rel_residual};
+    return r->fn(r->user, &p);
+}
+
+csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_options *options,
+                           csi_progress_fn progress, void *user, csi_result **out)
+{
+    if (out)
+        *out = NULL;
+    if (!dev || !s || !out)
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_reconstruct: %s is NULL",
+                                               !dev ? "the device" : !s ? "the samples" : "out"));
+    if (s->count && (!s->pos || !s->values))
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_reconstruct: %zu samples but no %s",
+                                               s->count, s->pos ? "values" : "positions"));
+    csi_result *r = calloc(1, sizeof *r);
+    if (!r)
+        return csi_device_record(dev, csi_fail(CSI_ERR_NOMEM, "out of host memory for a result"));
+    csi_recon_options o;
+    if (options)
+        o = options->o;
+    else
+        csi_recon_defaults(&o);
+    progress_relay pr = {progress, user};
+    o.progress = progress ? relay : NULL;
+    o.user = &pr;
+    csi_status st = csi_recon(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->r);
+    if (st != CSI_OK) {
+        free(r);
+        return csi_device_record(dev, st);
+    }
+    r->options.o = r->r.options;
+    r->options.o.progress = NULL;
+    r->options.o.user = NULL;
+    r->grid = s->grid;
+    r->method = method_of(&r->options.o, &s->grid);
+    st = csi_result_make_attributes(r);
+    if (st != CSI_OK) {
+        csi_result_free(r);
+        return csi_device_record(dev, st);
+    }
+    *out = r;
+    return CSI_OK;
+}
+
+void csi_result_free(csi_result *r)
+{
+    if (!r)
+        return;
+    csi_recon_result_free(&r->r);
+    free(r->attrs);
+    free(r);
+}
+
+csi_status csi_result_image(const csi_result *r, csi_image *view)
+{
+    if (!r || !view)
+        return csi_fail(CSI_ERR_ARG, "csi_result_image: %s is NULL", r ? "view" : "the result");
+    *view = (csi_image){r->r.out_w, r->r.out_h, r->r.channels, r->r.image};
+    return CSI_OK;
+}
+
+uint32_t csi_result_frame_count(const csi_result *r)
+{
+    return r ? r->r.nframes : 0;
+}
+
+csi_status csi_result_frame(const csi_result *r, uint32_t t, csi_image *view)
+{
+    if (!r || !view)
+        return csi_fail(CSI_ERR_ARG, "csi_result_frame: %s is NULL", r ? "view" : "the result");
+    if (t >= r->r.nframes)
+        return csi_fail(CSI_ERR_ARG, "frame %u of a result with %u frames", t, r->r.nframes);
+    const size_t plane = (size_t)r->r.out_w * r->r.out_h * r->r.channels;
+    *view = (csi_image){r->r.out_w, r->r.out_h, r->r.channels, r->r.frames + t * plane};
+    return CSI_OK;
+}
+
+const csi_options *csi_result_options(const csi_result *r)
+{
+    return r ? &r->options : NULL;
+}
+
+void csi_result_info_get(const csi_result *r, csi_result_info *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!r)
+        return;
+    out->method = r->method;
+    out->solver = csi_recon_choice_name("solver", r->options.o.solver);
+    out->k = r->r.k;
+    out->n = r->r.n;
+    out->t_setup = r->r.t_setup;
+    out->t_solve = r->r.t_solve;
+    out->t_integrate = r->r.t_integrate;
+}
+
+csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channel_report *out)
+{
+    if (!r || !out)
+        return csi_fail(CSI_ERR_ARG, "csi_result_report: %s is NULL", r ? "out" : "the result");
+    if (c >= r->r.channels)
+        return csi_fail(CSI_ERR_ARG, "channel %u of a result with %u channels", c, r->r.channels);
+    const csi_solve_report *p = &r->r.report[c];
+    *out = (csi_channel_report){
+        .converged = p->converged,
+        .outcome = (csi_outcome)p->reason,
+        .reason = csi_solve_reason_name(p->reason),
+        .message = p->message,
+        .iterations = p->iterations,
+        .inner_iterations = p->inner_iterations,
+        .rel_residual = p->rel_residual,
+        .objective = p->objective,
+        .tau = p->tau,
+        .support = p->support,
+        .seconds = p->t_total,
+    };
+    return CSI_OK;
+}

@@ -1,0 +1,373 @@
+/* csi: compressive signal integration, the public C API.
+ *
+ * Reconstructs an antialiased image, or a motion-blurred image and its frames, from few point
+ * samples of a signal on a fine grid, by compressed sensing (Sen & Darabi, "Compressive
+ * estimation for signal integration in rendering", EGSR 2010). This is the one header a program
+ * includes; it holds no OpenCL type (csi/csi_opencl.h, opt-in, makes a device on the caller's
+ * own OpenCL context and queue).
+ *
+ *     csi_device *dev;   csi_dump d;   csi_result *r;   csi_image img;
+ *     csi_device_new(NULL, &dev);                       // PoCL's CPU device, or $CSI_DEVICE
+ *     csi_dump_read("samples.csid", NULL, &d, NULL);    // or fill a csi_samples from arrays
+ *     csi_samples s = {d.grid, d.channels, d.count, d.pos, d.values};
+ *     csi_reconstruct(dev, &s, NULL, NULL, NULL, &r);   // NULL options: every default
+ *     csi_result_image(r, &img);                        // planar float32, out_w x out_h
+ *     csi_exr_write("out.exr", &img, NULL, 0);
+ *     csi_result_free(r); csi_dump_free(&d); csi_device_release(dev);
+ *
+ * Conventions
+ * - Every function that can fail returns a csi_status; CSI_OK is 0. The failing call leaves a
+ *   one-line message (what, where, why): csi_last_error() gives this thread's last one, and a
+ *   device keeps the first failure of the calls made with it until csi_device_error() reads
+ *   it. The library never prints and never exits.
+ * - Memory the library hands out is released by the matching *_free function (arrays by
+ *   csi_free).
+ * - One call at a time per device (a device holds one in-order queue); devices are independent.
+ * - The same inputs, options and seed give the same bits on one machine. */
+#ifndef CSI_CSI_H
+#define CSI_CSI_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(__GNUC__)
+#define CSI_API __attribute__((visibility("default")))
+#else
+#define CSI_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- version ------------------------------------------------------------------------------- */
+/* The build reads these lines for its own version (CMakeLists.txt), so they are the only place
+ * it is written. */
+#define CSI_VERSION_MAJOR 0
+#define CSI_VERSION_MINOR 1
+#define CSI_VERSION_PATCH 0
+/* "MAJOR.MINOR.PATCH" of the library that is running (which may be newer than this header). */
+CSI_API const char *csi_version(void);
+
+/* ---- errors -------------------------------------------------------------------------------- */
+typedef enum csi_status {
+    CSI_OK = 0,
+    CSI_ERR_ARG,          /* an argument is out of range or inconsistent (sizes, options) */
+    CSI_ERR_IO,           /* a file could not be opened, read or written */
+    CSI_ERR_FORMAT,       /* a file's contents are malformed (truncated, bad magic, NaN ...) */
+    CSI_ERR_NOMEM,        /* host allocation failed */
+    CSI_ERR_DEVICE,       /* no usable OpenCL device, or a size the device cannot hold */
+    CSI_ERR_CL,           /* an OpenCL or clFFT call failed */
+    CSI_ERR_BUILD,        /* a kernel program failed to build (message holds the log's start) */
+    CSI_ERR_NUMERIC,      /* a computation produced NaN/Inf or cannot proceed numerically */
+    CSI_ERR_SCENE,        /* a scene file has an error */
+    CSI_ERR_TOO_LARGE,    /* the input needs more memory than the device or host has (refused
+                             before any work) */
+    CSI_ERR_CANCELLED,    /* the progress callback asked to stop; nothing was kept */
+} csi_status;
+
+/* "CSI_ERR_IO" for CSI_ERR_IO. */
+CSI_API const char *csi_status_name(csi_status st);
+/* The message of the last failure on this thread ("" if none). */
+CSI_API const char *csi_last_error(void);
+/* Releases an array the library allocated (positions). NULL is fine. */
+CSI_API void csi_free(void *p);
+
+/* ---- devices ------------------------------------------------------------------------------- */
+typedef struct csi_device csi_device;
+
+/* A device by name: `name` is a case-insensitive substring of "platform / device" (see
+ * csi_device_list); NULL or "" means the environment variable CSI_DEVICE, else PoCL's CPU
+ * device, else the first device. CSI_CACHE_DIR (if set) holds PoCL's and clFFT's kernel caches,
+ * so a second run does not compile them again. */
+CSI_API csi_status csi_device_new(const char *name, csi_device **out);
+/* Waits for the device's work and releases it (and, for a device on the caller's OpenCL
+ * objects, the references csi took). NULL is fine. */
+CSI_API void csi_device_release(csi_device *dev);
+/* "platform / device". */
+CSI_API const char *csi_device_name(const csi_device *dev);
+/* The first failure of a call made with dev since the last query, and clears it: CSI_OK and
+ * message "" when there was none. message may be NULL; it stays valid until the next query.
+ * dev NULL: this thread's last failure (any call), cleared the same way. */
+CSI_API csi_status csi_device_error(csi_device *dev, const char **message);
+/* Every platform / device pair, one line each ("platform / device (type)"), into buf. */
+CSI_API csi_status csi_device_list(char *buf, size_t len);
+
+/* ---- the grid and the sample positions ----------------------------------------------------- */
+/* Samples lie on the fine grid of the signal (the paper's Sec. 4): a position is the index
+ * (x, y, t) of a grid cell, x < w, y < h, t < t (t = 0 when the grid has no time axis). The
+ * point a sample stands for is the cell's centre: ((x + 0.5) / w, (y + 0.5) / h) in image space
+ * (y down) and time (t + 0.5) / t of the shutter interval (its opening when t = 1). */
+typedef struct csi_sample_pos {
+    uint32_t x, y, t;
+} csi_sample_pos;
+
+typedef struct csi_grid {
+    uint32_t w, h, t;      /* fine grid: the paper's k = w * h * t cells */
+    uint32_t out_w, out_h; /* final image; w % out_w == 0 and h % out_h == 0 */
+} csi_grid;
+
+/* Linear index of a position in a row-major (t, y, x) volume. */
+static inline uint64_t csi_grid_index(const csi_grid *g, csi_sample_pos p)
+{
+    return ((uint64_t)p.t * g->h + p.y) * g->w + p.x;
+}
+
+typedef enum csi_pos_method {
+    CSI_POS_POISSON = 0, /* Poisson-disk dart throwing on the grid (the compressive default) */
+    CSI_POS_STRATIFIED,  /* one cell per stratum of each pixel's block (Monte Carlo) */
+    CSI_POS_RANDOM,      /* N distinct cells, every N-subset equally likely */
+} csi_pos_method;
+
+typedef struct csi_pos_opts {
+    csi_pos_method method;
+    uint32_t spp;    /* samples per output pixel over the pixel's whole block (all t); used
+                        when fraction == 0 */
+    double fraction; /* > 0: N = round(fraction * k), the paper's sampling rate */
+    uint64_t seed;
+} csi_pos_opts;
+
+typedef struct csi_pos_info {
+    size_t count;        /* N */
+    double radius;       /* POISSON: minimum distance between any two samples, in cells */
+    double radius_max;   /* POISSON: spacing of the densest packing of N points (comparison) */
+    uint32_t strata[3];  /* STRATIFIED: strata along x, y, t; {0,0,0} for the 1-D split */
+} csi_pos_info;
+
+/* "poisson", "stratified", "random", and back (CSI_ERR_ARG naming the choices). */
+CSI_API const char *csi_pos_method_name(csi_pos_method m);
+CSI_API csi_status csi_pos_method_parse(const char *s, csi_pos_method *m);
+/* N for a grid and options (CSI_ERR_ARG with a message when either is unusable). */
+CSI_API csi_status csi_positions_count(const csi_grid *g, const csi_pos_opts *o, size_t *n);
+/* The default fine-grid factor F (grid = F out_w x F out_h cells, t frames) for `spp` samples
+ * per output pixel, the rule csi-render and csi-positions use. Moving (t > 1): 1 (the time axis
+ * already gives each pixel t cells). Static: the smallest power of two F >= 4 with F^2 > 4 spp
+ * (more than 4 cells per sample), at most 16: F = 4 up to 3 spp, 8 for 4-15, 16 from 16;
+ * halved (not below 4) while a side would exceed 65536 cells. Why: the compressive estimate
+ * converges to the mean over the cell centres, a discretisation bias that a fixed 4x grid makes
+ * dominant once most cells are sampled (paper Sec. 4, 5.2, Fig. 7: a larger k); the sweep
+ * behind the rule is in the source tree's docs/bench/grid.md. */
+CSI_API uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp);
+/* Makes the positions: *out (release with csi_free) holds *n unique positions sorted by
+ * csi_grid_index, the same bits for the same inputs. info may be NULL. The methods' details
+ * are in csi/positions.h of the source tree. */
+CSI_API csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out,
+                                 size_t *n, csi_pos_info *info);
+
+/* ---- sample dumps (docs/dump-format.md) ---------------------------------------------------- */
+/* A dump in memory: one record per sample, a position and `channels` float32 values. */
+typedef struct csi_dump {
+    csi_grid grid;
+    uint32_t channels;     /* 1..4 */
+    uint64_t seed;         /* the producer's seed, 0 if none */
+    size_t count;          /* number of samples */
+    csi_sample_pos *pos;   /* count positions */
+    float *values;         /* count x channels, sample-major: values[i * channels + c] */
+} csi_dump;
+
+typedef struct csi_dump_read_opts {
+    bool drop_invalid;  /* drop records holding NaN/Inf (counted) instead of refusing the file */
+    uint64_t max_cells; /* refuse grids with w*h*t above this; 0: 2^31 */
+} csi_dump_read_opts;
+
+typedef struct csi_dump_report {
+    uint64_t records;         /* records in the file */
+    uint64_t dropped_invalid; /* records dropped for NaN/Inf values (only with drop_invalid) */
+    uint64_t duplicates;      /* records merged into another at the same position (averaged) */
+    uint64_t first_invalid;   /* record number of the first dropped record (if any) */
+} csi_dump_report;
+
+/* Reads and validates a dump; every problem is CSI_ERR_FORMAT (CSI_ERR_IO when the file cannot
+ * be read) with a message naming the file and the byte or record. Records at one position are
+ * averaged; the result is sorted by csi_grid_index and unique, ready for csi_reconstruct.
+ * opts and report may be NULL. On failure *out is zeroed. */
+CSI_API csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_dump *out,
+                                 csi_dump_report *report);
+/* Writes a dump (a temporary file, renamed when complete: a failure leaves nothing). channels =
+ * 0 writes a positions request: positions only, for a renderer to evaluate. */
+CSI_API csi_status csi_dump_write(const char *path, const csi_dump *d);
+/* Allocates pos and values for `count` samples (zeroed); grid, channels and seed are the
+ * caller's to set. */
+CSI_API csi_status csi_dump_alloc(csi_dump *d, size_t count, uint32_t channels);
+CSI_API void csi_dump_free(csi_dump *d);
+/* Checks a grid and channel count as the reader does (CSI_ERR_FORMAT naming the field). */
+CSI_API csi_status csi_dump_check_grid(const csi_grid *g, uint32_t channels, uint64_t max_cells);
+
+/* ---- options ------------------------------------------------------------------------------- */
+/* Reconstruction options by name: the same names as the programs' --name flags and the Python
+ * keywords (with '_' for '-'). Each has a default: a fixed value, or "auto", which the library
+ * resolves from the problem (the grid, the samples, the method) and reports back in the
+ * result's options. Options that can be switched off take "off". The list, with each
+ * option's help and default, comes from csi_option_count / csi_option_describe. */
+typedef struct csi_options csi_options;
+
+/* Every option at its default. */
+CSI_API csi_status csi_options_new(csi_options **out);
+CSI_API void csi_options_free(csi_options *o);
+CSI_API csi_status csi_options_copy(const csi_options *src, csi_options **out);
+/* Sets an option from text, as --name VALUE does: a choice by name, a number within the
+ * option's range, "auto", "off", "on" (flags). CSI_ERR_ARG with "name: 'value' is not ..."
+ * otherwise, and the option keeps its value. */
+CSI_API csi_status csi_options_set(csi_options *o, const char *name, const char *value);
+/* Sets a number (exactly: no decimal round trip). */
+CSI_API csi_status csi_options_set_number(csi_options *o, const char *name, double value);
+/* The value as text ("auto", "off", "sparsa", "0.3"), the form csi_options_set reads back. */
+CSI_API csi_status csi_options_get(const csi_options *o, const char *name, char *buf, size_t len);
+/* The value as a number; CSI_ERR_ARG for choices, flags, auto and off. */
+CSI_API csi_status csi_options_get_number(const csi_options *o, const char *name, double *out);
+
+typedef enum csi_option_kind {
+    CSI_OPTION_CHOICE,  /* one of a list of names */
+    CSI_OPTION_NUMBER,  /* a real number */
+    CSI_OPTION_INTEGER, /* a whole number */
+    CSI_OPTION_FLAG,    /* on or off; on the command line a flag without a value */
+} csi_option_kind;
+
+typedef struct csi_option_info {
+    const char *name;      /* "sigma-scale" */
+    csi_option_kind kind;
+    const char *metavar;   /* the value's placeholder in help text ("S", "romp|sparsa") */
+    const char *help;      /* one or more sentences, no trailing newline */
+    const char *def;       /* the default as text ("0.3", "auto", "off") */
+    const char *auto_rule; /* what "auto" resolves to; NULL when the default is fixed */
+    bool program;          /* the programs take it as --name (false: they set it otherwise) */
+} csi_option_info;
+
+CSI_API size_t csi_option_count(void);
+/* Option i < csi_option_count() (CSI_ERR_ARG otherwise). The strings are static. */
+CSI_API csi_status csi_option_describe(size_t i, csi_option_info *out);
+
+/* ---- reconstruction ------------------------------------------------------------------------ */
+/* Samples in host arrays. Positions must be unique and inside the grid (csi_dump_read
+ * guarantees both); values finite. The arrays are read during the call only. */
+typedef struct csi_samples {
+    csi_grid grid;              /* grid.t == 1: antialiasing (Alg. 1); > 1: motion (Alg. 2) */
+    uint32_t channels;          /* 1..4 */
+    size_t count;               /* N */
+    const csi_sample_pos *pos;  /* N positions */
+    const float *values;        /* N x channels, sample-major: values[i * channels + c] */
+} csi_samples;
+
+/* What the reconstruction is doing, for a progress display. */
+typedef struct csi_progress {
+    const char *phase;   /* "setup", then for channel c of C "solve c/C" and "integrate c/C"
+                            (tiled: "tile i/N solve c/C" ...) */
+    int iteration;       /* the solver's steps in this channel so far; 0 outside a solve */
+    double residual;     /* relative residual ||y - A x|| / ||y||; < 0 when not known */
+} csi_progress;
+/* Called from the calling thread at each phase and after every solver iteration. Return true
+ * to go on, false to cancel: csi_reconstruct then returns CSI_ERR_CANCELLED soon after, having
+ * released everything it made. */
+typedef bool (*csi_progress_fn)(void *user, const csi_progress *p);
+
+typedef struct csi_result csi_result;
+
+/* Reconstructs the samples: the image (and with the option "frames" on and grid.t > 1, every
+ * frame of the volume). options NULL: every default. progress may be NULL. */
+CSI_API csi_status csi_reconstruct(csi_device *dev, const csi_samples *samples,
+                                   const csi_options *options, csi_progress_fn progress,
+                                   void *user, csi_result **out);
+CSI_API void csi_result_free(csi_result *r);
+
+/* Images are float32, channels planar: data[(c * h + y) * w + x], linear light. Channel meaning
+ * by count: 1 = Y, 2 = Y A, 3 = R G B, 4 = R G B A. */
+typedef struct csi_image {
+    uint32_t w, h, channels;
+    float *data;
+} csi_image;
+
+/* The image, as a view into the result (valid until csi_result_free; do not free it). */
+CSI_API csi_status csi_result_image(const csi_result *r, csi_image *view);
+/* Frames returned (0 unless "frames" was on and grid.t > 1), and frame t as a view. */
+CSI_API uint32_t csi_result_frame_count(const csi_result *r);
+CSI_API csi_status csi_result_frame(const csi_result *r, uint32_t t, csi_image *view);
+/* The options as used: every auto that applies resolved to its value (owned by r). */
+CSI_API const csi_options *csi_result_options(const csi_result *r);
+
+typedef struct csi_result_info {
+    const char *method;  /* "compressive antialias (Alg. 1)", "compressive motion (Alg. 2)",
+                            "Gaussian normalized convolution", "sample mean (Monte Carlo)" */
+    const char *solver;  /* "sparsa", "romp"; "auto" for the baselines (no solver) */
+    size_t k, n;         /* unknowns and samples per channel */
+    double t_setup, t_solve, t_integrate; /* seconds */
+} csi_result_info;
+CSI_API void csi_result_info_get(const csi_result *r, csi_result_info *out);
+
+/* How the solve of one channel ended. */
+typedef enum csi_outcome {
+    CSI_OUTCOME_CONVERGED = 0,     /* the stopping rule was met */
+    CSI_OUTCOME_ZERO,              /* x = 0 is the exact answer */
+    CSI_OUTCOME_MAX_ITER,          /* the iteration cap came first */
+    CSI_OUTCOME_SUPPORT_LIMIT,     /* ROMP: the support limit came first (published preset) */
+    CSI_OUTCOME_NOT_IDENTIFIABLE,  /* the fit has more than N/2 non-zeros: not unique */
+    CSI_OUTCOME_STALLED,           /* no further progress was possible */
+} csi_outcome;
+
+typedef struct csi_channel_report {
+    bool converged;      /* outcome CONVERGED or ZERO */
+    csi_outcome outcome;
+    const char *reason;  /* the outcome in words ("converged", "iteration cap reached", ...) */
+    const char *message; /* one line with the numbers */
+    int iterations, inner_iterations;
+    double rel_residual; /* ||y - A x|| / ||y|| */
+    double objective, tau;
+    size_t support;      /* non-zero coefficients */
+    double seconds;
+} csi_channel_report;
+/* The report of channel c (strings owned by r). */
+CSI_API csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channel_report *out);
+
+/* ---- images -------------------------------------------------------------------------------- */
+CSI_API csi_status csi_image_alloc(csi_image *img, uint32_t w, uint32_t h, uint32_t channels);
+CSI_API void csi_image_free(csi_image *img);
+/* Reads a PNG (sRGB decoded to linear) or a scanline EXR, chosen by the file's magic bytes. */
+CSI_API csi_status csi_image_read(const char *path, csi_image *out);
+
+/* Header attributes for EXR files. */
+typedef enum csi_attr_type { CSI_ATTR_STRING, CSI_ATTR_FLOAT, CSI_ATTR_DOUBLE, CSI_ATTR_INT } csi_attr_type;
+typedef struct csi_attr {
+    const char *name;
+    csi_attr_type type;
+    const char *s; /* CSI_ATTR_STRING */
+    double f;      /* CSI_ATTR_FLOAT (stored as float32) and CSI_ATTR_DOUBLE */
+    int64_t i;     /* CSI_ATTR_INT (must fit int32: EXR's int attribute) */
+} csi_attr;
+#define CSI_ATTR_S(n, v) ((csi_attr){.name = (n), .type = CSI_ATTR_STRING, .s = (v)})
+#define CSI_ATTR_F(n, v) ((csi_attr){.name = (n), .type = CSI_ATTR_FLOAT, .f = (v)})
+#define CSI_ATTR_D(n, v) ((csi_attr){.name = (n), .type = CSI_ATTR_DOUBLE, .f = (v)})
+#define CSI_ATTR_I(n, v) ((csi_attr){.name = (n), .type = CSI_ATTR_INT, .i = (v)})
+
+/* The result's figures and every option as used, as EXR attributes ("csi:solver",
+ * "csi:option:lambda", ...); owned by r. */
+CSI_API size_t csi_result_attributes(const csi_result *r, const csi_attr **attrs);
+
+/* A float32 scanline EXR (ZIP, lossless) with the attributes in its header; an 8-bit sRGB PNG
+ * (values clamped to [0, 1]). Both written to a temporary file and renamed when complete. */
+CSI_API csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr *attrs,
+                                 size_t nattrs);
+CSI_API csi_status csi_png_write(const char *path, const csi_image *img);
+
+/* ---- statistics (JSON) --------------------------------------------------------------------- */
+/* An ordered JSON object builder: keys in the order added, nested objects with begin / end.
+ * Misuse is remembered and reported by csi_json_text / csi_json_write (CSI_ERR_ARG). */
+typedef struct csi_json csi_json;
+CSI_API csi_status csi_json_new(csi_json **out);
+CSI_API void csi_json_free(csi_json *j);
+CSI_API void csi_json_str(csi_json *j, const char *key, const char *value); /* NULL -> null */
+CSI_API void csi_json_num(csi_json *j, const char *key, double value);      /* NaN/Inf -> null */
+CSI_API void csi_json_int(csi_json *j, const char *key, int64_t value);
+CSI_API void csi_json_bool(csi_json *j, const char *key, bool value);
+CSI_API void csi_json_begin(csi_json *j, const char *key);
+CSI_API void csi_json_end(csi_json *j);
+/* The document (valid until the next call on j); writing it to a file (temporary + rename). */
+CSI_API csi_status csi_json_text(csi_json *j, const char **text);
+CSI_API csi_status csi_json_write(csi_json *j, const char *path);
+/* Adds the result's statistics to j: a hash of the image's bits ("image_fnv1a64"), the solver,
+ * k, n, times, every option as used ("options") and each channel's report ("channels"). */
+CSI_API void csi_result_stats(const csi_result *r, csi_json *j);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
