@@ -1,0 +1,368 @@
+"""The C library (libcsi.so, csi/csi.h) from Python: numpy arrays in and out, options by name,
+errors as exceptions carrying the library's message.
+
+The shared library is found, in order, at:
+  1. $CSI_LIBRARY (a path to libcsi.so);
+  2. $CSI_BUILD_DIR/sdk/libcsi.so (a build directory);
+  3. the build/ directory of the source tree this package sits in (host/python/csi ->
+     ../../../build/sdk/libcsi.so), which is what tools/setup and the tests use;
+  4. an installed SDK: the libdir pkg-config gives for csi (set PKG_CONFIG_PATH to
+     PREFIX/lib/pkgconfig after `cmake --install build --prefix PREFIX`), then the system's
+     loader path (libcsi.so.0).
+It is loaded on first use, so `import csi` needs only numpy.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import json
+import os
+import subprocess
+from typing import Callable, Optional
+
+import numpy as np
+
+u32 = ctypes.c_uint32
+c_size = ctypes.c_size_t
+
+
+class Grid(ctypes.Structure):
+    _fields_ = [("w", u32), ("h", u32), ("t", u32), ("out_w", u32), ("out_h", u32)]
+
+
+class _Samples(ctypes.Structure):
+    _fields_ = [("grid", Grid), ("channels", u32), ("count", c_size),
+                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float))]
+
+
+class _Dump(ctypes.Structure):
+    _fields_ = [("grid", Grid), ("channels", u32), ("seed", ctypes.c_uint64), ("count", c_size),
+                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float))]
+
+
+class _Image(ctypes.Structure):
+    _fields_ = [("w", u32), ("h", u32), ("channels", u32), ("data", ctypes.POINTER(ctypes.c_float))]
+
+
+class _Progress(ctypes.Structure):
+    _fields_ = [("phase", ctypes.c_char_p), ("iteration", ctypes.c_int), ("residual", ctypes.c_double)]
+
+
+class _OptionInfo(ctypes.Structure):
+    _fields_ = [("name", ctypes.c_char_p), ("kind", ctypes.c_int), ("metavar", ctypes.c_char_p),
+                ("help", ctypes.c_char_p), ("default", ctypes.c_char_p), ("auto_rule", ctypes.c_char_p),
+                ("program", ctypes.c_bool)]
+
+
+class _Report(ctypes.Structure):
+    _fields_ = [("converged", ctypes.c_bool), ("outcome", ctypes.c_int), ("reason", ctypes.c_char_p),
+                ("message", ctypes.c_char_p), ("iterations", ctypes.c_int), ("inner_iterations", ctypes.c_int),
+                ("rel_residual", ctypes.c_double), ("objective", ctypes.c_double), ("tau", ctypes.c_double),
+                ("support", c_size), ("seconds", ctypes.c_double)]
+
+
+class _Info(ctypes.Structure):
+    _fields_ = [("method", ctypes.c_char_p), ("solver", ctypes.c_char_p), ("k", c_size), ("n", c_size),
+                ("t_setup", ctypes.c_double), ("t_solve", ctypes.c_double), ("t_integrate", ctypes.c_double)]
+
+
+_PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_bool, ctypes.c_void_p, ctypes.POINTER(_Progress))
+_OPTION_KINDS = ("choice", "number", "integer", "flag")
+
+
+class CsiError(RuntimeError):
+    """A failure of the C library: `status` is its name ("CSI_ERR_ARG"), the message the
+    library's one line."""
+
+    def __init__(self, status: str, message: str):
+        super().__init__(message)
+        self.status = status
+
+
+def _candidates():
+    out = []
+    if os.environ.get("CSI_LIBRARY"):
+        out.append(os.environ["CSI_LIBRARY"])
+    if os.environ.get("CSI_BUILD_DIR"):
+        out.append(os.path.join(os.environ["CSI_BUILD_DIR"], "sdk", "libcsi.so"))
+    here = os.path.dirname(os.path.abspath(__file__))
+    out.append(os.path.normpath(os.path.join(here, "..", "..", "..", "build", "sdk", "libcsi.so")))
+    try:
+        libdir = subprocess.run(["pkg-config", "--variable=libdir", "csi"], capture_output=True, text=True,
+                                check=True).stdout.strip()
+        if libdir:
+            out.append(os.path.join(libdir, "libcsi.so"))
+    except (OSError, subprocess.CalledProcessError):
+        pass
+    return out
+
+
+_lib = None
+
+
+def lib():
+    """The loaded libcsi (loaded on the first call); CsiError naming where it looked if none."""
+    global _lib
+    if _lib is not None:
+        return _lib
+    tried = []
+    for path in _candidates():
+        tried.append(path)
+        if os.path.isfile(path):
+            _lib = _bind(ctypes.CDLL(path))
+            return _lib
+    name = ctypes.util.find_library("csi")
+    tried.append(name or "libcsi.so.0")
+    try:
+        _lib = _bind(ctypes.CDLL(name or "libcsi.so.0"))
+        return _lib
+    except OSError:
+        raise CsiError("CSI_ERR_IO", "libcsi.so not found (looked at " + ", ".join(tried) + "): build csi "
+                       "(cmake --build build) or install its SDK and set CSI_LIBRARY or PKG_CONFIG_PATH") from None
+
+
+def _bind(L):
+    P = ctypes.c_void_p
+    sig = {
+        "csi_version": (ctypes.c_char_p, []),
+        "csi_status_name": (ctypes.c_char_p, [ctypes.c_int]),
+        "csi_last_error": (ctypes.c_char_p, []),
+        "csi_free": (None, [P]),
+        "csi_device_new": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(P)]),
+        "csi_device_release": (None, [P]),
+        "csi_device_name": (ctypes.c_char_p, [P]),
+        "csi_dump_read": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.POINTER(_Dump), P]),
+        "csi_dump_free": (None, [ctypes.POINTER(_Dump)]),
+        "csi_options_new": (ctypes.c_int, [ctypes.POINTER(P)]),
+        "csi_options_free": (None, [P]),
+        "csi_options_set": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
+        "csi_options_get": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p, c_size]),
+        "csi_option_count": (c_size, []),
+        "csi_option_describe": (ctypes.c_int, [c_size, ctypes.POINTER(_OptionInfo)]),
+        "csi_reconstruct": (ctypes.c_int, [P, ctypes.POINTER(_Samples), P, _PROGRESS_FN, P, ctypes.POINTER(P)]),
+        "csi_result_free": (None, [P]),
+        "csi_result_image": (ctypes.c_int, [P, ctypes.POINTER(_Image)]),
+        "csi_result_frame_count": (u32, [P]),
+        "csi_result_frame": (ctypes.c_int, [P, u32, ctypes.POINTER(_Image)]),
+        "csi_result_options": (P, [P]),
+        "csi_result_info_get": (None, [P, ctypes.POINTER(_Info)]),
+        "csi_result_report": (ctypes.c_int, [P, u32, ctypes.POINTER(_Report)]),
+        "csi_json_new": (ctypes.c_int, [ctypes.POINTER(P)]),
+        "csi_json_free": (None, [P]),
+        "csi_json_text": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_char_p)]),
+        "csi_result_stats": (None, [P, P]),
+    }
+    for name, (res, args) in sig.items():
+        f = getattr(L, name)
+        f.restype, f.argtypes = res, args
+    return L
+
+
+def _check(st: int):
+    if st != 0:
+        L = lib()
+        raise CsiError(L.csi_status_name(st).decode(), L.csi_last_error().decode(errors="replace"))
+
+
+def version() -> str:
+    """The version of the C library that is loaded."""
+    return lib().csi_version().decode()
+
+
+def options() -> list:
+    """Every reconstruction option: name, kind, default, what auto resolves to, help."""
+    L = lib()
+    out = []
+    for i in range(L.csi_option_count()):
+        info = _OptionInfo()
+        _check(L.csi_option_describe(i, ctypes.byref(info)))
+        dec = lambda b: b.decode() if b else None  # noqa: E731
+        out.append({"name": dec(info.name), "keyword": dec(info.name).replace("-", "_"),
+                    "kind": _OPTION_KINDS[info.kind], "default": dec(info.default),
+                    "auto": dec(info.auto_rule), "help": dec(info.help)})
+    return out
+
+
+def _text(value) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "on" if value else "off"
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))  # the shortest text that reads back as the same double
+    return str(value)
+
+
+class Options:
+    """Reconstruction options by name (csi/csi.h): Options(tau=1e-3, solver="romp", lambda_=0.2).
+    Keywords are the programs' --names with '_' for '-' (a trailing '_' is dropped: lambda_)."""
+
+    def __init__(self, **kwargs):
+        L = lib()
+        h = ctypes.c_void_p()
+        _check(L.csi_options_new(ctypes.byref(h)))
+        self._h = h
+        for k, v in kwargs.items():
+            self.set(k, v)
+
+    def set(self, name: str, value):
+        name = name.rstrip("_").replace("_", "-")
+        _check(lib().csi_options_set(self._h, name.encode(), _text(value).encode()))
+
+    def __del__(self):
+        if getattr(self, "_h", None) and _lib is not None:
+            _lib.csi_options_free(self._h)
+            self._h = None
+
+
+class Device:
+    """An OpenCL device by name (None: $CSI_DEVICE, else PoCL's CPU device)."""
+
+    def __init__(self, name: Optional[str] = None):
+        L = lib()
+        h = ctypes.c_void_p()
+        _check(L.csi_device_new(name.encode() if name else None, ctypes.byref(h)))
+        self._h = h
+        self.name = L.csi_device_name(h).decode()
+
+    def close(self):
+        if getattr(self, "_h", None) and _lib is not None:
+            _lib.csi_device_release(self._h)
+            self._h = None
+
+    __del__ = close
+
+
+_default_device = None
+
+
+class Result:
+    """A reconstruction: image (H, W, C) float32, frames (T, H, W, C) or None, the options as
+    used (every auto that applied resolved), per-channel reports and the statistics."""
+
+    def __init__(self, image, frames, options, reports, info, stats):
+        self.image, self.frames, self.options = image, frames, options
+        self.reports, self.info, self.stats = reports, info, stats
+
+
+def _hwc(img: _Image) -> np.ndarray:
+    planar = np.ctypeslib.as_array(img.data, shape=(img.channels, img.h, img.w))
+    return np.ascontiguousarray(planar.transpose(1, 2, 0))
+
+
+def _result(L, r) -> Result:
+    img = _Image()
+    _check(L.csi_result_image(r, ctypes.byref(img)))
+    image = _hwc(img)
+    frames = None
+    nf = L.csi_result_frame_count(r)
+    if nf:
+        frames = np.empty((nf,) + image.shape, dtype=np.float32)
+        for t in range(nf):
+            _check(L.csi_result_frame(r, t, ctypes.byref(img)))
+            frames[t] = _hwc(img)
+    used = {}
+    buf = ctypes.create_string_buffer(64)
+    ro = L.csi_result_options(r)
+    for o in options():
+        _check(L.csi_options_get(ro, o["name"].encode(), buf, 64))
+        used[o["keyword"]] = buf.value.decode()
+    reports = []
+    for c in range(image.shape[2]):
+        rep = _Report()
+        _check(L.csi_result_report(r, c, ctypes.byref(rep)))
+        reports.append({"converged": rep.converged, "reason": rep.reason.decode(), "message": rep.message.decode(),
+                        "iterations": rep.iterations, "rel_residual": rep.rel_residual, "tau": rep.tau,
+                        "support": rep.support, "seconds": rep.seconds})
+    inf = _Info()
+    L.csi_result_info_get(r, ctypes.byref(inf))
+    info = {"method": inf.method.decode(), "solver": inf.solver.decode(), "k": inf.k, "n": inf.n,
+            "t_setup": inf.t_setup, "t_solve": inf.t_solve, "t_integrate": inf.t_integrate}
+    j = ctypes.c_void_p()
+    _check(L.csi_json_new(ctypes.byref(j)))
+    try:
+        L.csi_result_stats(r, j)
+        text = ctypes.c_char_p()
+        _check(L.csi_json_text(j, ctypes.byref(text)))
+        stats = json.loads(text.value.decode())
+    finally:
+        L.csi_json_free(j)
+    return Result(image, frames, used, reports, info, stats)
+
+
+def reconstruct(positions, values, grid, device: Optional[Device] = None,
+                progress: Optional[Callable[[str, int, float], Optional[bool]]] = None,
+                options: Optional[Options] = None, **kwargs) -> Result:
+    """Reconstructs samples: positions (N, 3) integers (x, y, t cells of the fine grid), values
+    (N, C) or (N,) float32, grid (w, h, t, out_w, out_h). Options as keywords (or an Options).
+    progress(phase, iteration, residual) may return False to cancel (CsiError CSI_ERR_CANCELLED);
+    an exception it raises cancels and is raised again."""
+    global _default_device
+    L = lib()
+    pos = np.ascontiguousarray(positions, dtype=np.uint32)
+    val = np.asarray(values, dtype=np.float32)
+    if val.ndim == 1:
+        val = val[:, None]
+    val = np.ascontiguousarray(val)
+    if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
+        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+    if options is None:
+        options = Options(**kwargs)
+    else:
+        for k, v in kwargs.items():
+            options.set(k, v)
+    if device is None:
+        if _default_device is None:
+            _default_device = Device()
+        device = _default_device
+    s = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0],
+                 pos.ctypes.data_as(ctypes.POINTER(u32)), val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+    raised = []
+
+    def relay(_user, p):
+        try:
+            go = progress(p.contents.phase.decode(), p.contents.iteration, p.contents.residual)
+            return go is None or bool(go)
+        except BaseException as e:  # noqa: BLE001 - passed on after the library has cleaned up
+            raised.append(e)
+            return False
+
+    fn = _PROGRESS_FN(relay) if progress else _PROGRESS_FN()
+    r = ctypes.c_void_p()
+    st = L.csi_reconstruct(device._h, ctypes.byref(s), options._h, fn, None, ctypes.byref(r))
+    if raised:
+        raise raised[0]
+    _check(st)
+    try:
+        return _result(L, r)
+    finally:
+        L.csi_result_free(r)
+
+
+class Dump:
+    """A sample dump read by the library (docs/dump-format.md): grid, positions (N, 3) uint32,
+    values (N, C) float32, seed."""
+
+    def __init__(self, grid, positions, values, seed):
+        self.grid, self.positions, self.values, self.seed = grid, positions, values, seed
+
+
+def read_dump(path: str) -> Dump:
+    L = lib()
+    d = _Dump()
+    _check(L.csi_dump_read(os.fsencode(path), None, ctypes.byref(d), None))
+    try:
+        g = d.grid
+        grid = (g.w, g.h, g.t, g.out_w, g.out_h)
+        pos = np.ctypeslib.as_array(d.pos, shape=(d.count, 3)).copy()
+        val = np.ctypeslib.as_array(d.values, shape=(d.count, d.channels)).copy()
+        return Dump(grid, pos, val, d.seed)
+    finally:
+        L.csi_dump_free(ctypes.byref(d))
+
+
+def reconstruct_dump(path: str, **kwargs) -> Result:
+    """Reconstructs a dump as csi-reconstruct does (its seed is the solver's unless given)."""
+    d = read_dump(path)
+    if d.seed and "seed" not in kwargs:
+        kwargs["seed"] = d.seed
+    return reconstruct(d.positions, d.values, d.grid, **kwargs)

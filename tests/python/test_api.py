@@ -1,0 +1,88 @@
+"""The Python binding (host/python/csi/_lib.py over libcsi.so): `import csi` needs only numpy;
+csi.reconstruct_dump gives the pixels csi-reconstruct and csi-render give on the same dump, bit
+for bit (the stats' hash, and the same FNV-1a computed here over the returned array); options by
+keyword come back resolved; errors are CsiError with the library's message; a progress callback
+that returns False cancels. Run by ctest with CSI_BUILD_DIR (programs and sdk/libcsi.so)."""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BUILD = os.environ.get("CSI_BUILD_DIR") or os.path.join(SOURCE, "build")
+sys.path.insert(0, os.path.join(SOURCE, "host", "python"))
+import csi  # noqa: E402
+
+passed = failed = 0
+
+
+def check(cond, what):
+    global passed, failed
+    if cond:
+        passed += 1
+    else:
+        failed += 1
+        print("FAIL:", what, file=sys.stderr)
+
+
+def fnv1a64(a: np.ndarray) -> str:
+    h = 1469598103934665603
+    for b in a.tobytes():
+        h = ((h ^ b) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    return f"{h:016x}"
+
+
+check("csi._lib" not in sys.modules, "import csi loads the C library only when used")
+check(csi.version() == csi.__version__, f"library {csi.version()} vs package {csi.__version__}")
+names = {o["keyword"] for o in csi.options()}
+check({"tau", "solver", "lambda", "mem_budget"} <= names, f"options: {sorted(names)[:5]}...")
+
+with tempfile.TemporaryDirectory() as T:
+    for sc in ("small_triangle", "small_moving"):
+        scene = os.path.join(SOURCE, "tests", "cli", "scenes", sc + ".scene")
+        dump = os.path.join(T, sc + ".csid")
+        subprocess.run([os.path.join(BUILD, "csi-render"), scene, "-o", os.path.join(T, sc + ".r.exr"), "--dump",
+                        dump, "--stats", os.path.join(T, sc + ".r.json"), "-q"], check=True)
+        subprocess.run([os.path.join(BUILD, "csi-reconstruct"), dump, "-o", os.path.join(T, sc + ".c.exr"),
+                        "--stats", os.path.join(T, sc + ".c.json"), "-q"], check=True)
+        want = [json.load(open(os.path.join(T, sc + x)))for x in (".r.json", ".c.json")]
+        h_render = want[0]["reconstruction"]["image_fnv1a64"]
+        h_recon = want[1]["image_fnv1a64"]
+        res = csi.reconstruct_dump(dump)
+        planar = np.ascontiguousarray(res.image.transpose(2, 0, 1))
+        check(res.stats["image_fnv1a64"] == h_recon == h_render,
+              f"{sc}: python {res.stats['image_fnv1a64']}, csi-reconstruct {h_recon}, csi-render {h_render}")
+        check(fnv1a64(planar) == h_recon, f"{sc}: the returned array's own bits hash to {fnv1a64(planar)}")
+        check(res.image.dtype == np.float32 and res.image.shape[2] == 3, f"{sc}: image {res.image.shape}")
+        check(res.options["solver"] == "sparsa" and res.options["tau"] not in ("auto", ""),
+              f"{sc}: resolved options {res.options['solver']} {res.options['tau']}")
+
+    d = csi.read_dump(os.path.join(T, "small_moving.csid"))
+    res = csi.reconstruct(d.positions, d.values, d.grid, frames=True, seed=d.seed)
+    check(res.frames is not None and res.frames.shape == (d.grid[2],) + res.image.shape,
+          f"frames {None if res.frames is None else res.frames.shape}")
+    check(abs(float(res.options["tau"]) - min(3e-2, max(1e-4, 0.25 / np.sqrt(len(d.positions))))) < 1e-15,
+          f"the volume's tau {res.options['tau']}")
+
+    try:
+        csi.reconstruct(d.positions, d.values, d.grid, lambda_=-1)
+        check(False, "a bad lambda raises")
+    except csi.CsiError as e:
+        check(e.status == "CSI_ERR_ARG" and str(e).startswith("lambda"), f"error: {e.status} {e}")
+    calls = []
+
+    def stop(phase, it, res_):
+        calls.append(phase)
+        return not phase.startswith("solve") or it < 2
+
+    try:
+        csi.reconstruct(d.positions, d.values, d.grid, progress=stop)
+        check(False, "a progress callback returning False cancels")
+    except csi.CsiError as e:
+        check(e.status == "CSI_ERR_CANCELLED" and calls[0] == "setup", f"cancel: {e.status} {e} {calls[:3]}")
+
+print(f"{passed} passed, {failed} failed")
+sys.exit(1 if failed else 0)
