@@ -331,9 +331,11 @@ static void put_header(wbuf *w, const cli_partial *p)
     put_u64(w, r->k);
     put_u64(w, r->n);
     put_u64(w, r->unknowns);
-    put_f64(w, r->t_setup);
-    put_f64(w, r->t_solve);
-    put_f64(w, r->t_integrate);
+    const double times[10] = {r->t_setup, r->t_solve, r->t_integrate, r->t_programs, r->cpu_setup, r->cpu_work,
+                              r->t_channel_integrate[0], r->t_channel_integrate[1], r->t_channel_integrate[2],
+                              r->t_channel_integrate[3]};
+    for (int i = 0; i < 10; i++)
+        put_f64(w, times[i]);
     for (uint32_t c = 0; c < r->channels && c < 4; c++)
         put_report(w, &r->report[c]);
 }
@@ -436,9 +438,11 @@ csi_status cli_partial_read(const char *path, bool with_data, cli_partial *out)
         res->k = (size_t)get_u64(&r);
         res->n = (size_t)get_u64(&r);
         res->unknowns = (size_t)get_u64(&r);
-        res->t_setup = get_f64(&r);
-        res->t_solve = get_f64(&r);
-        res->t_integrate = get_f64(&r);
+        double *times[10] = {&res->t_setup, &res->t_solve, &res->t_integrate, &res->t_programs, &res->cpu_setup,
+                             &res->cpu_work, &res->t_channel_integrate[0], &res->t_channel_integrate[1],
+                             &res->t_channel_integrate[2], &res->t_channel_integrate[3]};
+        for (int i = 0; i < 10; i++)
+            *times[i] = get_f64(&r);
         res->tiles = 1;
         if (res->channels < 1 || res->channels > 4)
             r.bad = true;

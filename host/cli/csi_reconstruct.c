@@ -104,6 +104,7 @@ static int run_tile(csi_ctx *ctx, const csi_dump *d, const char *in, csi_recon_o
             csi_json_int(j, "window_t0", res.t0);
             cli_stats_recon(j, &res.r);
             csi_json_num(j, "t_wall_s", cli_now() - t0);
+            csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
             s = csi_json_write(j, outs->stats);
             csi_json_free(j);
         }
@@ -270,6 +271,7 @@ int main(int argc, char **argv)
                 cli_stats_recon(j, &res);
                 cli_stats_phases(j, &pt, &res);
                 csi_json_num(j, "t_wall_s", cli_now() - t0);
+                csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
                 s = csi_json_write(j, outs.stats);
                 csi_json_free(j);
             }

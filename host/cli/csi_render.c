@@ -166,6 +166,7 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_tracer *tr, con
             csi_json_int(j, "tile_count", tl.count);
             csi_json_int(j, "samples", (int64_t)m);
             csi_json_num(j, "t_render_s", t_render);
+            csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
             cli_stats_recon(j, &res.r);
             s = csi_json_write(j, outs->stats);
             csi_json_free(j);
@@ -447,6 +448,7 @@ int main(int argc, char **argv)
             csi_json_int(j, "samples", (int64_t)n);
             csi_json_num(j, "t_render_s", t_render);
             csi_json_num(j, "t_reconstruct_s", t_recon);
+            csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
             csi_json_num(j, "t_per_sample_us", n ? 1e6 * t_render / (double)n : 0);
             csi_json_begin(j, "rays");
             csi_json_int(j, "primary", (int64_t)cnt.primary_rays);
