@@ -120,6 +120,22 @@ csi_status cli_tile_info_print(const csi_tiling *tl, const csi_tile_scope *scope
     csi_json_int(j, "window_t", tl->window[2]);
     csi_json_int(j, "margin", tl->margin[0]);
     csi_json_int(j, "margin_t", tl->margin[2]);
+    csi_json_int(j, "band", tl->band[0]);
+    csi_json_int(j, "band_y", tl->band[1]);
+    csi_json_int(j, "band_t", tl->band[2]);
+    /* the core boundaries along each axis, "0,64,128", for tools that look at the seams */
+    static const char *names[3] = {"cores_x", "cores_y", "cores_t"};
+    for (int a = 0; a < 3; a++) {
+        char list[4096];
+        size_t at = 0;
+        const uint32_t stride = a == 0 ? 1 : a == 1 ? tl->n[0] : tl->n[0] * tl->n[1];
+        for (uint32_t i = 0; i <= tl->n[a] && at < sizeof list - 16; i++) {
+            csi_tile t;
+            csi_tiling_tile(tl, (i < tl->n[a] ? i : tl->n[a] - 1) * stride, &t);
+            at += (size_t)snprintf(list + at, sizeof list - at, "%s%u", i ? "," : "", i < tl->n[a] ? t.core0[a] : t.core1[a]);
+        }
+        csi_json_str(j, names[a], list);
+    }
     csi_json_int(j, "tile_bytes", (int64_t)tl->tile_bytes);
     csi_json_int(j, "whole_bytes", (int64_t)tl->whole_bytes);
     csi_json_int(j, "budget", (int64_t)tl->budget);

@@ -133,8 +133,8 @@ static const row table[] = {
     {"tiles", K_U32, AT(tiles), 1, 1048576, NULL, F_AUTO, "auto", "N|auto",
      "exactly N tiles (blended seamlessly)", "as few as fit the budget"},
     {"tile-margin", K_U32, AT(tile_margin), 1, 65536, NULL, F_AUTO, "auto", "P",
-     "overlap beyond a tile's core in output pixels", "128 grid cells, at least 4 pixels; 16 "
-     "for volumes"},
+     "overlap beyond a tile's core in output pixels", "the wavelet's taps x 2^levels grid cells "
+     "(256 at the defaults), at least 4 pixels; 16 for volumes"},
     {"tile-margin-t", K_U32, AT(tile_margin_t), 1, 65536, NULL, F_AUTO, "auto", "F",
      "the same in frames for a volume", "4"},
     {"frames", K_BOOL, AT(frames), 0, 0, NULL, F_LIBRARY, "off", NULL,

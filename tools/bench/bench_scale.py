@@ -1,0 +1,361 @@
+#!/usr/bin/env python3
+"""Tiles (issue 11): seams and error against the untiled reconstruction, time and peak memory
+against image size and against Dask worker count, and single large targets.
+
+  .venv/bin/python tools/bench/bench_scale.py seams   --out bench-scale   # tiled vs untiled, 256^2 (+ motion)
+  .venv/bin/python tools/bench/bench_scale.py sizes   --out bench-scale   # 256^2 .. 3840x2160 at 4 spp
+  .venv/bin/python tools/bench/bench_scale.py workers --out bench-scale   # csi-farm, 1 and 2 workers
+  .venv/bin/python tools/bench/bench_scale.py target  --out bench-scale --size 3840x2160 --spp 16
+  .venv/bin/python tools/bench/bench_scale.py plot    --out bench-scale   # the figures of docs/bench/scale.md
+
+Every input is rendered here by csi-render from a bundled scene (`bench_common.scene_variant` sets
+the camera size) and dumped; reconstructions run csi-reconstruct on the dump as a user would.
+- Error: MSE over pixels and channels against a stratified reference (csi-render --reference
+  256), the same samples tiled and untiled (`--tiles 1` with the device's whole memory as budget).
+- Seams: RMS of (tiled - untiled) over the pixels within `band` of an interior core boundary
+  (the blend bands, from --tile-info) and over all other pixels; a seam would show as a larger
+  difference in the bands.
+- Time: wall clock of the process. Peak memory: the process's ru_maxrss (os.wait4), which on
+  PoCL's CPU device includes the device buffers (they live in host memory), and csi_buffer's
+  peak of device bytes (device_peak_bytes in the statistics). For csi-farm, the peak of the
+  summed resident memory of the whole process tree (client, Dask workers, their csi processes),
+  sampled every 0.1 s.
+The machine is shared: times are comparable within one run only (record `uptime` with them).
+"""
+import argparse
+import csv
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench_common as bc  # noqa: E402
+
+ROOT = bc.ROOT
+
+
+def binaries():
+    b = bc.binaries()
+    d = os.path.dirname(b["csi-reconstruct"])
+    b["csi-merge"] = os.path.join(d, "csi-merge")
+    return b
+
+
+def measured(cmd, env, capture=False):
+    """Runs cmd; returns (wall s, peak RSS bytes of that process, stdout). Raises on failure."""
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE if capture else subprocess.DEVNULL, stderr=subprocess.PIPE,
+                         env=env)
+    out = p.stdout.read() if capture else b""
+    err = p.stderr.read().decode(errors="replace")
+    _, status, ru = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t0
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise bc.BenchError(f"{' '.join(cmd)} failed:\n{err[-2000:]}")
+    return wall, ru.ru_maxrss * 1024, out
+
+
+class TreeRSS:
+    """Peak of the summed RSS of this process and all its descendants, sampled every 0.1 s."""
+
+    def __init__(self):
+        import psutil
+        self.psutil, self.peak, self._stop = psutil, 0, threading.Event()
+        self._t = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self):
+        me = self.psutil.Process()
+        while not self._stop.is_set():
+            total = 0
+            for p in [me] + me.children(recursive=True):
+                try:
+                    total += p.memory_info().rss
+                except self.psutil.Error:
+                    pass
+            self.peak = max(self.peak, total)
+            time.sleep(0.1)
+
+    def __enter__(self):
+        self._t.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._t.join()
+
+
+def load_avg():
+    return " ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def device_memory(bins, env, dump, work):
+    """The device's global memory as csi sees it (the budget that lets anything fit whole)."""
+    info = json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tile-info", "--mem-budget", "1T", "-q"],
+                                     capture_output=True, env=env, check=True).stdout)
+    return info["budget"]
+
+
+def make_dump(bins, env, scene, size, spp, work, log, extra=()):
+    path, _ = bc.scene_variant(scene, size, work)
+    dump = os.path.join(work, f"{scene}_{size[0]}x{size[1]}_s{spp}.csid")
+    if not os.path.exists(dump):
+        t = bc.run([bins["csi-render"], path, "--spp", str(spp), "--estimator", "mean", "--dump", dump, "-o",
+                    os.path.join(work, "mean.exr"), "--seed", "1", "-q"] + list(extra), env, log=log)
+        bc.log(f"  rendered {os.path.basename(dump)} in {t:.1f} s")
+    return path, dump
+
+
+def reference(bins, env, scene_path, work, log, spp=256):
+    ref = os.path.join(work, os.path.basename(scene_path).replace(".scene", f"_ref{spp}.exr"))
+    if not os.path.exists(ref):
+        bc.run([bins["csi-render"], scene_path, "--reference", str(spp), "-o", ref, "-q"], env, log=log)
+    return bc.read_exr(ref)
+
+
+def recon(bins, env, dump, out, extra, work):
+    st = os.path.join(work, "r.json")
+    wall, rss, _ = measured([bins["csi-reconstruct"], dump, "-o", out, "--stats", st, "-q"] + list(extra), env)
+    with open(st) as f:
+        return wall, rss, json.load(f)
+
+
+def band_mask(info, shape):
+    h, w = shape[:2]
+    m = np.zeros((h, w), bool)
+    for key, axis, band in (("cores_x", 1, info["band"]), ("cores_y", 0, info["band_y"])):
+        for b in [int(v) for v in info[key].split(",")][1:-1]:
+            sl = slice(max(0, b - band), b + band)
+            if axis == 1:
+                m[:, sl] = True
+            else:
+                m[sl, :] = True
+    return m
+
+
+def mse(a, b, m=None):
+    d = (a.astype(np.float64) - b) ** 2
+    return float(d[m].mean() if m is not None else d.mean())
+
+
+def seams(a, bins, env, work, logf):
+    rows = []
+    cases = [("garden", (256, 256), spp) for spp in (1, 4, 16)] + [("checkerboard", (256, 256), spp) for spp in (1, 4, 16)]
+    cases += [("train", (128, 128), 4)]
+    tiles = (4, 9)
+    for scene, size, spp in cases:
+        path, dump = make_dump(bins, env, scene, size, spp, work, logf)
+        ref = reference(bins, env, path, work, logf)
+        whole_budget = device_memory(bins, env, dump, work)
+        u_exr = os.path.join(work, f"{scene}_{spp}_untiled.exr")
+        wall_u, rss_u, st_u = recon(bins, env, dump, u_exr, ["--tiles", "1", "--mem-budget", str(whole_budget)], work)
+        u = bc.read_exr(u_exr)
+        e_u = mse(u, ref)
+        for n in (tiles if scene != "train" else (2, 4)):
+            info = json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tiles", str(n), "--tile-info", "-q"],
+                                             capture_output=True, env=env, check=True).stdout)
+            t_exr = os.path.join(work, f"{scene}_{spp}_t{n}.exr")
+            wall_t, rss_t, st_t = recon(bins, env, dump, t_exr, ["--tiles", str(n)], work)
+            t = bc.read_exr(t_exr)
+            m = band_mask(info, t.shape)
+            e_t = mse(t, ref)
+            d_band = np.sqrt(mse(t, u, m)) if m.any() else 0.0
+            d_rest = np.sqrt(mse(t, u, ~m))
+            row = dict(scene=scene, size=f"{size[0]}x{size[1]}", spp=spp, tiles=n,
+                       layout=f"{info['tiles_x']}x{info['tiles_y']}x{info['tiles_t']}",
+                       mse_untiled=e_u, mse_tiled=e_t, ratio=e_t / e_u, rms_diff_band=d_band, rms_diff_rest=d_rest,
+                       mse_band_untiled=mse(u, ref, m) if m.any() else 0.0, mse_band_tiled=mse(t, ref, m) if m.any() else 0.0,
+                       wall_untiled=wall_u, wall_tiled=wall_t, rss_untiled=rss_u, rss_tiled=rss_t,
+                       dev_untiled=st_u.get("device_peak_bytes", 0), dev_tiled=st_t.get("device_peak_bytes", 0))
+            rows.append(row)
+            bc.log(f"  {scene} {size} spp {spp} tiles {n} ({row['layout']}): MSE ratio {row['ratio']:.4f}, "
+                   f"diff band {d_band:.2e} rest {d_rest:.2e}")
+            if scene == "garden" and spp == 4 and n == 9:
+                np.save(os.path.join(work, "seam_tiled.npy"), t)
+                np.save(os.path.join(work, "seam_untiled.npy"), u)
+                np.save(os.path.join(work, "seam_ref.npy"), ref)
+                with open(os.path.join(work, "seam_info.json"), "w") as f:
+                    json.dump(info, f)
+                # each tile with its own scale (what csi-render --tile does without --tile-scale)
+                parts = []
+                for i in range(n):
+                    p = os.path.join(work, f"local_{i}.csip")
+                    bc.run([bins["csi-render"], path, "--spp", str(spp), "--seed", "1", "--tile", f"{i}/{n}", "-o", p, "-q"],
+                           env, log=logf)
+                    parts.append(p)
+                l_exr = os.path.join(work, "local.exr")
+                bc.run([bins["csi-merge"]] + parts + ["-o", l_exr, "-q"], env, log=logf)
+                loc = bc.read_exr(l_exr)
+                rows.append(dict(row, tiles=f"{n} own scale", mse_tiled=mse(loc, ref), ratio=mse(loc, ref) / e_u,
+                                 rms_diff_band=np.sqrt(mse(loc, u, m)), rms_diff_rest=np.sqrt(mse(loc, u, ~m)),
+                                 mse_band_tiled=mse(loc, ref, m)))
+    write_csv(os.path.join(a.out, "seams.csv"), rows)
+    return rows
+
+
+def sizes(a, bins, env, work, logf):
+    rows = []
+    for w, h in a.sizes:
+        _, dump = make_dump(bins, env, a.scene, (w, h), a.spp, work, logf)
+        for label, extra in (("default", []),):
+            out = os.path.join(work, f"size_{w}x{h}.exr")
+            up = load_avg()
+            wall, rss, st = recon(bins, env, dump, out, extra, work)
+            rows.append(dict(width=w, height=h, spp=a.spp, cells=st["k"], samples=st["n"], run=label, tiles=st["tiles"],
+                             wall_s=wall, peak_rss=rss, device_peak=st.get("device_peak_bytes", 0),
+                             t_solve=st["t_solve_s"], cpu_work=st.get("cpu_work_s", 0), load=up))
+            bc.log(f"  {w}x{h}: {st['tiles']} tiles, {wall:.1f} s, peak RSS {rss / 2**20:.0f} MiB, "
+                   f"device peak {st.get('device_peak_bytes', 0) / 2**20:.0f} MiB (load {up})")
+        if not a.keep:
+            os.remove(dump)
+    write_csv(os.path.join(a.out, "sizes.csv"), rows)
+    return rows
+
+
+def workers(a, bins, env, work, logf):
+    rows = []
+    w, h = a.sizes[0]
+    _, dump = make_dump(bins, env, a.scene, (w, h), a.spp, work, logf)
+    ref_exr = os.path.join(work, "w_single.exr")
+    extra = ["--tiles", str(a.tiles)] if a.tiles else []
+    wall1, rss1, st1 = recon(bins, env, dump, ref_exr, extra, work)
+    rows.append(dict(runner="csi-reconstruct (one process)", workers=1, tiles=st1["tiles"], wall_s=wall1,
+                     peak_rss=rss1, identical=True, load=load_avg()))
+    sys.path.insert(0, os.path.join(ROOT, "host", "python"))
+    from csi import farm
+    for nw in a.workers:
+        st = os.path.join(work, f"farm{nw}.json")
+        up = load_avg()
+        t0 = time.perf_counter()
+        with TreeRSS() as tr:
+            farm.reconstruct(dump, os.path.join(work, f"farm{nw}.exr"), stats=st, tiles=a.tiles or st1["tiles"],
+                             workers=nw, bin_dir=os.path.dirname(bins["csi-reconstruct"]), quiet=True)
+        wall = time.perf_counter() - t0
+        with open(st) as f:
+            same = json.load(f)["image_fnv1a64"] == st1["image_fnv1a64"]
+        rows.append(dict(runner="csi-farm (LocalCluster)", workers=nw, tiles=st1["tiles"], wall_s=wall, peak_rss=tr.peak,
+                         identical=same, load=up))
+        bc.log(f"  farm {nw} workers: {wall:.1f} s, tree peak RSS {tr.peak / 2**20:.0f} MiB, identical {same} (load {up})")
+    write_csv(os.path.join(a.out, "workers.csv"), rows)
+    return rows
+
+
+def target(a, bins, env, work, logf):
+    w, h = a.sizes[0]
+    t0 = time.perf_counter()
+    _, dump = make_dump(bins, env, a.scene, (w, h), a.spp, work, logf)
+    t_render = time.perf_counter() - t0
+    up = load_avg()
+    out = os.path.join(a.out, f"target_{w}x{h}_s{a.spp}.exr")
+    wall, rss, st = recon(bins, env, dump, out, [], work)
+    row = dict(width=w, height=h, spp=a.spp, cells=st["k"], samples=st["n"], tiles=st["tiles"], wall_s=wall,
+               peak_rss=rss, device_peak=st.get("device_peak_bytes", 0), t_solve=st["t_solve_s"],
+               cpu_work=st.get("cpu_work_s", 0), render_s=t_render, load_before=up, load_after=load_avg(),
+               dump_bytes=os.path.getsize(dump))
+    bc.log(f"  {w}x{h} {a.spp} spp: {st['tiles']} tiles, {wall:.0f} s, peak RSS {rss / 2**30:.2f} GiB, "
+           f"device peak {row['device_peak'] / 2**30:.2f} GiB (load {up} -> {row['load_after']})")
+    with open(os.path.join(a.out, f"target_{w}x{h}_s{a.spp}.json"), "w") as f:
+        json.dump(row, f, indent=1)
+    if not a.keep:
+        os.remove(dump)
+    return [row]
+
+
+def write_csv(path, rows):
+    keys = []
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    with open(path, "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=keys)
+        wr.writeheader()
+        wr.writerows(rows)
+
+
+def plot(a):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    figdir = a.figures
+    os.makedirs(figdir, exist_ok=True)
+    sz = os.path.join(a.out, "sizes.csv")
+    if os.path.exists(sz):
+        rows = list(csv.DictReader(open(sz)))
+        px = [int(r["width"]) * int(r["height"]) / 1e6 for r in rows]
+        fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+        ax[0].loglog(px, [float(r["wall_s"]) for r in rows], "o-", label="wall")
+        ax[0].loglog(px, [float(r["cpu_work"]) for r in rows], "s--", label="CPU (solve + integrate)")
+        ax[0].set_xlabel("output megapixels (4 spp, 8x grid)")
+        ax[0].set_ylabel("seconds")
+        ax[0].legend()
+        ax[0].grid(True, which="both", alpha=0.3)
+        ax[1].semilogx(px, [float(r["peak_rss"]) / 2**30 for r in rows], "o-", label="peak RSS (process)")
+        ax[1].semilogx(px, [float(r["device_peak"]) / 2**30 for r in rows], "s--", label="device buffers (peak)")
+        for r, x in zip(rows, px):
+            ax[1].annotate(f"{r['tiles']} tiles", (x, float(r["peak_rss"]) / 2**30), fontsize=7,
+                           textcoords="offset points", xytext=(0, 5))
+        ax[1].axhline(1.0, color="gray", lw=0.8, ls=":")
+        ax[1].set_xlabel("output megapixels")
+        ax[1].set_ylabel("GiB")
+        ax[1].legend()
+        ax[1].grid(True, which="both", alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(os.path.join(figdir, "sizes.png"), dpi=110)
+    if os.path.exists(os.path.join(a.out, "seam_tiled.npy")):
+        t = np.load(os.path.join(a.out, "seam_tiled.npy"))
+        u = np.load(os.path.join(a.out, "seam_untiled.npy"))
+        info = json.load(open(os.path.join(a.out, "seam_info.json")))
+        fig, ax = plt.subplots(1, 3, figsize=(12, 4.2))
+        srgb = lambda x: np.clip(np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.clip(x, 0, None) ** (1 / 2.4) - 0.055), 0, 1)
+        ax[0].imshow(srgb(u))
+        ax[0].set_title("untiled")
+        ax[1].imshow(srgb(t))
+        ax[1].set_title(f"{info['tiles']} tiles ({info['tiles_x']}x{info['tiles_y']})")
+        d = np.abs(t - u).mean(axis=2)
+        im = ax[2].imshow(d, cmap="magma", vmin=0, vmax=max(1e-6, np.percentile(d, 99.5)))
+        ax[2].set_title("|tiled - untiled| (core boundaries dotted)")
+        for b in [int(v) for v in info["cores_x"].split(",")][1:-1]:
+            ax[2].axvline(b - 0.5, color="c", lw=0.6, ls=":")
+        for b in [int(v) for v in info["cores_y"].split(",")][1:-1]:
+            ax[2].axhline(b - 0.5, color="c", lw=0.6, ls=":")
+        fig.colorbar(im, ax=ax[2], fraction=0.046)
+        for x in ax:
+            x.set_xticks([])
+            x.set_yticks([])
+        fig.tight_layout()
+        fig.savefig(os.path.join(figdir, "seams_garden.png"), dpi=110)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=["seams", "sizes", "workers", "target", "plot"])
+    ap.add_argument("--out", default="bench-scale")
+    ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "bench", "scale"))
+    ap.add_argument("--scene", default="garden")
+    ap.add_argument("--spp", type=int, default=4)
+    ap.add_argument("--size", action="append", help="WxH (repeatable); sizes: 256x256 .. 3840x2160")
+    ap.add_argument("--tiles", type=int, default=0, help="workers: tiles (default: the budget's)")
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--keep", action="store_true", help="keep the dumps")
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    if a.what == "plot":
+        return plot(a)
+    default_sizes = {"sizes": ["256x256", "512x512", "1024x1024", "1920x1080", "3840x2160"],
+                     "workers": ["1920x1080"], "target": ["1920x1080"]}.get(a.what, [])
+    a.sizes = [tuple(int(v) for v in s.split("x")) for s in (a.size or default_sizes)]
+    bins = binaries()
+    env = bc.default_env()
+    work = os.path.join(a.out, "work")
+    os.makedirs(work, exist_ok=True)
+    with open(os.path.join(a.out, f"{a.what}.log"), "a") as logf:
+        bc.log(f"{a.what}: load {load_avg()}")
+        rows = globals()[a.what](a, bins, env, work if a.what != "seams" else a.out, logf)
+    print(json.dumps(rows, indent=1, default=float))
+
+
+if __name__ == "__main__":
+    main()
