@@ -29,25 +29,14 @@ uint64_t cli_hash64(uint64_t h, const void *data, size_t bytes)
     return csi_mix64(h ^ (uint64_t)bytes);
 }
 
-/* ---- the options: every field that can change a tile's pixels, by name, type and offset ---- */
-enum { T_INT, T_U32, T_U64, T_SIZE, T_F32, T_F64, T_BOOL };
-#define OPT(type, name) {#name, type, offsetof(csi_recon_options, name)}
-static const struct {
-    const char *name;
-    int type;
-    size_t off;
-} opt_fields[] = {
-    OPT(T_INT, estimator), OPT(T_F64, gauss_sigma), OPT(T_INT, solver), OPT(T_INT, wavelet),
-    OPT(T_INT, levels), OPT(T_F32, lambda), OPT(T_F64, sigma_scale), OPT(T_F64, sigma_spacing),
-    OPT(T_INT, output), OPT(T_INT, correct), OPT(T_F64, cv_n0), OPT(T_F64, tol), OPT(T_INT, max_iter),
-    OPT(T_F64, tau_rel), OPT(T_INT, model_grid), OPT(T_INT, stop), OPT(T_INT, continuation),
-    OPT(T_INT, debias), OPT(T_SIZE, romp_s), OPT(T_F64, romp_max_support), OPT(T_INT, romp_normalize),
-    OPT(T_INT, romp_seed_levels), OPT(T_INT, romp_lsq_iter), OPT(T_INT, romp_preset),
-    OPT(T_BOOL, frames), OPT(T_U64, seed), OPT(T_F64, motion_resid_sigma),
-    OPT(T_BOOL, motion_full_spectrum), OPT(T_BOOL, motion_debias),
-    /* the tile options decide the layout, which the partial holds itself */
-};
-#undef OPT
+/* The options in a partial: every row of the library's option table but the tile options (the
+ * partial holds the layout they decided), by name, as the text csi_recon_option_get writes and
+ * csi_recon_option_set reads back (numbers round-trip exactly). */
+static bool partial_option(const char *name)
+{
+    return strcmp(name, "mem-budget") && strcmp(name, "tiles") && strcmp(name, "tile-margin") &&
+           strcmp(name, "tile-margin-t");
+}
 
 /* ---- a growable little-endian byte stream ---- */
 typedef struct {
@@ -173,19 +162,21 @@ static void get_f32s(rbuf *r, float *a, size_t n)
 
 static void put_options(wbuf *w, const csi_recon_options *o)
 {
-    put_u32(w, (uint32_t)(sizeof opt_fields / sizeof opt_fields[0]));
-    for (size_t i = 0; i < sizeof opt_fields / sizeof opt_fields[0]; i++) {
-        const unsigned char *f = (const unsigned char *)o + opt_fields[i].off;
-        put_str(w, opt_fields[i].name, 24);
-        switch (opt_fields[i].type) {
-        case T_INT: { int v; memcpy(&v, f, sizeof v); put_i32(w, v); break; }
-        case T_U32: { uint32_t v; memcpy(&v, f, sizeof v); put_u32(w, v); break; }
-        case T_U64: { uint64_t v; memcpy(&v, f, sizeof v); put_u64(w, v); break; }
-        case T_SIZE: { size_t v; memcpy(&v, f, sizeof v); put_u64(w, v); break; }
-        case T_F32: { float v; memcpy(&v, f, sizeof v); put_f64(w, v); break; }
-        case T_F64: { double v; memcpy(&v, f, sizeof v); put_f64(w, v); break; }
-        default: { bool v; memcpy(&v, f, sizeof v); put_u32(w, v); break; }
-        }
+    uint32_t count = 0;
+    for (size_t i = 0; i < csi_option_count(); i++) {
+        csi_option_info info;
+        count += csi_option_describe(i, &info) == CSI_OK && partial_option(info.name);
+    }
+    put_u32(w, count);
+    for (size_t i = 0; i < csi_option_count(); i++) {
+        csi_option_info info;
+        char value[64];
+        if (csi_option_describe(i, &info) != CSI_OK || !partial_option(info.name))
+            continue;
+        if (csi_recon_option_get(o, info.name, value, sizeof value) != CSI_OK)
+            value[0] = '\0';
+        put_str(w, info.name, 32);
+        put_str(w, value, sizeof value);
     }
 }
 
@@ -193,27 +184,16 @@ static void get_options(rbuf *r, csi_recon_options *o)
 {
     csi_recon_defaults(o);
     const uint32_t count = get_u32(r);
-    if (count != sizeof opt_fields / sizeof opt_fields[0]) {
+    if (count > 4096) {
         r->bad = true;
         return;
     }
-    for (size_t i = 0; i < count && !r->bad; i++) {
-        char name[24];
+    for (uint32_t i = 0; i < count && !r->bad; i++) {
+        char name[32], value[64];
         get_str(r, name, sizeof name);
-        if (strcmp(name, opt_fields[i].name)) {
-            r->bad = true;
-            return;
-        }
-        unsigned char *f = (unsigned char *)o + opt_fields[i].off;
-        switch (opt_fields[i].type) {
-        case T_INT: { int v = get_i32(r); memcpy(f, &v, sizeof v); break; }
-        case T_U32: { uint32_t v = get_u32(r); memcpy(f, &v, sizeof v); break; }
-        case T_U64: { uint64_t v = get_u64(r); memcpy(f, &v, sizeof v); break; }
-        case T_SIZE: { size_t v = (size_t)get_u64(r); memcpy(f, &v, sizeof v); break; }
-        case T_F32: { float v = (float)get_f64(r); memcpy(f, &v, sizeof v); break; }
-        case T_F64: { double v = get_f64(r); memcpy(f, &v, sizeof v); break; }
-        default: { bool v = get_u32(r) != 0; memcpy(f, &v, sizeof v); break; }
-        }
+        get_str(r, value, sizeof value);
+        if (!r->bad && (!partial_option(name) || csi_recon_option_set(o, name, value) != CSI_OK))
+            r->bad = true; /* an option this program does not know: another version's partial */
     }
 }
 
