@@ -18,7 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "csi/spectral.h"
+#include "csi/gaussian.h"
 
 #define PI_ 3.14159265358979323846
 #define MAX_PASSES 24

@@ -10,6 +10,7 @@
  * the memory layout of the squeezed array is the same), so 16 x 1 x 8 is planned as 16 x 8. */
 #include "csi/spectral.h"
 
+#include "csi/gaussian.h"
 #include "fft_filter.h"
 
 #include <clFFT.h>
@@ -27,33 +28,6 @@ static csi_status clfft_check(clfftStatus s, const char *call)
     return csi_fail(CSI_ERR_CL, "%s failed with %s", call, csi_clfft_error_name((int)s));
 }
 #define CLFFT_TRY(call) CSI_TRY(clfft_check((call), #call))
-
-void csi_gauss_sigmas(size_t grid, size_t out, double *sigma_phi, double *sigma_g_for_n)
-{
-    double sp = 0.0, sg = 0.0;
-    if (grid > 0 && out > 0) {
-        /* Alg. 1 step 2: 2 sigma_Phi spans half the block averaged into one output cell, plus
-         * 10%: sigma_Phi = 1.1 * (1/4) * (grid/out); sigma_G = n / (2 pi sigma_Phi). */
-        sp = 1.1 * 0.25 * ((double)grid / (double)out);
-        sg = (double)grid / (2.0 * CSI_PI * sp);
-    }
-    if (sigma_phi)
-        *sigma_phi = sp;
-    if (sigma_g_for_n)
-        *sigma_g_for_n = sg;
-}
-
-double csi_gauss_gain_1d(size_t n, size_t k, double sigma_phi)
-{
-    if (sigma_phi <= 0.0 || n == 0)
-        return 1.0;
-    /* Signed index in [-n/2, n/2): numpy's fftfreq order. */
-    double u = (k < (n + 1) / 2) ? (double)k : (double)k - (double)n;
-    /* exp(-u^2 / (2 sigma_G^2)) with sigma_G = n / (2 pi sigma_phi)
-     * = exp(-2 pi^2 sigma_phi^2 u^2 / n^2). */
-    double f = u / (double)n;
-    return exp(-2.0 * CSI_PI * CSI_PI * sigma_phi * sigma_phi * f * f);
-}
 
 /* n has only the factors 2, 3, 5, 7 (the radices clFFT 2.12 generates kernels for). */
 static int radix_ok(size_t n)

@@ -17,6 +17,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 
+#include "csi/gaussian.h" /* the filter's width and gain */
 #include "csi/linop.h"
 #include "csi/runtime.h"
 #include "csi/status.h"
@@ -24,16 +25,6 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/* The paper's Alg. 1 step 2 for one axis: sigma_phi = 1.1 * (1/4) * (grid / out) (grid cells)
- * and sigma_g_for_n = grid / (2 pi sigma_phi) (DFT-index units for an axis of `grid` samples).
- * grid = 0 or out = 0 gives 0 for both (no filtering). Either output pointer may be NULL. */
-void csi_gauss_sigmas(size_t grid, size_t out, double *sigma_phi, double *sigma_g_for_n);
-
-/* Frequency response of one axis: exp(-u^2 / (2 sigma_G^2)) with sigma_G = n / (2 pi sigma_phi)
- * and u the signed frequency index of DFT bin `k` (k < n/2 ... -> k, else k - n). sigma_phi = 0
- * gives 1 (no filtering along the axis). Exposed for tests and for callers that want G. */
-double csi_gauss_gain_1d(size_t n, size_t k, double sigma_phi);
 
 typedef enum { CSI_FILTER_GAUSS, CSI_FILTER_WIENER } csi_filter_kind;
 
