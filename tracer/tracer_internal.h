@@ -4,6 +4,9 @@
 
 #include "csi_tracer.h"
 
+#include <math.h>
+#include <string.h>
+
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
@@ -100,6 +103,20 @@ struct csi_scene {
     double extent;               /* size of the scene's bounding box (for ray offsets) */
 };
 
+/* ---- small vector helpers ------------------------------------------------------------------- */
+
+static inline double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static inline void cross3(const double a[3], const double b[3], double o[3])
+{
+    double r[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                   a[0] * b[1] - a[1] * b[0]};
+    memcpy(o, r, sizeof r);
+}
+static inline double norm3(const double a[3]) { return sqrt(dot3(a, a)); }
+
 /* Motion: the keyed transform at shutter fraction s in [0, 1]; p' = T + R (S * p). */
 typedef struct tr_xform {
     double m[3][3];              /* R * diag(S) */
@@ -119,6 +136,9 @@ static inline void tr_xform_dir(const tr_xform *x, const double p[3], double o[3
 }
 /* Inverse of an affine transform; false if singular. */
 bool tr_xform_invert(const tr_xform *x, tr_xform *inv);
+/* Quaternion (w, x, y, z) of an axis-angle rotation and back (motion.c). */
+void tr_aa_to_q(const double axis[3], double ang, double q[4]);
+void tr_q_to_aa(const double q[4], double axis[3], double *ang);
 
 /* Images (PNG 8/16 bit via libpng, sRGB decoded to linear; EXR via OpenEXR's C API). */
 csi_status tr_image_load(const char *path, uint32_t *w, uint32_t *h, float **rgb);
