@@ -1,5 +1,5 @@
 /* Mixed-radix Stockham FFT passes written for CPU OpenCL (PoCL), used by the Gaussian / Wiener
- * filter (host/ops/fft.c); clFFT stays the reference the tests check them against.
+ * filter (host/ops/fft_filter.c); clFFT stays the reference the tests check them against.
  *
  * Why not clFFT alone: its kernels are written for GPUs (work-groups of 64-256 sharing local
  * memory between barriers, plus transposes between axes); on PoCL a 1024^2 R2C + C2R pass took
