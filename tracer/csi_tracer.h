@@ -49,6 +49,10 @@ csi_status csi_scene_parse(const char *text, const char *name, const char *base_
                            csi_scene **out);
 void csi_scene_free(csi_scene *scene);
 
+/* The files the scene read besides itself (OBJ meshes, textures), in the order read. */
+size_t csi_scene_input_count(const csi_scene *scene);
+const char *csi_scene_input(const csi_scene *scene, size_t i);
+
 /* Image size declared by the camera (`size W H`). */
 void csi_scene_image_size(const csi_scene *scene, uint32_t *width, uint32_t *height);
 /* Number of objects (spheres, planes, boxes, meshes) in file order. */

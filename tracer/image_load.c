@@ -3,6 +3,7 @@
  * exr_start_read, exr_read_scanline_chunk_info, exr_decoding_*), already linear. */
 #include "tracer_internal.h"
 
+#include <inttypes.h>
 #include <math.h>
 #include <png.h>
 #include <stdlib.h>
@@ -10,8 +11,25 @@
 
 #include <OpenEXR/openexr.h>
 
+#include "csi/host_memory.h"
+#include "csi/infile.h"
+
 /* Limit on texture size: 16k x 16k RGB float is 3 GiB, so cap the pixel count well below. */
 #define TR_MAX_TEXELS (8192u * 8192u)
+
+/* A decoded texture holds 12 bytes per texel (RGB float), and the PNG path 3 more while it
+ * decodes: refuse one the host cannot hold before allocating it. */
+static csi_status check_texels(const char *path, uint64_t texels)
+{
+    const uint64_t need = 15 * texels, avail = csi_host_available_bytes();
+    if (avail && need > avail) {
+        char a[32], b[32];
+        return csi_fail(CSI_ERR_TOO_LARGE, "%s: the texture's %" PRIu64 " texels need %s of host memory, more than "
+                        "the %s available", path, texels, csi_bytes_text(need, a, sizeof a),
+                        csi_bytes_text(avail, b, sizeof b));
+    }
+    return CSI_OK;
+}
 
 static float srgb_to_linear(float c)
 {
@@ -33,6 +51,10 @@ static csi_status load_png(const char *path, uint32_t *w, uint32_t *h, float **r
     }
     img.format = PNG_FORMAT_RGB; /* 8-bit sRGB; alpha composited on black by libpng */
     size_t n = (size_t)img.width * img.height;
+    if (check_texels(path, n) != CSI_OK) {
+        png_image_free(&img);
+        return CSI_ERR_TOO_LARGE;
+    }
     unsigned char *buf = malloc(3 * n);
     float *out = malloc(3 * n * sizeof(float));
     if (!buf || !out) {
@@ -100,6 +122,10 @@ static csi_status load_exr(const char *path, uint32_t *w, uint32_t *h, float **r
         return csi_fail(CSI_ERR_FORMAT, "EXR '%s' has an unusable size", path);
     }
     size_t n = (size_t)ww * (size_t)hh;
+    if (check_texels(path, n) != CSI_OK) {
+        exr_finish(&ctx);
+        return CSI_ERR_TOO_LARGE;
+    }
     float *out = calloc(3 * n, sizeof(float));
     if (!out) {
         exr_finish(&ctx);
@@ -180,9 +206,8 @@ static csi_status load_exr(const char *path, uint32_t *w, uint32_t *h, float **r
 
 csi_status tr_image_load(const char *path, uint32_t *w, uint32_t *h, float **rgb)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return csi_fail(CSI_ERR_IO, "cannot open image '%s'", path);
+    FILE *f;
+    CSI_TRY(csi_infile_open(path, "texture", 0, &f, NULL));
     unsigned char magic[8] = {0};
     size_t got = fread(magic, 1, 8, f);
     fclose(f);

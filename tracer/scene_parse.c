@@ -4,6 +4,9 @@
  * '#' starts a comment. Every error names file:line:column and what was expected. */
 #include "tracer_internal.h"
 
+#include "csi/host_memory.h"
+#include "csi/infile.h"
+
 #include <ctype.h>
 #include <stdarg.h>
 #include <errno.h>
@@ -309,6 +312,23 @@ static void join_path(const char *dir, const char *file, char *out, size_t n)
         snprintf(out, n, "%s/%s", dir, file);
 }
 
+/* Records a file the scene reads (its outputs must not overwrite it). */
+static csi_status scene_input(csi_scene *sc, const char *path)
+{
+    char **ni = realloc(sc->inputs, (sc->n_inputs + 1) * sizeof *ni);
+    if (!ni)
+        return csi_fail(CSI_ERR_NOMEM, "out of memory (scene inputs)");
+    sc->inputs = ni;
+    size_t n = strlen(path) + 1;
+    if (!(sc->inputs[sc->n_inputs] = malloc(n)))
+        return csi_fail(CSI_ERR_NOMEM, "out of memory (scene inputs)");
+    memcpy(sc->inputs[sc->n_inputs++], path, n);
+    return CSI_OK;
+}
+
+size_t csi_scene_input_count(const csi_scene *sc) { return sc->n_inputs; }
+const char *csi_scene_input(const csi_scene *sc, size_t i) { return i < sc->n_inputs ? sc->inputs[i] : NULL; }
+
 static csi_status parse_material(parser *p)
 {
     csi_scene *sc = p->sc;
@@ -359,7 +379,9 @@ static csi_status parse_material(parser *p)
                 tr_texture tx;
                 memset(&tx, 0, sizeof tx);
                 snprintf(tx.path, sizeof tx.path, "%s", path);
-                csi_status st = tr_image_load(path, &tx.w, &tx.h, &tx.rgb);
+                csi_status st = scene_input(sc, path);
+                if (st == CSI_OK)
+                    st = tr_image_load(path, &tx.w, &tx.h, &tx.rgb);
                 if (st != CSI_OK)
                     return csi_fail_context(CSI_ERR_SCENE, "%s:%d:%d: texture: ", p->name,
                                             ft.line, ft.col);
@@ -461,19 +483,36 @@ static csi_status check_mesh(const tr_object *o, const char *where)
     return CSI_OK;
 }
 
-static csi_status load_obj(const char *path, tr_object *o)
+csi_status tr_obj_parse(const char *text, size_t len, const char *path, tr_object *o)
 {
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return csi_fail(CSI_ERR_SCENE, "cannot open OBJ file '%s': %s", path, strerror(errno));
     fbuf v = {0}, vt = {0}, pos = {0}, uv = {0};
     ubuf tri = {0};
-    char line[4096];
+    /* One line at a time into a buffer as long as the longest line (no length limit). */
+    char *line = NULL;
+    size_t line_cap = 0, at = 0;
     int ln = 0;
     csi_status st = CSI_OK;
     bool any_uv = false;
-    while (st == CSI_OK && fgets(line, sizeof line, f)) {
+    while (st == CSI_OK && at < len) {
+        const char *nl = memchr(text + at, '\n', len - at);
+        const size_t ll = (nl ? (size_t)(nl - text) : len) - at;
         ln++;
+        if (ll + 1 > line_cap) {
+            char *nb = realloc(line, ll + 1);
+            if (!nb) {
+                st = csi_fail(CSI_ERR_NOMEM, "%s:%d: out of memory for a line of %zu bytes", path, ln, ll);
+                break;
+            }
+            line = nb;
+            line_cap = ll + 1;
+        }
+        memcpy(line, text + at, ll);
+        line[ll] = '\0';
+        at += ll + 1;
+        if (memchr(line, '\0', ll)) {
+            st = csi_fail(CSI_ERR_SCENE, "%s:%d: a NUL byte (not a text OBJ file)", path, ln);
+            break;
+        }
         char *s = line;
         while (*s == ' ' || *s == '\t')
             s++;
@@ -508,7 +547,11 @@ static csi_status load_obj(const char *path, tr_object *o)
                     break;
                 char *end;
                 long a = strtol(s, &end, 10), b = 0;
-                if (end == s || n >= 64) {
+                if (n >= 64) {
+                    st = csi_fail(CSI_ERR_SCENE, "%s:%d: a face with more than 64 vertices", path, ln);
+                    break;
+                }
+                if (end == s) {
                     st = csi_fail(CSI_ERR_SCENE, "%s:%d: bad face vertex", path, ln);
                     break;
                 }
@@ -575,7 +618,7 @@ static csi_status load_obj(const char *path, tr_object *o)
             st = csi_fail(CSI_ERR_SCENE, "%s:%d: unknown OBJ statement '%s'", path, ln, kw);
         }
     }
-    fclose(f);
+    free(line);
     free(v.v);
     free(vt.v);
     if (st == CSI_OK && tri.n == 0)
@@ -596,6 +639,29 @@ static csi_status load_obj(const char *path, tr_object *o)
         free(uv.v);
     }
     return CSI_OK;
+}
+
+/* OBJ files larger than this are refused: a mesh holds about 5x its file in memory (vertices
+ * unshared per face, uvs, triangles) before Embree builds its BVH, so 256 MiB (about 10 million
+ * triangles) already takes gigabytes. */
+#define TR_OBJ_MAX_BYTES (UINT64_C(256) << 20)
+
+static csi_status load_obj(const char *path, tr_object *o)
+{
+    char *text;
+    size_t len;
+    CSI_TRY(csi_infile_read_all(path, "OBJ mesh", TR_OBJ_MAX_BYTES, &text, &len));
+    const uint64_t need = 8 * (uint64_t)len, avail = csi_host_available_bytes();
+    csi_status st;
+    if (avail && need > avail) {
+        char a[32], b[32];
+        st = csi_fail(CSI_ERR_TOO_LARGE, "%s: the OBJ mesh needs about %s of host memory, more than the %s "
+                      "available", path, csi_bytes_text(need, a, sizeof a), csi_bytes_text(avail, b, sizeof b));
+    } else {
+        st = tr_obj_parse(text, len, path, o);
+    }
+    free(text);
+    return st;
 }
 
 static csi_status make_quad(tr_object *o, const double c[3], const double eu[3],
@@ -820,9 +886,12 @@ static csi_status parse_object_body(parser *p, tr_object *o, const token *start)
             if (has_file && (verts.n || tris.n))
                 st = perr(p, &file_tok, "a mesh has either 'file' or 'vertices'/'triangles'");
             else if (has_file) {
-                st = load_obj(file_path, o);
-                if (st != CSI_OK)
-                    csi_fail_context(st, "%s:%d:%d: ", p->name, file_tok.line, file_tok.col);
+                st = scene_input(p->sc, file_path);
+                if (st == CSI_OK)
+                    st = load_obj(file_path, o);
+                if (st != CSI_OK) /* a scene error, unless it is a size the host cannot hold */
+                    st = csi_fail_context(st == CSI_ERR_TOO_LARGE || st == CSI_ERR_NOMEM ? st : CSI_ERR_SCENE,
+                                          "%s:%d:%d: ", p->name, file_tok.line, file_tok.col);
             } else {
                 if (verts.n == 0 || verts.n % 3 || tris.n == 0 || tris.n % 3)
                     st = perr(p, start, "mesh: 'vertices' needs a multiple of 3 numbers and "
@@ -1080,7 +1149,7 @@ static csi_status parse_top(parser *p)
             CSI_TRY(read_color(p, "background", sc->background, true));
         } else if (is_word(p, "frames")) {
             lex_next(p);
-            CSI_TRY(read_uint(p, "frames", 1, 4096, &sc->frames));
+            CSI_TRY(read_uint(p, "frames", 1, CSI_GRID_MAX_FRAMES, &sc->frames));
         } else if (is_word(p, "ambient_occlusion")) {
             bool on;
             CSI_TRY(parse_toggle_block(p, "ambient_occlusion", &on));
@@ -1234,39 +1303,19 @@ csi_status csi_scene_parse(const char *text, const char *name, const char *base_
     return CSI_OK;
 }
 
+/* Scene files larger than this are refused: scenes are written by hand or by small generators
+ * (the bundled garden, 3000 grass blades in an OBJ and 350 leaf cards inline, is 44 KB);
+ * large meshes belong in OBJ files. */
+#define TR_SCENE_MAX_BYTES (UINT64_C(16) << 20)
+
 csi_status csi_scene_load(const char *path, csi_scene **out)
 {
     *out = NULL;
     if (!path)
         return csi_fail(CSI_ERR_ARG, "csi_scene_load: NULL path");
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return csi_fail(CSI_ERR_IO, "cannot open scene '%s': %s", path, strerror(errno));
-    char *buf = NULL;
-    size_t n = 0, cap = 0;
-    for (;;) {
-        if (n + 4096 + 1 > cap) {
-            cap = cap ? 2 * cap : 65536;
-            char *nb = realloc(buf, cap);
-            if (!nb) {
-                free(buf);
-                fclose(f);
-                return csi_fail(CSI_ERR_NOMEM, "out of memory reading '%s'", path);
-            }
-            buf = nb;
-        }
-        size_t r = fread(buf + n, 1, 4096, f);
-        n += r;
-        if (r < 4096)
-            break;
-    }
-    bool err = ferror(f);
-    fclose(f);
-    if (err) {
-        free(buf);
-        return csi_fail(CSI_ERR_IO, "cannot read scene '%s'", path);
-    }
-    buf[n] = '\0';
+    char *buf;
+    size_t n;
+    CSI_TRY(csi_infile_read_all(path, "scene", TR_SCENE_MAX_BYTES, &buf, &n));
     if (strlen(buf) != n) {
         free(buf);
         return csi_fail(CSI_ERR_SCENE, "%s: contains a NUL byte (not a text scene)", path);
@@ -1296,6 +1345,9 @@ void csi_scene_free(csi_scene *sc)
     free(sc->materials);
     free(sc->lights);
     free(sc->camera.motion.keys);
+    for (size_t i = 0; i < sc->n_inputs; i++)
+        free(sc->inputs[i]);
+    free(sc->inputs);
     free(sc);
 }
 

@@ -101,6 +101,8 @@ struct csi_scene {
     tr_light *lights;
     size_t n_lights;
     double extent;               /* size of the scene's bounding box (for ray offsets) */
+    char **inputs;               /* files read besides the scene: OBJ meshes, textures */
+    size_t n_inputs;
 };
 
 /* ---- small vector helpers ------------------------------------------------------------------- */
@@ -142,5 +144,7 @@ void tr_q_to_aa(const double q[4], double axis[3], double *ang);
 
 /* Images (PNG 8/16 bit via libpng, sRGB decoded to linear; EXR via OpenEXR's C API). */
 csi_status tr_image_load(const char *path, uint32_t *w, uint32_t *h, float **rgb);
+/* Parses an OBJ mesh (v, vt, f; polygons fanned) of len bytes; `path` names it in messages. */
+csi_status tr_obj_parse(const char *text, size_t len, const char *path, tr_object *o);
 
 #endif

@@ -2,9 +2,26 @@
 #include "csi/host_memory.h"
 
 #include <errno.h>
+#include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+const char *csi_bytes_text(uint64_t bytes, char *buf, size_t len)
+{
+    static const char *u[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB"};
+    double b = (double)bytes;
+    int i = 0;
+    while (b >= 1024.0 && i < 5) {
+        b /= 1024.0;
+        i++;
+    }
+    if (i == 0)
+        snprintf(buf, len, "%" PRIu64 " B", bytes);
+    else
+        snprintf(buf, len, "%.1f %s", b, u[i]);
+    return buf;
+}
 
 uint64_t csi_host_available_bytes(void)
 {

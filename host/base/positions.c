@@ -529,6 +529,29 @@ uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uin
 
 /* ---- entry ------------------------------------------------------------------------------- */
 
+csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes)
+{
+    size_t N;
+    CSI_TRY(csi_positions_count(g, o, &N));
+    const uint64_t k = (uint64_t)g->w * g->h * g->t;
+    /* the linear indices (8 N), the result (12 N), the radix sort's copy (8 N) and counts */
+    uint64_t b = 28 * (uint64_t)N + 65536 * sizeof(size_t);
+    if (o->method == CSI_POS_POISSON) {
+        /* the accepted points and their chains (20 N), the occupancy bitmap, and the buckets'
+         * heads (8 bytes per bucket of side ceil(r)). With the bitmap, buckets exist only when
+         * more than PD_MAX_OFFSETS offsets lie within r: r > 6.3 cells in 2-D (sides >= 7), r >
+         * 3.1 in 3-D (sides >= 4); without it, any r > 1 (sides >= 2). */
+        b += 20 * (uint64_t)N + PD_MAX_OFFSETS * 12;
+        const bool bitmap = k <= PD_MAX_BITMAP_CELLS;
+        if (bitmap)
+            b += (k + 63) / 64 * 8;
+        const uint64_t cs = !bitmap ? 2 : g->t > 1 ? 4 : 7;
+        b += 8 * ((g->w + cs - 1) / cs) * ((g->h + cs - 1) / cs) * (g->t > 1 ? (g->t + cs - 1) / cs : 1);
+    }
+    *bytes = b;
+    return CSI_OK;
+}
+
 csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out, size_t *n,
                          csi_pos_info *info)
 {

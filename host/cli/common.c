@@ -32,12 +32,22 @@ int cli_error(const char *prog, csi_status st, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    /* One line: fold any newline a library message might carry. */
-    for (char *p = msg; *p; p++)
-        if (*p == '\n' || *p == '\r')
-            *p = ' ';
-    fprintf(stderr, "%s: error: %s\n", prog, msg);
+    /* One line, and nothing an input put in it reaches the terminal raw. */
+    char safe[sizeof msg];
+    csi_escape_controls(msg, safe, sizeof safe);
+    fprintf(stderr, "%s: error: %s\n", prog, safe);
     return st == CSI_OK ? CLI_EXIT_USAGE : cli_exit_code(st);
+}
+
+void cli_warn(const char *prog, const char *fmt, ...)
+{
+    char msg[4096], safe[4096];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    csi_escape_controls(msg, safe, sizeof safe);
+    fprintf(stderr, "%s: warning: %s\n", prog, safe);
 }
 
 bool cli_parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out)

@@ -16,6 +16,12 @@ int cli_error(const char *prog, csi_status st, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
+/* Prints "prog: warning: message" on one line (control characters escaped). */
+void cli_warn(const char *prog, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
 /* Exit code for a library failure: input problems -> 2, the rest -> 1. */
 int cli_exit_code(csi_status st);
 

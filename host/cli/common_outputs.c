@@ -8,47 +8,60 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "csi/dump.h"
 #include "csi/image.h"
+#include "csi/outset.h"
 
-static csi_status check_dir_of(const char *path, const char *what)
+static void frame_name(char *buf, size_t len, uint32_t t, const char *ext)
 {
-    if (!path)
-        return CSI_OK;
-    char dir[PATH_MAX];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (!slash)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
-    struct stat sb;
-    if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode))
-        return csi_fail(CSI_ERR_IO, "%s: cannot write %s: directory %s does not exist", path, what, dir);
-    if (access(dir, W_OK) != 0)
-        return csi_fail(CSI_ERR_IO, "%s: cannot write %s: directory %s is not writable", path, what, dir);
+    snprintf(buf, len, "frame_%04u.%s", t, ext);
+}
+
+csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nframes)
+{
+    if (o->exr)
+        CSI_TRY(csi_outset_file(set, o->exr, "the image (-o)"));
+    if (o->png)
+        CSI_TRY(csi_outset_file(set, o->png, "the preview (--png)"));
+    if (o->stats)
+        CSI_TRY(csi_outset_file(set, o->stats, "the statistics (--stats)"));
+    if (o->frames_dir && nframes) {
+        CSI_TRY(csi_outset_dir(set, o->frames_dir, "the frames folder (--frames)"));
+        for (uint32_t t = 0; t < nframes; t++) {
+            char name[32];
+            frame_name(name, sizeof name, t, "exr");
+            CSI_TRY(csi_outset_dir_file(set, o->frames_dir, name, "a frame (--frames)"));
+            frame_name(name, sizeof name, t, "png");
+            CSI_TRY(csi_outset_dir_file(set, o->frames_dir, name, "a frame's preview (--frames)"));
+        }
+    }
     return CSI_OK;
 }
 
-csi_status cli_outputs_check(const cli_outputs *o)
+/* A writer's message names its temporary file: name the output instead. */
+csi_status cli_named(csi_status s, const char *tmp, const char *path)
 {
-    CSI_TRY(check_dir_of(o->exr, "the image"));
-    CSI_TRY(check_dir_of(o->png, "the preview"));
-    CSI_TRY(check_dir_of(o->stats, "the statistics"));
-    if (o->frames_dir) {
-        struct stat sb;
-        if (stat(o->frames_dir, &sb) != 0) {
-            if (mkdir(o->frames_dir, 0755) != 0)
-                return csi_fail(CSI_ERR_IO, "%s: cannot create the frames directory: %s", o->frames_dir,
-                                strerror(errno));
-        } else if (!S_ISDIR(sb.st_mode)) {
-            return csi_fail(CSI_ERR_IO, "%s: not a directory (for --frames)", o->frames_dir);
-        }
-        if (access(o->frames_dir, W_OK) != 0)
-            return csi_fail(CSI_ERR_IO, "%s: frames directory is not writable", o->frames_dir);
+    const char *m = csi_last_error();
+    if (s != CSI_OK && tmp && path && !strncmp(m, tmp, strlen(tmp))) {
+        char rest[1024];
+        snprintf(rest, sizeof rest, "%s", m + strlen(tmp));
+        csi_fail(s, "%s%s", path, rest);
     }
-    return CSI_OK;
+    return s;
+}
+
+csi_status cli_write_dump(csi_outset *set, const char *path, const csi_dump *d)
+{
+    const char *tmp;
+    CSI_TRY(csi_outset_tmp(set, path, &tmp));
+    return cli_named(csi_dump_write(tmp, d), tmp, path);
+}
+
+csi_status cli_write_stats(csi_outset *set, const char *path, csi_json *j)
+{
+    const char *tmp;
+    CSI_TRY(csi_outset_tmp(set, path, &tmp));
+    return cli_named(csi_json_write(j, tmp), tmp, path);
 }
 
 /* FNV-1a over the float bits of the image: two runs agree on it exactly when their pixels do. */
@@ -142,22 +155,27 @@ void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_res
     csi_json_num(j, "cpu_per_sample_us", r->n ? 1e6 * r->cpu_work / (double)r->n : 0);
 }
 
-static csi_status write_one(const char *exr, const char *png, const float *planes, uint32_t w,
+static csi_status write_one(csi_outset *set, const char *exr, const char *png, const float *planes, uint32_t w,
                             uint32_t h, uint32_t channels, const csi_attr *attrs, size_t nattrs)
 {
+    const char *exr_tmp = NULL, *png_tmp = NULL;
+    if (exr)
+        CSI_TRY(csi_outset_tmp(set, exr, &exr_tmp));
+    if (png)
+        CSI_TRY(csi_outset_tmp(set, png, &png_tmp));
     csi_image img = {0};
     CSI_TRY(csi_image_alloc(&img, w, h, channels));
     memcpy(img.data, planes, (size_t)w * h * channels * sizeof(float));
     csi_status s = CSI_OK;
-    if (exr)
-        s = csi_exr_write(exr, &img, attrs, nattrs);
-    if (s == CSI_OK && png)
-        s = csi_png_write(png, &img);
+    if (exr_tmp)
+        s = cli_named(csi_exr_write(exr_tmp, &img, attrs, nattrs), exr_tmp, exr);
+    if (s == CSI_OK && png_tmp)
+        s = cli_named(csi_png_write(png_tmp, &img), png_tmp, png);
     csi_image_free(&img);
     return s;
 }
 
-csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, const char *method)
+csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_recon_result *r, const char *method)
 {
     double iters = 0, resid = 0;
     for (uint32_t c = 0; c < r->channels; c++) {
@@ -168,7 +186,8 @@ csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, con
     char ver[64];
     snprintf(ver, sizeof ver, "csi %s", CSI_VERSION);
     /* The run's figures, then every option as used ("csi:option:NAME"; numbers as doubles,
-     * choices, flags, auto and off as strings). */
+     * choices, flags, auto and off as strings): only what the inputs decide, so the same inputs
+     * and seed give the same bytes (timings are in the statistics, --stats). */
     enum { MAX_ATTRS = 160 };
     csi_attr attrs[MAX_ATTRS];
     char texts[MAX_ATTRS][48], names[MAX_ATTRS][64];
@@ -182,8 +201,6 @@ csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, con
     attrs[nattrs++] = CSI_ATTR_D("csi:tiles", (double)r->tiles);
     attrs[nattrs++] = CSI_ATTR_D("csi:iterations", iters);
     attrs[nattrs++] = CSI_ATTR_D("csi:max_rel_residual", resid);
-    attrs[nattrs++] = CSI_ATTR_D("csi:t_solve_s", r->t_solve);
-    attrs[nattrs++] = CSI_ATTR_D("csi:t_total_s", r->t_setup + r->t_solve + r->t_integrate);
     for (size_t i = 0; i < csi_option_count() && nattrs < MAX_ATTRS; i++) {
         csi_option_info info;
         double v;
@@ -199,14 +216,16 @@ csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, con
         nattrs++;
     }
     csi_clear_error();
-    CSI_TRY(write_one(o->exr, o->png, r->image, r->out_w, r->out_h, r->channels, attrs, nattrs));
+    CSI_TRY(write_one(set, o->exr, o->png, r->image, r->out_w, r->out_h, r->channels, attrs, nattrs));
     if (o->frames_dir && r->nframes) {
         const size_t plane = (size_t)r->out_w * r->out_h * r->channels;
         for (uint32_t t = 0; t < r->nframes; t++) {
-            char exr[PATH_MAX], png[PATH_MAX];
-            snprintf(exr, sizeof exr, "%s/frame_%04u.exr", o->frames_dir, t);
-            snprintf(png, sizeof png, "%s/frame_%04u.png", o->frames_dir, t);
-            CSI_TRY(write_one(exr, png, r->frames + t * plane, r->out_w, r->out_h, r->channels, attrs,
+            char exr[PATH_MAX], png[PATH_MAX], name[32];
+            frame_name(name, sizeof name, t, "exr");
+            snprintf(exr, sizeof exr, "%s/%s", o->frames_dir, name);
+            frame_name(name, sizeof name, t, "png");
+            snprintf(png, sizeof png, "%s/%s", o->frames_dir, name);
+            CSI_TRY(write_one(set, exr, png, r->frames + t * plane, r->out_w, r->out_h, r->channels, attrs,
                               nattrs));
         }
     }

@@ -103,12 +103,19 @@ int main(int argc, char **argv)
     if (!rc && frames && (first.tiling.grid.t == 1 || !first.options.frames))
         rc = cli_error(prog, CSI_ERR_ARG, "--frames: the partials hold no frames (%s)",
                        first.tiling.grid.t == 1 ? "a static image" : "run the tiles with --partial-frames");
+    /* Every output stated before the merge (none may be a partial), written all or nothing. */
+    csi_outset *set = NULL;
     if (!rc) {
-        s = cli_outputs_check(&outs);
+        s = csi_outset_create(&set);
+        for (int a = optind; a < argc && s == CSI_OK; a++)
+            s = csi_outset_input(set, argv[a]);
+        if (s == CSI_OK)
+            s = cli_outputs_stage(&outs, set, frames ? first.tiling.grid.t : 0);
         if (s != CSI_OK)
             rc = cli_error(prog, s, "%s", csi_last_error());
     }
     if (rc) {
+        csi_outset_free(set);
         free(by_index);
         cli_partial_free(&first);
         return rc;
@@ -140,7 +147,7 @@ int main(int argc, char **argv)
     res.options = first.options;                     /* the options as the tiles were given them */
     res.options.solver = used;
     if (s == CSI_OK)
-        s = cli_write_images(&outs, &res, first.method);
+        s = cli_write_images(&outs, set, &res, first.method);
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);
@@ -154,15 +161,18 @@ int main(int argc, char **argv)
             csi_json_int(j, "out_h", first.tiling.grid.out_h);
             cli_stats_recon(j, &res);
             csi_json_num(j, "t_wall_s", cli_now() - t0);
-            s = csi_json_write(j, outs.stats);
+            s = cli_write_stats(set, outs.stats, j);
             csi_json_free(j);
         }
     }
+    if (s == CSI_OK)
+        s = csi_outset_commit(set);
     if (s != CSI_OK)
         rc = cli_error(prog, s, "%s", csi_last_error());
     else if (!quiet)
         fprintf(stderr, "%s: %ux%u from %u tiles of %s in %.2f s\n", prog, res.out_w, res.out_h, count,
                 first.input, cli_now() - t0);
+    csi_outset_free(set);
     csi_recon_result_free(&res);
     free(by_index);
     cli_partial_free(&first);

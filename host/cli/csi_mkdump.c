@@ -10,8 +10,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common.h"
+#include "outputs.h"
 #include "csi/dump.h"
+#include "csi/host_memory.h"
 #include "csi/image.h"
+#include "csi/outset.h"
 #include "csi/positions.h"
 
 #define DEFAULT_SEED 1
@@ -44,18 +48,19 @@ static void usage(FILE *f)
             DEFAULT_SPP, DEFAULT_SEED);
 }
 
+static const char *prog = "csi-mkdump";
+
+/* One line "csi-mkdump: error: ...", exit status 2 (bad arguments or input). */
 static int die(const char *fmt, const char *arg)
 {
-    fprintf(stderr, "csi-mkdump: ");
-    fprintf(stderr, fmt, arg);
-    fputc('\n', stderr);
-    return 2;
+    char msg[4096];
+    snprintf(msg, sizeof msg, fmt, arg);
+    return cli_error(prog, CSI_ERR_ARG, "%s", msg);
 }
 
 static int lib_fail(void)
 {
-    fprintf(stderr, "csi-mkdump: %s\n", csi_last_error());
-    return 2;
+    return cli_error(prog, CSI_ERR_ARG, "%s", csi_last_error());
 }
 
 static bool parse_u64(const char *s, uint64_t *out)
@@ -199,6 +204,9 @@ int main(int argc, char **argv)
         return die("%s", "no input: give an image or --frames PATTERN --count T (see --help)");
     if (frames && (!have_count || count < 2))
         return die("%s", "--frames needs --count T with T >= 2");
+    if (frames && count > CSI_GRID_MAX_FRAMES)
+        return cli_error(prog, CSI_ERR_ARG, "--count %u is more than the limit of %u frames (docs/dump-format.md)",
+                         count, CSI_GRID_MAX_FRAMES);
     if (!frames && have_count)
         return die("%s", "--count is only for --frames");
     if (frames && (uint64_t)start + count > INT32_MAX)
@@ -209,13 +217,29 @@ int main(int argc, char **argv)
     if (csi_pos_method_parse(method_s, &method) != CSI_OK)
         return lib_fail();
 
-    /* Read the image(s). */
+    /* The output: not one of the inputs, written whole or not at all (csi/outset.h). */
     const uint32_t T = frames ? count : 1;
-    csi_image *img = calloc(T, sizeof *img);
-    if (!img)
-        return die("%s", "out of memory");
-    int rc = 0;
     char name[4096];
+    csi_outset *set = NULL;
+    csi_status ss = csi_outset_create(&set);
+    for (uint32_t t = 0; t < T && ss == CSI_OK; t++) {
+        if (frames)
+            snprintf(name, sizeof name, frames, (int)(start + t));
+        ss = csi_outset_input(set, frames ? name : input);
+    }
+    if (ss == CSI_OK)
+        ss = csi_outset_file(set, output, "the dump (-o)");
+    if (ss != CSI_OK) {
+        csi_outset_free(set);
+        return lib_fail();
+    }
+    /* Read the image(s). */
+    csi_image *img = calloc(T, sizeof *img);
+    if (!img) {
+        csi_outset_free(set);
+        return die("%s", "out of memory");
+    }
+    int rc = 0;
     for (uint32_t t = 0; t < T && rc == 0; t++) {
         const char *path = input;
         if (frames) {
@@ -225,10 +249,9 @@ int main(int argc, char **argv)
         if (csi_image_read(path, &img[t]) != CSI_OK) {
             rc = lib_fail();
         } else if (t > 0 && (img[t].w != img[0].w || img[t].h != img[0].h || img[t].channels != img[0].channels)) {
-            fprintf(stderr, "csi-mkdump: %s: frame %" PRIu32 " is %" PRIu32 "x%" PRIu32 " with %" PRIu32
-                    " channels, but frame 0 is %" PRIu32 "x%" PRIu32 " with %" PRIu32 "\n", path, t, img[t].w,
-                    img[t].h, img[t].channels, img[0].w, img[0].h, img[0].channels);
-            rc = 2;
+            rc = cli_error(prog, CSI_ERR_FORMAT, "%s: frame %" PRIu32 " is %" PRIu32 "x%" PRIu32 " with %" PRIu32
+                           " channels, but frame 0 is %" PRIu32 "x%" PRIu32 " with %" PRIu32, path, t, img[t].w,
+                           img[t].h, img[t].channels, img[0].w, img[0].h, img[0].channels);
         }
     }
     csi_dump d = {0};
@@ -240,19 +263,29 @@ int main(int argc, char **argv)
         d.seed = seed;
         const char *src = frames ? frames : input;
         if (d.grid.w % out_w || d.grid.h % out_h) {
-            fprintf(stderr, "csi-mkdump: %s: image size %" PRIu32 "x%" PRIu32 " is not a multiple of --out %" PRIu32
-                    "x%" PRIu32 "\n", src, d.grid.w, d.grid.h, out_w, out_h);
-            rc = 2;
+            rc = cli_error(prog, CSI_ERR_ARG, "%s: image size %" PRIu32 "x%" PRIu32 " is not a multiple of --out %"
+                           PRIu32 "x%" PRIu32, src, d.grid.w, d.grid.h, out_w, out_h);
         } else if (csi_dump_check_grid(&d.grid, img[0].channels, 0) != CSI_OK) {
-            fprintf(stderr, "csi-mkdump: %s: %s\n", src, csi_last_error());
-            rc = 2;
+            rc = cli_error(prog, CSI_ERR_ARG, "%s: %s", src, csi_last_error());
         }
     }
     if (rc == 0) {
         csi_pos_opts po = {.method = method, .spp = have_fraction ? 0 : (have_spp ? spp : DEFAULT_SPP),
                            .fraction = have_fraction ? fraction : 0, .seed = seed};
-        if (csi_positions(&d.grid, &po, &pos, &n, &info) != CSI_OK)
+        /* positions and the dump's samples must fit the host besides the images */
+        uint64_t need = 0, avail = csi_host_available_bytes();
+        if (csi_positions_host_bytes(&d.grid, &po, &need) != CSI_OK ||
+            csi_positions_count(&d.grid, &po, &n) != CSI_OK) {
+            rc = cli_error(prog, CSI_ERR_ARG, "%s: %s", frames ? frames : input, csi_last_error());
+        } else if (need += (uint64_t)n * (12 + 4 * (uint64_t)img[0].channels), avail && need > avail) {
+            char a[32], b[32];
+            rc = cli_error(prog, CSI_ERR_TOO_LARGE, "%s: %zu samples of a %" PRIu32 "x%" PRIu32 "x%" PRIu32
+                           " grid need %s of host memory, more than the %s available", frames ? frames : input, n,
+                           d.grid.w, d.grid.h, d.grid.t, csi_bytes_text(need, a, sizeof a),
+                           csi_bytes_text(avail, b, sizeof b));
+        } else if (csi_positions(&d.grid, &po, &pos, &n, &info) != CSI_OK) {
             rc = lib_fail();
+        }
     }
     if (rc == 0) {
         const uint32_t ch = img[0].channels;
@@ -266,7 +299,7 @@ int main(int argc, char **argv)
                 for (uint32_t c = 0; c < ch; c++)
                     d.values[i * ch + c] = img[pos[i].t].data[c * plane + cell];
             }
-            if (csi_dump_write(output, &d) != CSI_OK)
+            if (cli_write_dump(set, output, &d) != CSI_OK || csi_outset_commit(set) != CSI_OK)
                 rc = lib_fail();
         }
     }
@@ -279,6 +312,7 @@ int main(int argc, char **argv)
         printf(", seed %" PRIu64 ") on a %" PRIu32 "x%" PRIu32 "x%" PRIu32 " grid for a %" PRIu32 "x%" PRIu32
                " image, %" PRIu32 " channel(s)\n", seed, d.grid.w, d.grid.h, d.grid.t, out_w, out_h, d.channels);
     }
+    csi_outset_free(set);
     csi_dump_free(&d);
     free(pos);
     for (uint32_t t = 0; t < T; t++)

@@ -10,6 +10,7 @@
 
 #include "common.h"
 #include "csi/dump.h"
+#include "csi/host_memory.h"
 #include "csi/positions.h"
 
 static const char *prog = "csi-positions";
@@ -81,8 +82,9 @@ int main(int argc, char **argv)
                 return cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to 65536", optarg);
             break;
         case O_TSTEPS:
-            if (!cli_parse_u64(optarg, 1, 4096, &tsteps))
-                return cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 1 to 4096", optarg);
+            if (!cli_parse_u64(optarg, 1, CSI_GRID_MAX_FRAMES, &tsteps))
+                return cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 1 to %u", optarg,
+                                 CSI_GRID_MAX_FRAMES);
             break;
         case O_METHOD: {
             csi_status s = csi_pos_method_parse(optarg, &method);
@@ -129,6 +131,20 @@ int main(int argc, char **argv)
     csi_pos_opts popts = {.method = method, .spp = (uint32_t)spp, .fraction = fraction, .seed = seed};
     csi_sample_pos *pos = NULL;
     size_t n = 0;
+    /* Sizes before work: the positions and the request's records must fit the host. */
+    uint64_t need = 0, avail = csi_host_available_bytes();
+    s = csi_positions_host_bytes(&grid, &popts, &need);
+    if (s == CSI_OK)
+        s = csi_positions_count(&grid, &popts, &n);
+    if (s != CSI_OK)
+        return cli_error(prog, s, "%s", csi_last_error());
+    need += 12 * (uint64_t)n;
+    if (avail && need > avail) {
+        char a[32], b[32];
+        return cli_error(prog, CSI_ERR_TOO_LARGE, "%s: %zu positions on a %ux%ux%u grid need %s of host memory, more "
+                         "than the %s available", output, n, grid.w, grid.h, grid.t, csi_bytes_text(need, a, sizeof a),
+                         csi_bytes_text(avail, b, sizeof b));
+    }
     s = csi_positions(&grid, &popts, &pos, &n, NULL);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s", csi_last_error());

@@ -13,6 +13,7 @@
 #include "csi/stats.h"
 #include "outputs.h"
 #include "recon_opts.h"
+#include "resources.h"
 #include "tile.h"
 
 static const char *prog = "csi-reconstruct";
@@ -64,7 +65,7 @@ static const char *method_name(const csi_recon_options *opt, const csi_grid *g)
 
 /* --tile I/N and --tile-info: the layout, the whole problem's scope, then one tile's partial or
  * the layout as JSON. */
-static int run_tile(csi_ctx *ctx, const csi_dump *d, const char *in, csi_recon_options *opt,
+static int run_tile(csi_ctx *ctx, csi_outset *set, const csi_dump *d, const char *in, csi_recon_options *opt,
                     const cli_tile_opts *tile, const cli_outputs *outs, bool quiet)
 {
     const size_t nv = d->count * d->channels;
@@ -90,7 +91,11 @@ static int run_tile(csi_ctx *ctx, const csi_dump *d, const char *in, csi_recon_o
                              tile->index, &res);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s: %s", in, csi_last_error());
-    s = cli_tile_write(outs->exr, method_name(opt, &d->grid), in, id, opt, &tl, &scope, &res);
+    const char *tmp = NULL;
+    if (outs->exr) /* the partial and the stats, all or nothing (csi/outset.h) */
+        s = csi_outset_tmp(set, outs->exr, &tmp);
+    if (s == CSI_OK && tmp)
+        s = cli_named(cli_tile_write(tmp, method_name(opt, &d->grid), in, id, opt, &tl, &scope, &res), tmp, outs->exr);
     if (s == CSI_OK && outs->stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);
@@ -105,10 +110,12 @@ static int run_tile(csi_ctx *ctx, const csi_dump *d, const char *in, csi_recon_o
             cli_stats_recon(j, &res.r);
             csi_json_num(j, "t_wall_s", cli_now() - t0);
             csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
-            s = csi_json_write(j, outs->stats);
+            s = cli_write_stats(set, outs->stats, j);
             csi_json_free(j);
         }
     }
+    if (s == CSI_OK)
+        s = csi_outset_commit(set);
     if (s == CSI_OK && !quiet)
         fprintf(stderr, "%s: tile %u/%u (%ux%u pixels at %u,%u) from %zu samples in %.2f s\n", prog,
                 tile->index, tl.count, res.r.out_w, res.r.out_h, res.x0, res.y0, res.r.n, cli_now() - t0);
@@ -191,43 +198,66 @@ int main(int argc, char **argv)
         opt.frames = true;
     if (!outs.exr && !outs.png && !tile.info)
         return cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
-    csi_status s = cli_outputs_check(&outs);
-    if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+    csi_status s;
 
     csi_dump dump = {0};
     csi_dump_report drep = {0};
     csi_dump_read_opts ropts = {.drop_invalid = drop};
     cli_phase_times pt = {0};
     double tp = cli_now();
-    s = csi_dump_read(in, &ropts, &dump, &drep);
-    pt.read = cli_now() - tp;
+    /* Sizes before work: the header alone decides whether the run can fit (docs/dump-format.md). */
+    csi_dump_header hdr;
+    s = csi_dump_read_header(in, &ropts, &hdr);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s", csi_last_error());
-    if (!quiet && drep.dropped_invalid)
-        fprintf(stderr, "%s: warning: %s: dropped %llu records with NaN/Inf values (first: record %llu)\n",
-                prog, in, (unsigned long long)drep.dropped_invalid, (unsigned long long)drep.first_invalid);
-    if (!quiet && drep.duplicates)
-        fprintf(stderr, "%s: warning: %s: %llu records repeat a position; their values were averaged\n",
-                prog, in, (unsigned long long)drep.duplicates);
-    if (!seed_given && dump.seed)
-        opt.seed = dump.seed; /* as csi-render ran it, so the result is the same */
-    if (dump.grid.t > 1 && opt.solver == CSI_SOLVER_ROMP) {
-        csi_dump_free(&dump);
+    if (hdr.grid.t > 1 && opt.solver == CSI_SOLVER_ROMP)
         return cli_error(prog, CSI_ERR_ARG, "%s: ROMP is real-valued and a volume (grid_t = %u) needs "
-                         "the complex 3-D Fourier problem: use --solver sparsa", in, dump.grid.t);
+                         "the complex 3-D Fourier problem: use --solver sparsa", in, hdr.grid.t);
+    /* Every output stated before any work, written all or nothing at the end (csi/outset.h). */
+    csi_outset *set = NULL;
+    s = csi_outset_create(&set);
+    if (s == CSI_OK)
+        s = csi_outset_input(set, in);
+    if (s == CSI_OK)
+        s = cli_outputs_stage(&outs, set, opt.frames && opt.estimator != CSI_EST_MEAN && hdr.grid.t > 1 ? hdr.grid.t : 0);
+    if (s != CSI_OK) {
+        csi_outset_free(set);
+        return cli_error(prog, s, "%s", csi_last_error());
     }
-    if (opt.frames && dump.grid.t == 1 && !quiet)
-        fprintf(stderr, "%s: warning: %s is a static dump (grid_t = 1): --frames writes nothing\n", prog, in);
-
     csi_ctx *ctx = NULL;
-    tp = cli_now();
     s = csi_ctx_create(&ctx, device);
     pt.device = cli_now() - tp;
     if (s != CSI_OK) {
-        csi_dump_free(&dump);
+        csi_outset_free(set);
         return cli_error(prog, s, "%s", csi_last_error());
     }
+    {
+        const uint64_t k = (uint64_t)hdr.grid.w * hdr.grid.h * hdr.grid.t;
+        s = cli_check_resources(ctx, in, &hdr.grid, hdr.channels, (size_t)(hdr.count < k ? hdr.count : k), &opt,
+                                csi_dump_read_host_bytes(&hdr));
+    }
+    if (s != CSI_OK) {
+        csi_ctx_release(ctx);
+        csi_outset_free(set);
+        return cli_error(prog, s, "%s", csi_last_error());
+    }
+    tp = cli_now();
+    s = csi_dump_read(in, &ropts, &dump, &drep);
+    pt.read = cli_now() - tp;
+    if (s != CSI_OK) {
+        csi_ctx_release(ctx);
+        csi_outset_free(set);
+        return cli_error(prog, s, "%s", csi_last_error());
+    }
+    if (!quiet && drep.dropped_invalid)
+        cli_warn(prog, "%s: dropped %llu records with NaN/Inf values (first: record %llu)", in, (unsigned long long)drep.dropped_invalid, (unsigned long long)drep.first_invalid);
+    if (!quiet && drep.duplicates)
+        cli_warn(prog, "%s: %llu records repeat a position; their values were averaged", in, (unsigned long long)drep.duplicates);
+    if (!seed_given && dump.seed)
+        opt.seed = dump.seed; /* as csi-render ran it, so the result is the same */
+    if (opt.frames && dump.grid.t == 1 && !quiet)
+        cli_warn(prog, "%s is a static dump (grid_t = 1): --frames writes nothing", in);
+
     cli_progress bar;
     cli_progress_init(&bar, quiet);
     cli_recon_progress ps;
@@ -235,8 +265,9 @@ int main(int argc, char **argv)
     opt.progress = on_progress;
     opt.user = &ps;
     if (tile.one || tile.info) {
-        int rc = run_tile(ctx, &dump, in, &opt, &tile, &outs, quiet);
+        int rc = run_tile(ctx, set, &dump, in, &opt, &tile, &outs, quiet);
         cli_progress_end(&bar);
+        csi_outset_free(set);
         csi_ctx_release(ctx);
         csi_dump_free(&dump);
         return rc;
@@ -251,7 +282,7 @@ int main(int argc, char **argv)
     } else {
         const char *method = method_name(&opt, &dump.grid);
         tp = cli_now();
-        s = cli_write_images(&outs, &res, method);
+        s = cli_write_images(&outs, set, &res, method);
         pt.write = cli_now() - tp;
         if (s == CSI_OK && outs.stats) {
             csi_json *j = NULL;
@@ -272,10 +303,12 @@ int main(int argc, char **argv)
                 cli_stats_phases(j, &pt, &res);
                 csi_json_num(j, "t_wall_s", cli_now() - t0);
                 csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
-                s = csi_json_write(j, outs.stats);
+                s = cli_write_stats(set, outs.stats, j);
                 csi_json_free(j);
             }
         }
+        if (s == CSI_OK)
+            s = csi_outset_commit(set);
         if (s != CSI_OK)
             rc = cli_error(prog, s, "%s", csi_last_error());
         if (s == CSI_OK && !quiet) {
@@ -283,7 +316,7 @@ int main(int argc, char **argv)
             for (uint32_t ch = 0; ch < res.channels; ch++)
                 if (!res.report[ch].converged && res.report[ch].reason != CSI_SOLVE_NOT_IDENTIFIABLE) {
                     all = false;
-                    fprintf(stderr, "%s: warning: channel %u: %s\n", prog, ch, res.report[ch].message);
+                    cli_warn(prog, "channel %u: %s", ch, res.report[ch].message);
                 }
             fprintf(stderr, "%s: %ux%u from %zu samples of a %ux%ux%u grid (%s) in %.2f s%s\n", prog,
                     res.out_w, res.out_h, res.n, dump.grid.w, dump.grid.h, dump.grid.t,
@@ -292,6 +325,7 @@ int main(int argc, char **argv)
         }
         csi_recon_result_free(&res);
     }
+    csi_outset_free(set); /* nothing new is left when the run failed */
     csi_ctx_release(ctx);
     csi_dump_free(&dump);
     return rc;

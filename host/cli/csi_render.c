@@ -15,6 +15,7 @@
 #include "csi/stats.h"
 #include "outputs.h"
 #include "recon_opts.h"
+#include "resources.h"
 #include "tile.h"
 
 static const char *prog = "csi-render";
@@ -105,7 +106,7 @@ static csi_status render_id(const char *scene_path, const csi_grid *g, const csi
 /* --tile I/N: traces the samples inside the tile's window only (with their indices among all
  * the samples, so they get the values an untiled render gives them), reconstructs the tile and
  * writes its partial. --tile-info: the layout as JSON. */
-static int render_tile(const char *scene_path, csi_ctx *ctx, csi_tracer *tr, const csi_grid *grid,
+static int render_tile(const char *scene_path, csi_ctx *ctx, csi_outset *set, csi_tracer *tr, const csi_grid *grid,
                        const csi_pos_opts *po, const csi_sample_pos *pos, size_t n, uint64_t seed,
                        csi_recon_options *opt, const cli_tile_opts *tile, const cli_outputs *outs, bool quiet)
 {
@@ -154,8 +155,11 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_tracer *tr, con
              : opt->estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
                                                : "sample mean (Monte Carlo)",
              csi_pos_method_name(po->method));
-    if (s == CSI_OK)
-        s = cli_tile_write(outs->exr, mdesc, scene_path, id, opt, &tl, &scope, &res);
+    const char *tmp = NULL;
+    if (s == CSI_OK && outs->exr) /* the partial and the stats, all or nothing (csi/outset.h) */
+        s = csi_outset_tmp(set, outs->exr, &tmp);
+    if (s == CSI_OK && tmp)
+        s = cli_named(cli_tile_write(tmp, mdesc, scene_path, id, opt, &tl, &scope, &res), tmp, outs->exr);
     if (s == CSI_OK && outs->stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);
@@ -168,10 +172,12 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_tracer *tr, con
             csi_json_num(j, "t_render_s", t_render);
             csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
             cli_stats_recon(j, &res.r);
-            s = csi_json_write(j, outs->stats);
+            s = cli_write_stats(set, outs->stats, j);
             csi_json_free(j);
         }
     }
+    if (s == CSI_OK)
+        s = csi_outset_commit(set);
     if (s == CSI_OK && !quiet)
         fprintf(stderr, "%s: tile %u/%u (%ux%u pixels at %u,%u): %zu samples, render %.2f s, reconstruct %.2f s\n",
                 prog, tile->index, tl.count, tl.window[0], tl.window[1], t.win0[0], t.win0[1], m, t_render,
@@ -243,8 +249,9 @@ int main(int argc, char **argv)
                 return cli_error(prog, CSI_ERR_ARG, "--threads: '%s' is not a whole number from 1 to 256", optarg);
             break;
         case O_TSTEPS:
-            if (!cli_parse_u64(optarg, 2, 4096, &tsteps))
-                return cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 2 to 4096", optarg);
+            if (!cli_parse_u64(optarg, 2, CSI_GRID_MAX_FRAMES, &tsteps))
+                return cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 2 to %u", optarg,
+                                 CSI_GRID_MAX_FRAMES);
             break;
         case O_DEVICE: device = optarg; break;
         case 'q': quiet = true; break;
@@ -285,6 +292,7 @@ int main(int argc, char **argv)
     float *rgb = NULL;
     csi_recon_result res;
     memset(&res, 0, sizeof res);
+    csi_outset *set = NULL;
     if (plan_only) {
         s = csi_plan_json(scene, &plan, stdout);
         if (s != CSI_OK)
@@ -303,10 +311,9 @@ int main(int argc, char **argv)
     if (tile.frames)
         opt.frames = true;
     if (tsteps && !plan.motion && !quiet)
-        fprintf(stderr, "%s: warning: %s has no motion in the shutter: --time-steps ignored (T = 1)\n",
-                prog, scene_path);
+        cli_warn(prog, "%s has no motion in the shutter: --time-steps ignored (T = 1)", scene_path);
     if (opt.frames && !plan.motion && !quiet)
-        fprintf(stderr, "%s: warning: %s has no motion: --frames writes nothing\n", prog, scene_path);
+        cli_warn(prog, "%s has no motion: --frames writes nothing", scene_path);
 
     /* The grid: the image is W x H; the fine grid K x K*H/W, T frames from the plan. */
     const bool reference = ref_spp > 0;
@@ -330,8 +337,10 @@ int main(int argc, char **argv)
         factor = csi_default_grid_factor(plan.width, plan.height, plan.frames, spp);
     }
     if ((uint64_t)plan.width * factor > 65536 || (uint64_t)plan.height * factor > 65536) {
-        rc = cli_error(prog, CSI_ERR_ARG, "fine grid %llux%llu is too large",
-                       (unsigned long long)(plan.width * factor), (unsigned long long)(plan.height * factor));
+        rc = cli_error(prog, CSI_ERR_ARG, "%s: fine grid %llux%llu (%ux%u pixels, %llu cells per pixel side) "
+                       "is larger than the limit of 65536 cells a side", scene_path,
+                       (unsigned long long)plan.width * factor, (unsigned long long)plan.height * factor,
+                       plan.width, plan.height, (unsigned long long)factor);
         goto done;
     }
     grid.w = (uint32_t)(plan.width * factor);
@@ -345,18 +354,27 @@ int main(int argc, char **argv)
                                                             : CSI_POS_POISSON;
     if (!est_given)
         opt.estimator = reference || strcmp(method, "cs") ? CSI_EST_MEAN : CSI_EST_CS;
-    s = cli_outputs_check(&outs);
-    if (s == CSI_OK && dump_path) {
-        cli_outputs dchk = {.exr = dump_path};
-        s = cli_outputs_check(&dchk);
-    }
+    /* Every output stated before any work (none may be the scene or a file it reads), written
+     * all or nothing at the end (csi/outset.h). */
+    s = csi_outset_create(&set);
+    if (s == CSI_OK)
+        s = csi_outset_input(set, scene_path);
+    for (size_t i = 0; s == CSI_OK && i < csi_scene_input_count(scene); i++)
+        s = csi_outset_input(set, csi_scene_input(scene, i));
+    if (s == CSI_OK)
+        s = cli_outputs_stage(&outs, set, opt.frames && opt.estimator != CSI_EST_MEAN && grid.t > 1 ? grid.t : 0);
+    if (s == CSI_OK && dump_path)
+        s = csi_outset_file(set, dump_path, "the dump (--dump)");
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", csi_last_error());
         goto done;
     }
     size_t n = 0;
     csi_pos_info pinfo;
-    s = csi_positions(&grid, &popts, &pos, &n, &pinfo);
+    uint64_t pos_bytes = 0;
+    s = csi_positions_count(&grid, &popts, &n);
+    if (s == CSI_OK)
+        s = csi_positions_host_bytes(&grid, &popts, &pos_bytes);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
         goto done;
@@ -369,13 +387,25 @@ int main(int argc, char **argv)
         rc = cli_error(prog, s, "%s", csi_last_error());
         goto done;
     }
+    /* Sizes before work: positions, the traced values (12 bytes per sample) and the
+     * reconstruction must fit, or the scene is refused now rather than after the tracing. */
+    s = cli_check_resources(ctx, scene_path, &grid, 3, n, &opt, pos_bytes + 12 * (uint64_t)n);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s", csi_last_error());
+        goto done;
+    }
+    s = csi_positions(&grid, &popts, &pos, &n, &pinfo);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        goto done;
+    }
     s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
         goto done;
     }
     if (tile.one || tile.info) {
-        rc = render_tile(scene_path, ctx, tr, &grid, &popts, pos, n, seed, &opt, &tile, &outs, quiet);
+        rc = render_tile(scene_path, ctx, set, tr, &grid, &popts, pos, n, seed, &opt, &tile, &outs, quiet);
         goto done;
     }
     rgb = malloc(n * 3 * sizeof(float));
@@ -397,7 +427,7 @@ int main(int argc, char **argv)
     }
     if (dump_path) {
         csi_dump dump = {.grid = grid, .channels = 3, .seed = seed, .count = n, .pos = pos, .values = rgb};
-        s = csi_dump_write(dump_path, &dump);
+        s = cli_write_dump(set, dump_path, &dump);
         if (s != CSI_OK) {
             rc = cli_error(prog, s, "%s", csi_last_error());
             goto done;
@@ -423,7 +453,7 @@ int main(int argc, char **argv)
              csi_pos_method_name(popts.method));
     cli_phase_times pt = {.device = t_device};
     double tw = cli_now();
-    s = cli_write_images(&outs, &res, mdesc);
+    s = cli_write_images(&outs, set, &res, mdesc);
     pt.write = cli_now() - tw;
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
@@ -466,10 +496,12 @@ int main(int argc, char **argv)
             cli_stats_recon(j, &res);
             cli_stats_phases(j, &pt, &res);
             csi_json_end(j);
-            s = csi_json_write(j, outs.stats);
+            s = cli_write_stats(set, outs.stats, j);
             csi_json_free(j);
         }
     }
+    if (s == CSI_OK)
+        s = csi_outset_commit(set);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", csi_last_error());
         goto done;
@@ -477,11 +509,12 @@ int main(int argc, char **argv)
     if (!quiet) {
         for (uint32_t ch = 0; ch < res.channels; ch++)
             if (!res.report[ch].converged && res.report[ch].reason != CSI_SOLVE_NOT_IDENTIFIABLE)
-                fprintf(stderr, "%s: warning: channel %u: %s\n", prog, ch, res.report[ch].message);
+                cli_warn(prog, "channel %u: %s", ch, res.report[ch].message);
         fprintf(stderr, "%s: %ux%u%s from %zu samples (%s) : render %.2f s, reconstruct %.2f s\n", prog,
                 grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, mdesc, t_render, t_recon);
     }
 done:
+    csi_outset_free(set); /* nothing new is left when the run failed */
     csi_recon_result_free(&res);
     free(rgb);
     free(pos);

@@ -3,6 +3,8 @@
 #ifndef CSI_CLI_OUTPUTS_H
 #define CSI_CLI_OUTPUTS_H
 
+#include "csi/dump.h"
+#include "csi/outset.h"
 #include "csi/reconstruct.h"
 #include "csi/stats.h"
 
@@ -10,8 +12,16 @@ typedef struct cli_outputs {
     const char *exr, *png, *frames_dir, *stats;
 } cli_outputs;
 
-/* Checks that every output's directory exists and is writable before any work is done. */
-csi_status cli_outputs_check(const cli_outputs *o);
+/* States every output of the run in `set` before any work (csi/outset.h: directories exist and
+ * are writable, no output is an input or another output), nframes frames' EXR and PNG files in
+ * the frames folder included. */
+csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nframes);
+
+/* Writes the statistics (a dump) to the temporary file of `path` in set. */
+csi_status cli_write_stats(csi_outset *set, const char *path, csi_json *j);
+csi_status cli_write_dump(csi_outset *set, const char *path, const csi_dump *d);
+/* s, with a message that named the temporary file tmp renamed to name the output `path`. */
+csi_status cli_named(csi_status s, const char *tmp, const char *path);
 
 /* The solver's figures and every option as used, as JSON members. */
 void cli_stats_recon(csi_json *j, const csi_recon_result *r);
@@ -27,7 +37,8 @@ typedef struct cli_phase_times {
  * "cpu_per_sample_us": the same in process CPU time (all threads). */
 void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_result *r);
 
-/* Writes the image (and frames) with attributes describing the run. */
-csi_status cli_write_images(const cli_outputs *o, const csi_recon_result *r, const char *method);
+/* Writes the image (and frames) with attributes describing the run to their temporary files in
+ * set; csi_outset_commit puts them in place. */
+csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_recon_result *r, const char *method);
 
 #endif

@@ -113,6 +113,13 @@ csi_status csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options 
                                    csi_recon_result *res, const float *values, size_t n,
                                    uint32_t channels, uint32_t c, bool *copied);
 
+/* Any finite float32 reconstructs (result.c): per channel, e[c] = 0 when its largest magnitude
+ * is within [2^-32, 2^32], else the exponent that brings it into [0.5, 1); *scaled is a copy of
+ * the values times 2^-e[c] (NULL when every e[c] is 0). After the solve, the result's image and
+ * frames are multiplied back by 2^e[c], saturating at +-FLT_MAX. */
+csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, int e[4], float **scaled);
+void csi_recon_unscale_result(csi_recon_result *r, const int e[4]);
+
 /* Monotonic clock in seconds. */
 double csi_recon_now(void);
 /* The process's CPU time in seconds (every thread, PoCL's workers included). */

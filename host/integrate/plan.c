@@ -21,22 +21,6 @@
 #include "csi/wavelet.h"
 #include "internal.h"
 
-const char *csi_bytes_text(uint64_t bytes, char *buf, size_t len)
-{
-    static const char *u[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB"};
-    double b = (double)bytes;
-    int i = 0;
-    while (b >= 1024.0 && i < 5) {
-        b /= 1024.0;
-        i++;
-    }
-    if (i == 0)
-        snprintf(buf, len, "%" PRIu64 " B", bytes);
-    else
-        snprintf(buf, len, "%.1f %s", b, u[i]);
-    return buf;
-}
-
 void csi_mem_budget_of(const csi_ctx *ctx, csi_mem_budget *out)
 {
     memset(out, 0, sizeof *out);
@@ -327,6 +311,9 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     else
         csi_recon_defaults(&opt);
     CSI_TRY(csi_recon_plan_whole(g, channels, n, &opt, NULL, out));
+    /* a scaled copy of the samples, made when a channel's magnitude is far from 1 (result.c) */
+    const uint64_t scaled_copy = (uint64_t)n * channels * 4;
+    out->host_bytes += scaled_copy;
     /* csi_recon's layout (csi/tiles.h): when it tiles, the device holds one tile's
      * problem at a time, and the host the whole result besides. */
     csi_tiling tl;
@@ -358,7 +345,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     out->largest_what = tp.largest_what;
     /* the whole result, one tile's problem (its samples copied: 12 + 4 per channel bytes each)
      * and everything its reconstruction holds on the host */
-    out->host_bytes = whole_result + (uint64_t)tn * (12 + 4 * (uint64_t)channels) + tp.host_bytes;
+    out->host_bytes = scaled_copy + whole_result + (uint64_t)tn * (12 + 4 * (uint64_t)channels) + tp.host_bytes;
     return CSI_OK;
 }
 

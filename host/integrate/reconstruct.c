@@ -89,13 +89,24 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
     csi_tiling tl;
     CSI_TRY(csi_tiling_plan(ctx, grid, channels, n, &opt, &tl));
+    /* Any finite float32 reconstructs: a channel whose largest magnitude is far from 1 is solved
+     * scaled by a power of two (exact), its result scaled back. */
+    int e[4];
+    float *scaled = NULL;
+    CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
+    const float *v = scaled ? scaled : values;
+    csi_status s;
     if (tl.count > 1) {
         /* Each tile resolves its own autos (csi_recon_resolve_scoped); the whole's are reported. */
-        CSI_TRY(csi_reconstruct_tiled(ctx, grid, channels, pos, values, n, &opt, &tl, out));
-        CSI_TRY(csi_recon_resolve(&opt, grid, n, &out->options));
+        s = csi_reconstruct_tiled(ctx, grid, channels, pos, v, n, &opt, &tl, out);
+        if (s == CSI_OK)
+            s = csi_recon_resolve(&opt, grid, n, &out->options);
     } else {
-        CSI_TRY(csi_recon_scoped(ctx, grid, channels, pos, values, n, &opt, NULL, out));
+        s = csi_recon_scoped(ctx, grid, channels, pos, v, n, &opt, NULL, out);
     }
+    free(scaled);
+    CSI_TRY(s);
+    csi_recon_unscale_result(out, e);
     /* The tiling's autos, as planned. */
     csi_recon_options *r = &out->options;
     r->mem_budget = tl.budget;

@@ -1,6 +1,8 @@
 /* The reconstruction result: integrating a fine volume into its image (and frames), the final
  * finiteness check, and freeing it. */
+#include <float.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,6 +60,60 @@ double csi_recon_cpu_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Magnitudes in [2^-SCALE_FREE, 2^SCALE_FREE] are solved as they are (so every result so far
+ * keeps its bits): their squares and sums of squares over 2^32 samples stay inside float's
+ * normal range (2^-126 .. 2^128), which the solvers' norms and steps need. Outside it a channel
+ * is scaled so that its largest magnitude lies in [0.5, 1). */
+#define SCALE_FREE 32
+
+csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, int e[4], float **scaled)
+{
+    *scaled = NULL;
+    bool any = false;
+    for (uint32_t c = 0; c < channels; c++) {
+        float m = 0;
+        for (size_t i = 0; i < n; i++)
+            m = fmaxf(m, fabsf(values[i * channels + c]));
+        int ex = 0;
+        if (m > 0)
+            frexpf(m, &ex);
+        e[c] = m > 0 && (ex > SCALE_FREE || ex < -SCALE_FREE) ? ex : 0;
+        any = any || e[c] != 0;
+    }
+    if (!any)
+        return CSI_OK;
+    float *s = malloc(n * channels * sizeof *s);
+    if (!s)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu scaled samples", n);
+    for (size_t i = 0; i < n; i++)
+        for (uint32_t c = 0; c < channels; c++)
+            s[i * channels + c] = ldexpf(values[i * channels + c], -e[c]);
+    *scaled = s;
+    return CSI_OK;
+}
+
+/* x 2^e, saturated at float's largest finite magnitude (the output formats' range). */
+static float unscale(float x, int e)
+{
+    double y = ldexp((double)x, e);
+    return y > FLT_MAX ? FLT_MAX : y < -FLT_MAX ? -FLT_MAX : (float)y;
+}
+
+void csi_recon_unscale_result(csi_recon_result *r, const int e[4])
+{
+    const size_t np = (size_t)r->out_w * r->out_h;
+    for (uint32_t c = 0; c < r->channels; c++) {
+        if (!e[c])
+            continue;
+        for (size_t p = 0; p < np; p++)
+            r->image[c * np + p] = unscale(r->image[c * np + p], e[c]);
+        for (uint32_t t = 0; r->frames && t < r->nframes; t++)
+            for (size_t p = 0; p < np; p++)
+                r->frames[((size_t)t * r->channels + c) * np + p] =
+                    unscale(r->frames[((size_t)t * r->channels + c) * np + p], e[c]);
+    }
 }
 
 double csi_recon_now(void)

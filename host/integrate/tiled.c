@@ -75,10 +75,29 @@ void csi_tile_scope_init(const csi_grid *g, uint32_t channels, size_t n, csi_til
     out->channels = channels;
 }
 
+static csi_status scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, size_t n, const csi_recon_options *opt, const csi_tiling *tl,
+                             csi_tile_scope *out);
+
+/* Samples far from magnitude 1 are scaled as csi_recon scales them (result.c), so that a tile
+ * run alone (--tile I/N) solves what the same tile of csi_recon solves, and the scope's tau
+ * scales are in the units the tiles see. */
 csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                const csi_sample_pos *pos, const float *values, size_t n,
                                const csi_recon_options *opt, const csi_tiling *tl,
                                csi_tile_scope *out)
+{
+    int e[4];
+    float *scaled = NULL;
+    CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
+    csi_status s = scope_make(ctx, g, channels, pos, scaled ? scaled : values, n, opt, tl, out);
+    free(scaled);
+    return s;
+}
+
+static csi_status scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, size_t n, const csi_recon_options *opt, const csi_tiling *tl,
+                             csi_tile_scope *out)
 {
     csi_tile_scope_init(g, channels, n, out);
     if (opt->estimator != CSI_EST_CS || channels > 4)
@@ -129,10 +148,31 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     return CSI_OK;
 }
 
+static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                   const csi_sample_pos *pos, const float *values, size_t n,
+                                   const csi_recon_options *opt, const csi_tiling *tl,
+                                   const csi_tile_scope *scope, uint32_t index, csi_tile_result *out);
+
 csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
                                 const csi_recon_options *opt, const csi_tiling *tl,
                                 const csi_tile_scope *scope, uint32_t index, csi_tile_result *out)
+{
+    int e[4];
+    float *scaled = NULL;
+    memset(out, 0, sizeof *out);
+    CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
+    csi_status s = reconstruct_tile(ctx, g, channels, pos, scaled ? scaled : values, n, opt, tl, scope, index, out);
+    free(scaled);
+    if (s == CSI_OK)
+        csi_recon_unscale_result(&out->r, e);
+    return s;
+}
+
+static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                   const csi_sample_pos *pos, const float *values, size_t n,
+                                   const csi_recon_options *opt, const csi_tiling *tl,
+                                   const csi_tile_scope *scope, uint32_t index, csi_tile_result *out)
 {
     memset(out, 0, sizeof *out);
     if (memcmp(g, &tl->grid, sizeof *g))

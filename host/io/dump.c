@@ -9,6 +9,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "csi/host_memory.h"
+#include "csi/infile.h"
 #include "csi/outfile.h"
 
 /* Explicit little-endian (de)coding: the file's byte order never depends on the host's. */
@@ -55,6 +57,9 @@ csi_status csi_dump_check_grid(const csi_grid *g, uint32_t channels, uint64_t ma
             return csi_fail(CSI_ERR_FORMAT, "%s = %" PRIu32 " is larger than the limit %u", sides[i].name,
                             sides[i].v, CSI_DUMP_MAX_SIDE);
     }
+    if (g->t > CSI_GRID_MAX_FRAMES)
+        return csi_fail(CSI_ERR_FORMAT, "grid_t = %" PRIu32 " frames is more than the limit %u (docs/dump-format.md)",
+                        g->t, CSI_GRID_MAX_FRAMES);
     if (g->w % g->out_w != 0)
         return csi_fail(CSI_ERR_FORMAT, "grid_w = %" PRIu32 " is not a multiple of out_w = %" PRIu32, g->w, g->out_w);
     if (g->h % g->out_h != 0)
@@ -114,68 +119,54 @@ static int key_cmp(const void *a, const void *b)
     return x->rec < y->rec ? -1 : x->rec > y->rec;
 }
 
-static csi_status read_fail(FILE *fp, csi_dump *out, csi_status st)
+/* Where the bytes come from: a file (read in chunks), or memory (fuzzing, embedders). */
+typedef struct {
+    FILE *fp;
+    const unsigned char *mem;
+    size_t len, pos;
+} dump_src;
+
+static size_t src_read(dump_src *s, void *buf, size_t n)
 {
-    if (fp)
-        fclose(fp);
-    csi_dump_free(out);
-    return st;
+    if (s->fp)
+        return fread(buf, 1, n, s->fp);
+    size_t m = s->len - s->pos < n ? s->len - s->pos : n;
+    memcpy(buf, s->mem + s->pos, m);
+    s->pos += m;
+    return m;
 }
 
-csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_dump *out,
-                         csi_dump_report *report)
+/* Validates the header bytes h[0..got) of a file of fsize bytes (everything but the records). */
+static csi_status parse_header(const char *path, const unsigned char *h, size_t got, uint64_t fsize,
+                               const csi_dump_read_opts *opts, csi_dump_header *hdr)
 {
-    csi_dump_read_opts defaults = {0};
-    csi_dump_report rep_local;
-    if (!opts)
-        opts = &defaults;
-    if (!report)
-        report = &rep_local;
-    memset(report, 0, sizeof *report);
-    memset(out, 0, sizeof *out);
-    if (!path)
-        return csi_fail(CSI_ERR_ARG, "csi_dump_read: no path");
-
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return csi_fail(CSI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    struct stat sb;
-    if (fstat(fileno(fp), &sb) != 0 || !S_ISREG(sb.st_mode))
-        return read_fail(fp, out, csi_fail(CSI_ERR_IO, "%s: not a regular file", path));
-    uint64_t fsize = (uint64_t)sb.st_size;
-
-    unsigned char h[CSI_DUMP_HEADER_BYTES];
-    size_t got = fread(h, 1, sizeof h, fp);
     if (got < 4 || memcmp(h, CSI_DUMP_MAGIC, 4) != 0) {
         if (got < 4)
-            return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte %zu: truncated header (file has %zu bytes, "
-                                              "a dump header has 64)", path, got, got));
+            return csi_fail(CSI_ERR_FORMAT, "%s: byte %zu: truncated header (file has %zu bytes, a dump header "
+                            "has 64)", path, got, got);
         char shown[20];
         int k = 0;
         for (int i = 0; i < 4; i++)
             k += snprintf(shown + k, sizeof shown - (size_t)k, (h[i] >= 32 && h[i] < 127) ? "%c" : "\\x%02x", h[i]);
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte 0: wrong magic \"%s\" (expected \"CSID\"): "
-                                          "not a csi sample dump", path, shown));
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte 0: wrong magic \"%s\" (expected \"CSID\"): not a csi sample dump",
+                        path, shown);
     }
     if (got < 8)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte %zu: truncated header (file has %zu bytes, "
-                                          "a dump header has 64)", path, got, got));
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte %zu: truncated header (file has %zu bytes, a dump header has 64)",
+                        path, got, got);
     uint32_t version = le32(h + 4);
     if (version != CSI_DUMP_VERSION)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte 4: unknown version %" PRIu32
-                                          " (this reader knows version 1)", path, version));
-    if (got < sizeof h)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte %zu: truncated header (file has %zu bytes, "
-                                          "a dump header has 64)", path, got, got));
-
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte 4: unknown version %" PRIu32 " (this reader knows version 1)",
+                        path, version);
+    if (got < CSI_DUMP_HEADER_BYTES)
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte %zu: truncated header (file has %zu bytes, a dump header has 64)",
+                        path, got, got);
     csi_grid g = {.w = le32(h + 8), .h = le32(h + 12), .t = le32(h + 16), .out_w = le32(h + 20), .out_h = le32(h + 24)};
     uint32_t channels = le32(h + 28);
     uint64_t count = le64(h + 32);
-    uint64_t seed = le64(h + 40);
     if (channels == 0)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte 28: channels = 0: a positions request (positions "
-                                          "only, no values), not samples: a renderer evaluates it and writes a dump "
-                                          "with values", path));
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte 28: channels = 0: a positions request (positions only, no values), "
+                        "not samples: a renderer evaluates it and writes a dump with values", path);
     /* Grid and channels before anything that depends on them; the byte offset names the field. */
     {
         csi_status st = csi_dump_check_grid(&g, channels, opts->max_cells);
@@ -184,51 +175,106 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
             int off = strncmp(m, "grid_w", 6) == 0 ? 8 : strncmp(m, "grid_h", 6) == 0 ? 12
                     : strncmp(m, "grid_t", 6) == 0 ? 16 : strncmp(m, "out_w", 5) == 0 ? 20
                     : strncmp(m, "out_h", 5) == 0 ? 24 : strncmp(m, "channels", 8) == 0 ? 28 : 8;
-            return read_fail(fp, out, csi_fail_context(st, "%s: byte %d: ", path, off));
+            return csi_fail_context(st, "%s: byte %d: ", path, off);
         }
     }
     for (int i = 48; i < 64; i++)
         if (h[i] != 0)
-            return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte %d: reserved byte is 0x%02x, must be zero",
-                                              path, i, h[i]));
+            return csi_fail(CSI_ERR_FORMAT, "%s: byte %d: reserved byte is 0x%02x, must be zero", path, i, h[i]);
     if (count == 0)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte 32: zero samples (count = 0)", path));
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte 32: zero samples (count = 0)", path);
     const size_t rec_bytes = 12 + 4 * (size_t)channels;
     uint64_t payload = fsize - CSI_DUMP_HEADER_BYTES;
     if (count > payload / rec_bytes)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte 32: count = %" PRIu64 " records of %zu bytes "
-                                          "but the file holds only %" PRIu64 " bytes after the header "
-                                          "(truncated at record %" PRIu64 ")", path, count, rec_bytes, payload,
-                                          payload / rec_bytes));
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte 32: count = %" PRIu64 " records of %zu bytes but the file holds "
+                        "only %" PRIu64 " bytes after the header (truncated at record %" PRIu64 ")", path, count,
+                        rec_bytes, payload, payload / rec_bytes);
     if (payload != count * rec_bytes)
-        return read_fail(fp, out, csi_fail(CSI_ERR_FORMAT, "%s: byte %" PRIu64 ": %" PRIu64 " trailing bytes after "
-                                          "the last of %" PRIu64 " records", path, rec_offset(count, rec_bytes),
-                                          payload - count * rec_bytes, count));
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte %" PRIu64 ": %" PRIu64 " trailing bytes after the last of %" PRIu64
+                        " records", path, rec_offset(count, rec_bytes), payload - count * rec_bytes, count);
+    hdr->grid = g;
+    hdr->channels = channels;
+    hdr->count = count;
+    hdr->seed = le64(h + 40);
+    return CSI_OK;
+}
+
+uint64_t csi_dump_read_host_bytes(const csi_dump_header *h)
+{
+    /* the records as read, the chunk buffer, and when they must be sorted, the keys and the merged
+     * copy */
+    const uint64_t per = 12 + 4 * (uint64_t)h->channels;
+    return h->count * per + ((uint64_t)1 << 16) * per + h->count * 16 + h->count * per;
+}
+
+/* Reads and validates the header from a source of fsize bytes. */
+static csi_status read_header(dump_src *src, const char *path, uint64_t fsize, const csi_dump_read_opts *opts,
+                              csi_dump_header *hdr)
+{
+    unsigned char h[CSI_DUMP_HEADER_BYTES];
+    size_t got = src_read(src, h, sizeof h);
+    if (src->fp && got < sizeof h && ferror(src->fp))
+        return csi_fail(CSI_ERR_IO, "%s: read error: %s", path, strerror(errno));
+    return parse_header(path, h, got, fsize, opts, hdr);
+}
+
+csi_status csi_dump_read_header(const char *path, const csi_dump_read_opts *opts, csi_dump_header *out)
+{
+    csi_dump_read_opts defaults = {0};
+    memset(out, 0, sizeof *out);
+    if (!opts)
+        opts = &defaults;
+    dump_src src = {0};
+    uint64_t fsize;
+    CSI_TRY(csi_infile_open(path, "sample dump", 0, &src.fp, &fsize));
+    csi_status st = read_header(&src, path, fsize, opts, out);
+    fclose(src.fp);
+    return st;
+}
+
+/* The records after a valid header: validated, then sorted and merged when they are not already
+ * sorted and unique. */
+static csi_status read_records(dump_src *src, const char *path, const csi_dump_header *hdr,
+                               const csi_dump_read_opts *opts, csi_dump *out, csi_dump_report *report)
+{
+    const csi_grid g = hdr->grid;
+    const uint32_t channels = hdr->channels;
+    const uint64_t count = hdr->count;
+    const size_t rec_bytes = 12 + 4 * (size_t)channels;
     report->records = count;
+    const uint64_t avail = csi_host_available_bytes();
+    if (avail && csi_dump_read_host_bytes(hdr) > avail) {
+        char need[32], have[32];
+        return csi_fail(CSI_ERR_TOO_LARGE, "%s: %" PRIu64 " records need %s of host memory to read, more than the "
+                        "%s available", path, count, csi_bytes_text(csi_dump_read_host_bytes(hdr), need, sizeof need),
+                        csi_bytes_text(avail, have, sizeof have));
+    }
 
     /* The file holds count records, so count is bounded by the file size: allocation is safe. */
-    csi_dump raw = {.grid = g, .channels = channels, .seed = seed};
+    csi_dump raw = {.grid = g, .channels = channels, .seed = hdr->seed};
     if (count > SIZE_MAX / rec_bytes)
-        return read_fail(fp, out, csi_fail(CSI_ERR_NOMEM, "%s: %" PRIu64 " records do not fit in memory", path, count));
+        return csi_fail(CSI_ERR_NOMEM, "%s: %" PRIu64 " records do not fit in memory", path, count);
     if (csi_dump_alloc(&raw, (size_t)count, channels) != CSI_OK)
-        return read_fail(fp, out, csi_fail_context(CSI_ERR_NOMEM, "%s: ", path));
+        return csi_fail_context(CSI_ERR_NOMEM, "%s: ", path);
 
     enum { CHUNK = 1 << 16 };
-    unsigned char *buf = malloc((size_t)CHUNK * rec_bytes);
+    const size_t chunk = count < CHUNK ? (size_t)count : CHUNK;
+    unsigned char *buf = malloc(chunk * rec_bytes);
     if (!buf) {
         csi_dump_free(&raw);
-        return read_fail(fp, out, csi_fail(CSI_ERR_NOMEM, "%s: out of memory", path));
+        return csi_fail(CSI_ERR_NOMEM, "%s: out of memory", path);
     }
     csi_status st = CSI_OK;
     size_t kept = 0;
     bool sorted_unique = true;
     uint64_t prev_lin = 0;
-    for (uint64_t r0 = 0; r0 < count && st == CSI_OK; r0 += CHUNK) {
-        size_t nrec = (size_t)(count - r0 < CHUNK ? count - r0 : CHUNK);
-        size_t rd = fread(buf, rec_bytes, nrec, fp);
+    for (uint64_t r0 = 0; r0 < count && st == CSI_OK; r0 += chunk) {
+        size_t nrec = (size_t)(count - r0 < chunk ? count - r0 : chunk);
+        size_t rd = src_read(src, buf, nrec * rec_bytes) / rec_bytes;
         if (rd != nrec) {
             st = csi_fail(CSI_ERR_FORMAT, "%s: record %" PRIu64 " (byte %" PRIu64 "): truncated (read error: %s)",
-                          path, r0 + rd, rec_offset(r0 + rd, rec_bytes), ferror(fp) ? strerror(errno) : "end of file");
+                          path, r0 + rd, rec_offset(r0 + rd, rec_bytes),
+                          src->fp && ferror(src->fp) ? strerror(errno) : "end of file");
             break;
         }
         for (size_t i = 0; i < nrec; i++) {
@@ -279,7 +325,6 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
         }
     }
     free(buf);
-    fclose(fp);
     if (st != CSI_OK) {
         csi_dump_free(&raw);
         return st;
@@ -296,7 +341,7 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
 
     /* Sort by (linear index, record) and merge runs at one position by averaging in double. */
     dump_key *keys = malloc(kept * sizeof *keys);
-    csi_dump res = {.grid = g, .channels = channels, .seed = seed};
+    csi_dump res = {.grid = g, .channels = channels, .seed = hdr->seed};
     if (!keys || csi_dump_alloc(&res, kept, channels) != CSI_OK) {
         free(keys);
         csi_dump_free(&raw);
@@ -332,6 +377,50 @@ csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_d
     res.count = n;
     *out = res;
     return CSI_OK;
+}
+
+/* Header and records from one source of fsize bytes. */
+static csi_status read_source(dump_src *src, const char *path, uint64_t fsize, const csi_dump_read_opts *opts,
+                              csi_dump *out, csi_dump_report *report)
+{
+    csi_dump_read_opts defaults = {0};
+    csi_dump_report rep_local;
+    if (!opts)
+        opts = &defaults;
+    if (!report)
+        report = &rep_local;
+    memset(report, 0, sizeof *report);
+    csi_dump_header hdr;
+    CSI_TRY(read_header(src, path, fsize, opts, &hdr));
+    return read_records(src, path, &hdr, opts, out, report);
+}
+
+csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_dump *out,
+                         csi_dump_report *report)
+{
+    memset(out, 0, sizeof *out);
+    if (report)
+        memset(report, 0, sizeof *report);
+    if (!path)
+        return csi_fail(CSI_ERR_ARG, "csi_dump_read: no path");
+    dump_src src = {0};
+    uint64_t fsize;
+    CSI_TRY(csi_infile_open(path, "sample dump", 0, &src.fp, &fsize));
+    csi_status st = read_source(&src, path, fsize, opts, out, report);
+    fclose(src.fp);
+    return st;
+}
+
+csi_status csi_dump_read_mem(const void *data, size_t len, const char *name, const csi_dump_read_opts *opts,
+                             csi_dump *out, csi_dump_report *report)
+{
+    memset(out, 0, sizeof *out);
+    if (report)
+        memset(report, 0, sizeof *report);
+    if (!data && len)
+        return csi_fail(CSI_ERR_ARG, "csi_dump_read_mem: no data");
+    dump_src src = {.mem = data, .len = len};
+    return read_source(&src, name ? name : "(memory)", len, opts, out, report);
 }
 
 csi_status csi_dump_write(const char *path, const csi_dump *d)

@@ -14,6 +14,8 @@
 #include <openexr.h>
 #include <png.h>
 
+#include "csi/host_memory.h"
+#include "csi/infile.h"
 #include "csi/outfile.h"
 
 csi_status csi_image_alloc(csi_image *img, uint32_t w, uint32_t h, uint32_t channels)
@@ -253,13 +255,23 @@ fail:
     return st;
 }
 
+/* A decoded image of w x h x nc floats (plus `extra` bytes while decoding) must fit the host. */
+static csi_status check_host(const char *path, uint64_t w, uint64_t h, uint64_t nc, uint64_t extra)
+{
+    const uint64_t need = w * h * nc * 4 + extra, avail = csi_host_available_bytes();
+    if (avail && need > avail) {
+        char a[32], b[32];
+        return csi_fail(CSI_ERR_TOO_LARGE, "%s: the %" PRIu64 "x%" PRIu64 " image needs %s of host memory, more "
+                        "than the %s available", path, w, h, csi_bytes_text(need, a, sizeof a),
+                        csi_bytes_text(avail, b, sizeof b));
+    }
+    return CSI_OK;
+}
+
 csi_status csi_exr_read(const char *path, csi_image *out)
 {
     memset(out, 0, sizeof *out);
-    FILE *probe = fopen(path, "rb");
-    if (!probe)
-        return csi_fail(CSI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    fclose(probe);
+    CSI_TRY(csi_infile_check(path, "image", 0, NULL));
     exr_msg[0] = '\0';
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_error_cb;
@@ -333,7 +345,8 @@ csi_status csi_exr_read(const char *path, csi_image *out)
                 }
             }
     }
-    if ((st = csi_image_alloc(out, (uint32_t)w, (uint32_t)h, (uint32_t)nwant)) != CSI_OK)
+    if ((st = check_host(path, (uint64_t)w, (uint64_t)h, (uint64_t)nwant, 0)) != CSI_OK ||
+        (st = csi_image_alloc(out, (uint32_t)w, (uint32_t)h, (uint32_t)nwant)) != CSI_OK)
         goto done;
     int32_t spc = 1;
     EXR_STEP(exr_get_scanlines_per_chunk(f, 0, &spc), "exr_get_scanlines_per_chunk");
@@ -461,9 +474,8 @@ csi_status csi_png_write(const char *path, const csi_image *img)
 csi_status csi_png_read(const char *path, csi_image *out)
 {
     memset(out, 0, sizeof *out);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return csi_fail(CSI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    FILE *fp;
+    CSI_TRY(csi_infile_open(path, "image", 0, &fp, NULL));
     unsigned char sig[8];
     if (fread(sig, 1, 8, fp) != 8 || png_sig_cmp(sig, 0, 8) != 0) {
         fclose(fp);
@@ -500,6 +512,11 @@ csi_status csi_png_read(const char *path, csi_image *out)
     const size_t rowbytes = png_get_rowbytes(png, info);
     if (nc < 1 || nc > 4 || (depth != 8 && depth != 16))
         png_error(png, "unsupported channel count or bit depth");
+    if (check_host(path, w, h, (uint64_t)nc, (uint64_t)rowbytes * h) != CSI_OK) {
+        png_destroy_read_struct(&png, &info, NULL);
+        fclose(fp);
+        return CSI_ERR_TOO_LARGE;
+    }
     if (csi_image_alloc(out, w, h, (uint32_t)nc) != CSI_OK)
         png_error(png, "out of memory");
     pix = malloc(rowbytes * h);
@@ -543,9 +560,8 @@ csi_status csi_png_read(const char *path, csi_image *out)
 csi_status csi_image_read(const char *path, csi_image *out)
 {
     memset(out, 0, sizeof *out);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return csi_fail(CSI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    FILE *fp;
+    CSI_TRY(csi_infile_open(path, "image", 0, &fp, NULL));
     unsigned char m[4] = {0};
     size_t got = fread(m, 1, 4, fp);
     fclose(fp);

@@ -63,6 +63,18 @@ csi_status csi_outfile_open(csi_outfile *of, const char *path)
     return CSI_OK;
 }
 
+bool csi_output_fault(void)
+{
+    static long events, fail_at = -1;
+    if (fail_at < 0) {
+        const char *env = getenv("CSI_FAIL_OUTPUT");
+        char *end;
+        long v = env ? strtol(env, &end, 10) : 0;
+        fail_at = env && *env && *end == '\0' && v > 0 ? v : 0;
+    }
+    return fail_at > 0 && ++events == fail_at;
+}
+
 csi_status csi_outfile_commit(csi_outfile *of)
 {
     if (!of->fp)
@@ -70,6 +82,8 @@ csi_status csi_outfile_commit(csi_outfile *of)
     int err = 0;
     if (fflush(of->fp) != 0 || ferror(of->fp))
         err = errno ? errno : EIO;
+    if (!err && csi_output_fault())
+        err = EIO; /* injected (CSI_FAIL_OUTPUT) */
     if (!err && fsync(of->fd) != 0 && errno != EINVAL && errno != EROFS)
         err = errno;
     if (fclose(of->fp) != 0 && !err)

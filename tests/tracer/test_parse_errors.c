@@ -5,6 +5,9 @@
  * loads (quad.obj with uvs). */
 #include "tracer_test_util.h"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 static void expect_error(const char *text, csi_status want, const char *substr, const char *why)
 {
     csi_scene *sc = (csi_scene *)1;
@@ -40,7 +43,8 @@ int main(void)
     expect_error(CAM "sphere { center 0 0 0 radius 1 material wood }\n", CSI_ERR_SCENE,
                  "bad.scene:2:41: unknown material 'wood'", "unknown material");
     expect_error(CAM MAT "mesh { file \"nope.obj\" material m }\n", CSI_ERR_SCENE,
-                 "bad.scene:3:13: cannot open OBJ file", "missing OBJ");
+                 "bad.scene:3:13: " CSI_SOURCE_DIR "/tests/tracer/data/nope.obj: cannot open OBJ mesh: No such file",
+                 "missing OBJ");
     expect_error(CAM MAT "mesh { file \"degenerate.obj\" material m }\n", CSI_ERR_SCENE,
                  "degenerate (zero area)", "degenerate OBJ triangle");
     expect_error(CAM MAT "mesh { file \"badstmt.obj\" material m }\n", CSI_ERR_SCENE,
@@ -54,7 +58,13 @@ int main(void)
     expect_error(CAM MAT "plane { corner 0 0 0 edge_u 1 0 0 edge_v 2 0 0 material m }\n",
                  CSI_ERR_SCENE, "bad.scene:3:1: plane: triangle 0 is degenerate", "degenerate plane");
     expect_error(CAM "material t { texture \"missing.png\" }\n", CSI_ERR_SCENE,
-                 "bad.scene:2:22: texture: cannot open image", "missing texture");
+                 "bad.scene:2:22: texture: " CSI_SOURCE_DIR "/tests/tracer/data/missing.png: cannot open texture: "
+                 "No such file", "missing texture");
+    /* inputs that are not regular files: said so, never read (a FIFO would block) */
+    expect_error(CAM "material t { texture \".\" }\n", CSI_ERR_SCENE, "cannot open texture: a directory",
+                 "texture that is a directory");
+    expect_error(CAM MAT "mesh { file \"/dev/null\" material m }\n", CSI_ERR_SCENE,
+                 "/dev/null: cannot open OBJ mesh: a character device", "OBJ that is a device");
     expect_error(CAM "material t { texture \"empty.png\" }\n", CSI_ERR_SCENE,
                  "neither PNG nor OpenEXR (empty file)", "zero-byte image");
     expect_error(CAM "material t { texture \"quad.obj\" }\n", CSI_ERR_SCENE,
@@ -132,6 +142,52 @@ int main(void)
         }
     }
 
+    /* OBJ lines have no length limit (a 6000-byte line is one line, not two), and a face of more
+     * than 64 vertices is named as such */
+    {
+        char path[] = "/tmp/csi-test-objXXXXXX";
+        int fd = mkstemp(path);
+        FILE *f = fd >= 0 ? fdopen(fd, "w") : NULL;
+        CHECK(f != NULL, "temporary OBJ");
+        if (f) {
+            fprintf(f, "v 0 0 0%6000s\nv 1 0 0\nv 0 1 0\nf 1 2 3 %6000s\n", "", "");
+            fclose(f);
+            char text[512];
+            snprintf(text, sizeof text, CAM MAT "mesh { file \"%s\" material m }\n", path);
+            csi_scene *obj_sc = NULL;
+            CHECK_OK(csi_scene_parse(text, "long.scene", "/tmp", &obj_sc));
+            csi_scene_free(obj_sc);
+            f = fopen(path, "w");
+            fprintf(f, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf");
+            for (int i = 0; i < 70; i++)
+                fprintf(f, " %d", 1 + i % 3);
+            fprintf(f, "\n");
+            fclose(f);
+            expect_error(text, CSI_ERR_SCENE, ":4: a face with more than 64 vertices", "long face");
+            unlink(path);
+        }
+    }
+    /* a scene that is a directory or a device: CSI_ERR_IO saying what it is; a FIFO does not
+     * block the loader */
+    {
+        csi_scene *x = NULL;
+        csi_status sx = csi_scene_load(CSI_SOURCE_DIR "/tests/tracer/data", &x);
+        CHECK(sx == CSI_ERR_IO && strstr(csi_last_error(), "a directory"), "directory scene: %s", csi_last_error());
+        sx = csi_scene_load("/dev/zero", &x);
+        CHECK(sx == CSI_ERR_IO && strstr(csi_last_error(), "/dev/zero: cannot open scene: a character device"),
+              "device scene: %s", csi_last_error());
+        char fifo[] = "/tmp/csi-test-fifoXXXXXX";
+        int fd = mkstemp(fifo);
+        if (fd >= 0) {
+            close(fd);
+            unlink(fifo);
+            if (mkfifo(fifo, 0600) == 0) {
+                sx = csi_scene_load(fifo, &x);
+                CHECK(sx == CSI_ERR_IO && strstr(csi_last_error(), "a FIFO"), "FIFO scene: %s", csi_last_error());
+                unlink(fifo);
+            }
+        }
+    }
     /* missing scene file: CSI_ERR_IO naming the path */
     csi_scene *sc;
     csi_status st = csi_scene_load(CSI_SOURCE_DIR "/tests/tracer/data/no-such.scene", &sc);

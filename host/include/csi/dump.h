@@ -37,13 +37,33 @@ extern "C" {
  * counted; a file with no valid record left is still an error). CSI_ERR_IO if the file cannot be
  * opened/read. Records at the same position are averaged per channel (in double) and counted in
  * report->duplicates. The result is sorted by linear index, unique. opts and report may be NULL.
- * On failure *out is zeroed. */
+ * On failure *out is zeroed. The file must be a regular file (csi/infile.h: FIFOs, devices and
+ * directories are refused by what they are), and the reader refuses (CSI_ERR_TOO_LARGE) records
+ * that need more host memory than is available. */
 /* csi_dump_write (csi/csi.h) writes a temporary file, then renames it (csi/outfile.h). It refuses
  * (CSI_ERR_ARG) what the reader would refuse: a bad grid, zero samples, a position outside the
  * grid, a non-finite value. Duplicate positions are allowed (the format permits them). channels = 0
  * writes a positions request (records x, y, t only; values unused, may be NULL): what
  * csi-positions hands a renderer, which csi_dump_read refuses as samples ("a positions request
  * (channels = 0: no values to reconstruct from)"). */
+
+/* A dump's header, validated against the file's size (everything csi_dump_read checks before the
+ * records): what a caller needs to plan a run before reading the samples. */
+typedef struct csi_dump_header {
+    csi_grid grid;
+    uint32_t channels;
+    uint64_t count;       /* records in the file (before duplicates merge and NaN/Inf drop) */
+    uint64_t seed;
+} csi_dump_header;
+csi_status csi_dump_read_header(const char *path, const csi_dump_read_opts *opts, csi_dump_header *out);
+/* The host bytes csi_dump_read holds at most while reading a dump with this header (the
+ * records, and the sorted copy when they must be sorted); it refuses (CSI_ERR_TOO_LARGE) a dump
+ * that needs more than the host has available (csi/host_memory.h). */
+uint64_t csi_dump_read_host_bytes(const csi_dump_header *h);
+
+/* csi_dump_read on a dump in memory (len bytes; `name` for messages). */
+csi_status csi_dump_read_mem(const void *data, size_t len, const char *name, const csi_dump_read_opts *opts,
+                             csi_dump *out, csi_dump_report *report);
 
 #ifdef __cplusplus
 }

@@ -5,6 +5,7 @@
 #ifndef CSI_HOST_MEMORY_H
 #define CSI_HOST_MEMORY_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #ifdef __cplusplus
@@ -15,6 +16,9 @@ extern "C" {
  * (/proc/meminfo), lowered to $CSI_HOST_MEMORY_LIMIT (bytes) when that is set to a smaller
  * number. 0 when unknown (then nothing is refused for host memory). */
 uint64_t csi_host_available_bytes(void);
+
+/* Bytes as text, "3.5 GiB" (binary units), into buf (len >= 16); returns buf. */
+const char *csi_bytes_text(uint64_t bytes, char *buf, size_t len);
 
 #ifdef __cplusplus
 }

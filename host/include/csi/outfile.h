@@ -8,6 +8,7 @@
 #ifndef CSI_OUTFILE_H
 #define CSI_OUTFILE_H
 
+#include <stdbool.h>
 #include <stdio.h>
 
 #include "csi/status.h"
@@ -33,6 +34,11 @@ csi_status csi_outfile_commit(csi_outfile *of);
 
 /* Closes and removes the temporary file; releases `of`. Safe on a zeroed or released struct. */
 void csi_outfile_abort(csi_outfile *of);
+
+/* Test hook: true for the Nth output event of the process when $CSI_FAIL_OUTPUT = N > 0 (an
+ * event: a file's data completed by csi_outfile_commit, or one rename of csi_outset_commit),
+ * which then fails as a write error would. Always false otherwise. */
+bool csi_output_fault(void);
 
 #ifdef __cplusplus
 }

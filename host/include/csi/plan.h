@@ -21,6 +21,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "csi/host_memory.h"
 #include "csi/reconstruct.h"
 #include "csi/runtime.h"
 #include "csi/samples.h"
@@ -75,9 +76,6 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
  * `subject` (say "x.csid: grid 16384x16384x1") and names what is needed and the limit. */
 csi_status csi_recon_plan_check(const csi_recon_plan *p, const csi_mem_budget *b,
                                 uint64_t extra_host, const char *subject);
-
-/* Bytes as text, "3.5 GiB", into buf (len >= 16); returns buf. */
-const char *csi_bytes_text(uint64_t bytes, char *buf, size_t len);
 
 #ifdef __cplusplus
 }

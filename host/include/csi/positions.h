@@ -68,6 +68,8 @@ double csi_rng_uniform(csi_rng *r);
 /* splitmix64's output function: a good 64-bit mix, used for hashing. */
 uint64_t csi_mix64(uint64_t x);
 
+/* The host bytes csi_positions holds at most while it makes them (its result included). */
+csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes);
 #ifdef __cplusplus
 }
 #endif
