@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Writes the fuzzers' seed corpora (tests/fuzz/corpus/<target>/), committed beside this script.
+
+dump and recon: small sample dumps (docs/dump-format.md) of every kind the reader and the
+methods meet: static and moving grids, 1 to 4 channels, unsorted records with duplicates, an odd
+width (clFFT's path), a NaN record, a positions request, extreme magnitudes; for recon the
+header's seed field selects the estimator, solver and options (tests/fuzz/fuzz_recon.c).
+scene: the bundled scenes (but the 44 KB garden) and the command-line tests' scenes, plus scenes
+using the test data's OBJ and PNG. obj: the tracer tests' OBJ files and the head of the garden's
+grass. Deterministic (seeded)."""
+import os
+import random
+import shutil
+import struct
+
+here = os.path.dirname(os.path.abspath(__file__))
+root = os.path.dirname(os.path.dirname(here))
+out = os.path.join(here, "corpus")
+
+
+def dump(grid, outsz, records, channels, seed=0):
+    w, h, t = grid
+    hdr = b"CSID" + struct.pack("<7I", 1, w, h, t, outsz[0], outsz[1], channels)
+    hdr += struct.pack("<QQ", len(records), seed) + bytes(16)
+    body = b"".join(struct.pack("<3I", *p) + struct.pack("<%df" % channels, *v) for p, v in records)
+    return hdr + body
+
+
+def random_records(rng, grid, n, channels, scale=1.0, sort=True, dup=0):
+    w, h, t = grid
+    cells = rng.sample(range(w * h * t), n)
+    if sort:
+        cells.sort()
+    cells += cells[:dup]
+    rec = []
+    for c in cells:
+        p = (c % w, (c // w) % h, c // (w * h))
+        rec.append((p, [scale * rng.uniform(0, 1) for _ in range(channels)]))
+    return rec
+
+
+def write(sub, name, data):
+    d = os.path.join(out, sub)
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, name), "wb") as f:
+        f.write(data)
+
+
+def main():
+    shutil.rmtree(out, ignore_errors=True)
+    rng = random.Random(14)
+    cases = [
+        ("static_y", (8, 8, 1), (2, 2), 16, 1, {}),
+        ("static_rgb_dup", (16, 16, 1), (4, 4), 40, 3, {"sort": False, "dup": 5}),
+        ("moving_ya", (8, 8, 4), (2, 2), 30, 2, {}),
+        ("moving_rgb", (16, 16, 8), (4, 4), 120, 3, {"sort": False}),
+        ("odd_width", (15, 15, 1), (5, 5), 40, 1, {}),
+        ("odd_moving", (15, 16, 4), (5, 4), 60, 1, {}),
+        ("rgba_big_values", (16, 8, 1), (4, 2), 30, 4, {"scale": 1e30}),
+        ("tiny_values", (8, 8, 1), (4, 4), 20, 1, {"scale": 1e-30}),
+    ]
+    for i, (name, grid, osz, n, ch, kw) in enumerate(cases):
+        rec = random_records(rng, grid, n, ch, **kw)
+        write("dump", name, dump(grid, osz, rec, ch, seed=i))
+        # recon: the seed field picks the options: estimator (bits 0-1), ROMP (2), frames (3),
+        # full spectrum (4), model grid off (5), two tiles (6), iterations (8-10)
+        for sel in (0, 1, 2, 4 | 32, 8 | 16, 64, 3 << 8):
+            if grid[0] % 2 == 0:  # odd widths run on clFFT, left out of fuzz_recon
+                write("recon", "%s_%x" % (name, sel), dump(grid, osz, rec, ch, seed=sel))
+    nan = random_records(rng, (8, 8, 1), 10, 1)
+    nan[3] = (nan[3][0], [float("nan")])
+    write("dump", "nan_record", dump((8, 8, 1), (2, 2), nan, 1))
+    req = dump((8, 8, 1), (2, 2), [((i, i, 0), []) for i in range(8)], 0)
+    write("dump", "positions_request", req)
+    write("dump", "truncated", dump((8, 8, 1), (2, 2), random_records(rng, (8, 8, 1), 4, 1), 1)[:70])
+
+    scenes = [os.path.join(root, "data", "scenes", s + ".scene")
+              for s in ("triangle", "checkerboard", "billiards", "train")]
+    scenes += [os.path.join(root, "tests", "cli", "scenes", s)
+               for s in sorted(os.listdir(os.path.join(root, "tests", "cli", "scenes")))]
+    for s in scenes:
+        write("scene", os.path.basename(s), open(s, "rb").read())
+    cam = b"camera { position 0 0 -3 target 0 0 0 size 16 16 }\n"
+    write("scene", "obj_mesh", cam + b'material m { diffuse 0.5 0.5 0.5 }\nmesh { file "quad.obj" material m }\n')
+    write("scene", "texture", cam + b'material t { texture "empty.png" }\nsphere { center 0 0 0 radius 1 material t }\n')
+    write("scene", "motion_effects", cam + b"shutter 0 2\nframes 16\nambient_occlusion { samples 2 }\n"
+          b"path_tracing { max_bounces 2 }\nmaterial m { checker 1 0 0 0 0 1 0.25 uv_scale 2 2 }\n"
+          b"box { min -1 -1 -1 max 1 1 1 material m motion { key 0 { rotate 0 1 0 30 } key 2 { translate 1 0 0 "
+          b"scale 2 } } }\nlight area { corner -1 3 -1 edge_u 2 0 0 edge_v 0 0 2 radiance 4 4 4 samples 2 }\n")
+    data = os.path.join(root, "tests", "tracer", "data")
+    for f in sorted(os.listdir(data)):
+        if f.endswith(".obj"):
+            write("obj", f, open(os.path.join(data, f), "rb").read())
+    grass = open(os.path.join(root, "data", "scenes", "garden_grass.obj"), "rb").read().split(b"\n")
+    write("obj", "grass_head", b"\n".join(grass[:60]) + b"\n")
+
+
+if __name__ == "__main__":
+    main()
