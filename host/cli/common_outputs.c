@@ -120,6 +120,8 @@ void cli_stats_recon(csi_json *j, const csi_recon_result *r)
         csi_json_str(j, "message", p->message);
         csi_json_int(j, "iterations", p->iterations);
         csi_json_int(j, "inner_iterations", p->inner_iterations);
+        csi_json_int(j, "applies", p->applies);
+        csi_json_int(j, "adjoints", p->adjoints);
         csi_json_num(j, "rel_residual", p->rel_residual);
         csi_json_num(j, "objective", p->objective);
         csi_json_num(j, "tau", p->tau);

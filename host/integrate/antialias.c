@@ -155,6 +155,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     res->cpu_setup = csi_recon_cpu_now();
 
     double t_solve = 0, t_int = 0;
+    int warm_from = -1; /* the last channel solved, whose x the next one may start from */
     for (uint32_t c = 0; c < channels; c++) {
         bool copied;
         CSI_TRY(csi_recon_channel_begin(st, opt, res, values, n, channels, c, &copied));
@@ -163,13 +164,30 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         for (size_t i = 0; i < n; i++)
             st->plane[i] = values[i * channels + c];
         CSI_TRY(csi_write(ctx, st->y, 0, n * sizeof(float), st->plane));
-        CSI_TRY(csi_fill_zero(ctx, st->x, km * sizeof(float)));
+        /* Warm start (csi_recon_options.warm_channels): the previous solved channel's x, scaled
+         * to this channel's level; RGB channels of one scene share most of their structure. */
+        double ratio = 0;
+        if (warm_from >= 0) {
+            double a = 0, b = 0;
+            for (size_t i = 0; i < n; i++) {
+                a += values[i * channels + c];
+                b += values[i * channels + (uint32_t)warm_from];
+            }
+            ratio = b != 0 ? a / b : 0;
+        }
+        st->warm = ratio > 0 && isfinite(ratio);
+        if (st->warm)
+            CSI_TRY(csi_vec_scale(ctx, st->x, km, (float)ratio));
+        else
+            CSI_TRY(csi_fill_zero(ctx, st->x, km * sizeof(float)));
         double t0 = csi_recon_now();
         const double tau_scale = st->scope && st->scope->has_scale ? st->scope->scale[c] : 0;
         CSI_TRY(csi_recon_run_solver(st, opt, tau_scale, &res->report[c]));
         CSI_TRY(csi_finish(ctx));
         double t1 = csi_recon_now();
         t_solve += t1 - t0;
+        if (opt->warm_channels == CSI_SWITCH_ON && opt->solver == CSI_SOLVER_SPARSA)
+            warm_from = (int)c;
         CSI_TRY(csi_recon_progress_channel(opt, "integrate", c, channels));
         CSI_TRY(csi_linop_apply(st->Psi, st->x, st->f)); /* f_b = Psi x */
         cl_mem src = st->f;

@@ -23,6 +23,7 @@ typedef struct {
      * NULL when the problem is the whole. Borrowed, not freed. */
     const csi_tile_scope *scope;
     uint32_t channel, channels; /* the channel being solved, for the progress reports */
+    bool warm;                  /* x holds the starting point of this solve (warm_channels) */
 } csi_recon_state;
 
 /* Releases everything in st (not st itself). */

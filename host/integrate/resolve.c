@@ -146,6 +146,9 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     if (o->model_grid == CSI_SWITCH_AUTO)
         o->model_grid = o->output == CSI_AA_SHARP && o->solver == CSI_SOLVER_SPARSA ? CSI_SWITCH_ON
                                                                                     : CSI_SWITCH_OFF;
+    /* Warm-started channels (solver_setup.c): measured in docs/bench/cost.md. */
+    if (o->warm_channels == CSI_SWITCH_AUTO)
+        o->warm_channels = o->solver == CSI_SOLVER_SPARSA ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
     if (o->solver == CSI_SOLVER_ROMP) {
         image_romp(o, n, (size_t)g->w * g->h); /* each problem's own operator (tiles too) */
     } else {

@@ -2,10 +2,10 @@
  * csi/interp.h; kernels/interp.cl).
  *
  * The host groups the samples by tile of the model grid (tiles of at least TILE_H rows x TILE_W
- * columns): the spreading runs one work-item per tile, adding its samples' terms one after
- * another, and launches the tiles in colours such that two tiles of one colour never write the
- * same model cell. Tiles away from the grid's border come first in the internal order, so that
- * the gather can run their samples without any wrap-around test. */
+ * columns, row by row): the spreading runs one work-item per tile, adding its samples' terms one
+ * after another, and launches the tiles in colours such that two tiles of one colour never write
+ * the same model cell; the gather reads the samples in the same order (neighbouring samples,
+ * neighbouring cells). */
 #include "csi/interp.h"
 
 #include <math.h>
@@ -22,7 +22,7 @@
 #define TILE_W 64
 #define TILE_H 8
 #define MAX_COLOURS 9
-/* Interior samples per work-item of the gather. */
+/* Samples per work-item of the gather. */
 #define GATHER_CHUNK 256
 
 double csi_interp_kernel(double z)
@@ -76,35 +76,21 @@ double csi_interp_kernel_ft(double xi)
 }
 
 typedef struct {
-    size_t mw, mh, n, n_int;
-    cl_mem cell, ph, perm, wt, wt8, tstart, tlist;
+    size_t mw, mh, n;
+    cl_mem cell, ph, perm, wt8, tstart, tlist;
     size_t col_off[MAX_COLOURS + 1]; /* tiles of colour c: tlist[col_off[c] .. col_off[c + 1]) */
 } interp_state;
 
 static csi_status interp_apply(const csi_linop *op, cl_mem c, cl_mem y)
 {
     interp_state *s = op->state;
-    csi_ctx *ctx = op->ctx;
-    cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh;
-    /* Interior samples in chunks without any wrap test, then the border ones with wrap. */
-    const size_t full = s->n_int;
     cl_kernel k;
-    if (full > 0) {
-        CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_gather8", &k));
-        cl_uint first = 0, chunk = GATHER_CHUNK, n = (cl_uint)full;
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(y), CSI_MEM(s->cell), CSI_MEM(s->ph), CSI_MEM(s->perm),
-                         CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(first), CSI_ARG(chunk), CSI_ARG(n)));
-        size_t g = (full + GATHER_CHUNK - 1) / GATHER_CHUNK, l = 1;
-        CSI_TRY(csi_run(ctx, k, 1, &g, &l));
-    }
-    if (full < s->n) {
-        CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_gather_wrap", &k));
-        cl_uint first = (cl_uint)full, n = (cl_uint)s->n;
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(y), CSI_MEM(s->cell), CSI_MEM(s->ph), CSI_MEM(s->perm),
-                         CSI_MEM(s->wt), CSI_ARG(mw), CSI_ARG(mh), CSI_ARG(first), CSI_ARG(n)));
-        CSI_TRY(csi_run1d(ctx, k, s->n - full));
-    }
-    return CSI_OK;
+    CSI_TRY(csi_kernel(op->ctx, "interp", "csi_interp_gather", &k));
+    cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh, chunk = GATHER_CHUNK, n = (cl_uint)s->n;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(y), CSI_MEM(s->cell), CSI_MEM(s->ph), CSI_MEM(s->perm),
+                     CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh), CSI_ARG(chunk), CSI_ARG(n)));
+    size_t g = (s->n + GATHER_CHUNK - 1) / GATHER_CHUNK, l = 1;
+    return csi_run(op->ctx, k, 1, &g, &l);
 }
 
 static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
@@ -121,7 +107,7 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
             continue;
         cl_uint toff = (cl_uint)first, ntl = (cl_uint)count;
         CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(r), CSI_MEM(s->cell), CSI_MEM(s->ph),
-                         CSI_MEM(s->perm), CSI_MEM(s->wt), CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh),
+                         CSI_MEM(s->perm), CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh),
                          CSI_MEM(s->tstart), CSI_MEM(s->tlist), CSI_ARG(toff), CSI_ARG(ntl)));
         size_t l = 1, g = count;
         CSI_TRY(csi_run(ctx, k, 1, &g, &l));
@@ -137,7 +123,6 @@ static void interp_destroy(csi_linop *op)
     csi_buffer_release(&s->cell);
     csi_buffer_release(&s->ph);
     csi_buffer_release(&s->perm);
-    csi_buffer_release(&s->wt);
     csi_buffer_release(&s->wt8);
     csi_buffer_release(&s->tstart);
     csi_buffer_release(&s->tlist);
@@ -182,35 +167,21 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
         return csi_fail(CSI_ERR_NOMEM, "interpolation: out of host memory");
     }
     const size_t Tx = tile_axis(mw, TILE_W, ofx), Ty = tile_axis(mh, TILE_H, ofy), nt = Tx * Ty;
-    /* Rank of each tile in the internal order: interior tiles row by row, then border ones. */
-    uint32_t *rank = malloc(nt * sizeof *rank), *count = calloc(nt + 1, sizeof *count);
+    uint32_t *count = calloc(nt + 1, sizeof *count);
     uint32_t *cell = malloc(n * sizeof *cell), *ph = malloc(n * sizeof *ph), *perm = malloc(n * sizeof *perm);
     uint32_t *key = malloc(n * sizeof *key), *tlist = malloc(nt * sizeof *tlist);
     csi_status st = CSI_OK;
-    if (!rank || !count || !cell || !ph || !perm || !key || !tlist)
+    if (!count || !cell || !ph || !perm || !key || !tlist)
         st = csi_fail(CSI_ERR_NOMEM, "interpolation: out of host memory for %zu samples", n);
-    size_t n_int_tiles = 0;
     if (st == CSI_OK) {
-        uint32_t next_rank = 0;
-        for (int pass = 0; pass < 2; pass++) {
-            for (size_t ty = 0; ty < Ty; ty++)
-                for (size_t tx = 0; tx < Tx; tx++) {
-                    bool border = tx == 0 || ty == 0 || tx == Tx - 1 || ty == Ty - 1;
-                    if (border == (pass == 1))
-                        rank[ty * Tx + tx] = next_rank++;
-                }
-            if (pass == 0)
-                n_int_tiles = next_rank;
-        }
-        /* Stable counting sort of the samples by tile rank. */
+        /* Stable counting sort of the samples by tile. */
         for (size_t i = 0; i < n; i++) {
             size_t px = idx[i] % fw, py = idx[i] / fw;
-            key[i] = rank[ofy[py / D] * Tx + ofx[px / D]];
+            key[i] = ofy[py / D] * (uint32_t)Tx + ofx[px / D];
             count[key[i] + 1]++;
         }
         for (size_t t = 0; t < nt; t++)
             count[t + 1] += count[t];
-        s->n_int = count[n_int_tiles];
         uint32_t *next = malloc(nt * sizeof *next);
         if (!next) {
             st = csi_fail(CSI_ERR_NOMEM, "interpolation: out of host memory");
@@ -218,37 +189,38 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
             memcpy(next, count, nt * sizeof *next);
             for (size_t i = 0; i < n; i++) {
                 size_t px = idx[i] % fw, py = idx[i] / fw, o = next[key[i]]++;
-                cell[o] = (uint32_t)((py / D) * mw + px / D);
-                ph[o] = (uint32_t)((px % D) | (py % D) << 8);
+                const size_t mx = px / D, my = py / D;
+                /* kernels/interp.cl's INSIDE: rows of 8 from mx - IH, IW rows from my - IH */
+                const bool inside = mx >= IH && mx + 8 - IH <= mw && my >= IH && my + CSI_INTERP_TAPS - IH <= mh;
+                cell[o] = (uint32_t)(my * mw + mx);
+                ph[o] = (uint32_t)((px % D) | (py % D) << 8 | (inside ? 0x10000u : 0u));
                 perm[o] = (uint32_t)i;
             }
             free(next);
         }
-        /* Colour lists (of ranks). */
+        /* Colour lists. */
         size_t fill = 0;
         for (int col = 0; col < MAX_COLOURS; col++) {
             s->col_off[col] = fill;
             for (size_t ty = 0; ty < Ty; ty++)
                 for (size_t tx = 0; tx < Tx; tx++)
                     if (tile_colour(ty, Ty) * 3 + tile_colour(tx, Tx) == col)
-                        tlist[fill++] = rank[ty * Tx + tx];
+                        tlist[fill++] = (uint32_t)(ty * Tx + tx);
         }
         s->col_off[MAX_COLOURS] = fill;
     }
-    /* The kernel at the D phases: wt[d w + a] = phi(d / D - (a - IH)). */
-    float wt[64 * CSI_INTERP_TAPS], wt8[64 * 8];
+    /* The kernel at the D phases: wt8[8 d + a] = phi(d / D - (a - IH)), zero from a = w on. */
+    float wt8[64 * 8];
     memset(wt8, 0, sizeof wt8);
     for (unsigned d = 0; d < D; d++)
         for (int a = 0; a < CSI_INTERP_TAPS; a++)
-            wt[d * CSI_INTERP_TAPS + a] = wt8[d * 8 + a] = (float)csi_interp_kernel((double)d / D - (a - IH));
+            wt8[d * 8 + a] = (float)csi_interp_kernel((double)d / D - (a - IH));
     if (st == CSI_OK)
         st = upload(ctx, cell, n * 4, "the samples' model cells", &s->cell);
     if (st == CSI_OK)
         st = upload(ctx, ph, n * 4, "the samples' phases", &s->ph);
     if (st == CSI_OK)
         st = upload(ctx, perm, n * 4, "the samples' order", &s->perm);
-    if (st == CSI_OK)
-        st = upload(ctx, wt, D * CSI_INTERP_TAPS * sizeof(float), "the interpolation weights", &s->wt);
     if (st == CSI_OK)
         st = upload(ctx, wt8, D * 8 * sizeof(float), "the interpolation weights", &s->wt8);
     if (st == CSI_OK)
@@ -257,15 +229,14 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
         st = upload(ctx, tlist, nt * 4, "the tile lists", &s->tlist);
     free(ofx);
     free(ofy);
-    free(rank);
     free(count);
     free(cell);
     free(ph);
     free(perm);
     free(key);
     free(tlist);
-    static const char *names[] = {"csi_interp_gather8", "csi_interp_gather_wrap", "csi_interp_spread"};
-    for (int i = 0; i < 3 && st == CSI_OK; i++) {
+    static const char *names[] = {"csi_interp_gather", "csi_interp_spread"};
+    for (int i = 0; i < 2 && st == CSI_OK; i++) {
         cl_kernel k;
         st = csi_kernel(ctx, "interp", names[i], &k);
     }

@@ -91,14 +91,16 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     if (!isfinite(ynorm))
         return csi_fail(CSI_ERR_ARG, "SpaRSA: the measurements contain NaN or Inf (or overflow: "
                         "||y|| = %g)", ynorm);
-    CSI_TRY(csi_fill_zero(ctx, x, nfk * 4));
+    if (!o.warm_start)
+        CSI_TRY(csi_fill_zero(ctx, x, nfk * 4));
     rep->stages = 0;
     if (ynorm == 0) {
+        CSI_TRY(csi_fill_zero(ctx, x, nfk * 4)); /* a warm start too */
         csi_report_set(rep, CSI_SOLVE_ZERO, "SpaRSA: y = 0, so x = 0");
         rep->t_total = csi_solve_now() - t0;
         return CSI_OK;
     }
-    /* h = A^H r with r = y at x = 0 */
+    /* h = A^H y (r = y at x = 0): tau is relative to its largest entry, warm start or not */
     cl_mem h = S->g;
     rep->adjoints++;
     CSI_TRY(csi_linop_adjoint(S->A, y, h));
@@ -109,6 +111,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     const double tau = o.tau > 0 ? o.tau : o.tau_rel * hmax;
     rep->tau = tau;
     if (tau >= hmax) {
+        CSI_TRY(csi_fill_zero(ctx, x, nfk * 4));
         rep->rel_residual = 1.0;
         rep->objective = 0.5 * ynorm * ynorm;
         csi_report_set(rep, CSI_SOLVE_ZERO, "SpaRSA: tau = %.4g >= ||A^H y||_inf = %.4g, so x = 0 "
@@ -120,9 +123,21 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     /* State: cur / Acur hold the accepted iterate and A times it; nxt / Anxt the trial. The
      * handles swap on acceptance; the result is copied into x at the end if needed. */
     cl_mem cur = x, nxt = S->xn, Acur = S->Ax, Anxt = S->Axn, rcur = S->r, rnxt = S->q;
-    CSI_TRY(csi_fill_zero(ctx, Acur, nfN * 4));
-    CSI_TRY(csi_vec_copy(ctx, rcur, y, nfN));
     double rn2 = ynorm * ynorm, l1 = 0.0, ry = rn2;
+    if (o.warm_start) {
+        /* r = y - A x0, ||x0||_1, and the gradient A^H r at the start. */
+        rep->applies++;
+        CSI_TRY(csi_linop_apply(S->A, x, Acur));
+        CSI_TRY(csi_fill_zero(ctx, Anxt, nfN * 4));
+        double dd;
+        CSI_TRY(csi_vec_resid_sums(S->ws, nfN, y, Acur, Anxt, rcur, &rn2, &dd, &ry));
+        CSI_TRY(csi_vec_asum(S->ws, S->k, S->cplx, x, &l1));
+        rep->adjoints++;
+        CSI_TRY(csi_linop_adjoint(S->A, rcur, h));
+    } else {
+        CSI_TRY(csi_fill_zero(ctx, Acur, nfN * 4));
+        CSI_TRY(csi_vec_copy(ctx, rcur, y, nfN));
+    }
     double tau_k = o.continuation ? fmax(o.cont_factor * hmax, tau) : tau;
     double alpha = 1.0; /* WNF09's code starts from alpha = 1 */
     if (alpha < o.alpha_min)

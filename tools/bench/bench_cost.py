@@ -131,7 +131,9 @@ def make_dump(bins, scene, size, spp, work, name):
         return dump
     path, _ = bc.scene_variant(scene, size, work)
     bc.log(f"dump {name}: rendering {scene} at {size[0]}x{size[1]}, {spp} spp")
-    bc.run([bins["csi-render"], path, "--spp", str(spp), "--dump", dump, "-o", os.path.join(work, name + ".render.exr"), "-q"])
+    # the dump is what counts: csi-render's own reconstruction is the cheap per-pixel mean here
+    bc.run([bins["csi-render"], path, "--spp", str(spp), "--dump", dump, "--estimator", "mean",
+            "-o", os.path.join(work, name + ".render.exr"), "-q"])
     return dump
 
 
@@ -232,7 +234,7 @@ def quality_dumps(args, bins):
                 dump = os.path.join(args.work, name + ".csid")
                 if not os.path.exists(dump):
                     bc.run([bins["csi-render"], path, "--spp", str(spp), "--seed", str(seed), "--dump", dump,
-                            "-o", os.path.join(args.work, name + ".r.exr"), "-q"])
+                            "--estimator", "mean", "-o", os.path.join(args.work, name + ".r.exr"), "-q"])
                 out.append((f"{scene} 128x128 {spp} spp seed {seed}", dump, ref))
     import quality_sweep as qs
     for img, fn in qs.IMAGES.items():

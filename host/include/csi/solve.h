@@ -182,6 +182,8 @@ typedef struct csi_sparsa_options {
     int max_iter;            /* accepted steps over all stages, default 2000 */
     int max_trials;          /* alpha increases per step before STALLED, default 60 */
     bool continuation;       /* default true */
+    bool warm_start;         /* start from the x passed in (default false: from x = 0); the
+                                start costs one apply and one adjoint more */
     double cont_factor;      /* 0.2 */
     double cont_tol;         /* tolerance of intermediate stages, default 1e-3 */
     bool debias;             /* default true */
