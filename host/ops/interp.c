@@ -249,7 +249,6 @@ void csi_interp_buffers(size_t mw, size_t mh, unsigned D, size_t n, csi_mem_tall
     csi_mem_tally_add(t, n * 4, "the samples' model cells");
     csi_mem_tally_add(t, n * 4, "the samples' phases");
     csi_mem_tally_add(t, n * 4, "the samples' order");
-    csi_mem_tally_add(t, D * CSI_INTERP_TAPS * sizeof(float), "the interpolation weights");
     csi_mem_tally_add(t, D * 8 * sizeof(float), "the interpolation weights");
     csi_mem_tally_add(t, (nt + 1) * 4, "the tiles' sample ranges");
     csi_mem_tally_add(t, nt * 4, "the tile lists");
