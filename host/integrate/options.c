@@ -125,7 +125,7 @@ static const row table[] = {
     {"warm-channels", K_CHOICE, AT(warm_channels), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 with SpaRSA: each channel after the first starts from the previous one's solution "
      "(scaled by the ratio of their sample sums) at the final tau, stopping on a 3x tighter "
-     "objective change", "on for SpaRSA"},
+     "objective change (faster; the MSE moves by a few %, docs/bench/cost.md)", "off"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

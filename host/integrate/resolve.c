@@ -146,9 +146,12 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     if (o->model_grid == CSI_SWITCH_AUTO)
         o->model_grid = o->output == CSI_AA_SHARP && o->solver == CSI_SOLVER_SPARSA ? CSI_SWITCH_ON
                                                                                     : CSI_SWITCH_OFF;
-    /* Warm-started channels (solver_setup.c): measured in docs/bench/cost.md. */
+    /* Warm-started channels (solver_setup.c) save 40-60% of the steps of channels 2 and 3, but
+     * they stop at another point than the cold solves' continuation path: the MSE moved by
+     * -3%..+4% on the same samples (garden and checkerboard at 1 spp: +2.5..3.8%;
+     * docs/bench/cost.md), more than the 2% the defaults may move. Off unless asked for. */
     if (o->warm_channels == CSI_SWITCH_AUTO)
-        o->warm_channels = o->solver == CSI_SOLVER_SPARSA ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+        o->warm_channels = CSI_SWITCH_OFF;
     if (o->solver == CSI_SOLVER_ROMP) {
         image_romp(o, n, (size_t)g->w * g->h); /* each problem's own operator (tiles too) */
     } else {

@@ -126,7 +126,7 @@ typedef struct csi_recon_options {
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
     csi_switch warm_channels;     /* Alg. 1 with SpaRSA: channels after the first start from the
-                                     previous one's solution (see solver_setup.c); auto: on */
+                                     previous one's solution (see solver_setup.c); auto: off */
     csi_switch model_grid;        /* Alg. 1 on a grid coarser than the samples' where the filter
                                      allows it (csi/model_grid.h) */
     csi_recon_stop stop;
