@@ -265,31 +265,39 @@ def quality_dumps(args, bins):
 
 
 def quality_section(args, bins, report):
+    """Every dump through the base build and each variant of the new one (--variant)."""
+    variants = [("after", [])] + [(v.split(":", 1)[0], v.split(":", 1)[1].split()) for v in args.variant]
     rows = []
     for name, dump, ref in quality_dumps(args, bins):
         res = {}
-        for bname, build in (("after", args.build), ("before", args.base)):
-            exr, js = os.path.join(args.work, f"q_{bname}.exr"), os.path.join(args.work, f"q_{bname}.json")
-            _, _, st = reconstruct(build, dump, exr, js)
+        for vname, build, extra in [("before", args.base, [])] + [(v, args.build, e) for v, e in variants]:
+            exr, js = os.path.join(args.work, "q_v.exr"), os.path.join(args.work, "q_v.json")
+            _, _, st = reconstruct(build, dump, exr, js, extra)
             img = bc.read_exr(exr)
-            res[bname] = (bc.mse(img, ref), rel_mse(img, ref), st.get("model_grid_factor", 1), phases(st)["solve"])
-        a, b = res["after"], res["before"]
-        rows.append(dict(name=name, mse_before=b[0], mse_after=a[0], ratio=a[0] / b[0], relmse_before=b[1],
-                         relmse_after=a[1], D=a[2], solve_before=b[3], solve_after=a[3]))
-        bc.log(f"quality {name}: MSE {b[0]:.4e} -> {a[0]:.4e} ({a[0] / b[0]:.4f}), D = {a[2]}")
+            steps = sum(c["iterations"] for c in st["channels"].values() if c.get("t_total_s", 1) > 0)
+            res[vname] = dict(mse=bc.mse(img, ref), relmse=rel_mse(img, ref), D=st.get("model_grid_factor", 1),
+                              solve=phases(st)["solve"], steps=steps)
+        rows.append(dict(name=name, **{f"{v}_{k}": x for v, r in res.items() for k, x in r.items()}))
+        bc.log(f"quality {name}: MSE before {res['before']['mse']:.4e}; " + ", ".join(
+            f"{v} {res[v]['mse'] / res['before']['mse']:.4f} ({res[v]['steps']} steps)" for v, _ in variants))
     report["quality"] = rows
-    return rows
+    report["variants"] = [v for v, _ in variants]
+    return rows, [v for v, _ in variants]
 
 
-def quality_markdown(rows):
-    r = np.array([q["ratio"] for q in rows])
-    lines = [f"{len(rows)} dumps; MSE after / before: min {r.min():.4f}, max {r.max():.4f}, geometric mean "
-             f"{np.exp(np.log(r).mean()):.4f}; within 2%: {int((np.abs(r - 1) <= 0.02).sum())} of {len(r)}.", "",
-             "| samples | D after | MSE before | MSE after | after / before | relMSE before | relMSE after | solve s before | solve s after |",
-             "|---|---|---|---|---|---|---|---|---|"]
+def quality_markdown(rows, variants):
+    lines = []
+    for v in variants:
+        r = np.array([q[f"{v}_mse"] / q["before_mse"] for q in rows])
+        lines.append(f"- **{v}**: MSE / before over {len(rows)} dumps: min {r.min():.4f}, max {r.max():.4f}, "
+                     f"geometric mean {np.exp(np.log(r).mean()):.4f}; within 2%: {int((np.abs(r - 1) <= 0.02).sum())} "
+                     f"of {len(r)}.")
+    head = "| samples | D | MSE before | " + " | ".join(f"{v} / before | steps {v}" for v in variants) + " | steps before |"
+    lines += ["", head, "|" + "---|" * (4 + 2 * len(variants))]
     for q in rows:
-        lines.append(f"| {q['name']} | {q['D']} | {q['mse_before']:.4e} | {q['mse_after']:.4e} | {q['ratio']:.4f} | "
-                     f"{q['relmse_before']:.4e} | {q['relmse_after']:.4e} | {q['solve_before']:.2f} | {q['solve_after']:.2f} |")
+        lines.append(f"| {q['name']} | {q[variants[0] + '_D']} | {q['before_mse']:.4e} | " +
+                     " | ".join(f"{q[v + '_mse'] / q['before_mse']:.4f} | {q[v + '_steps']}" for v in variants) +
+                     f" | {q['before_steps']} |")
     return "\n".join(lines)
 
 
@@ -375,6 +383,9 @@ def main(argv=None):
     ap.add_argument("--batches", type=int, default=3, help="warm Mitsuba batches per measurement [3]")
     ap.add_argument("--mitsuba-data", default="/work/data/mitsuba")
     ap.add_argument("--quality", action="store_true", help="compare --base and --build on the same samples")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME:ARGS",
+                    help="--quality: also the new build with these csi-reconstruct arguments, e.g. "
+                    "'warm:--warm-channels on' (repeatable)")
     ap.add_argument("--equal-time", action="store_true")
     ap.add_argument("--md", help="write the report as markdown")
     ap.add_argument("--json", help="write the raw figures")
@@ -393,7 +404,7 @@ def main(argv=None):
         md += ["", "## Equal time (Mitsuba scenes, 64 paths per sample)", "",
                equal_time_markdown(equal_time_section(args, bins, report, path_us), path_us)]
     if args.quality:
-        md += ["", "## Quality on the same samples (before -> after)", "", quality_markdown(quality_section(args, bins, report))]
+        md += ["", "## Quality on the same samples (before -> after)", "", quality_markdown(*quality_section(args, bins, report))]
     report["load_after"] = os.getloadavg()
     md.append(f"\nLoad average at the end: {' '.join(f'{v:.2f}' for v in os.getloadavg())}.")
     text = "\n".join(md) + "\n"
