@@ -1,6 +1,7 @@
 #include "outputs.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -11,6 +12,37 @@
 #include "csi/dump.h"
 #include "csi/image.h"
 #include "csi/outset.h"
+
+/* The run's outputs, for the signal handler: an interrupted run leaves nothing either. */
+static csi_outset *volatile signal_set;
+
+static void on_signal(int sig)
+{
+    csi_outset_signal_cleanup(signal_set);
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+csi_status cli_outset_new(csi_outset **set)
+{
+    CSI_TRY(csi_outset_create(set));
+    signal_set = *set;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+    for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++)
+        sigaction(sigs[i], &sa, NULL);
+    return CSI_OK;
+}
+
+void cli_outset_free(csi_outset *set)
+{
+    if (signal_set == set)
+        signal_set = NULL;
+    csi_outset_free(set);
+}
 
 static void frame_name(char *buf, size_t len, uint32_t t, const char *ext)
 {

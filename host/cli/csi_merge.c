@@ -106,7 +106,7 @@ int main(int argc, char **argv)
     /* Every output stated before the merge (none may be a partial), written all or nothing. */
     csi_outset *set = NULL;
     if (!rc) {
-        s = csi_outset_create(&set);
+        s = cli_outset_new(&set);
         for (int a = optind; a < argc && s == CSI_OK; a++)
             s = csi_outset_input(set, argv[a]);
         if (s == CSI_OK)
@@ -115,7 +115,7 @@ int main(int argc, char **argv)
             rc = cli_error(prog, s, "%s", csi_last_error());
     }
     if (rc) {
-        csi_outset_free(set);
+        cli_outset_free(set);
         free(by_index);
         cli_partial_free(&first);
         return rc;
@@ -172,7 +172,7 @@ int main(int argc, char **argv)
     else if (!quiet)
         fprintf(stderr, "%s: %ux%u from %u tiles of %s in %.2f s\n", prog, res.out_w, res.out_h, count,
                 first.input, cli_now() - t0);
-    csi_outset_free(set);
+    cli_outset_free(set);
     csi_recon_result_free(&res);
     free(by_index);
     cli_partial_free(&first);

@@ -221,7 +221,7 @@ int main(int argc, char **argv)
     const uint32_t T = frames ? count : 1;
     char name[4096];
     csi_outset *set = NULL;
-    csi_status ss = csi_outset_create(&set);
+    csi_status ss = cli_outset_new(&set);
     for (uint32_t t = 0; t < T && ss == CSI_OK; t++) {
         if (frames)
             snprintf(name, sizeof name, frames, (int)(start + t));
@@ -230,13 +230,13 @@ int main(int argc, char **argv)
     if (ss == CSI_OK)
         ss = csi_outset_file(set, output, "the dump (-o)");
     if (ss != CSI_OK) {
-        csi_outset_free(set);
+        cli_outset_free(set);
         return lib_fail();
     }
     /* Read the image(s). */
     csi_image *img = calloc(T, sizeof *img);
     if (!img) {
-        csi_outset_free(set);
+        cli_outset_free(set);
         return die("%s", "out of memory");
     }
     int rc = 0;
@@ -312,7 +312,7 @@ int main(int argc, char **argv)
         printf(", seed %" PRIu64 ") on a %" PRIu32 "x%" PRIu32 "x%" PRIu32 " grid for a %" PRIu32 "x%" PRIu32
                " image, %" PRIu32 " channel(s)\n", seed, d.grid.w, d.grid.h, d.grid.t, out_w, out_h, d.channels);
     }
-    csi_outset_free(set);
+    cli_outset_free(set);
     csi_dump_free(&d);
     free(pos);
     for (uint32_t t = 0; t < T; t++)

@@ -215,20 +215,20 @@ int main(int argc, char **argv)
                          "the complex 3-D Fourier problem: use --solver sparsa", in, hdr.grid.t);
     /* Every output stated before any work, written all or nothing at the end (csi/outset.h). */
     csi_outset *set = NULL;
-    s = csi_outset_create(&set);
+    s = cli_outset_new(&set);
     if (s == CSI_OK)
         s = csi_outset_input(set, in);
     if (s == CSI_OK)
         s = cli_outputs_stage(&outs, set, opt.frames && opt.estimator != CSI_EST_MEAN && hdr.grid.t > 1 ? hdr.grid.t : 0);
     if (s != CSI_OK) {
-        csi_outset_free(set);
+        cli_outset_free(set);
         return cli_error(prog, s, "%s", csi_last_error());
     }
     csi_ctx *ctx = NULL;
     s = csi_ctx_create(&ctx, device);
     pt.device = cli_now() - tp;
     if (s != CSI_OK) {
-        csi_outset_free(set);
+        cli_outset_free(set);
         return cli_error(prog, s, "%s", csi_last_error());
     }
     {
@@ -238,7 +238,7 @@ int main(int argc, char **argv)
     }
     if (s != CSI_OK) {
         csi_ctx_release(ctx);
-        csi_outset_free(set);
+        cli_outset_free(set);
         return cli_error(prog, s, "%s", csi_last_error());
     }
     tp = cli_now();
@@ -246,7 +246,7 @@ int main(int argc, char **argv)
     pt.read = cli_now() - tp;
     if (s != CSI_OK) {
         csi_ctx_release(ctx);
-        csi_outset_free(set);
+        cli_outset_free(set);
         return cli_error(prog, s, "%s", csi_last_error());
     }
     if (!quiet && drep.dropped_invalid)
@@ -267,7 +267,7 @@ int main(int argc, char **argv)
     if (tile.one || tile.info) {
         int rc = run_tile(ctx, set, &dump, in, &opt, &tile, &outs, quiet);
         cli_progress_end(&bar);
-        csi_outset_free(set);
+        cli_outset_free(set);
         csi_ctx_release(ctx);
         csi_dump_free(&dump);
         return rc;
@@ -325,7 +325,7 @@ int main(int argc, char **argv)
         }
         csi_recon_result_free(&res);
     }
-    csi_outset_free(set); /* nothing new is left when the run failed */
+    cli_outset_free(set); /* nothing new is left when the run failed */
     csi_ctx_release(ctx);
     csi_dump_free(&dump);
     return rc;

@@ -356,7 +356,7 @@ int main(int argc, char **argv)
         opt.estimator = reference || strcmp(method, "cs") ? CSI_EST_MEAN : CSI_EST_CS;
     /* Every output stated before any work (none may be the scene or a file it reads), written
      * all or nothing at the end (csi/outset.h). */
-    s = csi_outset_create(&set);
+    s = cli_outset_new(&set);
     if (s == CSI_OK)
         s = csi_outset_input(set, scene_path);
     for (size_t i = 0; s == CSI_OK && i < csi_scene_input_count(scene); i++)
@@ -514,7 +514,7 @@ int main(int argc, char **argv)
                 grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, mdesc, t_render, t_recon);
     }
 done:
-    csi_outset_free(set); /* nothing new is left when the run failed */
+    cli_outset_free(set); /* nothing new is left when the run failed */
     csi_recon_result_free(&res);
     free(rgb);
     free(pos);

@@ -12,6 +12,11 @@ typedef struct cli_outputs {
     const char *exr, *png, *frames_dir, *stats;
 } cli_outputs;
 
+/* The run's set of outputs (csi/outset.h), whose temporary files a SIGINT, SIGTERM or SIGHUP
+ * removes before the program ends; cli_outset_free aborts what was not committed. */
+csi_status cli_outset_new(csi_outset **set);
+void cli_outset_free(csi_outset *set);
+
 /* States every output of the run in `set` before any work (csi/outset.h: directories exist and
  * are writable, no output is an input or another output), nframes frames' EXR and PNG files in
  * the frames folder included. */

@@ -9,8 +9,21 @@
 #include <sys/types.h>
 #include <unistd.h>
 
+/* The temporary file being written now (one writer at a time per program), for
+ * csi_outfile_signal_cleanup. */
+static char *volatile active_tmp;
+
+void csi_outfile_signal_cleanup(void)
+{
+    char *t = active_tmp;
+    if (t)
+        unlink(t);
+}
+
 static void outfile_release(csi_outfile *of)
 {
+    if (active_tmp == of->tmp)
+        active_tmp = NULL;
     free(of->path);
     free(of->tmp);
     of->path = of->tmp = NULL;
@@ -41,6 +54,8 @@ csi_status csi_outfile_open(csi_outfile *of, const char *path)
     memcpy(of->tmp, path, dirlen);
     snprintf(of->tmp + dirlen, len + 16 - dirlen, ".%s.tmpXXXXXX", path + dirlen);
     int fd = mkstemp(of->tmp);
+    if (fd >= 0)
+        active_tmp = of->tmp;
     if (fd < 0) {
         int e = errno;
         outfile_release(of);

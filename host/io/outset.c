@@ -5,6 +5,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <limits.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -39,6 +40,7 @@ typedef struct {
 } input;
 
 struct csi_outset {
+    volatile sig_atomic_t busy; /* the arrays are being changed: a signal handler keeps off */
     entry *e;
     size_t n, cap;
     input *in;
@@ -137,7 +139,10 @@ csi_status csi_outset_input(csi_outset *s, const char *path)
     struct stat sb;
     if (!path || stat(path, &sb) != 0)
         return CSI_OK; /* a missing input is its reader's error */
-    CSI_TRY(room((void **)&s->in, &s->capin, s->nin, sizeof *s->in));
+    s->busy = 1;
+    csi_status rs = room((void **)&s->in, &s->capin, s->nin, sizeof *s->in);
+    s->busy = 0;
+    CSI_TRY(rs);
     input *in = &s->in[s->nin];
     in->path = dup_str(path);
     if (!in->path)
@@ -160,8 +165,12 @@ static csi_status add(csi_outset *s, entry *e)
         if (!strcmp(o->canon, e->canon) || (o->exists && e->exists && o->dev == e->dev && o->ino == e->ino))
             return csi_fail(CSI_ERR_ARG, "%s: %s and %s are the same file (%s)", e->path, e->what, o->what, o->path);
     }
-    CSI_TRY(room((void **)&s->e, &s->cap, s->n, sizeof *s->e));
-    s->e[s->n++] = *e;
+    s->busy = 1;
+    csi_status rs = room((void **)&s->e, &s->cap, s->n, sizeof *s->e);
+    if (rs == CSI_OK)
+        s->e[s->n++] = *e;
+    s->busy = 0;
+    CSI_TRY(rs);
     return CSI_OK;
 }
 
@@ -391,6 +400,23 @@ static void clear(csi_outset *s)
     for (size_t i = 0; i < s->n; i++)
         entry_release(&s->e[i]);
     s->n = 0;
+}
+
+void csi_outset_signal_cleanup(const csi_outset *s)
+{
+    csi_outfile_signal_cleanup();
+    if (!s || s->busy)
+        return;
+    for (size_t i = 0; i < s->n; i++) {
+        const entry *e = &s->e[i];
+        if (e->tmp && e->kind != E_DIR && !e->renamed)
+            unlink(e->tmp);
+        if (e->backup && !e->renamed)
+            unlink(e->backup);
+    }
+    for (size_t i = 0; i < s->n; i++)
+        if (s->e[i].kind == E_DIR && s->e[i].tmp)
+            rmdir(s->e[i].tmp);
 }
 
 void csi_outset_abort(csi_outset *s)

@@ -112,6 +112,24 @@ printf 'XXXX' > "$T/bad.csid"
 "$B/csi-reconstruct" "$T/bad.csid" -o "$T/aon2/r.exr" --frames "$T/aon2/fr" -q 2> /dev/null
 [[ ! -e "$T/aon2/fr" && ! -e "$T/aon2/r.exr" ]] && ok || bad "bad dump left $(ls "$T/aon2")"
 
+# An interrupted run (SIGTERM while its outputs are being written) leaves nothing either.
+mkdir -p "$T/intr"
+mkheader "$T/intr.csid" 8192 8192 1 4096 4096 3 1
+"$B/csi-reconstruct" "$T/intr.csid" -o "$T/intr/o.exr" --png "$T/intr/o.png" --estimator mean -q 2> /dev/null &
+pid=$!
+seen=0
+for i in $(seq 1 3000); do   # up to 30 s for the first temporary output to appear
+    if ls -A "$T/intr" | grep -q .; then seen=1; break; fi
+    kill -0 $pid 2> /dev/null || break
+    sleep 0.01
+done
+kill -TERM $pid 2> /dev/null; wait $pid 2> /dev/null
+if [[ $seen == 1 ]]; then
+    [[ -z "$(ls -A "$T/intr")" ]] && ok || bad "SIGTERM while writing left: $(ls -A "$T/intr")"
+else
+    bad "the interrupted run wrote nothing to interrupt"
+fi
+
 # --- no input overwritten ------------------------------------------------------------------------
 "$B/csi-render" "$static" -o "$T/s.exr" --dump "$T/s.csid" "${fast[@]}" || bad "render for the dump"
 cp "$static" "$T/t.scene"

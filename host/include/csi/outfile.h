@@ -35,6 +35,10 @@ csi_status csi_outfile_commit(csi_outfile *of);
 /* Closes and removes the temporary file; releases `of`. Safe on a zeroed or released struct. */
 void csi_outfile_abort(csi_outfile *of);
 
+/* Removes the temporary file being written, if any: async-signal-safe (unlink only), for a
+ * program's SIGINT/SIGTERM handler (csi_outset_signal_cleanup calls it). */
+void csi_outfile_signal_cleanup(void);
+
 /* Test hook: true for the Nth output event of the process when $CSI_FAIL_OUTPUT = N > 0 (an
  * event: a file's data completed by csi_outfile_commit, or one rename of csi_outset_commit),
  * which then fails as a write error would. Always false otherwise. */

@@ -60,6 +60,12 @@ csi_status csi_outset_tmp(csi_outset *s, const char *path, const char **tmp);
  * temporary path are left out (nothing was written for them). Afterwards the set is empty. */
 csi_status csi_outset_commit(csi_outset *s);
 
+/* For a program's SIGINT/SIGTERM/SIGHUP handler: removes the set's temporary files and folders
+ * and the file being written (csi_outfile_signal_cleanup) with unlink and rmdir only
+ * (async-signal-safe), so an interrupted run leaves nothing either; the handler then ends the
+ * program. */
+void csi_outset_signal_cleanup(const csi_outset *s);
+
 /* Removes every temporary file and folder of the set; the set is then empty. */
 void csi_outset_abort(csi_outset *s);
 
