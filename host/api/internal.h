@@ -16,6 +16,14 @@ struct csi_options {
     csi_recon_options o;
 };
 
+/* The library's progress reports passed on as csi/csi.h's: o.progress = csi_api_progress_relay,
+ * o.user = a csi_api_progress. */
+typedef struct {
+    csi_progress_fn fn;
+    void *user;
+} csi_api_progress;
+bool csi_api_progress_relay(void *user, const char *phase, int iter, double rel_residual);
+
 /* Records st's failure (this thread's last message) on dev, unless an earlier one is still
  * unread; returns st. dev may be NULL. */
 csi_status csi_device_record(csi_device *dev, csi_status st);

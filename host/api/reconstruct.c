@@ -10,7 +10,7 @@ _Static_assert((int)CSI_OUTCOME_STALLED == (int)CSI_SOLVE_STALLED &&
                    (int)CSI_OUTCOME_CONVERGED == (int)CSI_SOLVE_CONVERGED,
                "csi_outcome mirrors csi_solve_reason");
 
-static const char *method_of(const csi_recon_options *o, const csi_grid *g)
+const char *csi_result_method_of(const csi_recon_options *o, const csi_grid *g)
 {
     switch (o->estimator) {
     case CSI_EST_MEAN: return "sample mean (Monte Carlo)";
@@ -19,15 +19,9 @@ static const char *method_of(const csi_recon_options *o, const csi_grid *g)
     }
 }
 
-/* The library's progress reports, passed on as csi/csi.h's. */
-typedef struct {
-    csi_progress_fn fn;
-    void *user;
-} progress_relay;
-
-static bool relay(void *user, const char *phase, int iter, double rel_residual)
+bool csi_api_progress_relay(void *user, const char *phase, int iter, double rel_residual)
 {
-    const progress_relay *r = user;
+    const csi_api_progress *r = user;
     const csi_progress p = {phase, iter, rel_residual};
     return r->fn(r->user, &p);
 }
@@ -51,26 +45,31 @@ csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_opti
         o = options->o;
     else
         csi_recon_defaults(&o);
-    progress_relay pr = {progress, user};
-    o.progress = progress ? relay : NULL;
+    csi_api_progress pr = {progress, user};
+    o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;
     csi_status st = csi_recon(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->r);
     if (st != CSI_OK) {
         free(r);
         return csi_device_record(dev, st);
     }
-    r->options.o = r->r.options;
-    r->options.o.progress = NULL;
-    r->options.o.user = NULL;
-    r->grid = s->grid;
-    r->method = method_of(&r->options.o, &s->grid);
-    st = csi_result_make_attributes(r);
+    st = csi_result_finish(r, &s->grid);
     if (st != CSI_OK) {
         csi_result_free(r);
         return csi_device_record(dev, st);
     }
     *out = r;
     return CSI_OK;
+}
+
+csi_status csi_result_finish(csi_result *r, const csi_grid *g)
+{
+    r->options.o = r->r.options;
+    r->options.o.progress = NULL;
+    r->options.o.user = NULL;
+    r->grid = *g;
+    r->method = csi_result_method_of(&r->options.o, g);
+    return csi_result_make_attributes(r);
 }
 
 void csi_result_free(csi_result *r)
@@ -123,6 +122,14 @@ void csi_result_info_get(const csi_result *r, csi_result_info *out)
     out->t_setup = r->r.t_setup;
     out->t_solve = r->r.t_solve;
     out->t_integrate = r->r.t_integrate;
+    out->tiles = r->is_tile ? r->tiling.count : r->r.tiles;
+    out->tile = r->is_tile;
+    if (r->is_tile) {
+        out->tile_index = r->tile.index;
+        out->tile_origin[0] = r->tile.x0;
+        out->tile_origin[1] = r->tile.y0;
+        out->tile_origin[2] = r->tile.t0;
+    }
 }
 
 csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channel_report *out)

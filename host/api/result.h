@@ -4,6 +4,7 @@
 #define CSI_API_RESULT_H
 
 #include "internal.h"
+#include "csi/tiles.h"
 
 struct csi_result {
     csi_recon_result r;
@@ -14,7 +15,18 @@ struct csi_result {
      * that also holds their names and texts. */
     csi_attr *attrs;
     size_t nattrs;
+    /* A tile's result (csi_reconstruct_tile): its layout, the whole's scope and its place. */
+    bool is_tile;
+    csi_tiling tiling;
+    csi_tile_scope scope;
+    csi_tile_result tile; /* index and window origin; tile.r is unused (the pixels are in r) */
 };
+
+/* The text csi_result_info gives as the method. */
+const char *csi_result_method_of(const csi_recon_options *o, const csi_grid *g);
+/* Fills r's options, grid, method and attributes from r->r: a result made by the library is
+ * complete. Frees nothing on failure. */
+csi_status csi_result_finish(csi_result *r, const csi_grid *g);
 
 /* Makes r->attrs (csi_result_attributes) once the result is complete. */
 csi_status csi_result_make_attributes(csi_result *r);

@@ -6,7 +6,7 @@
 
 #include "result.h"
 
-enum { FIGURES = 9, NAME_LEN = 64, TEXT_LEN = 48 };
+enum { FIGURES = 10, NAME_LEN = 64, TEXT_LEN = 48 };
 
 csi_status csi_result_make_attributes(csi_result *r)
 {
@@ -37,6 +37,7 @@ csi_status csi_result_make_attributes(csi_result *r)
     a[n++] = CSI_ATTR_D("csi:iterations", iters);
     a[n++] = CSI_ATTR_D("csi:max_rel_residual", resid);
     a[n++] = CSI_ATTR_D("csi:t_solve_s", r->r.t_solve);
+    a[n++] = CSI_ATTR_D("csi:tiles", (double)(r->is_tile ? r->tiling.count : r->r.tiles));
     for (size_t i = 0; i < nopt; i++) {
         csi_option_info info;
         double v;
@@ -86,6 +87,9 @@ void csi_result_stats(const csi_result *r, csi_json *j)
     csi_json_int(j, "k", (int64_t)res->k);
     csi_json_int(j, "n", (int64_t)res->n);
     csi_json_num(j, "sampling_fraction", res->k ? (double)res->n / (double)res->k : 0);
+    csi_json_int(j, "tiles", r->is_tile ? r->tiling.count : res->tiles);
+    if (r->is_tile)
+        csi_json_int(j, "tile", r->tile.index);
     /* Every option, as used: the autos that apply resolved, the others "auto". */
     csi_json_begin(j, "options");
     for (size_t i = 0; i < csi_option_count(); i++) {

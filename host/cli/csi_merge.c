@@ -122,7 +122,7 @@ int main(int argc, char **argv)
     }
 
     /* Pass 2: blend in index order (the order that makes the bits). */
-    csi_tiles_blend b;
+    csi_blend b;
     csi_recon_result res;
     s = csi_tiles_begin(&first.tiling, first.scope.channels, frames, &b, &res);
     for (uint32_t i = 0; i < count && s == CSI_OK; i++) {

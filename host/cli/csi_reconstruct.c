@@ -87,7 +87,7 @@ static int run_tile(csi_ctx *ctx, csi_outset *set, const csi_dump *d, const char
         return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", in, csi_last_error());
     const double t0 = cli_now();
     csi_tile_result res;
-    s = csi_reconstruct_tile(ctx, &d->grid, d->channels, d->pos, d->values, d->count, opt, &tl, &scope,
+    s = csi_recon_tile(ctx, &d->grid, d->channels, d->pos, d->values, d->count, opt, &tl, &scope,
                              tile->index, &res);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s: %s", in, csi_last_error());

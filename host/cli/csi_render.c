@@ -148,7 +148,7 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_outset *set, cs
     csi_tile_result res;
     memset(&res, 0, sizeof res);
     if (s == CSI_OK)
-        s = csi_reconstruct_tile(ctx, grid, 3, sub, rgb, m, opt, &tl, &scope, tile->index, &res);
+        s = csi_recon_tile(ctx, grid, 3, sub, rgb, m, opt, &tl, &scope, tile->index, &res);
     char mdesc[96];
     snprintf(mdesc, sizeof mdesc, "%s, %s positions",
              opt->estimator == CSI_EST_CS ? (grid->t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)")

@@ -98,7 +98,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     csi_status s;
     if (tl.count > 1) {
         /* Each tile resolves its own autos (csi_recon_resolve_scoped); the whole's are reported. */
-        s = csi_reconstruct_tiled(ctx, grid, channels, pos, v, n, &opt, &tl, out);
+        s = csi_recon_tiled(ctx, grid, channels, pos, v, n, &opt, &tl, out);
         if (s == CSI_OK)
             s = csi_recon_resolve(&opt, grid, n, &out->options);
     } else {

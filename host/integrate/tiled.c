@@ -153,7 +153,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
                                    const csi_recon_options *opt, const csi_tiling *tl,
                                    const csi_tile_scope *scope, uint32_t index, csi_tile_result *out);
 
-csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
                                 const csi_recon_options *opt, const csi_tiling *tl,
                                 const csi_tile_scope *scope, uint32_t index, csi_tile_result *out)
@@ -240,7 +240,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     return CSI_OK;
 }
 
-csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames, csi_tiles_blend *b,
+csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames, csi_blend *b,
                            csi_recon_result *out)
 {
     memset(b, 0, sizeof *b);
@@ -274,7 +274,7 @@ static inline void blend1(float *acc, double w, float v)
     *acc = (float)((double)*acc + w * (double)v);
 }
 
-csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t)
+csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
 {
     const csi_tiling *tl = &b->tl;
     csi_recon_result *out = b->out;
@@ -379,7 +379,7 @@ csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t)
     return CSI_OK;
 }
 
-csi_status csi_tiles_end(csi_tiles_blend *b)
+csi_status csi_tiles_end(csi_blend *b)
 {
     csi_recon_result *out = b->out;
     if (b->next != b->tl.count)
@@ -411,7 +411,7 @@ static bool on_tile_progress(void *user, const char *phase, int iter, double res
     return tp->opt->progress(tp->opt->user, name, iter, res);
 }
 
-csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                  const csi_sample_pos *pos, const float *values, size_t n,
                                  const csi_recon_options *opt, const csi_tiling *tl,
                                  csi_recon_result *out)
@@ -420,7 +420,7 @@ csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t chann
     csi_tile_scope scope;
     CSI_TRY(csi_recon_progress(opt, "tile scale"));
     CSI_TRY(csi_tile_scope_make(ctx, g, channels, pos, values, n, opt, tl, &scope));
-    csi_tiles_blend b;
+    csi_blend b;
     CSI_TRY(csi_tiles_begin(tl, channels, opt->frames, &b, out));
     tile_progress tp = {opt, 0, tl->count};
     csi_recon_options o = *opt;
@@ -432,7 +432,7 @@ csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t chann
     for (uint32_t i = 0; i < tl->count && s == CSI_OK; i++) {
         tp.index = i;
         csi_tile_result t;
-        s = csi_reconstruct_tile(ctx, g, channels, pos, values, n, &o, tl, &scope, i, &t);
+        s = csi_recon_tile(ctx, g, channels, pos, values, n, &o, tl, &scope, i, &t);
         if (s == CSI_OK)
             s = csi_tiles_add(&b, &t);
         csi_tile_result_free(&t);

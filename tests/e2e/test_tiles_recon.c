@@ -53,9 +53,9 @@ static csi_status by_hand(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const 
     CSI_TRY(csi_tile_scope_make(ctx, g, 1, pos, val, n, o, tl, &scope));
     for (uint32_t k = 0; k < tl->count; k++) {
         const uint32_t i = tl->count - 1 - k;
-        CSI_TRY(csi_reconstruct_tile(i == 1 ? ctx2 : ctx, g, 1, pos, val, n, o, tl, &scope, i, &tiles[i]));
+        CSI_TRY(csi_recon_tile(i == 1 ? ctx2 : ctx, g, 1, pos, val, n, o, tl, &scope, i, &tiles[i]));
     }
-    csi_tiles_blend b;
+    csi_blend b;
     CSI_TRY(csi_tiles_begin(tl, 1, false, &b, out));
     if (tl->count > 1) {
         CHECK(csi_tiles_add(&b, &tiles[1]) == CSI_ERR_ARG && strstr(csi_last_error(), "index order"),
@@ -241,7 +241,7 @@ static void alg2(csi_ctx *ctx)
         csi_tile_scope scope;
         CHECK_OK(csi_tile_scope_make(ctx, &g, 1, pos, val, n, &o, &tl, &scope));
         csi_tile_result t0;
-        CHECK_OK(csi_reconstruct_tile(ctx, &g, 1, pos, val, n, &o, &tl, &scope, 0, &t0));
+        CHECK_OK(csi_recon_tile(ctx, &g, 1, pos, val, n, &o, &tl, &scope, 0, &t0));
         csi_tile t;
         csi_tiling_tile(&tl, 0, &t);
         size_t same = 0, cnt = 0;

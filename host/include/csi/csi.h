@@ -291,6 +291,10 @@ typedef struct csi_result_info {
     const char *solver;  /* "sparsa", "romp"; "auto" for the baselines (no solver) */
     size_t k, n;         /* unknowns and samples per channel */
     double t_setup, t_solve, t_integrate; /* seconds */
+    uint32_t tiles;      /* tiles it was solved in (1: the whole at once; see "tiles" below) */
+    bool tile;           /* the result of csi_reconstruct_tile: one tile's window, not the image */
+    uint32_t tile_index; /* then: which tile, and where its window starts (pixels x, y; frame) */
+    uint32_t tile_origin[3];
 } csi_result_info;
 CSI_API void csi_result_info_get(const csi_result *r, csi_result_info *out);
 
@@ -317,6 +321,38 @@ typedef struct csi_channel_report {
 } csi_channel_report;
 /* The report of channel c (strings owned by r). */
 CSI_API csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channel_report *out);
+
+/* ---- tiles (docs/tiles.md) ------------------------------------------------------------------
+ * csi_reconstruct solves a problem that needs more device memory than the option "mem-budget" in
+ * overlapping tiles by itself. The same tiles can be computed apart (other threads with their
+ * own devices, other processes, other machines) and blended: csi_reconstruct_tile makes tile i
+ * of the layout the options give ("tiles" = N asks for N), and csi_tiles_blend blends all N,
+ * the same bits as csi_reconstruct tiling by itself, in whatever order they were made. */
+typedef struct csi_tiling_info {
+    uint32_t count;       /* tiles (1: the whole fits the budget) */
+    uint32_t n[3];        /* tiles along x, y (pixels) and t (frames) */
+    uint32_t window[3];   /* every tile's window: pixels, pixels, frames */
+    uint64_t tile_bytes;  /* device bytes of one tile's reconstruction (the resource plan) */
+    uint64_t whole_bytes; /* ... and of the whole untiled */
+    uint64_t budget;      /* the budget the layout fits */
+} csi_tiling_info;
+/* The layout csi_reconstruct and csi_reconstruct_tile use for these samples and options. */
+CSI_API csi_status csi_tiling_get(csi_device *dev, const csi_samples *samples, const csi_options *options,
+                                  csi_tiling_info *out);
+/* The whole problem's tau scale, per channel (scale[c] for c < channels), which every tile
+ * follows: for Alg. 1 one operator setup and one adjoint per tile, so compute it once and give
+ * it to every csi_reconstruct_tile of the same samples. */
+CSI_API csi_status csi_tile_scale(csi_device *dev, const csi_samples *samples, const csi_options *options,
+                                  double scale[4]);
+/* Tile `index` of the layout: a result holding the tile's window (csi_result_info says where).
+ * scale: from csi_tile_scale, or NULL to compute it here. */
+CSI_API csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *samples,
+                                        const csi_options *options, uint32_t index, const double *scale,
+                                        csi_progress_fn progress, void *user, csi_result **out);
+/* Blends the `count` tiles of one layout (each exactly once, in any order; from the same samples
+ * and options) into the image. CSI_ERR_ARG naming the problem when one is missing, repeated or
+ * from another layout or scale. */
+CSI_API csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_result **out);
 
 /* ---- images -------------------------------------------------------------------------------- */
 CSI_API csi_status csi_image_alloc(csi_image *img, uint32_t w, uint32_t h, uint32_t channels);

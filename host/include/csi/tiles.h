@@ -141,7 +141,7 @@ void csi_tile_result_free(csi_tile_result *t);
 /* Reconstructs tile `index` of layout tl from the whole problem's samples (pos, values, n as for
  * csi_recon; the tile takes those inside its window). scope from csi_tile_scope_make, or
  * made by the caller from values it was given (a tile run on another machine). */
-csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
                                 const csi_recon_options *opt, const csi_tiling *tl,
                                 const csi_tile_scope *scope, uint32_t index, csi_tile_result *out);
@@ -150,19 +150,19 @@ csi_status csi_reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channe
  * csi_tiles_add blends tiles 0, 1, ..., count - 1 in that order (another order, a tile of
  * another layout or size is CSI_ERR_ARG), and csi_tiles_end checks that all came and sums the
  * solver reports (iterations and times added, the largest residual, converged when all did). */
-typedef struct csi_tiles_blend {
+typedef struct csi_blend {
     csi_tiling tl;
     uint32_t next;
     csi_recon_result *out;
-} csi_tiles_blend;
+} csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
-                           csi_tiles_blend *b, csi_recon_result *out);
-csi_status csi_tiles_add(csi_tiles_blend *b, const csi_tile_result *t);
-csi_status csi_tiles_end(csi_tiles_blend *b);
+                           csi_blend *b, csi_recon_result *out);
+csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
+csi_status csi_tiles_end(csi_blend *b);
 
 /* The whole tiled reconstruction in this process: layout tl (count >= 1), scope, every tile in
  * index order, blended. csi_recon calls it when its plan needs more than one tile. */
-csi_status csi_reconstruct_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                  const csi_sample_pos *pos, const float *values, size_t n,
                                  const csi_recon_options *opt, const csi_tiling *tl,
                                  csi_recon_result *out);
