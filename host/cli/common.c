@@ -25,6 +25,24 @@ int cli_exit_code(csi_status st)
     }
 }
 
+static _Thread_local char cli_msg[2048];
+
+csi_status cli_fail(csi_status st, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(cli_msg, sizeof cli_msg, fmt, ap);
+    va_end(ap);
+    csi_device_error(NULL, NULL); /* a later library failure is then the newer one */
+    return st;
+}
+
+const char *cli_last_error(void)
+{
+    const char *lib = csi_last_error();
+    return lib[0] ? lib : cli_msg;
+}
+
 int cli_error(const char *prog, csi_status st, const char *fmt, ...)
 {
     char msg[4096];

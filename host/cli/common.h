@@ -1,11 +1,14 @@
-/* Shared by the command-line programs: option parsing helpers, the progress bar, exit codes. */
+/* Shared by the command-line programs: option parsing helpers, the progress bar, exit codes.
+ *
+ * The program-support library (host/cli/common*.c) sits beside libcsi as OIDN's apps/utils sit
+ * beside OIDN: it uses csi/csi.h only, and its headers are not installed with the SDK. */
 #ifndef CSI_CLI_COMMON_H
 #define CSI_CLI_COMMON_H
 
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "csi/status.h"
+#include "csi/csi.h"
 
 /* Exit codes: 0 success, 2 bad input or usage (the user can fix it), 1 anything else. */
 enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
@@ -24,6 +27,29 @@ void cli_warn(const char *prog, const char *fmt, ...)
     ;
 /* Exit code for a library failure: input problems -> 2, the rest -> 1. */
 int cli_exit_code(csi_status st);
+
+/* Failures of the program-support code, which records its messages here (the library keeps its
+ * own): cli_fail records a printf-style message, forgets the library's last one and returns st;
+ * cli_last_error gives the message of the most recent failure on this thread, the library's
+ * (csi_last_error) when one came after the last cli_fail, else cli_fail's. So a caller prints
+ * cli_last_error() after a failed call of either. */
+csi_status cli_fail(csi_status st, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+const char *cli_last_error(void);
+
+/* The run's set of outputs (csi_outset), whose temporary files a SIGINT, SIGTERM or SIGHUP
+ * removes before the program ends; cli_outset_free aborts what was not committed. */
+csi_status cli_outset_new(csi_outset **set);
+void cli_outset_free(csi_outset *set);
+/* Outputs of a set (csi_outset) written by one of the library's writers: s, with a message that
+ * named the temporary file tmp made to name the output `path` (cli_fail). */
+csi_status cli_named(csi_status s, const char *tmp, const char *path);
+/* A dump, and statistics, written to the temporary file of `path` in set. */
+csi_status cli_write_dump(csi_outset *set, const char *path, const csi_dump *d);
+csi_status cli_write_stats(csi_outset *set, const char *path, csi_json *j);
 
 /* Strict number parsing: the whole string must be a number in [lo, hi]. */
 bool cli_parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out);

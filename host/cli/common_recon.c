@@ -97,7 +97,7 @@ int cli_recon_option(const char *prog, int c, const char *optarg, csi_recon_opti
         return -1;
     const char *value = info.kind == CSI_OPTION_FLAG ? "on" : optarg;
     if (csi_recon_option_set(opt, info.name, value) != CSI_OK)
-        return cli_error(prog, CSI_ERR_ARG, "--%s", csi_last_error()); /* "name: 'v' is not ..." */
+        return cli_error(prog, CSI_ERR_ARG, "--%s", cli_last_error()); /* "name: 'v' is not ..." */
     given[c - CLI_RECON_FIRST] = true;
     return 0;
 }

@@ -68,7 +68,7 @@ int main(int argc, char **argv)
     cli_partial first;
     csi_status s = cli_partial_read(argv[optind], false, &first);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     const uint32_t count = first.tiling.count;
     const char **by_index = calloc(count, sizeof *by_index);
     if (!by_index)
@@ -78,7 +78,7 @@ int main(int argc, char **argv)
         cli_partial p;
         s = cli_partial_read(argv[a], false, &p);
         if (s != CSI_OK) {
-            rc = cli_error(prog, s, "%s", csi_last_error());
+            rc = cli_error(prog, s, "%s", cli_last_error());
             break;
         }
         const char *diff = cli_partial_mismatch(&first, &p);
@@ -112,7 +112,7 @@ int main(int argc, char **argv)
         if (s == CSI_OK)
             s = cli_outputs_stage(&outs, set, frames ? first.tiling.grid.t : 0);
         if (s != CSI_OK)
-            rc = cli_error(prog, s, "%s", csi_last_error());
+            rc = cli_error(prog, s, "%s", cli_last_error());
     }
     if (rc) {
         cli_outset_free(set);
@@ -168,7 +168,7 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK)
-        rc = cli_error(prog, s, "%s", csi_last_error());
+        rc = cli_error(prog, s, "%s", cli_last_error());
     else if (!quiet)
         fprintf(stderr, "%s: %ux%u from %u tiles of %s in %.2f s\n", prog, res.out_w, res.out_h, count,
                 first.input, cli_now() - t0);

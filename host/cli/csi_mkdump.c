@@ -2,7 +2,7 @@
  *
  * The image IS the fine grid: its pixels are the cells, each sample takes the value of its
  * cell. For 3-D, a numbered sequence of frames gives the grid's t axis. Positions come from
- * csi_positions (Poisson-disk, stratified or random; seeded). */
+ * csi_positions (Poisson-disk, stratified or random; seeded). Uses csi/csi.h only. */
 #include <errno.h>
 #include <inttypes.h>
 #include <stdbool.h>
@@ -11,12 +11,6 @@
 #include <string.h>
 
 #include "common.h"
-#include "outputs.h"
-#include "csi/dump.h"
-#include "csi/host_memory.h"
-#include "csi/image.h"
-#include "csi/outset.h"
-#include "csi/positions.h"
 
 #define DEFAULT_SEED 1
 #define DEFAULT_SPP 4
@@ -60,7 +54,7 @@ static int die(const char *fmt, const char *arg)
 
 static int lib_fail(void)
 {
-    return cli_error(prog, CSI_ERR_ARG, "%s", csi_last_error());
+    return cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
 }
 
 static bool parse_u64(const char *s, uint64_t *out)
@@ -217,7 +211,7 @@ int main(int argc, char **argv)
     if (csi_pos_method_parse(method_s, &method) != CSI_OK)
         return lib_fail();
 
-    /* The output: not one of the inputs, written whole or not at all (csi/outset.h). */
+    /* The output: not one of the inputs, written whole or not at all (csi_outset). */
     const uint32_t T = frames ? count : 1;
     char name[4096];
     csi_outset *set = NULL;
@@ -266,7 +260,7 @@ int main(int argc, char **argv)
             rc = cli_error(prog, CSI_ERR_ARG, "%s: image size %" PRIu32 "x%" PRIu32 " is not a multiple of --out %"
                            PRIu32 "x%" PRIu32, src, d.grid.w, d.grid.h, out_w, out_h);
         } else if (csi_dump_check_grid(&d.grid, img[0].channels, 0) != CSI_OK) {
-            rc = cli_error(prog, CSI_ERR_ARG, "%s: %s", src, csi_last_error());
+            rc = cli_error(prog, CSI_ERR_ARG, "%s: %s", src, cli_last_error());
         }
     }
     if (rc == 0) {
@@ -276,7 +270,7 @@ int main(int argc, char **argv)
         uint64_t need = 0, avail = csi_host_available_bytes();
         if (csi_positions_host_bytes(&d.grid, &po, &need) != CSI_OK ||
             csi_positions_count(&d.grid, &po, &n) != CSI_OK) {
-            rc = cli_error(prog, CSI_ERR_ARG, "%s: %s", frames ? frames : input, csi_last_error());
+            rc = cli_error(prog, CSI_ERR_ARG, "%s: %s", frames ? frames : input, cli_last_error());
         } else if (need += (uint64_t)n * (12 + 4 * (uint64_t)img[0].channels), avail && need > avail) {
             char a[32], b[32];
             rc = cli_error(prog, CSI_ERR_TOO_LARGE, "%s: %zu samples of a %" PRIu32 "x%" PRIu32 "x%" PRIu32
@@ -314,7 +308,7 @@ int main(int argc, char **argv)
     }
     cli_outset_free(set);
     csi_dump_free(&d);
-    free(pos);
+    csi_free(pos);
     for (uint32_t t = 0; t < T; t++)
         csi_image_free(&img[t]);
     free(img);

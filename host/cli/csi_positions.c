@@ -2,16 +2,13 @@
  * and the sample positions csi wants for an output size and sample budget, for any renderer to
  * evaluate at the cells' centres and write back as a dump. The positions come from
  * csi_positions and the grid from csi_default_grid_factor, as in csi-render, so one seed gives
- * the same positions in both. See --help. */
+ * the same positions in both. Uses csi/csi.h only. See --help. */
 #include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "common.h"
-#include "csi/dump.h"
-#include "csi/host_memory.h"
-#include "csi/positions.h"
 
 static const char *prog = "csi-positions";
 
@@ -66,7 +63,7 @@ int main(int argc, char **argv)
         switch (c) {
         case 'o': output = optarg; break;
         case O_OUT:
-            if (!cli_parse_size(optarg, &out_w, &out_h) || out_w > CSI_DUMP_MAX_SIDE || out_h > CSI_DUMP_MAX_SIDE)
+            if (!cli_parse_size(optarg, &out_w, &out_h) || out_w > CSI_GRID_MAX_SIDE || out_h > CSI_GRID_MAX_SIDE)
                 return cli_error(prog, CSI_ERR_ARG, "--out: '%s' is not a size WxH from 1x1 to 65536x65536", optarg);
             break;
         case O_SPP:
@@ -78,7 +75,7 @@ int main(int argc, char **argv)
                 return cli_error(prog, CSI_ERR_ARG, "--fraction: '%s' is not a number in (0, 1]", optarg);
             break;
         case O_GRID:
-            if (!cli_parse_u64(optarg, 1, CSI_DUMP_MAX_SIDE, &grid_k))
+            if (!cli_parse_u64(optarg, 1, CSI_GRID_MAX_SIDE, &grid_k))
                 return cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to 65536", optarg);
             break;
         case O_TSTEPS:
@@ -89,7 +86,7 @@ int main(int argc, char **argv)
         case O_METHOD: {
             csi_status s = csi_pos_method_parse(optarg, &method);
             if (s != CSI_OK)
-                return cli_error(prog, s, "--method: %s", csi_last_error());
+                return cli_error(prog, s, "--method: %s", cli_last_error());
             break;
         }
         case O_SEED:
@@ -119,15 +116,15 @@ int main(int argc, char **argv)
     } else {
         factor = csi_default_grid_factor(out_w, out_h, (uint32_t)tsteps, spp);
     }
-    if ((uint64_t)out_w * factor > CSI_DUMP_MAX_SIDE || (uint64_t)out_h * factor > CSI_DUMP_MAX_SIDE)
+    if ((uint64_t)out_w * factor > CSI_GRID_MAX_SIDE || (uint64_t)out_h * factor > CSI_GRID_MAX_SIDE)
         return cli_error(prog, CSI_ERR_ARG, "fine grid %llux%llu is larger than the limit %u per side",
                          (unsigned long long)(out_w * factor), (unsigned long long)(out_h * factor),
-                         CSI_DUMP_MAX_SIDE);
+                         CSI_GRID_MAX_SIDE);
     csi_grid grid = {.w = (uint32_t)(out_w * factor), .h = (uint32_t)(out_h * factor), .t = (uint32_t)tsteps,
                      .out_w = out_w, .out_h = out_h};
     csi_status s = csi_dump_check_grid(&grid, 1, 0);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     csi_pos_opts popts = {.method = method, .spp = (uint32_t)spp, .fraction = fraction, .seed = seed};
     csi_sample_pos *pos = NULL;
     size_t n = 0;
@@ -137,7 +134,7 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = csi_positions_count(&grid, &popts, &n);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     need += 12 * (uint64_t)n;
     if (avail && need > avail) {
         char a[32], b[32];
@@ -147,12 +144,12 @@ int main(int argc, char **argv)
     }
     s = csi_positions(&grid, &popts, &pos, &n, NULL);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     csi_dump req = {.grid = grid, .channels = 0, .seed = seed, .count = n, .pos = pos, .values = NULL};
     s = csi_dump_write(output, &req);
-    free(pos);
+    csi_free(pos);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     if (!quiet)
         fprintf(stderr, "%s: %zu %s positions on a %ux%ux%u grid (%llux) for %ux%u, seed %llu -> %s\n", prog, n,
                 csi_pos_method_name(method), grid.w, grid.h, grid.t, (unsigned long long)factor, out_w, out_h,

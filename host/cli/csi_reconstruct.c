@@ -84,15 +84,15 @@ static int run_tile(csi_ctx *ctx, csi_outset *set, const csi_dump *d, const char
     if (s == CSI_OK && tile->info)
         s = cli_tile_info_print(&tl, &scope, opt, id);
     if (s != CSI_OK || tile->info)
-        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", in, csi_last_error());
+        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", in, cli_last_error());
     const double t0 = cli_now();
     csi_tile_result res;
     s = csi_recon_tile(ctx, &d->grid, d->channels, d->pos, d->values, d->count, opt, &tl, &scope,
                              tile->index, &res);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s: %s", in, csi_last_error());
+        return cli_error(prog, s, "%s: %s", in, cli_last_error());
     const char *tmp = NULL;
-    if (outs->exr) /* the partial and the stats, all or nothing (csi/outset.h) */
+    if (outs->exr) /* the partial and the stats, all or nothing (csi_outset) */
         s = csi_outset_tmp(set, outs->exr, &tmp);
     if (s == CSI_OK && tmp)
         s = cli_named(cli_tile_write(tmp, method_name(opt, &d->grid), in, id, opt, &tl, &scope, &res), tmp, outs->exr);
@@ -120,7 +120,7 @@ static int run_tile(csi_ctx *ctx, csi_outset *set, const csi_dump *d, const char
         fprintf(stderr, "%s: tile %u/%u (%ux%u pixels at %u,%u) from %zu samples in %.2f s\n", prog,
                 tile->index, tl.count, res.r.out_w, res.r.out_h, res.x0, res.y0, res.r.n, cli_now() - t0);
     csi_tile_result_free(&res);
-    return s == CSI_OK ? 0 : cli_error(prog, s, "%s", csi_last_error());
+    return s == CSI_OK ? 0 : cli_error(prog, s, "%s", cli_last_error());
 }
 
 int main(int argc, char **argv)
@@ -181,7 +181,7 @@ int main(int argc, char **argv)
     if (device && !strcmp(device, "list")) {
         char buf[8192];
         if (csi_list_devices(buf, sizeof buf) != CSI_OK)
-            return cli_error(prog, CSI_ERR_DEVICE, "%s", csi_last_error());
+            return cli_error(prog, CSI_ERR_DEVICE, "%s", cli_last_error());
         fputs(buf[0] ? buf : "no OpenCL devices\n", stdout);
         return 0;
     }
@@ -209,11 +209,11 @@ int main(int argc, char **argv)
     csi_dump_header hdr;
     s = csi_dump_read_header(in, &ropts, &hdr);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     if (hdr.grid.t > 1 && opt.solver == CSI_SOLVER_ROMP)
         return cli_error(prog, CSI_ERR_ARG, "%s: ROMP is real-valued and a volume (grid_t = %u) needs "
                          "the complex 3-D Fourier problem: use --solver sparsa", in, hdr.grid.t);
-    /* Every output stated before any work, written all or nothing at the end (csi/outset.h). */
+    /* Every output stated before any work, written all or nothing at the end (csi_outset). */
     csi_outset *set = NULL;
     s = cli_outset_new(&set);
     if (s == CSI_OK)
@@ -222,14 +222,14 @@ int main(int argc, char **argv)
         s = cli_outputs_stage(&outs, set, opt.frames && opt.estimator != CSI_EST_MEAN && hdr.grid.t > 1 ? hdr.grid.t : 0);
     if (s != CSI_OK) {
         cli_outset_free(set);
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     }
     csi_ctx *ctx = NULL;
     s = csi_ctx_create(&ctx, device);
     pt.device = cli_now() - tp;
     if (s != CSI_OK) {
         cli_outset_free(set);
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     }
     {
         const uint64_t k = (uint64_t)hdr.grid.w * hdr.grid.h * hdr.grid.t;
@@ -239,7 +239,7 @@ int main(int argc, char **argv)
     if (s != CSI_OK) {
         csi_ctx_release(ctx);
         cli_outset_free(set);
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     }
     tp = cli_now();
     s = csi_dump_read(in, &ropts, &dump, &drep);
@@ -247,7 +247,7 @@ int main(int argc, char **argv)
     if (s != CSI_OK) {
         csi_ctx_release(ctx);
         cli_outset_free(set);
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     }
     if (!quiet && drep.dropped_invalid)
         cli_warn(prog, "%s: dropped %llu records with NaN/Inf values (first: record %llu)", in, (unsigned long long)drep.dropped_invalid, (unsigned long long)drep.first_invalid);
@@ -278,7 +278,7 @@ int main(int argc, char **argv)
     cli_progress_end(&bar);
     int rc = 0;
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", in, csi_last_error());
+        rc = cli_error(prog, s, "%s: %s", in, cli_last_error());
     } else {
         const char *method = method_name(&opt, &dump.grid);
         tp = cli_now();
@@ -310,7 +310,7 @@ int main(int argc, char **argv)
         if (s == CSI_OK)
             s = csi_outset_commit(set);
         if (s != CSI_OK)
-            rc = cli_error(prog, s, "%s", csi_last_error());
+            rc = cli_error(prog, s, "%s", cli_last_error());
         if (s == CSI_OK && !quiet) {
             bool all = true;
             for (uint32_t ch = 0; ch < res.channels; ch++)

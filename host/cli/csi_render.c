@@ -122,7 +122,7 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_outset *set, cs
     if (s == CSI_OK && tile->info)
         s = cli_tile_info_print(&tl, &scope, opt, id);
     if (s != CSI_OK || tile->info)
-        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
     csi_tile t;
     csi_tiling_tile(&tl, tile->index, &t);
     const uint32_t bw = grid->w / grid->out_w, bh = grid->h / grid->out_h;
@@ -156,7 +156,7 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_outset *set, cs
                                                : "sample mean (Monte Carlo)",
              csi_pos_method_name(po->method));
     const char *tmp = NULL;
-    if (s == CSI_OK && outs->exr) /* the partial and the stats, all or nothing (csi/outset.h) */
+    if (s == CSI_OK && outs->exr) /* the partial and the stats, all or nothing (csi_outset) */
         s = csi_outset_tmp(set, outs->exr, &tmp);
     if (s == CSI_OK && tmp)
         s = cli_named(cli_tile_write(tmp, mdesc, scene_path, id, opt, &tl, &scope, &res), tmp, outs->exr);
@@ -186,7 +186,7 @@ static int render_tile(const char *scene_path, csi_ctx *ctx, csi_outset *set, cs
     free(sub);
     free(ids);
     free(rgb);
-    return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+    return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
 }
 
 int main(int argc, char **argv)
@@ -277,13 +277,13 @@ int main(int argc, char **argv)
     csi_scene *scene = NULL;
     csi_status s = csi_scene_load(scene_path, &scene);
     if (s != CSI_OK)
-        return cli_error(prog, s, "%s", csi_last_error());
+        return cli_error(prog, s, "%s", cli_last_error());
     csi_plan plan;
     csi_plan_overrides ov = {.frames = (uint32_t)tsteps};
     s = csi_plan_make(scene, &ov, &plan);
     if (s != CSI_OK) {
         csi_scene_free(scene);
-        return cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        return cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
     }
     int rc = 0;
     csi_ctx *ctx = NULL;
@@ -296,7 +296,7 @@ int main(int argc, char **argv)
     if (plan_only) {
         s = csi_plan_json(scene, &plan, stdout);
         if (s != CSI_OK)
-            rc = cli_error(prog, s, "%s", csi_last_error());
+            rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
     rc = cli_tile_check(prog, &tile, outs.png != NULL, outs.frames_dir != NULL);
@@ -355,7 +355,7 @@ int main(int argc, char **argv)
     if (!est_given)
         opt.estimator = reference || strcmp(method, "cs") ? CSI_EST_MEAN : CSI_EST_CS;
     /* Every output stated before any work (none may be the scene or a file it reads), written
-     * all or nothing at the end (csi/outset.h). */
+     * all or nothing at the end (csi_outset). */
     s = cli_outset_new(&set);
     if (s == CSI_OK)
         s = csi_outset_input(set, scene_path);
@@ -366,7 +366,7 @@ int main(int argc, char **argv)
     if (s == CSI_OK && dump_path)
         s = csi_outset_file(set, dump_path, "the dump (--dump)");
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s", csi_last_error());
+        rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
     size_t n = 0;
@@ -376,7 +376,7 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = csi_positions_host_bytes(&grid, &popts, &pos_bytes);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
     /* Device first: a missing OpenCL device should fail before minutes of tracing. */
@@ -384,24 +384,24 @@ int main(int argc, char **argv)
     s = csi_ctx_create(&ctx, device);
     t_device = cli_now() - t_device;
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s", csi_last_error());
+        rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
     /* Sizes before work: positions, the traced values (12 bytes per sample) and the
      * reconstruction must fit, or the scene is refused now rather than after the tracing. */
     s = cli_check_resources(ctx, scene_path, &grid, 3, n, &opt, pos_bytes + 12 * (uint64_t)n);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s", csi_last_error());
+        rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
     s = csi_positions(&grid, &popts, &pos, &n, &pinfo);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
     s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
     if (tile.one || tile.info) {
@@ -422,14 +422,14 @@ int main(int argc, char **argv)
     double t_render = cli_now() - t0;
     cli_progress_end(&bar);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
     if (dump_path) {
         csi_dump dump = {.grid = grid, .channels = 3, .seed = seed, .count = n, .pos = pos, .values = rgb};
         s = cli_write_dump(set, dump_path, &dump);
         if (s != CSI_OK) {
-            rc = cli_error(prog, s, "%s", csi_last_error());
+            rc = cli_error(prog, s, "%s", cli_last_error());
             goto done;
         }
     }
@@ -441,7 +441,7 @@ int main(int argc, char **argv)
     double t_recon = cli_now() - t1;
     cli_progress_end(&bar);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, csi_last_error());
+        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
     char mdesc[96];
@@ -503,7 +503,7 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s", csi_last_error());
+        rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
     if (!quiet) {

@@ -4,7 +4,7 @@
 #define CSI_CLI_OUTPUTS_H
 
 #include "csi/dump.h"
-#include "csi/outset.h"
+#include "common.h"
 #include "csi/reconstruct.h"
 #include "csi/stats.h"
 
@@ -12,21 +12,11 @@ typedef struct cli_outputs {
     const char *exr, *png, *frames_dir, *stats;
 } cli_outputs;
 
-/* The run's set of outputs (csi/outset.h), whose temporary files a SIGINT, SIGTERM or SIGHUP
- * removes before the program ends; cli_outset_free aborts what was not committed. */
-csi_status cli_outset_new(csi_outset **set);
-void cli_outset_free(csi_outset *set);
-
-/* States every output of the run in `set` before any work (csi/outset.h: directories exist and
+/* States every output of the run in `set` before any work (csi_outset: directories exist and
  * are writable, no output is an input or another output), nframes frames' EXR and PNG files in
  * the frames folder included. */
 csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nframes);
 
-/* Writes the statistics (a dump) to the temporary file of `path` in set. */
-csi_status cli_write_stats(csi_outset *set, const char *path, csi_json *j);
-csi_status cli_write_dump(csi_outset *set, const char *path, const csi_dump *d);
-/* s, with a message that named the temporary file tmp renamed to name the output `path`. */
-csi_status cli_named(csi_status s, const char *tmp, const char *path);
 
 /* The solver's figures and every option as used, as JSON members. */
 void cli_stats_recon(csi_json *j, const csi_recon_result *r);

@@ -1,6 +1,6 @@
-/* The outputs of one run, all or nothing (see csi/outset.h). */
+/* The outputs of one run, all or nothing (csi/csi.h: csi_outset). */
 #define _GNU_SOURCE /* renameat2 */
-#include "csi/outset.h"
+#include "csi/status.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -67,12 +67,36 @@ typedef enum csi_status {
     CSI_ERR_CANCELLED,    /* the progress callback asked to stop; nothing was kept */
 } csi_status;
 
+/* Propagates a failure: CSI_TRY(expr) returns expr's status from the enclosing function (which
+ * returns csi_status) when it is not CSI_OK. */
+#define CSI_TRY(expr)                          \
+    do {                                       \
+        csi_status csi_try_st_ = (expr);       \
+        if (csi_try_st_ != CSI_OK)             \
+            return csi_try_st_;                \
+    } while (0)
+
 /* "CSI_ERR_IO" for CSI_ERR_IO. */
 CSI_API const char *csi_status_name(csi_status st);
 /* The message of the last failure on this thread ("" if none). */
 CSI_API const char *csi_last_error(void);
 /* Releases an array the library allocated (positions). NULL is fine. */
 CSI_API void csi_free(void *p);
+/* Copies `in` to out (cap bytes, NUL-terminated) with every control character written as
+ * \xNN: ASCII controls (newlines and escape sequences included), DEL, C1 controls and bytes that
+ * are not valid UTF-8; other UTF-8 is kept. Every message the library records goes through it;
+ * a program quoting its own input (a file name, an argument) in a message can do the same, so
+ * that no input drives the terminal. Returns the length written. */
+CSI_API size_t csi_escape_controls(const char *in, char *out, size_t cap);
+
+/* ---- host memory --------------------------------------------------------------------------- */
+/* Bytes the host can give a new allocation now without swapping: Linux's MemAvailable
+ * (/proc/meminfo), lowered to $CSI_HOST_MEMORY_LIMIT (bytes) when that is set to a smaller
+ * number; 0 when unknown. The library refuses (CSI_ERR_TOO_LARGE) inputs that need more before
+ * allocating for them; a program can check its own arrays the same way. */
+CSI_API uint64_t csi_host_available_bytes(void);
+/* Bytes as text, "3.5 GiB" (binary units), into buf (len >= 16); returns buf. */
+CSI_API const char *csi_bytes_text(uint64_t bytes, char *buf, size_t len);
 
 /* ---- devices ------------------------------------------------------------------------------- */
 typedef struct csi_device csi_device;
@@ -107,6 +131,15 @@ typedef struct csi_grid {
     uint32_t w, h, t;      /* fine grid: the paper's k = w * h * t cells */
     uint32_t out_w, out_h; /* final image; w % out_w == 0 and h % out_h == 0 */
 } csi_grid;
+
+/* The largest grid: a side of at most 65536 cells (dumps, scenes, requests), and at most 1024
+ * frames across the shutter (dumps, scenes' `frames`, every program's --time-steps). The plan's
+ * rule gives 8 to 64 frames (about one pixel of motion per frame); 1024 leaves 16x that for
+ * overrides. Beyond it the time axis holds far fewer samples than frames per pixel (4 spp over
+ * 1024 frames is one sample in 256 frames) and the motion solve's time-axis transforms dominate
+ * its cost. */
+#define CSI_GRID_MAX_SIDE 65536u
+#define CSI_GRID_MAX_FRAMES 1024u
 
 /* Linear index of a position in a row-major (t, y, x) volume. */
 static inline uint64_t csi_grid_index(const csi_grid *g, csi_sample_pos p)
@@ -154,6 +187,9 @@ CSI_API uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_
  * are in csi/positions.h of the source tree. */
 CSI_API csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out,
                                  size_t *n, csi_pos_info *info);
+/* The host bytes csi_positions holds at most while it makes them (its result included), to
+ * check a run against the host's memory (csi_host_available_bytes) before making them. */
+CSI_API csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes);
 
 /* ---- sample dumps (docs/dump-format.md) ---------------------------------------------------- */
 /* A dump in memory: one record per sample, a position and `channels` float32 values. */
@@ -402,6 +438,67 @@ CSI_API csi_status csi_json_write(csi_json *j, const char *path);
 /* Adds the result's statistics to j: a hash of the image's bits ("image_fnv1a64"), the solver,
  * k, n, times, every option as used ("options") and each channel's report ("channels"). */
 CSI_API void csi_result_stats(const csi_result *r, csi_json *j);
+
+/* ---- outputs written all or nothing ---------------------------------------------------------
+ * A run that writes several files (an EXR, a PNG preview, statistics, a dump, a folder of frames)
+ * states them all before any work: each is checked then (its directory exists and is writable;
+ * it is not one of the run's inputs, nor another of its outputs), so that a run that cannot
+ * write its outputs fails in milliseconds. After the work each output is written to a temporary
+ * name beside it (by any writer: csi_exr_write, csi_json_write, the caller's own), and
+ * csi_outset_commit renames them all into place only when every one was written; on any
+ * failure, csi_outset_abort (or a failed commit) leaves nothing new: no temporary file, no new
+ * file, no folder the run created, and every file the run would have replaced as it was.
+ *
+ * Identity: two paths are the same file when they name the same device and inode (hard links
+ * and symbolic links included), or, for a file that does not exist yet, when their directories
+ * resolve to the same directory (realpath) and their names are equal.
+ *
+ * Commit: destinations that exist are first kept as hard links (backups) beside them, then every
+ * temporary file is renamed over its destination (rename(2) is atomic within a directory); if a
+ * rename fails, those done are undone (new files removed, backups renamed back), so the set
+ * appears whole or not at all except for a crash during the renames themselves.
+ *
+ * Testing: when the environment variable CSI_FAIL_OUTPUT is a number N > 0, the Nth output event
+ * of the process fails as a write error would (an event: one file's data completed by one of the
+ * library's writers, or one rename of a commit), so that tests can check that a failure after
+ * each file leaves nothing behind. */
+typedef struct csi_outset csi_outset;
+
+CSI_API csi_status csi_outset_create(csi_outset **out);
+/* Aborts whatever was not committed, then frees. NULL is fine. */
+CSI_API void csi_outset_free(csi_outset *s);
+
+/* An input of the run (it must exist): no output may resolve to it. */
+CSI_API csi_status csi_outset_input(csi_outset *s, const char *path);
+
+/* An output file. `what` names it in messages ("the image", "--png"). Refused (CSI_ERR_IO, one
+ * line naming the path): an empty path or one ending in '/', a directory, a missing or
+ * unwritable directory, an input of the run, an output already stated. */
+CSI_API csi_status csi_outset_file(csi_outset *s, const char *path, const char *what);
+
+/* An output folder (frames): refused if it exists and is not a writable directory, or if its
+ * parent is missing or unwritable. When it does not exist, the run creates it as a temporary
+ * folder beside it, renamed into place by the commit. Its files are stated with
+ * csi_outset_dir_file(s, dir, "frame_0000.exr", ...). */
+CSI_API csi_status csi_outset_dir(csi_outset *s, const char *dir, const char *what);
+CSI_API csi_status csi_outset_dir_file(csi_outset *s, const char *dir, const char *name, const char *what);
+
+/* The temporary path to write a stated output to (a file in the destination's directory, or
+ * in the temporary folder), made on the first call; `path` as stated (for a folder's file,
+ * "dir/name"). Any writer may write it, including by its own temporary file and rename. */
+CSI_API csi_status csi_outset_tmp(csi_outset *s, const char *path, const char **tmp);
+
+/* Renames every output into place (see above). Outputs stated but never given a temporary path
+ * are left out (nothing was written for them). Afterwards the set is empty. */
+CSI_API csi_status csi_outset_commit(csi_outset *s);
+
+/* For a program's SIGINT/SIGTERM/SIGHUP handler: removes the set's temporary files and folders
+ * and the file a library writer is writing with unlink and rmdir only (async-signal-safe), so an
+ * interrupted run leaves nothing either; the handler then ends the program. */
+CSI_API void csi_outset_signal_cleanup(const csi_outset *s);
+
+/* Removes every temporary file and folder of the set; the set is then empty. */
+CSI_API void csi_outset_abort(csi_outset *s);
 
 #ifdef __cplusplus
 }

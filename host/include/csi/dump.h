@@ -26,7 +26,7 @@ extern "C" {
 /* Absurd-size guards, checked before anything is allocated: each grid side at most 2^16
  * cells, and k = w*h*t at most 2^31 cells (8 GiB per float32 channel, far beyond any device
  * here). The caller tightens the cell limit to its device with csi_dump_read_opts.max_cells. */
-#define CSI_DUMP_MAX_SIDE 65536u
+#define CSI_DUMP_MAX_SIDE CSI_GRID_MAX_SIDE
 #define CSI_DUMP_MAX_CELLS (UINT64_C(1) << 31)
 
 /* csi_dump_read (declared in csi/csi.h) validates everything. Errors (all CSI_ERR_FORMAT unless

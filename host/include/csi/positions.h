@@ -46,7 +46,7 @@
 #include <stdint.h>
 
 #include "csi/samples.h"
-#include "csi/status.h" /* and csi/csi.h: the methods, their options and csi_positions */
+#include "csi/status.h" /* and csi/csi.h: the methods, their options, csi_positions and its host bytes */
 
 #ifdef __cplusplus
 extern "C" {
@@ -68,8 +68,6 @@ double csi_rng_uniform(csi_rng *r);
 /* splitmix64's output function: a good 64-bit mix, used for hashing. */
 uint64_t csi_mix64(uint64_t x);
 
-/* The host bytes csi_positions holds at most while it makes them (its result included). */
-csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes);
 #ifdef __cplusplus
 }
 #endif

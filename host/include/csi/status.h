@@ -7,7 +7,7 @@
 #ifndef CSI_STATUS_H
 #define CSI_STATUS_H
 
-#include "csi/csi.h" /* csi_status, csi_status_name, csi_last_error */
+#include "csi/csi.h" /* csi_status, csi_status_name, csi_last_error, csi_escape_controls */
 #include <stddef.h>
 
 #ifdef __cplusplus
@@ -34,20 +34,6 @@ csi_status csi_fail_context(csi_status st, const char *fmt, ...)
 csi_status csi_last_status(void);
 /* Forgets this thread's last failure. */
 void csi_clear_error(void);
-
-/* Copies `in` to out (cap bytes, NUL-terminated) with every control character written as
- * \xNN: ASCII controls (newlines and escape sequences included), DEL, C1 controls and bytes that
- * are not valid UTF-8; other UTF-8 is kept. Every message csi_fail records goes through it, so
- * input bytes echoed into a message cannot drive a terminal. Returns the length written. */
-size_t csi_escape_controls(const char *in, char *out, size_t cap);
-
-/* Propagate a failure: CSI_TRY(expr) returns from the enclosing function when expr fails. */
-#define CSI_TRY(expr)                          \
-    do {                                       \
-        csi_status csi_try_st_ = (expr);       \
-        if (csi_try_st_ != CSI_OK)             \
-            return csi_try_st_;                \
-    } while (0)
 
 #ifdef __cplusplus
 }
