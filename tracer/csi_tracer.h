@@ -136,6 +136,9 @@ typedef void (*csi_tracer_progress_fn)(uint64_t done, uint64_t total, void *user
 csi_status csi_tracer_create(const csi_scene *scene, const csi_plan *plan, unsigned threads,
                              csi_tracer **out);
 void csi_tracer_free(csi_tracer *tr);
+/* The host bytes csi_tracer_create will hold for this scene and plan (vertex buffers per time
+ * step, indices, an estimate of Embree's BVH and threads), before making it. */
+uint64_t csi_tracer_host_bytes(const csi_scene *scene, const csi_plan *plan);
 
 /* Evaluates radiance (linear RGB, rgb[3*i..3*i+2]) at the centres of the grid cells pos[0..n).
  * grid->t must equal plan->frames; positions must lie inside the grid (grid->out_w/out_h are

@@ -387,9 +387,11 @@ int main(int argc, char **argv)
         rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
-    /* Sizes before work: positions, the traced values (12 bytes per sample) and the
-     * reconstruction must fit, or the scene is refused now rather than after the tracing. */
-    s = cli_check_resources(ctx, scene_path, &grid, 3, n, &opt, pos_bytes + 12 * (uint64_t)n);
+    /* Sizes before work: positions, the traced values (12 bytes per sample), the tracer's
+     * geometry and the reconstruction must fit, or the scene is refused now rather than after
+     * the tracing. */
+    s = cli_check_resources(ctx, scene_path, &grid, 3, n, &opt,
+                            pos_bytes + 12 * (uint64_t)n + csi_tracer_host_bytes(scene, &plan));
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;

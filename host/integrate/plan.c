@@ -364,11 +364,21 @@ csi_status csi_recon_plan_check(const csi_recon_plan *p, const csi_mem_budget *b
         return csi_fail(CSI_ERR_TOO_LARGE, "%s: %s needs %s of device memory, more than the device's %s%s", s,
                         p->method, csi_bytes_text(p->device_bytes, need, sizeof need),
                         csi_bytes_text(b->device_global, lim, sizeof lim), dev);
-    const uint64_t host = p->host_bytes + extra_host + (b->device_in_host ? p->device_bytes : 0);
-    if (b->host && host > b->host)
+    const uint64_t recon = p->host_bytes + (b->device_in_host ? p->device_bytes : 0);
+    const uint64_t host = recon + extra_host;
+    if (b->host && host > b->host) {
+        /* Say which part is the reconstruction's: the caller's share (samples, a tracer's
+         * geometry) can be most of it. */
+        char part[160] = "", r[32], e[32];
+        if (extra_host)
+            snprintf(part, sizeof part, " (%s for the reconstruction%s, %s for the samples and inputs)",
+                     csi_bytes_text(recon, r, sizeof r), b->device_in_host ? " with the device's buffers" : "",
+                     csi_bytes_text(extra_host, e, sizeof e));
+        else if (b->device_in_host)
+            snprintf(part, sizeof part, " (the device's buffers included)");
         return csi_fail(CSI_ERR_TOO_LARGE, "%s: %s needs %s of host memory%s, more than the %s available", s,
-                        p->method, csi_bytes_text(host, need, sizeof need),
-                        b->device_in_host ? " (the device's buffers included)" : "",
+                        p->method, csi_bytes_text(host, need, sizeof need), part,
                         csi_bytes_text(b->host, lim, sizeof lim));
+    }
     return CSI_OK;
 }
