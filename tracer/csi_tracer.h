@@ -26,8 +26,8 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "csi/samples.h"
-#include "csi/status.h"
+#include "csi/csi.h" /* csi_status, csi_grid, csi_sample_pos: a program including this header
+                        needs no other of csi's (csi-render is built against the public headers) */
 
 #ifdef __cplusplus
 extern "C" {

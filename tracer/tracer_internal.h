@@ -3,6 +3,7 @@
 #define CSI_TRACER_INTERNAL_H
 
 #include "csi_tracer.h"
+#include "csi/status.h"
 
 #include <math.h>
 #include <string.h>

@@ -28,4 +28,9 @@ bool csi_api_progress_relay(void *user, const char *phase, int iter, double rel_
  * unread; returns st. dev may be NULL. */
 csi_status csi_device_record(csi_device *dev, csi_status st);
 
+/* A csi_result holding res, which it takes over (res is zeroed; freed with the result even on
+ * failure): for the programs' --tile runs and csi-merge, which make a csi_recon_result through the
+ * library's own tile calls (csi/tiles.h) and write it as any other result. g: the samples' grid. */
+csi_status csi_result_adopt(csi_recon_result *res, const csi_grid *g, csi_result **out);
+
 #endif

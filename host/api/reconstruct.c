@@ -72,6 +72,25 @@ csi_status csi_result_finish(csi_result *r, const csi_grid *g)
     return csi_result_make_attributes(r);
 }
 
+csi_status csi_result_adopt(csi_recon_result *res, const csi_grid *g, csi_result **out)
+{
+    *out = NULL;
+    csi_result *r = calloc(1, sizeof *r);
+    if (!r) {
+        csi_recon_result_free(res);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a result");
+    }
+    r->r = *res;
+    memset(res, 0, sizeof *res);
+    const csi_status st = csi_result_finish(r, g);
+    if (st != CSI_OK) {
+        csi_result_free(r);
+        return st;
+    }
+    *out = r;
+    return CSI_OK;
+}
+
 void csi_result_free(csi_result *r)
 {
     if (!r)

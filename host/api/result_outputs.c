@@ -1,12 +1,14 @@
 /* What a result says about itself: EXR attributes and statistics, both listing every option as
- * used (from the option table), so that an image and its JSON tell how they were made. */
+ * used (from the option table), so that an image and its JSON tell how they were made. The
+ * attributes hold only what the inputs decide (no timings): the same inputs and seed give the
+ * same bytes. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "result.h"
 
-enum { FIGURES = 10, NAME_LEN = 64, TEXT_LEN = 48 };
+enum { FIGURES = 9, NAME_LEN = 64, TEXT_LEN = 48 };
 
 csi_status csi_result_make_attributes(csi_result *r)
 {
@@ -34,10 +36,9 @@ csi_status csi_result_make_attributes(csi_result *r)
     a[n++] = CSI_ATTR_D("csi:tau", r->r.report[0].tau);
     a[n++] = CSI_ATTR_D("csi:samples", (double)r->r.n);
     a[n++] = CSI_ATTR_D("csi:unknowns", (double)r->r.k);
+    a[n++] = CSI_ATTR_D("csi:tiles", (double)(r->is_tile ? r->tiling.count : r->r.tiles));
     a[n++] = CSI_ATTR_D("csi:iterations", iters);
     a[n++] = CSI_ATTR_D("csi:max_rel_residual", resid);
-    a[n++] = CSI_ATTR_D("csi:t_solve_s", r->r.t_solve);
-    a[n++] = CSI_ATTR_D("csi:tiles", (double)(r->is_tile ? r->tiling.count : r->r.tiles));
     for (size_t i = 0; i < nopt; i++) {
         csi_option_info info;
         double v;
@@ -90,6 +91,8 @@ void csi_result_stats(const csi_result *r, csi_json *j)
     csi_json_int(j, "tiles", r->is_tile ? r->tiling.count : res->tiles);
     if (r->is_tile)
         csi_json_int(j, "tile", r->tile.index);
+    csi_json_int(j, "unknowns", (int64_t)res->unknowns);
+    csi_json_int(j, "model_grid_factor", res->model_factor);
     /* Every option, as used: the autos that apply resolved, the others "auto". */
     csi_json_begin(j, "options");
     for (size_t i = 0; i < csi_option_count(); i++) {
@@ -120,6 +123,8 @@ void csi_result_stats(const csi_result *r, csi_json *j)
         csi_json_str(j, "message", p->message);
         csi_json_int(j, "iterations", p->iterations);
         csi_json_int(j, "inner_iterations", p->inner_iterations);
+        csi_json_int(j, "applies", p->applies);
+        csi_json_int(j, "adjoints", p->adjoints);
         csi_json_num(j, "rel_residual", p->rel_residual);
         csi_json_num(j, "objective", p->objective);
         csi_json_num(j, "tau", p->tau);
@@ -128,4 +133,32 @@ void csi_result_stats(const csi_result *r, csi_json *j)
         csi_json_end(j);
     }
     csi_json_end(j);
+}
+
+void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, double device_s, double write_s)
+{
+    if (!r || !j)
+        return;
+    const csi_recon_result *res = &r->r;
+    static const char *names[4] = {"0", "1", "2", "3"};
+    csi_json_begin(j, "phases");
+    csi_json_num(j, "read_s", read_s);
+    csi_json_num(j, "device_s", device_s);
+    csi_json_num(j, "programs_s", res->t_programs);
+    csi_json_num(j, "setup_s", res->t_setup);
+    csi_json_begin(j, "solve_s");
+    for (uint32_t c = 0; c < res->channels && c < 4; c++)
+        csi_json_num(j, names[c], res->report[c].t_total);
+    csi_json_end(j);
+    csi_json_begin(j, "integrate_s");
+    for (uint32_t c = 0; c < res->channels && c < 4; c++)
+        csi_json_num(j, names[c], res->t_channel_integrate[c]);
+    csi_json_end(j);
+    csi_json_num(j, "write_s", write_s);
+    csi_json_end(j);
+    csi_json_num(j, "fixed_s", read_s + device_s + res->t_setup);
+    csi_json_num(j, "per_sample_us", res->n ? 1e6 * (res->t_solve + res->t_integrate) / (double)res->n : 0);
+    csi_json_num(j, "cpu_setup_s", res->cpu_setup);
+    csi_json_num(j, "cpu_work_s", res->cpu_work);
+    csi_json_num(j, "cpu_per_sample_us", res->n ? 1e6 * res->cpu_work / (double)res->n : 0);
 }

@@ -163,3 +163,12 @@ void cli_progress_end(cli_progress *p)
     }
     p->last = -1;
 }
+
+void cli_json_grid(csi_json *j, const csi_grid *g)
+{
+    csi_json_int(j, "grid_w", g->w);
+    csi_json_int(j, "grid_h", g->h);
+    csi_json_int(j, "grid_t", g->t);
+    csi_json_int(j, "out_w", g->out_w);
+    csi_json_int(j, "out_h", g->out_h);
+}

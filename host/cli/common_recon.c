@@ -90,13 +90,13 @@ void cli_recon_usage(FILE *f)
     }
 }
 
-int cli_recon_option(const char *prog, int c, const char *optarg, csi_recon_options *opt)
+int cli_recon_option(const char *prog, int c, const char *optarg, csi_options *opt)
 {
     csi_option_info info;
     if (c < CLI_RECON_FIRST || csi_option_describe((size_t)(c - CLI_RECON_FIRST), &info) != CSI_OK)
         return -1;
     const char *value = info.kind == CSI_OPTION_FLAG ? "on" : optarg;
-    if (csi_recon_option_set(opt, info.name, value) != CSI_OK)
+    if (csi_options_set(opt, info.name, value) != CSI_OK)
         return cli_error(prog, CSI_ERR_ARG, "--%s", cli_last_error()); /* "name: 'v' is not ..." */
     given[c - CLI_RECON_FIRST] = true;
     return 0;
@@ -113,7 +113,7 @@ bool cli_recon_given(const char *name)
 }
 
 int cli_recon_option_or_fail(const char *prog, int c, const char *optarg, const char *arg,
-                             csi_recon_options *opt)
+                             csi_options *opt)
 {
     int rc = cli_recon_option(prog, c, optarg, opt);
     if (rc < 0)

@@ -1,12 +1,14 @@
 /* csi-merge: blends the partials of one tiled run (csi-reconstruct / csi-render --tile I/N)
- * into the final image. See --help and docs/tiles.md. */
+ * into the final image. See --help and docs/tiles.md. It reads the partial format, which holds
+ * the library's own tile layout and scope (partial.h), so it is built on the library's internal
+ * headers; its outputs are written as the other programs write theirs (outputs.h). */
 #include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "../api/internal.h" /* csi_result_adopt */
 #include "common.h"
-#include "csi/stats.h"
 #include "csi/tiles.h"
 #include "outputs.h"
 #include "partial.h"
@@ -146,20 +148,20 @@ int main(int argc, char **argv)
     const csi_solver_kind used = res.options.solver; /* the tiles' (their partials hold it) */
     res.options = first.options;                     /* the options as the tiles were given them */
     res.options.solver = used;
+    const uint32_t out_w = res.out_w, out_h = res.out_h;
+    csi_result *r = NULL;
     if (s == CSI_OK)
-        s = cli_write_images(&outs, set, &res, first.method);
+        s = csi_result_adopt(&res, &first.tiling.grid, &r);
+    if (s == CSI_OK)
+        s = cli_write_images(&outs, set, r, first.method);
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);
         if (s == CSI_OK) {
             csi_json_str(j, "tool", "csi-merge");
             csi_json_str(j, "input", first.input);
-            csi_json_int(j, "grid_w", first.tiling.grid.w);
-            csi_json_int(j, "grid_h", first.tiling.grid.h);
-            csi_json_int(j, "grid_t", first.tiling.grid.t);
-            csi_json_int(j, "out_w", first.tiling.grid.out_w);
-            csi_json_int(j, "out_h", first.tiling.grid.out_h);
-            cli_stats_recon(j, &res);
+            cli_json_grid(j, &first.tiling.grid);
+            csi_result_stats(r, j);
             csi_json_num(j, "t_wall_s", cli_now() - t0);
             s = cli_write_stats(set, outs.stats, j);
             csi_json_free(j);
@@ -170,8 +172,9 @@ int main(int argc, char **argv)
     if (s != CSI_OK)
         rc = cli_error(prog, s, "%s", cli_last_error());
     else if (!quiet)
-        fprintf(stderr, "%s: %ux%u from %u tiles of %s in %.2f s\n", prog, res.out_w, res.out_h, count,
+        fprintf(stderr, "%s: %ux%u from %u tiles of %s in %.2f s\n", prog, out_w, out_h, count,
                 first.input, cli_now() - t0);
+    csi_result_free(r);
     cli_outset_free(set);
     csi_recon_result_free(&res);
     free(by_index);

@@ -1,5 +1,7 @@
 /* csi-render: renders a scene with the Embree tracer at host-chosen sample positions and
- * reconstructs in the same process (compressive, or a Monte Carlo baseline). See --help. */
+ * reconstructs in the same process (compressive, or a Monte Carlo baseline). See --help. The
+ * tracer is the project's own library (csi_tracer.h); the rest is a thin main over csi/csi.h (its
+ * --tile runs: tile.h). */
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -8,14 +10,8 @@
 
 #include "csi_tracer.h"
 #include "common.h"
-#include "csi/dump.h"
-#include "csi/positions.h"
-#include "csi/reconstruct.h"
-#include "csi/runtime.h"
-#include "csi/stats.h"
 #include "outputs.h"
 #include "recon_opts.h"
-#include "resources.h"
 #include "tile.h"
 
 static const char *prog = "csi-render";
@@ -78,115 +74,84 @@ static void on_trace(uint64_t done, uint64_t total, void *user)
     cli_progress_update(ps->bar, "trace", total ? (double)done / (double)total : -1, detail);
 }
 
-static bool on_solve(void *user, const char *phase, int iter, double res)
+static bool on_solve(void *user, const csi_progress *p)
 {
     prog_state *ps = user;
-    cli_recon_progress_update(&ps->recon, phase, iter, res);
+    cli_recon_progress_update(&ps->recon, p->phase, p->iteration, p->residual);
     return true;
 }
 
-/* The input's identity for tile partials: the scene file's bytes and what decides the samples. */
-static csi_status render_id(const char *scene_path, const csi_grid *g, const csi_pos_opts *po, uint64_t *id)
+/* A tile's samples, evaluated by the tracer (cli_tile_eval_fn). */
+typedef struct {
+    csi_tracer *tr;
+    const csi_grid *grid;
+    uint64_t seed;
+} tile_eval;
+
+static csi_status eval_tile(void *user, const csi_sample_pos *pos, const uint64_t *ids, size_t n, float *rgb)
 {
-    FILE *fp = fopen(scene_path, "rb");
-    if (!fp)
-        return csi_fail(CSI_ERR_IO, "%s: cannot open", scene_path);
-    uint64_t h = 0x637369726e646572ull; /* "csirnder" */
-    unsigned char buf[1 << 16];
-    size_t got;
-    while ((got = fread(buf, 1, sizeof buf, fp)) > 0)
-        h = cli_hash64(h, buf, got);
-    fclose(fp);
-    const uint64_t fields[9] = {g->w, g->h, g->t, g->out_w, g->out_h, (uint64_t)po->method, po->spp, po->seed,
-                                (uint64_t)(po->fraction * 1e9)};
-    *id = cli_hash64(h, fields, sizeof fields);
-    return CSI_OK;
+    const tile_eval *e = user;
+    return csi_tracer_eval_ids(e->tr, e->grid, pos, ids, n, e->seed, rgb, NULL, NULL);
 }
 
-/* --tile I/N: traces the samples inside the tile's window only (with their indices among all
- * the samples, so they get the values an untiled render gives them), reconstructs the tile and
- * writes its partial. --tile-info: the layout as JSON. */
-static int render_tile(const char *scene_path, csi_ctx *ctx, csi_outset *set, csi_tracer *tr, const csi_grid *grid,
-                       const csi_pos_opts *po, const csi_sample_pos *pos, size_t n, uint64_t seed,
-                       csi_recon_options *opt, const cli_tile_opts *tile, const cli_outputs *outs, bool quiet)
+/* Option `name` of o is `value` (a choice's name). */
+static bool option_is(const csi_options *o, const char *name, const char *value)
 {
-    uint64_t id;
-    csi_tiling tl;
-    opt->seed = seed; /* as the untiled render reconstructs */
-    csi_status s = render_id(scene_path, grid, po, &id);
-    if (s == CSI_OK)
-        s = cli_tile_layout(ctx, grid, 3, n, tile, opt, &tl);
-    csi_tile_scope scope;
-    if (s == CSI_OK && !cli_tile_given_scope(tile, grid, 3, n, &scope))
-        csi_tile_scope_init(grid, 3, n, &scope); /* each tile scales tau by its own samples */
-    if (s == CSI_OK && tile->info)
-        s = cli_tile_info_print(&tl, &scope, opt, id);
-    if (s != CSI_OK || tile->info)
-        return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
-    csi_tile t;
-    csi_tiling_tile(&tl, tile->index, &t);
-    const uint32_t bw = grid->w / grid->out_w, bh = grid->h / grid->out_h;
-    const uint32_t x0 = t.win0[0] * bw, x1 = x0 + tl.window[0] * bw, y0 = t.win0[1] * bh,
-                   y1 = y0 + tl.window[1] * bh, t0 = t.win0[2], t1 = t0 + tl.window[2];
-    size_t m = 0;
-    for (size_t i = 0; i < n; i++)
-        m += pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1;
-    csi_sample_pos *sub = malloc((m ? m : 1) * sizeof *sub);
-    uint64_t *ids = malloc((m ? m : 1) * sizeof *ids);
-    float *rgb = malloc((m ? m : 1) * 3 * sizeof *rgb);
-    if (!sub || !ids || !rgb)
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the %zu samples of tile %u", m, tile->index);
-    for (size_t i = 0, j = 0; i < n && s == CSI_OK; i++)
-        if (pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1) {
-            sub[j] = pos[i];
-            ids[j++] = i;
-        }
-    const double tstart = cli_now();
-    if (s == CSI_OK)
-        s = csi_tracer_eval_ids(tr, grid, sub, ids, m, seed, rgb, NULL, NULL);
-    const double t_render = cli_now() - tstart;
-    csi_tile_result res;
-    memset(&res, 0, sizeof res);
-    if (s == CSI_OK)
-        s = csi_recon_tile(ctx, grid, 3, sub, rgb, m, opt, &tl, &scope, tile->index, &res);
-    char mdesc[96];
-    snprintf(mdesc, sizeof mdesc, "%s, %s positions",
-             opt->estimator == CSI_EST_CS ? (grid->t > 1 ? "compressive motion (Alg. 2)" : "compressive antialias (Alg. 1)")
-             : opt->estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
-                                               : "sample mean (Monte Carlo)",
-             csi_pos_method_name(po->method));
-    const char *tmp = NULL;
-    if (s == CSI_OK && outs->exr) /* the partial and the stats, all or nothing (csi_outset) */
-        s = csi_outset_tmp(set, outs->exr, &tmp);
-    if (s == CSI_OK && tmp)
-        s = cli_named(cli_tile_write(tmp, mdesc, scene_path, id, opt, &tl, &scope, &res), tmp, outs->exr);
-    if (s == CSI_OK && outs->stats) {
-        csi_json *j = NULL;
-        s = csi_json_new(&j);
-        if (s == CSI_OK) {
-            csi_json_str(j, "tool", "csi-render");
-            csi_json_str(j, "scene", scene_path);
-            csi_json_int(j, "tile", tile->index);
-            csi_json_int(j, "tile_count", tl.count);
-            csi_json_int(j, "samples", (int64_t)m);
-            csi_json_num(j, "t_render_s", t_render);
-            csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
-            cli_stats_recon(j, &res.r);
-            s = cli_write_stats(set, outs->stats, j);
-            csi_json_free(j);
-        }
-    }
-    if (s == CSI_OK)
-        s = csi_outset_commit(set);
-    if (s == CSI_OK && !quiet)
-        fprintf(stderr, "%s: tile %u/%u (%ux%u pixels at %u,%u): %zu samples, render %.2f s, reconstruct %.2f s\n",
-                prog, tile->index, tl.count, tl.window[0], tl.window[1], t.win0[0], t.win0[1], m, t_render,
-                cli_now() - tstart - t_render);
-    csi_tile_result_free(&res);
-    free(sub);
-    free(ids);
-    free(rgb);
-    return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
+    char buf[64];
+    return csi_options_get(o, name, buf, sizeof buf) == CSI_OK && !strcmp(buf, value);
+}
+
+/* The statistics of a whole run. */
+typedef struct {
+    const char *scene, *method;
+    const csi_pos_opts *po;
+    uint64_t seed;
+    const csi_grid *grid;
+    size_t n;
+    double t_render, t_recon, t_device, t_write;
+} run_figures;
+
+static csi_status write_stats(csi_outset *set, const char *path, const csi_device *dev, csi_tracer *tr,
+                              const csi_result *res, const run_figures *f)
+{
+    csi_json *j = NULL;
+    CSI_TRY(csi_json_new(&j));
+    csi_tracer_counters cnt;
+    csi_tracer_counters_get(tr, &cnt);
+    csi_tracer_info info;
+    csi_tracer_info_get(tr, &info);
+    csi_json_str(j, "tool", "csi-render");
+    csi_json_str(j, "scene", f->scene);
+    csi_json_str(j, "device", csi_device_name(dev));
+    csi_json_str(j, "method", f->method);
+    csi_json_str(j, "positions", csi_pos_method_name(f->po->method));
+    csi_json_int(j, "spp", f->po->spp);
+    csi_json_int(j, "seed", (int64_t)f->seed);
+    cli_json_grid(j, f->grid);
+    csi_json_int(j, "samples", (int64_t)f->n);
+    csi_json_num(j, "t_render_s", f->t_render);
+    csi_json_num(j, "t_reconstruct_s", f->t_recon);
+    csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
+    csi_json_num(j, "t_per_sample_us", f->n ? 1e6 * f->t_render / (double)f->n : 0);
+    csi_json_begin(j, "rays");
+    csi_json_int(j, "primary", (int64_t)cnt.primary_rays);
+    csi_json_int(j, "secondary", (int64_t)cnt.secondary_rays);
+    csi_json_int(j, "shadow", (int64_t)cnt.shadow_rays);
+    csi_json_int(j, "ambient_occlusion", (int64_t)cnt.ao_rays);
+    csi_json_int(j, "timed", (int64_t)cnt.timed_rays);
+    csi_json_int(j, "texture_lookups", (int64_t)cnt.texture_lookups);
+    csi_json_int(j, "checker_lookups", (int64_t)cnt.checker_lookups);
+    csi_json_end(j);
+    csi_json_int(j, "embree_geometries", info.geometries);
+    csi_json_int(j, "embree_motion_geometries", info.motion_geometries);
+    csi_json_int(j, "threads", info.threads);
+    csi_json_begin(j, "reconstruction");
+    csi_result_stats(res, j);
+    csi_result_stats_phases(res, j, 0, f->t_device, f->t_write);
+    csi_json_end(j);
+    const csi_status s = cli_write_stats(set, path, j);
+    csi_json_free(j);
+    return s;
 }
 
 int main(int argc, char **argv)
@@ -205,93 +170,97 @@ int main(int argc, char **argv)
         {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS, {0, 0, 0, 0}};
     cli_outputs outs = {0};
     cli_tile_opts tile = {0};
-    csi_recon_options opt;
-    csi_recon_defaults(&opt);
+    csi_options *opt = NULL;
+    if (csi_options_new(&opt) != CSI_OK)
+        return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
     bool quiet = false, plan_only = false;
     const char *device = NULL, *dump_path = NULL, *method = "cs";
     uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
-    int c;
+    int c, rc = 0;
     opterr = 0;
     struct option *all_opts = cli_longopts_with_recon(longopts);
-    if (!all_opts)
+    if (!all_opts) {
+        csi_options_free(opt);
         return cli_error(prog, CSI_ERR_NOMEM, "out of memory");
-    while ((c = getopt_long(argc, argv, "o:qh", all_opts, NULL)) != -1) {
+    }
+    while (!rc && (c = getopt_long(argc, argv, "o:qh", all_opts, NULL)) != -1) {
         switch (c) {
         case 'o': outs.exr = optarg; break;
         case O_PNG: outs.png = optarg; break;
-        case O_FRAMES: outs.frames_dir = optarg; opt.frames = true; break;
+        case O_FRAMES: outs.frames_dir = optarg; csi_options_set(opt, "frames", "on"); break;
         case O_STATS: outs.stats = optarg; break;
         case O_DUMP: dump_path = optarg; break;
         case O_PLAN: plan_only = true; break;
         case O_SPP:
             if (!cli_parse_u64(optarg, 1, 65536, &spp))
-                return cli_error(prog, CSI_ERR_ARG, "--spp: '%s' is not a whole number from 1 to 65536", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--spp: '%s' is not a whole number from 1 to 65536", optarg);
             break;
         case O_METHOD:
             if (strcmp(optarg, "cs") && strcmp(optarg, "stratified") && strcmp(optarg, "random"))
-                return cli_error(prog, CSI_ERR_ARG, "--method: '%s' (expected cs, stratified or random)", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--method: '%s' (expected cs, stratified or random)", optarg);
             method = optarg;
             break;
         case O_GRID:
-            if (!cli_parse_u64(optarg, 1, 1u << 16, &grid_k))
-                return cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to 65536", optarg);
+            if (!cli_parse_u64(optarg, 1, CSI_GRID_MAX_SIDE, &grid_k))
+                rc = cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to %u", optarg,
+                               CSI_GRID_MAX_SIDE);
             break;
         case O_REF:
             if (!cli_parse_u64(optarg, 1, 65536, &ref_spp))
-                return cli_error(prog, CSI_ERR_ARG, "--reference: '%s' is not a whole number from 1 to 65536", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--reference: '%s' is not a whole number from 1 to 65536", optarg);
             break;
         case O_SEED:
             if (!cli_parse_u64(optarg, 0, UINT64_MAX, &seed))
-                return cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
             break;
         case O_THREADS:
             if (!cli_parse_u64(optarg, 1, 256, &threads))
-                return cli_error(prog, CSI_ERR_ARG, "--threads: '%s' is not a whole number from 1 to 256", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--threads: '%s' is not a whole number from 1 to 256", optarg);
             break;
         case O_TSTEPS:
             if (!cli_parse_u64(optarg, 2, CSI_GRID_MAX_FRAMES, &tsteps))
-                return cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 2 to %u", optarg,
-                                 CSI_GRID_MAX_FRAMES);
+                rc = cli_error(prog, CSI_ERR_ARG, "--time-steps: '%s' is not a whole number from 2 to %u", optarg,
+                               CSI_GRID_MAX_FRAMES);
             break;
         case O_DEVICE: device = optarg; break;
         case 'q': quiet = true; break;
-        case 'h': usage(stdout); return 0;
-        case O_VERSION: printf("csi-render %s\n", CSI_VERSION); return 0;
-        default: {
-            int rc = cli_tile_option(prog, c, optarg, &tile);
+        case 'h': usage(stdout); rc = -1; break;
+        case O_VERSION: printf("csi-render %s\n", CSI_VERSION); rc = -1; break;
+        default:
+            rc = cli_tile_option(prog, c, optarg, &tile);
             if (rc < 0)
-                rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], &opt);
-            if (rc) {
-                free(all_opts);
-                return rc;
-            }
-        }
+                rc = cli_recon_option_or_fail(prog, c, optarg, argv[optind - 1], opt);
         }
     }
     free(all_opts);
     const bool est_given = cli_recon_given("estimator"); /* else it follows --method */
-    if (optind != argc - 1)
-        return cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no scene given (see --help)"
-                                                          : "more than one scene given (see --help)");
+    if (!rc && optind != argc - 1)
+        rc = cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no scene given (see --help)"
+                                                        : "more than one scene given (see --help)");
+    if (rc) {
+        csi_options_free(opt);
+        return rc < 0 ? 0 : rc;
+    }
     const char *scene_path = argv[optind];
     csi_scene *scene = NULL;
     csi_status s = csi_scene_load(scene_path, &scene);
-    if (s != CSI_OK)
+    if (s != CSI_OK) {
+        csi_options_free(opt);
         return cli_error(prog, s, "%s", cli_last_error());
+    }
     csi_plan plan;
     csi_plan_overrides ov = {.frames = (uint32_t)tsteps};
     s = csi_plan_make(scene, &ov, &plan);
     if (s != CSI_OK) {
         csi_scene_free(scene);
+        csi_options_free(opt);
         return cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
     }
-    int rc = 0;
-    csi_ctx *ctx = NULL;
+    csi_device *dev = NULL;
     csi_tracer *tr = NULL;
     csi_sample_pos *pos = NULL;
     float *rgb = NULL;
-    csi_recon_result res;
-    memset(&res, 0, sizeof res);
+    csi_result *res = NULL;
     csi_outset *set = NULL;
     if (plan_only) {
         s = csi_plan_json(scene, &plan, stdout);
@@ -309,10 +278,11 @@ int main(int argc, char **argv)
     if (rc)
         goto done;
     if (tile.frames)
-        opt.frames = true;
+        csi_options_set(opt, "frames", "on");
+    const bool frames = option_is(opt, "frames", "on");
     if (tsteps && !plan.motion && !quiet)
         cli_warn(prog, "%s has no motion in the shutter: --time-steps ignored (T = 1)", scene_path);
-    if (opt.frames && !plan.motion && !quiet)
+    if (frames && !plan.motion && !quiet)
         cli_warn(prog, "%s has no motion: --frames writes nothing", scene_path);
 
     /* The grid: the image is W x H; the fine grid K x K*H/W, T frames from the plan. */
@@ -336,11 +306,11 @@ int main(int argc, char **argv)
     } else {
         factor = csi_default_grid_factor(plan.width, plan.height, plan.frames, spp);
     }
-    if ((uint64_t)plan.width * factor > 65536 || (uint64_t)plan.height * factor > 65536) {
+    if ((uint64_t)plan.width * factor > CSI_GRID_MAX_SIDE || (uint64_t)plan.height * factor > CSI_GRID_MAX_SIDE) {
         rc = cli_error(prog, CSI_ERR_ARG, "%s: fine grid %llux%llu (%ux%u pixels, %llu cells per pixel side) "
-                       "is larger than the limit of 65536 cells a side", scene_path,
+                       "is larger than the limit of %u cells a side", scene_path,
                        (unsigned long long)plan.width * factor, (unsigned long long)plan.height * factor,
-                       plan.width, plan.height, (unsigned long long)factor);
+                       plan.width, plan.height, (unsigned long long)factor, CSI_GRID_MAX_SIDE);
         goto done;
     }
     grid.w = (uint32_t)(plan.width * factor);
@@ -353,7 +323,11 @@ int main(int argc, char **argv)
                    : !strcmp(method, "random")              ? CSI_POS_RANDOM
                                                             : CSI_POS_POISSON;
     if (!est_given)
-        opt.estimator = reference || strcmp(method, "cs") ? CSI_EST_MEAN : CSI_EST_CS;
+        csi_options_set(opt, "estimator", reference || strcmp(method, "cs") ? "mean" : "cs");
+    const bool mean = option_is(opt, "estimator", "mean");
+    char seed_text[24]; /* the reconstruction's seed is the render's */
+    snprintf(seed_text, sizeof seed_text, "%llu", (unsigned long long)seed);
+    csi_options_set(opt, "seed", seed_text);
     /* Every output stated before any work (none may be the scene or a file it reads), written
      * all or nothing at the end (csi_outset). */
     s = cli_outset_new(&set);
@@ -362,7 +336,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; s == CSI_OK && i < csi_scene_input_count(scene); i++)
         s = csi_outset_input(set, csi_scene_input(scene, i));
     if (s == CSI_OK)
-        s = cli_outputs_stage(&outs, set, opt.frames && opt.estimator != CSI_EST_MEAN && grid.t > 1 ? grid.t : 0);
+        s = cli_outputs_stage(&outs, set, frames && !mean && grid.t > 1 ? grid.t : 0);
     if (s == CSI_OK && dump_path)
         s = csi_outset_file(set, dump_path, "the dump (--dump)");
     if (s != CSI_OK) {
@@ -381,7 +355,7 @@ int main(int argc, char **argv)
     }
     /* Device first: a missing OpenCL device should fail before minutes of tracing. */
     double t_device = cli_now();
-    s = csi_ctx_create(&ctx, device);
+    s = csi_device_new(device, &dev);
     t_device = cli_now() - t_device;
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", cli_last_error());
@@ -390,8 +364,8 @@ int main(int argc, char **argv)
     /* Sizes before work: positions, the traced values (12 bytes per sample), the tracer's
      * geometry and the reconstruction must fit, or the scene is refused now rather than after
      * the tracing. */
-    s = cli_check_resources(ctx, scene_path, &grid, 3, n, &opt,
-                            pos_bytes + 12 * (uint64_t)n + csi_tracer_host_bytes(scene, &plan));
+    s = csi_reconstruct_check(dev, &grid, 3, n, opt,
+                              pos_bytes + 12 * (uint64_t)n + csi_tracer_host_bytes(scene, &plan), scene_path);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
@@ -407,7 +381,9 @@ int main(int argc, char **argv)
         goto done;
     }
     if (tile.one || tile.info) {
-        rc = render_tile(scene_path, ctx, set, tr, &grid, &popts, pos, n, seed, &opt, &tile, &outs, quiet);
+        tile_eval te = {tr, &grid, seed};
+        rc = cli_tile_run_render(prog, dev, set, scene_path, &grid, &popts, pos, n, opt, &tile, &outs, quiet,
+                                 eval_tile, &te);
         goto done;
     }
     rgb = malloc(n * 3 * sizeof(float));
@@ -435,72 +411,27 @@ int main(int argc, char **argv)
             goto done;
         }
     }
-    opt.seed = seed;
-    opt.progress = on_solve;
-    opt.user = &ps;
+    const csi_samples samples = {grid, 3, n, pos, rgb};
     double t1 = cli_now();
-    s = csi_recon(ctx, &grid, 3, pos, rgb, n, &opt, &res);
+    s = csi_reconstruct(dev, &samples, opt, on_solve, &ps, &res);
     double t_recon = cli_now() - t1;
     cli_progress_end(&bar);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
-    char mdesc[96];
-    snprintf(mdesc, sizeof mdesc, "%s%s, %s positions", reference ? "reference " : "",
-             opt.estimator == CSI_EST_CS ? (plan.frames > 1 ? "compressive motion (Alg. 2)"
-                                                            : "compressive antialias (Alg. 1)")
-             : opt.estimator == CSI_EST_GAUSS ? "Gaussian normalized convolution"
-                                              : "sample mean (Monte Carlo)",
+    csi_result_info info;
+    csi_result_info_get(res, &info);
+    char mdesc[128];
+    snprintf(mdesc, sizeof mdesc, "%s%s, %s positions", reference ? "reference " : "", info.method,
              csi_pos_method_name(popts.method));
-    cli_phase_times pt = {.device = t_device};
     double tw = cli_now();
-    s = cli_write_images(&outs, set, &res, mdesc);
-    pt.write = cli_now() - tw;
+    s = cli_write_images(&outs, set, res, mdesc);
+    tw = cli_now() - tw;
     if (s == CSI_OK && outs.stats) {
-        csi_json *j = NULL;
-        s = csi_json_new(&j);
-        if (s == CSI_OK) {
-            csi_tracer_counters cnt;
-            csi_tracer_counters_get(tr, &cnt);
-            csi_tracer_info info;
-            csi_tracer_info_get(tr, &info);
-            csi_json_str(j, "tool", "csi-render");
-            csi_json_str(j, "scene", scene_path);
-            csi_json_str(j, "device", csi_ctx_device_name(ctx));
-            csi_json_str(j, "method", reference ? "reference" : method);
-            csi_json_str(j, "positions", csi_pos_method_name(popts.method));
-            csi_json_int(j, "spp", popts.spp);
-            csi_json_int(j, "seed", (int64_t)seed);
-            csi_json_int(j, "grid_w", grid.w);
-            csi_json_int(j, "grid_h", grid.h);
-            csi_json_int(j, "grid_t", grid.t);
-            csi_json_int(j, "out_w", grid.out_w);
-            csi_json_int(j, "out_h", grid.out_h);
-            csi_json_int(j, "samples", (int64_t)n);
-            csi_json_num(j, "t_render_s", t_render);
-            csi_json_num(j, "t_reconstruct_s", t_recon);
-            csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
-            csi_json_num(j, "t_per_sample_us", n ? 1e6 * t_render / (double)n : 0);
-            csi_json_begin(j, "rays");
-            csi_json_int(j, "primary", (int64_t)cnt.primary_rays);
-            csi_json_int(j, "secondary", (int64_t)cnt.secondary_rays);
-            csi_json_int(j, "shadow", (int64_t)cnt.shadow_rays);
-            csi_json_int(j, "ambient_occlusion", (int64_t)cnt.ao_rays);
-            csi_json_int(j, "timed", (int64_t)cnt.timed_rays);
-            csi_json_int(j, "texture_lookups", (int64_t)cnt.texture_lookups);
-            csi_json_int(j, "checker_lookups", (int64_t)cnt.checker_lookups);
-            csi_json_end(j);
-            csi_json_int(j, "embree_geometries", info.geometries);
-            csi_json_int(j, "embree_motion_geometries", info.motion_geometries);
-            csi_json_int(j, "threads", info.threads);
-            csi_json_begin(j, "reconstruction");
-            cli_stats_recon(j, &res);
-            cli_stats_phases(j, &pt, &res);
-            csi_json_end(j);
-            s = cli_write_stats(set, outs.stats, j);
-            csi_json_free(j);
-        }
+        const run_figures f = {scene_path, reference ? "reference" : method, &popts, seed, &grid, n,
+                               t_render, t_recon, t_device, tw};
+        s = write_stats(set, outs.stats, dev, tr, res, &f);
     }
     if (s == CSI_OK)
         s = csi_outset_commit(set);
@@ -509,20 +440,19 @@ int main(int argc, char **argv)
         goto done;
     }
     if (!quiet) {
-        for (uint32_t ch = 0; ch < res.channels; ch++)
-            if (!res.report[ch].converged && res.report[ch].reason != CSI_SOLVE_NOT_IDENTIFIABLE)
-                cli_warn(prog, "channel %u: %s", ch, res.report[ch].message);
+        cli_warn_unconverged(prog, res, quiet);
         fprintf(stderr, "%s: %ux%u%s from %zu samples (%s) : render %.2f s, reconstruct %.2f s\n", prog,
                 grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, mdesc, t_render, t_recon);
     }
 done:
     cli_outset_free(set); /* nothing new is left when the run failed */
-    csi_recon_result_free(&res);
+    csi_result_free(res);
     free(rgb);
-    free(pos);
+    csi_free(pos);
     csi_tracer_free(tr);
-    csi_ctx_release(ctx);
+    csi_device_release(dev);
     csi_plan_free(&plan);
     csi_scene_free(scene);
+    csi_options_free(opt);
     return rc;
 }

@@ -1,12 +1,9 @@
-/* Writing a reconstruction's outputs (EXR with metadata, PNG preview, frames, stats JSON):
- * shared by csi-reconstruct and csi-render so both write the same files the same way. */
+/* Writing a reconstruction's outputs (EXR with metadata, PNG preview, frames): shared by
+ * csi-reconstruct, csi-render and csi-merge so all write the same files the same way. */
 #ifndef CSI_CLI_OUTPUTS_H
 #define CSI_CLI_OUTPUTS_H
 
-#include "csi/dump.h"
 #include "common.h"
-#include "csi/reconstruct.h"
-#include "csi/stats.h"
 
 typedef struct cli_outputs {
     const char *exr, *png, *frames_dir, *stats;
@@ -17,23 +14,17 @@ typedef struct cli_outputs {
  * the frames folder included. */
 csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nframes);
 
+/* Writes the image (and frames) with the result's attributes (csi_result_attributes; "csi:method"
+ * replaced by `method` when not NULL, which says more: "..., poisson positions") to their
+ * temporary files in set; csi_outset_commit puts them in place. */
+csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_result *r, const char *method);
 
-/* The solver's figures and every option as used, as JSON members. */
-void cli_stats_recon(csi_json *j, const csi_recon_result *r);
+/* The method as the programs name it: the result's (csi_result_info), with the estimator's name
+ * in place of the solver's for the baselines. */
+const char *cli_solver_or_estimator(const csi_result *r, char *buf, size_t len);
 
-/* Wall-clock seconds of the phases the program runs itself (the library times the rest). */
-typedef struct cli_phase_times {
-    double read, device, write; /* reading the dump, making the OpenCL context, the outputs */
-} cli_phase_times;
-/* "phases" {read, device, programs, setup, solve: {channel: s}, integrate: {channel: s}, write}
- * (programs is part of setup: building the kernels, a cost of the first run on a machine or of
- * a cold cache); "fixed_s" = read + device + setup, what a run costs before its first solver
- * step; "per_sample_us" = (solve + integrate) / samples; "cpu_setup_s", "cpu_work_s" and
- * "cpu_per_sample_us": the same in process CPU time (all threads). */
-void cli_stats_phases(csi_json *j, const cli_phase_times *t, const csi_recon_result *r);
-
-/* Writes the image (and frames) with attributes describing the run to their temporary files in
- * set; csi_outset_commit puts them in place. */
-csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_recon_result *r, const char *method);
+/* Warns (unless quiet) about every channel whose solve did not converge; false if there was one
+ * (a fit that is not identifiable is reported in the statistics, not warned about). */
+bool cli_warn_unconverged(const char *prog, const csi_result *r, bool quiet);
 
 #endif

@@ -7,7 +7,7 @@
 #include <stdbool.h>
 #include <stdio.h>
 
-#include "csi/reconstruct.h"
+#include "csi/csi.h"
 
 /* getopt values of the shared options start here; a program's own values stay below. */
 #define CLI_RECON_FIRST 1000
@@ -20,11 +20,11 @@ bool cli_recon_given(const char *name);
 void cli_recon_usage(FILE *f);
 /* Applies option c if it is a shared one: returns 0 when applied, -1 when c is not a shared
  * option, or an exit code (after printing the error) when its value is bad. */
-int cli_recon_option(const char *prog, int c, const char *optarg, csi_recon_options *opt);
+int cli_recon_option(const char *prog, int c, const char *optarg, csi_options *opt);
 
 /* The same, for a getopt loop's default branch: 0 when applied, otherwise the exit code after
  * printing the error (an unknown option names `arg`, the word getopt stopped at). */
 int cli_recon_option_or_fail(const char *prog, int c, const char *optarg, const char *arg,
-                             csi_recon_options *opt);
+                             csi_options *opt);
 
 #endif

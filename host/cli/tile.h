@@ -1,5 +1,12 @@
 /* One tile of a reconstruction run alone (--tile I/N), and the layout a farm needs to know
- * (--tile-info): shared by csi-reconstruct and csi-render (see docs/tiles.md). */
+ * (--tile-info): shared by csi-reconstruct and csi-render (see docs/tiles.md).
+ *
+ * The options (common_tile.c) use csi/csi.h only. The runs (common_tile_run.c) write the partial
+ * format (partial.h), which holds the library's own tile layout and scope, and csi-render's runs
+ * evaluate only the samples of the tile's window with the scale of those samples, which csi.h's
+ * csi_reconstruct_tile does not offer: they are built on the library's internal headers, the one
+ * part of csi-reconstruct and csi-render that is not over csi.h (as is csi-merge, which reads
+ * the partials). */
 #ifndef CSI_CLI_TILE_H
 #define CSI_CLI_TILE_H
 
@@ -7,8 +14,7 @@
 #include <stdbool.h>
 #include <stdio.h>
 
-#include "csi/tiles.h"
-#include "partial.h"
+#include "outputs.h"
 
 /* getopt values of the tile options; a program's own values stay below, the shared
  * reconstruction options (recon_opts.h) above. */
@@ -35,22 +41,24 @@ void cli_tile_usage(FILE *f);
 /* Checks the tile options against each other and the outputs (one line, exit code) or 0. */
 int cli_tile_check(const char *prog, const cli_tile_opts *t, bool png, bool frames_dir);
 
-/* The layout for the options (opt->tiles = count when --tile I/N), checking that I < N. */
-csi_status cli_tile_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
-                           const cli_tile_opts *t, csi_recon_options *opt, csi_tiling *tl);
+/* csi-reconstruct --tile / --tile-info over the dump's samples s (`input`: the dump's path): the
+ * layout and the whole problem's scale, then tile t->index's partial written to outs->exr (and
+ * statistics), or the layout as JSON on stdout. Returns the exit code, after printing an error. */
+int cli_tile_run_samples(const char *prog, csi_device *dev, csi_outset *set, const csi_samples *s,
+                         const char *input, csi_options *opt, const cli_tile_opts *t, const cli_outputs *outs,
+                         bool quiet);
 
-/* The scope from --tile-scale (k, n and the grid from the arguments, the scale as given) into
- * *scope, when it was given; returns false (scope untouched) when it was not. */
-bool cli_tile_given_scope(const cli_tile_opts *t, const csi_grid *g, uint32_t channels, size_t n,
-                          csi_tile_scope *scope);
-
-/* Prints the layout and scope as one JSON object on stdout (what a farm submits from). */
-csi_status cli_tile_info_print(const csi_tiling *tl, const csi_tile_scope *scope,
-                               const csi_recon_options *opt, uint64_t input_id);
-
-/* Writes the partial of tile `res` (the rest of the partial from the arguments). */
-csi_status cli_tile_write(const char *path, const char *method, const char *input_name,
-                          uint64_t input_id, const csi_recon_options *opt, const csi_tiling *tl,
-                          const csi_tile_scope *scope, const csi_tile_result *res);
+/* Evaluates n samples (their positions, and their indices among all the samples of the run, so
+ * that they get the values an untiled render gives them) into rgb (n x 3). */
+typedef csi_status (*cli_tile_eval_fn)(void *user, const csi_sample_pos *pos, const uint64_t *ids, size_t n,
+                                       float *rgb);
+/* csi-render --tile / --tile-info: the same over a scene whose n positions are known but not yet
+ * evaluated; a tile evaluates only the samples inside its window, and without --tile-scale scales
+ * tau by its own samples, as an untiled run of the window would. `positions` names the positions'
+ * method for the partial's method text. */
+int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, const char *scene_path,
+                        const csi_grid *g, const csi_pos_opts *po, const csi_sample_pos *pos, size_t n,
+                        csi_options *opt, const cli_tile_opts *t, const cli_outputs *outs, bool quiet,
+                        cli_tile_eval_fn eval, void *user);
 
 #endif

@@ -1,6 +1,6 @@
 /* Tiled reconstruction (csi/tiles.h) against the untiled one and against exact truths.
  *
- * Alg. 1: the analytic texture (tests/support/analytic) on a 768 x 768 grid -> 96 x 96 pixels (8 x
+ * Alg. 1: the analytic texture (tests/support/analytic.h) on a 768 x 768 grid -> 96 x 96 pixels (8 x
  * 8 cells per pixel, csi-render's grid at 4 spp), 4 spp Poisson-disk, 3 seeds; truth: the box
  * average of the continuous image per pixel (midpoint rule, 4 x 4 points per cell, in double).
  * 4 tiles with 16-pixel margins (the layout covering the fewest cells: 4 strips). Claims:

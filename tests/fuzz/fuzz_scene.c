@@ -1,6 +1,7 @@
 /* libFuzzer target: the scene parser (csi_scene_parse) on arbitrary text, then the plan (what is
  * simulated: motion, T, effects) and its JSON for every scene it accepts. File names in the scene
- * resolve against tests/fuzz/files (one small OBJ and PNG), so meshes and textures load too.
+ * resolve against tests/tracer/data (CSI_FUZZ_FILES: the tracer tests' small OBJ and PNG), so
+ * meshes and textures load too.
  * Errors must be one line naming the scene. */
 #include <stdint.h>
 #include <stdlib.h>

@@ -109,6 +109,9 @@ CSI_API csi_status csi_device_new(const char *name, csi_device **out);
 /* Waits for the device's work and releases it (and, for a device on the caller's OpenCL
  * objects, the references csi took). NULL is fine. */
 CSI_API void csi_device_release(csi_device *dev);
+/* The most device bytes this process held at once through csi (all devices), since it started:
+ * what a run needed, for its statistics. */
+CSI_API uint64_t csi_device_bytes_peak(void);
 /* "platform / device". */
 CSI_API const char *csi_device_name(const csi_device *dev);
 /* The first failure of a call made with dev since the last query, and clears it: CSI_OK and
@@ -220,6 +223,19 @@ typedef struct csi_dump_report {
  * opts and report may be NULL. On failure *out is zeroed. */
 CSI_API csi_status csi_dump_read(const char *path, const csi_dump_read_opts *opts, csi_dump *out,
                                  csi_dump_report *report);
+/* A dump's header, validated against the file's size (everything csi_dump_read checks before the
+ * records): what a program needs to plan a run (csi_reconstruct_check) before reading samples. */
+typedef struct csi_dump_header {
+    csi_grid grid;
+    uint32_t channels;
+    uint64_t count;       /* records in the file (before duplicates merge and NaN/Inf drop) */
+    uint64_t seed;
+} csi_dump_header;
+CSI_API csi_status csi_dump_read_header(const char *path, const csi_dump_read_opts *opts, csi_dump_header *out);
+/* The host bytes csi_dump_read holds at most while reading a dump with this header (the
+ * records, and the sorted copy when they must be sorted); it refuses (CSI_ERR_TOO_LARGE) a dump
+ * that needs more than the host has available (csi_host_available_bytes). */
+CSI_API uint64_t csi_dump_read_host_bytes(const csi_dump_header *h);
 /* Writes a dump (a temporary file, renamed when complete: a failure leaves nothing). channels =
  * 0 writes a positions request: positions only, for a renderer to evaluate. */
 CSI_API csi_status csi_dump_write(const char *path, const csi_dump *d);
@@ -305,6 +321,16 @@ CSI_API csi_status csi_reconstruct(csi_device *dev, const csi_samples *samples,
                                    const csi_options *options, csi_progress_fn progress,
                                    void *user, csi_result **out);
 CSI_API void csi_result_free(csi_result *r);
+
+/* Sizes before work: CSI_OK when reconstructing n samples on grid g (channels, options; NULL:
+ * the defaults) fits dev's limits (per buffer and in all) and the host's available memory, with
+ * extra_host more bytes that the caller holds meanwhile (its samples, the dump reader, a
+ * tracer); else CSI_ERR_TOO_LARGE (CSI_ERR_ARG for a grid no plan can hold) with one line that
+ * starts with `input` (a file name, for the message) and names the grid, what is needed and the
+ * limit. Arithmetic on the sizes only: nothing is allocated, so a program can refuse an input in
+ * milliseconds before reading or tracing its samples. */
+CSI_API csi_status csi_reconstruct_check(csi_device *dev, const csi_grid *g, uint32_t channels, size_t n,
+                                         const csi_options *options, uint64_t extra_host, const char *input);
 
 /* Images are float32, channels planar: data[(c * h + y) * w + x], linear light. Channel meaning
  * by count: 1 = Y, 2 = Y A, 3 = R G B, 4 = R G B A. */
@@ -436,8 +462,18 @@ CSI_API void csi_json_end(csi_json *j);
 CSI_API csi_status csi_json_text(csi_json *j, const char **text);
 CSI_API csi_status csi_json_write(csi_json *j, const char *path);
 /* Adds the result's statistics to j: a hash of the image's bits ("image_fnv1a64"), the solver,
- * k, n, times, every option as used ("options") and each channel's report ("channels"). */
+ * k, n, the solver's unknowns and model grid, times, every option as used ("options") and each
+ * channel's report ("channels"). */
 CSI_API void csi_result_stats(const csi_result *r, csi_json *j);
+/* Adds where the run's time went to j: "phases" {read_s, device_s, programs_s, setup_s, solve_s:
+ * {channel: s}, integrate_s: {channel: s}, write_s} (programs_s, building the kernels, is part of
+ * setup_s: a cost of the first run on a machine or of a cold cache); "fixed_s" = read + device +
+ * setup, what a run costs before its first solver step; "per_sample_us" = (solve + integrate) /
+ * samples; "cpu_setup_s", "cpu_work_s" and "cpu_per_sample_us", the same in process CPU time (all
+ * threads). read_s, device_s and write_s are the caller's own phases (reading its input, making
+ * the device, writing its outputs), in seconds. */
+CSI_API void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, double device_s,
+                                     double write_s);
 
 /* ---- outputs written all or nothing ---------------------------------------------------------
  * A run that writes several files (an EXR, a PNG preview, statistics, a dump, a folder of frames)

@@ -47,19 +47,7 @@ extern "C" {
  * csi-positions hands a renderer, which csi_dump_read refuses as samples ("a positions request
  * (channels = 0: no values to reconstruct from)"). */
 
-/* A dump's header, validated against the file's size (everything csi_dump_read checks before the
- * records): what a caller needs to plan a run before reading the samples. */
-typedef struct csi_dump_header {
-    csi_grid grid;
-    uint32_t channels;
-    uint64_t count;       /* records in the file (before duplicates merge and NaN/Inf drop) */
-    uint64_t seed;
-} csi_dump_header;
-csi_status csi_dump_read_header(const char *path, const csi_dump_read_opts *opts, csi_dump_header *out);
-/* The host bytes csi_dump_read holds at most while reading a dump with this header (the
- * records, and the sorted copy when they must be sorted); it refuses (CSI_ERR_TOO_LARGE) a dump
- * that needs more than the host has available (csi/host_memory.h). */
-uint64_t csi_dump_read_host_bytes(const csi_dump_header *h);
+/* csi_dump_header, csi_dump_read_header and csi_dump_read_host_bytes are in csi/csi.h. */
 
 /* csi_dump_read on a dump in memory (len bytes; `name` for messages). */
 csi_status csi_dump_read_mem(const void *data, size_t len, const char *name, const csi_dump_read_opts *opts,

@@ -81,7 +81,7 @@ void csi_buffer_release(cl_mem *buf); /* releases and sets to NULL; NULL is fine
 /* Device bytes this process holds through csi_buffer (all contexts): live now, and the peak of
  * the live total since the last reset (csi_device_bytes_reset_peak sets it to the live total). */
 uint64_t csi_device_bytes_live(void);
-uint64_t csi_device_bytes_peak(void);
+/* csi_device_bytes_peak: csi/csi.h */
 void csi_device_bytes_reset_peak(void);
 
 /* The device buffers an operation will allocate, added up before it runs (the resource plan,
