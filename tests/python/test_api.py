@@ -1,8 +1,10 @@
 """The Python binding (host/python/csi/_lib.py over libcsi.so): `import csi` needs only numpy;
 csi.reconstruct_dump gives the pixels csi-reconstruct and csi-render give on the same dump, bit
 for bit (the stats' hash, and the same FNV-1a computed here over the returned array); options by
-keyword come back resolved; errors are CsiError with the library's message; a progress callback
-that returns False cancels. Run by ctest with CSI_BUILD_DIR (programs and sdk/libcsi.so)."""
+keyword come back resolved; Result.write_exr / write_png write the very bytes csi-reconstruct
+writes (its EXR header holds only what the inputs decide); errors are CsiError with the library's
+message; a progress callback that returns False cancels. Run by ctest with CSI_BUILD_DIR
+(programs and sdk/libcsi.so)."""
 import json
 import os
 import subprocess
@@ -59,6 +61,14 @@ with tempfile.TemporaryDirectory() as T:
         check(res.image.dtype == np.float32 and res.image.shape[2] == 3, f"{sc}: image {res.image.shape}")
         check(res.options["solver"] == "sparsa" and res.options["tau"] not in ("auto", ""),
               f"{sc}: resolved options {res.options['solver']} {res.options['tau']}")
+        check(res.info["tiles"] == 1 and res.info["n"] == want[1]["n"], f"{sc}: info {res.info}")
+        subprocess.run([os.path.join(BUILD, "csi-reconstruct"), dump, "-o", os.path.join(T, sc + ".c2.exr"),
+                        "--png", os.path.join(T, sc + ".c.png"), "-q"], check=True)
+        res.write_exr(os.path.join(T, sc + ".py.exr"))
+        res.write_png(os.path.join(T, sc + ".py.png"))
+        for ext in ("exr", "png"):
+            a, b = (open(os.path.join(T, f"{sc}.{x}.{ext}"), "rb").read() for x in ("c2" if ext == "exr" else "c", "py"))
+            check(a == b, f"{sc}: Result.write_{ext} ({len(b)} bytes) differs from csi-reconstruct's ({len(a)} bytes)")
 
     d = csi.read_dump(os.path.join(T, "small_moving.csid"))
     res = csi.reconstruct(d.positions, d.values, d.grid, frames=True, seed=d.seed)

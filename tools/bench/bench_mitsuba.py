@@ -7,11 +7,12 @@ Scenes: Mitsuba's Cornell box and the generators in data/mitsuba/ (procedural, n
 Per scene, spp and paths per sample (default 1, 4, 16 spp x 1, 64 paths at 128x128), the very
 same samples (csi's default grid for the spp, stratified positions: exactly spp samples in
 every pixel; --positions poisson for csi's own) go to every method:
-  mean          csi-reconstruct --estimator mean (the per-pixel Monte Carlo mean)
-  csi           csi-reconstruct with its defaults
+  mean          csi's estimator mean (the per-pixel Monte Carlo mean)
+  csi           csi with its defaults (csi's library in this process, csi.reconstruct_dump: the
+                bits of csi-reconstruct on the dump; times without a process start)
   oidn          Intel Open Image Denoise (pyoidn, HDR, quality high) on the mean, colour only
-  oidn+aux      the same with albedo and normal guides: per-pixel means (csi-reconstruct
-                --estimator mean) of Mitsuba's first-hit albedo and shading normal per sample
+  oidn+aux      the same with albedo and normal guides: per-pixel means (csi's estimator
+                mean) of Mitsuba's first-hit albedo and shading normal per sample
   csi>oidn      OIDN on csi's image (negative values clipped to 0: OIDN wants HDR >= 0), colour
   csi>oidn+aux  the same with the guides
   avg           (oidn+aux + csi>oidn+aux) / 2, the mean of the two denoised images
@@ -30,9 +31,7 @@ OUT/<scene>.png (contact sheets: one row per spp x paths, the reference first).
 import argparse
 import json
 import os
-import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -40,10 +39,9 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import mitsuba_data as md  # noqa: E402
+import csi  # noqa: E402
 from csi import dump as csid  # noqa: E402
-from csi import exr  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
-from csi import programs  # noqa: E402
 
 ALL_SCENES = ["cornell", "thin_geometry", "glossy_sun", "horizon", "envmap"]
 COMPOSITIONS = ["csi>oidn", "csi>oidn+aux", "avg", "mix>oidn+aux"]
@@ -59,21 +57,15 @@ def relmse(x, ref):
     return float(np.mean((x.astype(np.float64) - r) ** 2 / (r ** 2 + 0.01)))
 
 
-def reconstruct(dump_path, tmp, tag, args=()):
-    """csi-reconstruct a dump: (image, wall seconds, csi's own seconds)."""
-    out, stats = os.path.join(tmp, tag + ".exr"), os.path.join(tmp, tag + ".json")
-    env = dict(os.environ)
-    env.setdefault("CSI_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "csi"))
+def reconstruct(dump_path, **options):
+    """A dump through csi's library in this process (csi.reconstruct_dump: what csi-reconstruct
+    computes, the same bits): (image, wall seconds, csi's own seconds: setup + solve + integrate).
+    The process's first call also makes the OpenCL device (kept for the run)."""
     t0 = time.perf_counter()
-    p = subprocess.run([programs.find("csi-reconstruct"), dump_path, "-o", out, "--stats", stats, "-q", *args],
-                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    res = csi.reconstruct_dump(dump_path, **options)
     wall = time.perf_counter() - t0
-    if p.returncode:
-        raise RuntimeError(f"csi-reconstruct {dump_path} {' '.join(args)}: {p.stderr.strip()}")
-    with open(stats) as f:
-        st = json.load(f)
-    inner = st.get("t_setup_s", 0) + st.get("t_solve_s", 0) + st.get("t_integrate_s", 0)
-    return exr.read(out), wall, inner
+    i = res.info
+    return res.image, wall, i["t_setup"] + i["t_solve"] + i["t_integrate"]
 
 
 def oidn(color, albedo=None, normal=None):
@@ -89,15 +81,15 @@ def oidn(color, albedo=None, normal=None):
     return np.asarray(out, np.float32), time.perf_counter() - t0
 
 
-def run_cell(files, ref, tmp, tag):
+def run_cell(files, ref):
     """Every method on one dump. Returns {method: metrics} and {method: image}."""
     imgs, times = {}, {}
-    imgs["mean"], w, inner = reconstruct(files["dump"], tmp, tag + "_mean", ["--estimator", "mean"])
+    imgs["mean"], w, inner = reconstruct(files["dump"], estimator="mean")
     times["mean"] = (w, inner)
-    imgs["csi"], w, inner = reconstruct(files["dump"], tmp, tag + "_csi")
+    imgs["csi"], w, inner = reconstruct(files["dump"])
     times["csi"] = (w, inner)
-    albedo, _, _ = reconstruct(files["albedo"], tmp, tag + "_albedo", ["--estimator", "mean"])
-    normal, _, _ = reconstruct(files["normal"], tmp, tag + "_normal", ["--estimator", "mean"])
+    albedo, _, _ = reconstruct(files["albedo"], estimator="mean")
+    normal, _, _ = reconstruct(files["normal"], estimator="mean")
     imgs["oidn"], t = oidn(imgs["mean"])
     times["oidn"] = (times["mean"][0] + t, t)
     imgs["oidn+aux"], t = oidn(imgs["mean"], albedo, normal)
@@ -259,35 +251,34 @@ def main(argv=None):
     log = lambda s: print(s, flush=True)  # noqa: E731
     results = {"args": vars(a), "scenes": {}}
     t_start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="bench-mitsuba-") as tmp:
-        for scene in scenes:
-            log(f"{scene}:")
-            ref, _ = md.reference(a.data, scene, size, a.reference_spp, log=log)
-            ref = ref.astype(np.float64)
-            cells, rows = {}, []
-            for spp in spps:
-                for paths in paths_list:
-                    files, info = md.samples(a.data, scene, size, spp, paths, seed=a.seed, method=a.positions, log=log)
-                    res, imgs = run_cell(files, ref, tmp, f"{scene}_{spp}_{paths}")
-                    cells[f"s{spp}_p{paths}"] = {"spp": spp, "paths": paths, "grid": info["grid"], "methods": res,
-                                                  "mitsuba_when_cached": info["mitsuba"]}
-                    rows.append((f"{spp} spp\n{paths} path{'s' if paths > 1 else ''}", imgs))
-                    best = min(COMPOSITIONS, key=lambda m: res[m]["relmse"])
-                    log(f"    {spp:>2} spp x {paths:>2} paths: relMSE mean {res['mean']['relmse']:.4g}, csi "
-                        f"{res['csi']['relmse'] / res['mean']['relmse']:.2f}x, oidn+aux "
-                        f"{res['oidn+aux']['relmse'] / res['mean']['relmse']:.2f}x, {best} "
-                        f"{res[best]['relmse'] / res['mean']['relmse']:.2f}x; csi {res['csi']['t_wall_s']:.1f} s")
-            contact_sheet(os.path.join(a.out, f"{scene}.png"), ref, rows, ["mean", "csi", "oidn", "oidn+aux",
-                                                                           "csi>oidn+aux"])
-            timing = measure_mitsuba(scene, size, a.seed, paths_list, log)
-            eq = []
-            if 4 in spps:
-                for paths in paths_list:
-                    eq.append(equal_time(scene, size, ref, cells[f"s4_p{paths}"]["methods"], timing, paths, a.seed, log))
-            results["scenes"][scene] = {"cells": cells, "mitsuba": timing, "equal_time": eq}
-            md.write_readme(a.data)
-            with open(os.path.join(a.out, "results.json"), "w") as f:
-                json.dump(results, f, indent=1)
+    for scene in scenes:
+        log(f"{scene}:")
+        ref, _ = md.reference(a.data, scene, size, a.reference_spp, log=log)
+        ref = ref.astype(np.float64)
+        cells, rows = {}, []
+        for spp in spps:
+            for paths in paths_list:
+                files, info = md.samples(a.data, scene, size, spp, paths, seed=a.seed, method=a.positions, log=log)
+                res, imgs = run_cell(files, ref)
+                cells[f"s{spp}_p{paths}"] = {"spp": spp, "paths": paths, "grid": info["grid"], "methods": res,
+                                              "mitsuba_when_cached": info["mitsuba"]}
+                rows.append((f"{spp} spp\n{paths} path{'s' if paths > 1 else ''}", imgs))
+                best = min(COMPOSITIONS, key=lambda m: res[m]["relmse"])
+                log(f"    {spp:>2} spp x {paths:>2} paths: relMSE mean {res['mean']['relmse']:.4g}, csi "
+                    f"{res['csi']['relmse'] / res['mean']['relmse']:.2f}x, oidn+aux "
+                    f"{res['oidn+aux']['relmse'] / res['mean']['relmse']:.2f}x, {best} "
+                    f"{res[best]['relmse'] / res['mean']['relmse']:.2f}x; csi {res['csi']['t_wall_s']:.1f} s")
+        contact_sheet(os.path.join(a.out, f"{scene}.png"), ref, rows, ["mean", "csi", "oidn", "oidn+aux",
+                                                                       "csi>oidn+aux"])
+        timing = measure_mitsuba(scene, size, a.seed, paths_list, log)
+        eq = []
+        if 4 in spps:
+            for paths in paths_list:
+                eq.append(equal_time(scene, size, ref, cells[f"s4_p{paths}"]["methods"], timing, paths, a.seed, log))
+        results["scenes"][scene] = {"cells": cells, "mitsuba": timing, "equal_time": eq}
+        md.write_readme(a.data)
+        with open(os.path.join(a.out, "results.json"), "w") as f:
+            json.dump(results, f, indent=1)
     results["t_total_s"] = time.perf_counter() - t_start
     with open(os.path.join(a.out, "results.json"), "w") as f:
         json.dump(results, f, indent=1)

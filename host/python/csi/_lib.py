@@ -62,9 +62,10 @@ class _Report(ctypes.Structure):
                 ("support", c_size), ("seconds", ctypes.c_double)]
 
 
-class _Info(ctypes.Structure):
+class _Info(ctypes.Structure):  # csi_result_info, every field (the library writes all of them)
     _fields_ = [("method", ctypes.c_char_p), ("solver", ctypes.c_char_p), ("k", c_size), ("n", c_size),
-                ("t_setup", ctypes.c_double), ("t_solve", ctypes.c_double), ("t_integrate", ctypes.c_double)]
+                ("t_setup", ctypes.c_double), ("t_solve", ctypes.c_double), ("t_integrate", ctypes.c_double),
+                ("tiles", u32), ("tile", ctypes.c_bool), ("tile_index", u32), ("tile_origin", u32 * 3)]
 
 
 _PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_bool, ctypes.c_void_p, ctypes.POINTER(_Progress))
@@ -152,6 +153,9 @@ def _bind(L):
         "csi_json_free": (None, [P]),
         "csi_json_text": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_char_p)]),
         "csi_result_stats": (None, [P, P]),
+        "csi_result_attributes": (c_size, [P, ctypes.POINTER(P)]),
+        "csi_exr_write": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(_Image), P, c_size]),
+        "csi_png_write": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(_Image)]),
     }
     for name, (res, args) in sig.items():
         f = getattr(L, name)
@@ -237,11 +241,43 @@ _default_device = None
 
 class Result:
     """A reconstruction: image (H, W, C) float32, frames (T, H, W, C) or None, the options as
-    used (every auto that applied resolved), per-channel reports and the statistics."""
+    used (every auto that applied resolved), per-channel reports and the statistics.
+    write_exr / write_png write the image as csi-reconstruct does (the same bytes)."""
 
-    def __init__(self, image, frames, options, reports, info, stats):
+    def __init__(self, image, frames, options, reports, info, stats, handle=None):
         self.image, self.frames, self.options = image, frames, options
         self.reports, self.info, self.stats = reports, info, stats
+        self._h = handle  # the library's result, for its writers; freed with this object
+
+    def _write(self, path, exr: bool, frame=None):
+        if not getattr(self, "_h", None):
+            raise CsiError("CSI_ERR_ARG", "this result was closed")
+        L = lib()
+        img = _Image()
+        _check(L.csi_result_image(self._h, ctypes.byref(img)) if frame is None
+               else L.csi_result_frame(self._h, frame, ctypes.byref(img)))
+        if exr:
+            attrs = ctypes.c_void_p()
+            n = L.csi_result_attributes(self._h, ctypes.byref(attrs))
+            _check(L.csi_exr_write(os.fsencode(path), ctypes.byref(img), attrs, n))
+        else:
+            _check(L.csi_png_write(os.fsencode(path), ctypes.byref(img)))
+
+    def write_exr(self, path, frame: Optional[int] = None):
+        """A float32 EXR with the run's figures and every option as used in its header (frame t
+        of the frames when frame is given); written to a temporary file and renamed."""
+        self._write(path, True, frame)
+
+    def write_png(self, path, frame: Optional[int] = None):
+        """An 8-bit sRGB preview (values clamped to [0, 1])."""
+        self._write(path, False, frame)
+
+    def close(self):
+        if getattr(self, "_h", None) and _lib is not None:
+            _lib.csi_result_free(self._h)
+        self._h = None
+
+    __del__ = close
 
 
 def _hwc(img: _Image) -> np.ndarray:
@@ -276,7 +312,7 @@ def _result(L, r) -> Result:
     inf = _Info()
     L.csi_result_info_get(r, ctypes.byref(inf))
     info = {"method": inf.method.decode(), "solver": inf.solver.decode(), "k": inf.k, "n": inf.n,
-            "t_setup": inf.t_setup, "t_solve": inf.t_solve, "t_integrate": inf.t_integrate}
+            "t_setup": inf.t_setup, "t_solve": inf.t_solve, "t_integrate": inf.t_integrate, "tiles": inf.tiles}
     j = ctypes.c_void_p()
     _check(L.csi_json_new(ctypes.byref(j)))
     try:
@@ -286,7 +322,7 @@ def _result(L, r) -> Result:
         stats = json.loads(text.value.decode())
     finally:
         L.csi_json_free(j)
-    return Result(image, frames, used, reports, info, stats)
+    return Result(image, frames, used, reports, info, stats, r)
 
 
 def reconstruct(positions, values, grid, device: Optional[Device] = None,
@@ -333,9 +369,10 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
         raise raised[0]
     _check(st)
     try:
-        return _result(L, r)
-    finally:
+        return _result(L, r)  # which then owns r
+    except BaseException:
         L.csi_result_free(r)
+        raise
 
 
 class Dump:

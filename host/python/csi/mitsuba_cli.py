@@ -21,13 +21,14 @@ DESCRIPTION = """\
 Renders SCENE with Mitsuba 3 (llvm_ad_rgb, the scene's own sensor and integrator) at exactly
 the fine-grid cell centres csi asks for (csi-positions: the grid and positions csi-render would
 use for the same size, spp and seed), N paths per sample averaged, and reconstructs the image
-with csi-reconstruct. With --reference it renders Mitsuba's own box-filtered image instead (the
+with csi's library in the same process (the same bits as csi-reconstruct on the dump). With --reference it renders Mitsuba's own box-filtered image instead (the
 film's reconstruction filter set to a box: pixel (px, py) is the mean over [px, px+1) x
 [py, py+1), csi's output pixel), the ground truth to compare with.
 
 SCENE is 'cornell' (Mitsuba's built-in Cornell box), a Mitsuba XML scene file, or a Python file
 defining scene() that returns a Mitsuba scene dictionary (such as data/mitsuba/*.py).
-Arguments after '--' go to csi-reconstruct (e.g. -- --estimator mean)."""
+Arguments after '--' are csi-reconstruct's reconstruction options (e.g. -- --estimator mean;
+also --seed and --device)."""
 
 EPILOG = """\
 examples:
@@ -74,13 +75,13 @@ def parser():
     p.add_argument("scene", metavar="SCENE")
     o = p.add_argument_group("outputs")
     o.add_argument("-o", "--output", metavar="OUT.exr", help="the reconstructed image (float32 EXR; with --reference: Mitsuba's reference)")
-    o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction (csi-reconstruct's)")
+    o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction")
     o.add_argument("--dump", metavar="FILE.csid", help="the samples as a csi dump (docs/dump-format.md)")
     o.add_argument("--aov", action="store_true", help="with --dump: also per-sample albedo and normal at the first hit, "
                    "FILE.albedo.csid and FILE.normal.csid (OIDN's guides)")
     o.add_argument("--npy", metavar="FILE.npy", help="with --reference: the reference as an (h, w, 3) float32 numpy array too")
     o.add_argument("--stats", metavar="FILE.json", help="grid, Mitsuba's times (JIT apart, per sample, per path) and "
-                   "csi-reconstruct's statistics")
+                   "the reconstruction's statistics")
     s = p.add_argument_group("sampling")
     s.add_argument("--out", type=_size, metavar="WxH", help="output image size (default: the scene film's)")
     s.add_argument("--spp", type=_int_range(1, 65536), default=4, help="samples per pixel (default 4)")
@@ -122,19 +123,84 @@ class _Progress:
             sys.stderr.write("\r\033[K")
 
 
-def reconstruct(dump_path, output, png=None, stats=None, extra=()):
-    """Reconstructs a dump into output (EXR) with csi-reconstruct; returns its stats (dict).
-    The one place that calls csi: when the Python binding arrives this becomes a library call."""
-    with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
-        sj = os.path.join(tmp, "stats.json")
-        args = [dump_path, "-q", "--stats", sj, *extra]
+def reconstruction_options(args):
+    """csi-reconstruct's reconstruction arguments (the words after '--': --name VALUE, a flag
+    alone, --name=VALUE; --seed S and --device NAME too) as csi.reconstruct keywords and a
+    device name (None: the default device)."""
+    import csi
+
+    kinds = {o["name"]: o["kind"] for o in csi.options()}
+    probe = csi.Options()  # each value checked as the library reads it
+    kw, device, i = {}, None, 0
+    while i < len(args):
+        word = args[i]
+        name, eq, value = word[2:].partition("=") if word.startswith("--") else ("", "", "")
+        if name not in kinds and name != "device":
+            raise UsageError(f"'{word}' after '--' is not one of csi-reconstruct's reconstruction options "
+                             f"(see csi-reconstruct --help)")
+        if kinds.get(name) == "flag" and not eq:
+            value = "on"
+        elif not eq:
+            if i + 1 >= len(args):
+                raise UsageError(f"'{word}' after '--' needs a value")
+            i += 1
+            value = args[i]
+        if name == "device":
+            device = value
+        else:
+            try:
+                probe.set(name, value)
+            except csi.CsiError as e:
+                raise UsageError(f"--{e}") from None  # "--lambda: 'abc' is not ...", as csi-reconstruct says
+            kw[name.replace("-", "_")] = value
+        i += 1
+    return kw, device
+
+
+def reconstruct(d: csid.Dump, output, png=None, extra=()):
+    """Reconstructs the samples d with csi's library in this process (the same bits as
+    csi-reconstruct on their dump), writes output (EXR) and png; returns the statistics.
+    Positions in csi's order (sorted by cell, each once: csi-positions' requests) go straight
+    in; any others through the library's dump reader, which sorts them and averages repeats as
+    csi-reconstruct does."""
+    import numpy as np
+
+    import csi
+
+    kw, device = reconstruction_options(extra)
+    t0 = time.perf_counter()
+    w, h, t = d.grid
+    xyt = np.asarray(d.xyt, dtype=np.int64)
+    idx = (xyt[:, 2] * h + xyt[:, 1]) * w + xyt[:, 0]
+    try:
+        dev = csi.Device(device) if device else None
+        if len(idx) > 0 and (np.diff(idx) > 0).all():
+            if d.seed and "seed" not in kw:
+                kw["seed"] = d.seed  # csi-reconstruct's rule: the dump's seed unless given
+            res = csi.reconstruct(d.xyt, d.values, (w, h, t, *d.out), device=dev, **kw)
+        else:
+            with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
+                path = os.path.join(tmp, "samples.csid")
+                csid.write(path, d)
+                res = csi.reconstruct_dump(path, device=dev, **kw)
         if output:
-            args += ["-o", output]
+            res.write_exr(output)
         if png:
-            args += ["--png", png]
-        programs.run("csi-reconstruct", args)
-        with open(sj) as f:
-            return json.load(f)
+            res.write_png(png)
+    except csi.CsiError as e:
+        raise ReconstructError(e) from None
+    stats = dict(res.stats)
+    stats["t_wall_s"] = time.perf_counter() - t0
+    return stats
+
+
+class ReconstructError(Exception):
+    """csi's library refused the samples or failed (the status names which); exit 2 for bad input."""
+
+    def __init__(self, e):
+        super().__init__(str(e))
+        self.code = 2 if e.status in ("CSI_ERR_ARG", "CSI_ERR_IO", "CSI_ERR_FORMAT", "CSI_ERR_SCENE", "CSI_ERR_DEVICE",
+                                      "CSI_ERR_TOO_LARGE") else 1  # as csi-reconstruct exits
 
 
 def _write_json(path, obj):
@@ -155,6 +221,7 @@ def run(a, extra):
             raise UsageError("--npy is only for --reference (the samples go to --dump)")
         if a.aov and not a.dump:
             raise UsageError("--aov needs --dump FILE.csid (the albedo and normal go beside it)")
+        reconstruction_options(extra)  # bad options refused before any rendering
     if not (a.output or a.png or a.dump or a.npy):
         raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
     outs = [(a.output, "image"), (a.png, "preview"), (a.dump, "dump"), (a.npy, "array"), (a.stats, "statistics")]
@@ -212,12 +279,9 @@ def run(a, extra):
              "t_load_s": t_load, "mitsuba": s.timing}
     t_recon = None
     if a.output or a.png:
-        with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
-            path = os.path.join(tmp, "samples.csid")
-            csid.write(path, dump)
-            t0 = time.perf_counter()
-            stats["reconstruction"] = reconstruct(path, a.output, a.png, extra=extra)
-            t_recon = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra)
+        t_recon = time.perf_counter() - t0
     # The samples last: a failed reconstruction leaves no dump behind either.
     if a.dump:
         csid.write(a.dump, dump)
@@ -233,7 +297,7 @@ def run(a, extra):
                f"{t['render_s']:.2f} s ({t['per_sample_us']:.2f} us/sample, {t['per_path_us']:.3f} us/path; "
                f"first call {t['jit_s']:.2f} s apart)")
         if t_recon is not None:
-            msg += f", csi-reconstruct {t_recon:.2f} s"
+            msg += f", csi {t_recon:.2f} s"
         if s.nonfinite:
             msg += f"; warning: {s.nonfinite} NaN/Inf paths counted as 0"
         print(msg, file=sys.stderr)
@@ -255,7 +319,7 @@ def main(argv=None):
     except (mb.BridgeError, csid.DumpError) as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2
-    except programs.ProgramError as e:
+    except (programs.ProgramError, ReconstructError) as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return e.code
     except KeyboardInterrupt:
