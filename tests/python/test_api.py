@@ -1,7 +1,8 @@
 """The Python binding (host/python/csi/_lib.py over libcsi.so): `import csi` needs only numpy;
 csi.reconstruct_dump gives the pixels csi-reconstruct and csi-render give on the same dump, bit
 for bit (the stats' hash, and the same FNV-1a computed here over the returned array); options by
-keyword come back resolved; Result.write_exr / write_png write the very bytes csi-reconstruct
+keyword come back resolved; csi.positions on csi's grid rule gives csi-positions' request
+(mitsuba_bridge.positions_request); Result.write_exr / write_png write the very bytes csi-reconstruct
 writes (its EXR header holds only what the inputs decide); errors are CsiError with the library's
 message; a progress callback that returns False cancels. Run by ctest with CSI_BUILD_DIR
 (programs and sdk/libcsi.so)."""
@@ -69,6 +70,20 @@ with tempfile.TemporaryDirectory() as T:
         for ext in ("exr", "png"):
             a, b = (open(os.path.join(T, f"{sc}.{x}.{ext}"), "rb").read() for x in ("c2" if ext == "exr" else "c", "py"))
             check(a == b, f"{sc}: Result.write_{ext} ({len(b)} bytes) differs from csi-reconstruct's ({len(a)} bytes)")
+
+    # positions: the library's on csi's grid rule are csi-positions' request (mitsuba_bridge's)
+    from csi import dump as csid  # noqa: E402
+    from csi import mitsuba_bridge as mb  # noqa: E402
+    for out, spp, method, t in (((40, 30), 4, "poisson", 1), ((24, 16), 9, "stratified", 1), ((16, 16), 4, "random", 8)):
+        path = os.path.join(T, "req.csid")
+        subprocess.run([os.path.join(BUILD, "csi-positions"), "--out", f"{out[0]}x{out[1]}", "--spp", str(spp),
+                        "--method", method, "--seed", "7", "--time-steps", str(t), "-o", path, "-q"], check=True)
+        want = csid.read(path, want="request")
+        req = mb.positions_request(out, spp=spp, method=method, seed=7, time_steps=t)
+        check(req.grid == want.grid and req.out == want.out and req.seed == want.seed
+              and np.array_equal(req.xyt, want.xyt),
+              f"positions {out} {spp} spp {method} t={t}: grid {req.grid} vs {want.grid}, {len(req.xyt)} vs "
+              f"{len(want.xyt)} positions")
 
     d = csi.read_dump(os.path.join(T, "small_moving.csid"))
     res = csi.reconstruct(d.positions, d.values, d.grid, frames=True, seed=d.seed)

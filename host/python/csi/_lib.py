@@ -41,6 +41,10 @@ class _Dump(ctypes.Structure):
                 ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float))]
 
 
+class _PosOpts(ctypes.Structure):
+    _fields_ = [("method", ctypes.c_int), ("spp", u32), ("fraction", ctypes.c_double), ("seed", ctypes.c_uint64)]
+
+
 class _Image(ctypes.Structure):
     _fields_ = [("w", u32), ("h", u32), ("channels", u32), ("data", ctypes.POINTER(ctypes.c_float))]
 
@@ -133,6 +137,10 @@ def _bind(L):
         "csi_device_new": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(P)]),
         "csi_device_release": (None, [P]),
         "csi_device_name": (ctypes.c_char_p, [P]),
+        "csi_default_grid_factor": (u32, [u32, u32, u32, ctypes.c_uint64]),
+        "csi_pos_method_parse": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]),
+        "csi_positions": (ctypes.c_int, [ctypes.POINTER(Grid), ctypes.POINTER(_PosOpts),
+                                         ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size), P]),
         "csi_dump_read": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.POINTER(_Dump), P]),
         "csi_dump_free": (None, [ctypes.POINTER(_Dump)]),
         "csi_options_new": (ctypes.c_int, [ctypes.POINTER(P)]),
@@ -373,6 +381,30 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
     except BaseException:
         L.csi_result_free(r)
         raise
+
+
+def default_grid_factor(out_w: int, out_h: int, t: int = 1, spp: int = 4) -> int:
+    """csi's fine-grid factor F for spp samples per output pixel (csi_default_grid_factor, the
+    rule of csi-render and csi-positions): the grid is F out_w x F out_h cells, t frames."""
+    return int(lib().csi_default_grid_factor(int(out_w), int(out_h), int(t), int(spp)))
+
+
+def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fraction: Optional[float] = None):
+    """The sample positions csi takes on grid (w, h, t, out_w, out_h): (N, 3) uint32 cells
+    (x, y, t), sorted by cell, each once; csi-render's and csi-positions' for the same grid and
+    seed. method: poisson, stratified or random; fraction: N = round(fraction * cells) instead
+    of spp samples per output pixel."""
+    L = lib()
+    g = Grid(*[int(x) for x in grid])
+    m = ctypes.c_int()
+    _check(L.csi_pos_method_parse(str(method).encode(), ctypes.byref(m)))
+    o = _PosOpts(m.value, int(spp), float(fraction or 0), int(seed))
+    p, n = ctypes.POINTER(u32)(), c_size()
+    _check(L.csi_positions(ctypes.byref(g), ctypes.byref(o), ctypes.byref(p), ctypes.byref(n), None))
+    try:
+        return np.ctypeslib.as_array(p, shape=(n.value, 3)).copy()
+    finally:
+        L.csi_free(p)
 
 
 class Dump:

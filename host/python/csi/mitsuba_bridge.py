@@ -3,7 +3,7 @@
     from csi import mitsuba_bridge as mb
     dump, s = mb.render("cornell", size=(128, 128), spp=4, paths=64)   # all in one call, or:
     scene = mb.load_scene("cornell", size=(128, 128))      # or an XML file, or a .py with scene()
-    req = mb.positions_request(out=(128, 128), spp=4, seed=1)   # csi-positions' grid and positions
+    req = mb.positions_request(out=(128, 128), spp=4, seed=1)   # csi's grid and positions (csi-positions')
     s = mb.render_request(scene, req, paths=64, seed=1)     # numpy: s.values (n, 3), s.timing
     csi.dump.write("s.csid", req.with_values(s.values))     # the dump for csi-reconstruct
     ref = mb.render_reference(mb.load_scene("cornell", size=(128, 128), box_filter=True), spp=4096)
@@ -26,14 +26,12 @@ import glob
 import os
 import re
 import runpy
-import tempfile
 import time
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
 from . import dump as csid
-from . import programs
 
 VARIANT = "llvm_ad_rgb"
 LLVM_MIN = 16
@@ -207,18 +205,28 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
 # ---- positions --------------------------------------------------------------------------------
 
 def positions_request(out, spp=4, grid=None, method="poisson", seed=1, time_steps=1, fraction=None) -> csid.Dump:
-    """The grid and positions csi wants (csi-positions, so the same as csi-render's for a seed)."""
-    args = ["--out", f"{out[0]}x{out[1]}", "--method", method, "--seed", seed, "--time-steps", time_steps, "-q"]
-    args += ["--fraction", fraction] if fraction else ["--spp", spp]
+    """The grid and positions csi wants, from csi's library (csi.positions on csi's grid rule:
+    the request csi-positions writes, and csi-render's positions, for the same size, spp and
+    seed)."""
+    import csi
+
+    w, h = int(out[0]), int(out[1])
     if grid:
-        args += ["--grid", grid]
-    with tempfile.TemporaryDirectory(prefix="csi-positions-") as tmp:
-        path = os.path.join(tmp, "request.csid")
-        try:
-            programs.run("csi-positions", ["-o", path, *args])
-        except programs.ProgramError as e:
-            raise BridgeError(str(e)) from None
-        return csid.read(path, want="request")
+        if grid % w:
+            raise BridgeError(f"--grid {grid} is not a multiple of the image width {w}")
+        factor = grid // w
+    else:
+        factor = None
+    try:
+        if factor is None:
+            factor = csi.default_grid_factor(w, h, time_steps, spp)
+        if max(w, h) * factor > csid.MAX_SIDE:
+            raise BridgeError(f"fine grid {w * factor}x{h * factor} is larger than the limit {csid.MAX_SIDE} per side")
+        g = (w * factor, h * factor, int(time_steps), w, h)
+        xyt = csi.positions(g, spp=spp, method=method, seed=seed, fraction=fraction)
+    except csi.CsiError as e:
+        raise BridgeError(str(e)) from None
+    return csid.Dump(grid=g[:3], out=(w, h), xyt=xyt, values=None, seed=int(seed))
 
 
 # ---- rendering --------------------------------------------------------------------------------

@@ -19,11 +19,12 @@ PROG = "csi-mitsuba"
 
 DESCRIPTION = """\
 Renders SCENE with Mitsuba 3 (llvm_ad_rgb, the scene's own sensor and integrator) at exactly
-the fine-grid cell centres csi asks for (csi-positions: the grid and positions csi-render would
-use for the same size, spp and seed), N paths per sample averaged, and reconstructs the image
-with csi's library in the same process (the same bits as csi-reconstruct on the dump). With --reference it renders Mitsuba's own box-filtered image instead (the
-film's reconstruction filter set to a box: pixel (px, py) is the mean over [px, px+1) x
-[py, py+1), csi's output pixel), the ground truth to compare with.
+the fine-grid cell centres csi asks for (the grid and positions csi-positions and csi-render
+would use for the same size, spp and seed), N paths per sample averaged, and reconstructs the
+image with csi's library in the same process (the bits of csi-reconstruct on the dump). With
+--reference it renders Mitsuba's own box-filtered image instead (the film's reconstruction
+filter set to a box: pixel (px, py) is the mean over [px, px+1) x [py, py+1), csi's output
+pixel), the ground truth to compare with.
 
 SCENE is 'cornell' (Mitsuba's built-in Cornell box), a Mitsuba XML scene file, or a Python file
 defining scene() that returns a Mitsuba scene dictionary (such as data/mitsuba/*.py).
