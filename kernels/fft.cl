@@ -507,3 +507,81 @@ __kernel void csi_fft_c2r_pre_half(__global const float *restrict X, __global fl
     Z[2 * o] = er - 0.5f * oi;
     Z[2 * o + 1] = ei + 0.5f * or_;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* The time stage of Alg. 2's motion basis (csi_fourier_half_set_motion in csi/spectral.h): on a
+ * half spectrum already transformed along the spatial axes, a shear (each frame's spectrum
+ * multiplied by the phase of a shift by v (t - tc)) and a transform along t (the column passes
+ * above, or a DCT-II built on them by Makhoul's reordering: J. Makhoul, "A fast cosine transform
+ * in one and two dimensions", IEEE Trans. ASSP 28(1), 1980).
+ *
+ * Layout: element (u0, u1, t) at u0 + hs (u1 + n1 t); launches are exact over (hs, n1, T) with a
+ * local size dividing hs, so no bounds checks (PoCL vectorises along u0). Phase tables are
+ * separable, px[t hs + u0] and py[t n1 + u1], computed in double on the host. */
+
+/* Makhoul's order for a DCT-II of length T: v[n] = x[perm(n)], perm(n) = 2n for n < ceil(T/2),
+ * else 2 (T - 1 - n) + 1 (the even samples ascending, then the odd ones descending). */
+inline size_t makhoul_perm(size_t n, size_t T) { return n < (T + 1) / 2 ? 2 * n : 2 * (T - 1 - n) + 1; }
+/* Its inverse: the position n of sample t in v. */
+inline size_t makhoul_iperm(size_t t, size_t T) { return (t & 1) ? T - 1 - (t >> 1) : t >> 1; }
+
+/* The shear pass. Analysis (synth = 0): out[u, j] = conj(P[t, u]) in[u, t] with t = perm(j) when
+ * `reorder` (the DCT's input order), else t = j. Synthesis (synth = 1, the adjoint):
+ * out[u, t] = P[t, u] in[u, n] with n = iperm(t) when `reorder`, else n = t (here t = j).
+ * P[t, u] = px[t, u0] py[t, u1]. */
+__kernel void csi_motion_phase(__global const float *restrict in, __global float *restrict out,
+                               __global const float *restrict px, __global const float *restrict py,
+                               const uint hs_, const uint n1_, const uint T_, const uint reorder,
+                               const uint synth)
+{
+    const size_t u0 = get_global_id(0), u1 = get_global_id(1), j = get_global_id(2);
+    const size_t hs = hs_, n1 = n1_, T = T_;
+    size_t t = j, src = j;
+    if (reorder && !synth)
+        t = src = makhoul_perm(j, T);
+    else if (reorder)
+        src = makhoul_iperm(j, T);
+    const size_t a = t * hs + u0, b = t * n1 + u1;
+    float pr, pi;
+    CMUL(pr, pi, px[2 * a], px[2 * a + 1], py[2 * b], py[2 * b + 1]);
+    if (!synth)
+        pi = -pi;
+    const size_t s = u0 + hs * (u1 + n1 * src), d = u0 + hs * (u1 + n1 * j);
+    float zr, zi;
+    CMUL(zr, zi, in[2 * s], in[2 * s + 1], pr, pi);
+    out[2 * d] = zr;
+    out[2 * d + 1] = zi;
+}
+
+/* Makhoul's twiddle step along t: out[u, k] = A[k] in[u, k] + B[k] in[u, (T - k) mod T], with
+ * complex tables A, B of T entries. Forward (after the DFT of the reordered samples):
+ * A = e_k exp(-i pi k / 2T), B = conj A (the DCT-II of a complex sequence, each part's real
+ * formula extended linearly); inverse (before the inverse DFT): A = d_k exp(+i pi k / 2T),
+ * B = -i d_(T-k) exp(+i pi k / 2T), B[0] = 0. The host folds the orthonormal scales into e, d. */
+__kernel void csi_motion_tmix(__global const float *restrict in, __global float *restrict out,
+                              __global const float *restrict A, __global const float *restrict B,
+                              const uint hs_, const uint n1_, const uint T_)
+{
+    const size_t u0 = get_global_id(0), u1 = get_global_id(1), k = get_global_id(2);
+    const size_t hs = hs_, n1 = n1_, T = T_;
+    const size_t km = k == 0 ? 0 : T - k;
+    const size_t p = u0 + hs * (u1 + n1 * k), q = u0 + hs * (u1 + n1 * km);
+    float ar, ai, br, bi;
+    CMUL(ar, ai, A[2 * k], A[2 * k + 1], in[2 * p], in[2 * p + 1]);
+    CMUL(br, bi, B[2 * k], B[2 * k + 1], in[2 * q], in[2 * q + 1]);
+    out[2 * p] = ar + br;
+    out[2 * p + 1] = ai + bi;
+}
+
+/* A separable real gain on the coefficients, in place: X[u0, u1, k] *= g0[u0] g1[u1] gt[k]
+ * (the motion Gaussian of csi_motion_filter: the Gaussian in the sheared frame). */
+__kernel void csi_motion_gain(__global float *restrict X, __global const float *restrict g0,
+                              __global const float *restrict g1, __global const float *restrict gt,
+                              const uint hs_, const uint n1_)
+{
+    const size_t u0 = get_global_id(0), u1 = get_global_id(1), k = get_global_id(2);
+    const size_t o = u0 + (size_t)hs_ * (u1 + (size_t)n1_ * k);
+    const float g = g0[u0] * g1[u1] * gt[k];
+    X[2 * o] *= g;
+    X[2 * o + 1] *= g;
+}

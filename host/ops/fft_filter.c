@@ -694,6 +694,11 @@ struct csi_fft_half {
     axis_plan ax[3];
     cl_mem wn, P, Q;
     float scale;
+    /* The time stage (csi_fft_half_set_motion): the plain DFT until set; then the last axis is t. */
+    int tkind;             /* CSI_FFT_TIME_DFT, _DCT or _NONE */
+    bool shear;            /* the phase tables below are applied */
+    cl_mem px, py;         /* shear phases: px[t hs + u0], py[t n1 + u1] (complex) */
+    cl_mem dA, dB, iA, iB; /* DCT twiddles: analysis and synthesis (complex, T each) */
 };
 
 void csi_fft_half_free(csi_fft_half *h)
@@ -707,6 +712,12 @@ void csi_fft_half_free(csi_fft_half *h)
     csi_buffer_release(&h->wn);
     csi_buffer_release(&h->P);
     csi_buffer_release(&h->Q);
+    csi_buffer_release(&h->px);
+    csi_buffer_release(&h->py);
+    csi_buffer_release(&h->dA);
+    csi_buffer_release(&h->dB);
+    csi_buffer_release(&h->iA);
+    csi_buffer_release(&h->iB);
     free(h);
 }
 
@@ -760,31 +771,198 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
     return CSI_OK;
 }
 
-/* The next buffer of a ping-pong between P and Q (the output when `last`). */
-static cl_mem half_next(const csi_fft_half *h, cl_mem cur, cl_mem out, bool last)
+/* A chain of passes ping-ponging between P and Q whose last pass writes the output: `left`
+ * counts the passes still to run, so each one learns whether it is the last. */
+typedef struct {
+    csi_fft_half *h;
+    cl_mem cur, out;
+    int left;
+} half_chain;
+
+static cl_mem chain_dst(half_chain *c)
 {
-    if (last)
-        return out;
-    return cur == h->P ? h->Q : h->P;
+    c->left--;
+    if (c->left == 0)
+        return c->out;
+    return c->cur == c->h->P ? c->h->Q : c->h->P;
 }
 
-/* Passes along the strided axes of the half spectrum (lines of hs columns). */
-static csi_status half_cols(csi_fft_half *h, cl_mem *cur, cl_mem out, int axis, float sgn,
-                            bool last_stage)
+/* Passes along the strided axis `axis` (1 or 2; lines of hs columns). */
+static csi_status half_cols(half_chain *ch, int axis, float sgn)
 {
+    csi_fft_half *h = ch->h;
     const axis_plan *a = &h->ax[axis];
     const size_t hs = h->hs, c1 = h->c[1], c2 = h->c[2];
     cl_uint p = 1;
     for (int i = 0; i < a->np; i++) {
-        cl_mem dst = half_next(h, *cur, out, last_stage && i == a->np - 1);
+        cl_mem dst = chain_dst(ch);
         if (axis == 1)
-            CSI_TRY(launch_col(h->ctx, *cur, dst, a, i, p, sgn, hs, hs, c2, hs * c1));
+            CSI_TRY(launch_col(h->ctx, ch->cur, dst, a, i, p, sgn, hs, hs, c2, hs * c1));
         else
-            CSI_TRY(launch_col(h->ctx, *cur, dst, a, i, p, sgn, hs, hs * c1, c1, hs));
-        *cur = dst;
+            CSI_TRY(launch_col(h->ctx, ch->cur, dst, a, i, p, sgn, hs, hs * c1, c1, hs));
+        ch->cur = dst;
         p *= (cl_uint)a->radix[i];
     }
     return CSI_OK;
+}
+
+/* The time stage's geometry: the last axis is t, the one before it (if any spatial) n1. */
+static void time_dims(const csi_fft_half *h, size_t *n1, size_t *T)
+{
+    *T = h->c[h->nd - 1];
+    *n1 = h->nd == 3 ? h->c[1] : 1;
+}
+
+/* One kernel of the time stage over (hs, n1, T): the shear pass (csi_motion_phase; tables px,
+ * py; synth selects the direction) or Makhoul's twiddles (csi_motion_tmix; tables A, B). */
+static csi_status run_time_kernel(csi_fft_half *h, bool tmix, cl_mem in, cl_mem out, cl_mem ta,
+                                  cl_mem tb, bool synth)
+{
+    size_t n1, T;
+    time_dims(h, &n1, &T);
+    cl_kernel k;
+    CSI_TRY(csi_kernel(h->ctx, "fft", tmix ? "csi_motion_tmix" : "csi_motion_phase", &k));
+    cl_uint hs = (cl_uint)h->hs, un1 = (cl_uint)n1, uT = (cl_uint)T;
+    cl_uint reorder = h->tkind == CSI_FFT_TIME_DCT, dir = synth;
+    if (tmix)
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(ta), CSI_MEM(tb), CSI_ARG(hs),
+                         CSI_ARG(un1), CSI_ARG(uT)));
+    else
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(ta), CSI_MEM(tb), CSI_ARG(hs),
+                         CSI_ARG(un1), CSI_ARG(uT), CSI_ARG(reorder), CSI_ARG(dir)));
+    size_t global[3] = {h->hs, n1, T}, local[3] = {16, 1, 1};
+    return csi_run(h->ctx, k, 3, global, local);
+}
+
+/* exp(i phase) for phase = -2 pi f v (t - tc), f the signed frequency of index u along an axis
+ * of n samples (numpy's fftfreq, but 0 at an even n's Nyquist bin: that component is its own
+ * conjugate mirror, and no shift of it keeps a real volume real, so it is not moved; every other
+ * phase pairs with its conjugate and the basis stays unitary), for u < count (rows of `stride`
+ * entries per t; entries beyond count are 1); tc = (T - 1) / 2 centres the shear, so frame tc is
+ * not moved. */
+static float *shear_table(size_t n, size_t count, size_t stride, size_t T, double v)
+{
+    float *t = malloc(2 * stride * T * sizeof *t);
+    if (!t)
+        return NULL;
+    const double tc = 0.5 * ((double)T - 1.0);
+    for (size_t ti = 0; ti < T; ti++)
+        for (size_t u = 0; u < stride; u++) {
+            double ph = 0.0;
+            if (u < count && n > 1 && 2 * u != n) {
+                double f = (u < n / 2 ? (double)u : (double)u - (double)n) / (double)n;
+                ph = -2.0 * PI_ * f * v * ((double)ti - tc);
+            }
+            t[2 * (ti * stride + u)] = (float)cos(ph);
+            t[2 * (ti * stride + u) + 1] = (float)sin(ph);
+        }
+    return t;
+}
+
+/* Makhoul's twiddle tables (see csi_motion_tmix in kernels/fft.cl). The transforms
+ * around them carry 1/sqrt(T) of the orthonormal scale (csi_fft_half's `scale`), so the DCT's
+ * c_k = sqrt((k ? 2 : 1) / T) enters as c_k sqrt(T) / 2 in analysis and 1 / (c_k sqrt(T)) in
+ * synthesis. */
+static csi_status dct_tables(csi_fft_half *h, size_t T)
+{
+    float *t = malloc(8 * T * sizeof *t);
+    if (!t)
+        return csi_fail(CSI_ERR_NOMEM, "DCT tables: out of host memory");
+    float *dA = t, *dB = t + 2 * T, *iA = t + 4 * T, *iB = t + 6 * T;
+    for (size_t k = 0; k < T; k++) {
+        double ang = PI_ * (double)k / (2.0 * (double)T), c = cos(ang), s = sin(ang);
+        double e = k ? sqrt(0.5) : 0.5;          /* c_k sqrt(T) / 2 */
+        double d = k ? sqrt(0.5) : 1.0;          /* 1 / (c_k sqrt(T)) */
+        double dm = (T - k) % T ? sqrt(0.5) : 1.0; /* the same at T - k (unused at k = 0) */
+        dA[2 * k] = (float)(e * c);
+        dA[2 * k + 1] = (float)(-e * s);
+        dB[2 * k] = (float)(e * c);
+        dB[2 * k + 1] = (float)(e * s);
+        iA[2 * k] = (float)(d * c);
+        iA[2 * k + 1] = (float)(d * s);
+        /* -i dm exp(i ang) = dm (sin ang - i cos ang); zero at k = 0 (C_T = 0) */
+        iB[2 * k] = k ? (float)(dm * s) : 0.0f;
+        iB[2 * k + 1] = k ? (float)(-dm * c) : 0.0f;
+    }
+    csi_status st = upload_table(h->ctx, dA, 2 * T * sizeof *t, "DCT twiddles", &h->dA);
+    if (st == CSI_OK)
+        st = upload_table(h->ctx, dB, 2 * T * sizeof *t, "DCT twiddles", &h->dB);
+    if (st == CSI_OK)
+        st = upload_table(h->ctx, iA, 2 * T * sizeof *t, "DCT twiddles", &h->iA);
+    if (st == CSI_OK)
+        st = upload_table(h->ctx, iB, 2 * T * sizeof *t, "DCT twiddles", &h->iB);
+    free(t);
+    return st;
+}
+
+/* Whether the time stage has its phase (and reordering) pass. */
+static bool phase_pass(const csi_fft_half *h) { return h->shear || h->tkind != CSI_FFT_TIME_DFT; }
+
+csi_status csi_fft_half_set_motion(csi_fft_half *h, int tkind, const double v[2])
+{
+    if (h->nd < 2)
+        return csi_fail(CSI_ERR_ARG, "motion basis: needs a time axis after a spatial one");
+    if (tkind != CSI_FFT_TIME_DFT && tkind != CSI_FFT_TIME_DCT && tkind != CSI_FFT_TIME_NONE)
+        return csi_fail(CSI_ERR_ARG, "motion basis: unknown time transform %d", tkind);
+    for (int a = 0; a < 2; a++)
+        if (!isfinite(v[a]))
+            return csi_fail(CSI_ERR_ARG, "motion basis: velocity is not finite");
+    size_t n1, T;
+    time_dims(h, &n1, &T);
+    static const char *kn[] = {"csi_motion_phase", "csi_motion_tmix"};
+    for (int i = 0; i < 2; i++) {
+        cl_kernel k;
+        CSI_TRY(csi_kernel(h->ctx, "fft", kn[i], &k));
+    }
+    /* Every table on the first call, whatever it asks for (csi_fft_half_motion_buffers: the
+     * same buffers whichever stage a caller ends up with), then rewritten in place. */
+    if (!h->dA) {
+        CSI_TRY(csi_buffer(h->ctx, 2 * h->hs * T * sizeof(float), CL_MEM_READ_ONLY, "shear phases", &h->px));
+        CSI_TRY(csi_buffer(h->ctx, 2 * n1 * T * sizeof(float), CL_MEM_READ_ONLY, "shear phases", &h->py));
+        CSI_TRY(dct_tables(h, T));
+    }
+    h->tkind = tkind;
+    h->shear = v[0] != 0.0 || (h->nd == 3 && v[1] != 0.0);
+    /* The phase pass also runs without a shear when the DCT needs its reordering, or when t is
+     * not transformed: then the phases carry sqrt(T), the part of the orthonormal scale that the
+     * missing transform along t would have cancelled. */
+    if (!phase_pass(h))
+        return CSI_OK;
+    float *tx = shear_table(h->c[0], h->M + 1, h->hs, T, h->shear ? v[0] : 0.0);
+    float *ty = shear_table(n1, n1, n1, T, h->shear && h->nd == 3 ? v[1] : 0.0);
+    csi_status st = tx && ty ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "shear tables: out of host memory");
+    if (st == CSI_OK && tkind == CSI_FFT_TIME_NONE)
+        for (size_t i = 0; i < 2 * h->hs * T; i++)
+            tx[i] = (float)(tx[i] * sqrt((double)T));
+    if (st == CSI_OK)
+        st = csi_write(h->ctx, h->px, 0, 2 * h->hs * T * sizeof *tx, tx);
+    if (st == CSI_OK)
+        st = csi_write(h->ctx, h->py, 0, 2 * n1 * T * sizeof *ty, ty);
+    free(tx);
+    free(ty);
+    return st;
+}
+
+void csi_fft_half_motion_buffers(const size_t c[3], int nd, csi_mem_tally *t)
+{
+    const size_t hs = half_stride(c[0] / 2), T = c[nd - 1], n1 = nd == 3 ? c[1] : 1;
+    csi_mem_tally_add(t, 2 * hs * T * sizeof(float), "shear phases");
+    csi_mem_tally_add(t, 2 * n1 * T * sizeof(float), "shear phases");
+    for (int i = 0; i < 4; i++)
+        csi_mem_tally_add(t, 2 * T * sizeof(float), "DCT twiddles");
+}
+
+/* Passes of the time stage in each direction (0 when it is the plain DFT). */
+static int time_passes(const csi_fft_half *h)
+{
+    const int taxis = h->nd - 1;
+    const bool reorder = h->tkind == CSI_FFT_TIME_DCT;
+    int n = phase_pass(h) ? 1 : 0;
+    if (h->tkind != CSI_FFT_TIME_NONE)
+        n += h->ax[taxis].np;
+    if (reorder)
+        n++;
+    return n;
 }
 
 csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
@@ -793,29 +971,36 @@ csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
         return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
     csi_ctx *ctx = h->ctx;
     const axis_plan *ax = &h->ax[0];
-    const bool cols = h->nd > 1;
+    const bool timed = h->tkind != CSI_FFT_TIME_DFT || h->shear;
+    const int taxis = h->nd - 1;
     cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
+    half_chain ch = {h, f, z, ax->np + 1};
+    if (timed) {
+        ch.left += (h->nd == 3 ? h->ax[1].np : 0) + time_passes(h);
+    } else {
+        for (int a = 1; a < h->nd; a++)
+            ch.left += h->ax[a].np;
+    }
     /* 1. rows as M complex values, scaled by `scale` in the first pass */
-    cl_mem cur = f;
     cl_uint p = 1;
     for (int i = 0; i < ax->np; i++) {
-        cl_mem dst = half_next(h, cur, z, false);
-        CSI_TRY(launch_row(ctx, cur, dst, ax, i, p, -1.0f, h->rows, h->M, i == 0 ? h->scale : -1.0f));
-        cur = dst;
+        cl_mem dst = chain_dst(&ch);
+        CSI_TRY(launch_row(ctx, ch.cur, dst, ax, i, p, -1.0f, h->rows, h->M, i == 0 ? h->scale : -1.0f));
+        ch.cur = dst;
         p *= (cl_uint)ax->radix[i];
     }
     /* 2. unpack to the half spectrum, zero the padding */
     {
-        cl_mem dst = half_next(h, cur, z, !cols);
+        cl_mem dst = chain_dst(&ch);
         cl_kernel k;
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
                          CSI_ARG(nrows)));
         size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
         size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
         CSI_TRY(csi_run(ctx, k, 2, global, local));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
         CSI_TRY(csi_run1d(ctx, k, h->rows));
         cl_uint npad = (cl_uint)(h->hs - h->M - 1);
         if (npad > 0) {
@@ -824,13 +1009,31 @@ csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
             size_t g2[2] = {npad, h->rows}, l2[2] = {16, 4};
             CSI_TRY(csi_run(ctx, k, 2, g2, l2));
         }
-        cur = dst;
+        ch.cur = dst;
     }
-    /* 3. forward along y, then z */
-    if (h->nd >= 2)
-        CSI_TRY(half_cols(h, &cur, z, 1, -1.0f, h->nd == 2));
+    if (!timed) {
+        /* 3. forward along y, then z */
+        for (int a = 1; a < h->nd; a++)
+            CSI_TRY(half_cols(&ch, a, -1.0f));
+        return CSI_OK;
+    }
+    /* 3. the spatial axis before t, then the time stage: unshear (and reorder for the DCT),
+     * DFT along t, Makhoul's twiddles for the DCT */
     if (h->nd == 3)
-        CSI_TRY(half_cols(h, &cur, z, 2, -1.0f, true));
+        CSI_TRY(half_cols(&ch, 1, -1.0f));
+    const bool reorder = h->tkind == CSI_FFT_TIME_DCT;
+    if (phase_pass(h)) {
+        cl_mem dst = chain_dst(&ch);
+        CSI_TRY(run_time_kernel(h, false, ch.cur, dst, h->px, h->py, false));
+        ch.cur = dst;
+    }
+    if (h->tkind != CSI_FFT_TIME_NONE)
+        CSI_TRY(half_cols(&ch, taxis, -1.0f));
+    if (reorder) {
+        cl_mem dst = chain_dst(&ch);
+        CSI_TRY(run_time_kernel(h, true, ch.cur, dst, h->dA, h->dB, false));
+        ch.cur = dst;
+    }
     return CSI_OK;
 }
 
@@ -840,31 +1043,56 @@ csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f)
         return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
     csi_ctx *ctx = h->ctx;
     const axis_plan *ax = &h->ax[0];
+    const bool timed = h->tkind != CSI_FFT_TIME_DFT || h->shear;
+    const int taxis = h->nd - 1;
     cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
-    cl_mem cur = z;
-    /* 1. inverse along z, then y (never the last stage: the x passes follow) */
-    if (h->nd == 3)
-        CSI_TRY(half_cols(h, &cur, f, 2, 1.0f, false));
-    if (h->nd >= 2)
-        CSI_TRY(half_cols(h, &cur, f, 1, 1.0f, false));
+    half_chain ch = {h, z, f, 1 + ax->np};
+    if (timed)
+        ch.left += (h->nd == 3 ? h->ax[1].np : 0) + time_passes(h);
+    else
+        for (int a = 1; a < h->nd; a++)
+            ch.left += h->ax[a].np;
+    if (timed) {
+        /* 1. the time stage in reverse: Makhoul's synthesis twiddles, inverse DFT along t, shear
+         * (and restore the order) */
+        const bool reorder = h->tkind == CSI_FFT_TIME_DCT;
+        if (reorder) {
+            cl_mem dst = chain_dst(&ch);
+            CSI_TRY(run_time_kernel(h, true, ch.cur, dst, h->iA, h->iB, true));
+            ch.cur = dst;
+        }
+        if (h->tkind != CSI_FFT_TIME_NONE)
+            CSI_TRY(half_cols(&ch, taxis, 1.0f));
+        if (phase_pass(h)) {
+            cl_mem dst = chain_dst(&ch);
+            CSI_TRY(run_time_kernel(h, false, ch.cur, dst, h->px, h->py, true));
+            ch.cur = dst;
+        }
+        if (h->nd == 3)
+            CSI_TRY(half_cols(&ch, 1, 1.0f));
+    } else {
+        /* 1. inverse along z, then y */
+        for (int a = h->nd - 1; a >= 1; a--)
+            CSI_TRY(half_cols(&ch, a, 1.0f));
+    }
     /* 2. pack with the self-conjugate bins' real parts doubled, scaled */
     {
-        cl_mem dst = half_next(h, cur, f, ax->np == 0);
+        cl_mem dst = chain_dst(&ch);
         cl_kernel k;
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre_half", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
                          CSI_ARG(nrows), CSI_ARG(h->scale)));
         size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
         size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
         CSI_TRY(csi_run(ctx, k, 2, global, local));
-        cur = dst;
+        ch.cur = dst;
     }
     /* 3. inverse along x; the last pass writes f */
     cl_uint p = 1;
     for (int i = 0; i < ax->np; i++) {
-        cl_mem dst = half_next(h, cur, f, i == ax->np - 1);
-        CSI_TRY(launch_row(ctx, cur, dst, ax, i, p, 1.0f, h->rows, h->M, -1.0f));
-        cur = dst;
+        cl_mem dst = chain_dst(&ch);
+        CSI_TRY(launch_row(ctx, ch.cur, dst, ax, i, p, 1.0f, h->rows, h->M, -1.0f));
+        ch.cur = dst;
         p *= (cl_uint)ax->radix[i];
     }
     return CSI_OK;

@@ -65,6 +65,13 @@ size_t csi_fft_half_stride(const csi_fft_half *h); /* hs */
 size_t csi_fft_half_count(const csi_fft_half *h);  /* hs * c[1] * c[2] */
 size_t csi_fft_half_count_for(const size_t c[3], int nd); /* the same, before creating one */
 void csi_fft_half_buffers(const size_t c[3], int nd, csi_mem_tally *t); /* what create allocates */
+/* The time stage (csi_fourier_half_set_motion): the last axis (nd >= 2) becomes t, transformed
+ * by tkind after the spatial axes, each frame's spectrum unsheared by the velocity v[a] (cells
+ * per frame) along the spatial axes a = 0 and (nd = 3) 1 first. The values are
+ * csi_time_transform's (csi/spectral.h), which spectral.c checks. */
+enum { CSI_FFT_TIME_DFT = 0, CSI_FFT_TIME_DCT = 1, CSI_FFT_TIME_NONE = 2 };
+csi_status csi_fft_half_set_motion(csi_fft_half *h, int tkind, const double v[2]);
+void csi_fft_half_motion_buffers(const size_t c[3], int nd, csi_mem_tally *t); /* its tables */
 csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z);
 csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f);
 void csi_fft_half_free(csi_fft_half *h);

@@ -106,3 +106,15 @@ cl_mem csi_half_fourier_scratch(const csi_linop *op)
     const half_state *s = op->state;
     return s->vol;
 }
+
+csi_fourier_half *csi_half_fourier_basis(const csi_linop *op)
+{
+    const half_state *s = op->state;
+    return s->H;
+}
+
+const csi_linop *csi_half_fourier_sampler(const csi_linop *op)
+{
+    const half_state *s = op->state;
+    return s->S;
+}

@@ -535,6 +535,15 @@ size_t csi_fourier_half_count_for(const size_t dims[3])
     return csi_fft_half_count_for(c, nd);
 }
 
+void csi_fourier_half_motion_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    if (nd >= 2 && dims[2] > 1)
+        csi_fft_half_motion_buffers(c, nd, t);
+}
+
 void csi_fourier_half_buffers(const size_t dims[3], csi_mem_tally *t)
 {
     size_t c[3];
@@ -557,3 +566,44 @@ csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f)
 }
 
 void csi_fourier_half_free(csi_fourier_half *h) { csi_fft_half_free(h); }
+
+static const char *const time_names[] = {"dft", "dct", "none"};
+
+const char *csi_time_transform_name(csi_time_transform t)
+{
+    return (unsigned)t < 3 ? time_names[t] : "?";
+}
+
+csi_status csi_time_transform_parse(const char *s, csi_time_transform *out)
+{
+    for (int i = 0; i < 3; i++)
+        if (s && !strcmp(s, time_names[i])) {
+            *out = (csi_time_transform)i;
+            return CSI_OK;
+        }
+    return csi_fail(CSI_ERR_ARG, "unknown time transform '%s' (dft, dct, none)", s ? s : "");
+}
+
+_Static_assert((int)CSI_TIME_DFT == CSI_FFT_TIME_DFT && (int)CSI_TIME_DCT == CSI_FFT_TIME_DCT &&
+                   (int)CSI_TIME_NONE == CSI_FFT_TIME_NONE,
+               "the time transforms have the FFT's values");
+
+csi_status csi_fourier_half_set_motion(csi_fourier_half *h, const size_t dims[3],
+                                       csi_time_transform t, double vx, double vy)
+{
+    if (!h || !dims)
+        return csi_fail(CSI_ERR_ARG, "csi_fourier_half_set_motion: no basis or dimensions");
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    if (dims[2] < 2 || nd < 2)
+        return csi_fail(CSI_ERR_ARG, "motion basis: size %zu x %zu x %zu has no time axis after "
+                        "a spatial one", dims[0], dims[1], dims[2]);
+    if (csi_fft_half_count(h) != csi_fft_half_stride(h) * (c[1] * c[2]))
+        return csi_fail(CSI_ERR_ARG, "motion basis: size %zu x %zu x %zu is not the basis's",
+                        dims[0], dims[1], dims[2]);
+    double v[2] = {0.0, 0.0};
+    for (int a = 0; a < nd - 1; a++)
+        v[a] = map[a] == 0 ? vx : vy;
+    return csi_fft_half_set_motion(h, (int)t, v);
+}

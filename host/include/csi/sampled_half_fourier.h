@@ -31,6 +31,11 @@ csi_status csi_half_fourier_synthesize(const csi_linop *op, cl_mem z, cl_mem f);
 /* The operator's own k-float volume buffer, which the caller may use as scratch between
  * applications (its contents are overwritten by the next apply or adjoint). */
 cl_mem csi_half_fourier_scratch(const csi_linop *op);
+/* The operator's basis H, e.g. to give it a time stage (csi_fourier_half_set_motion), which the
+ * operator then applies too. Owned by the operator. */
+csi_fourier_half *csi_half_fourier_basis(const csi_linop *op);
+/* Its real sampling operator S (k floats -> the n samples), owned by the operator. */
+const csi_linop *csi_half_fourier_sampler(const csi_linop *op);
 
 #ifdef __cplusplus
 }

@@ -119,6 +119,35 @@ bool csi_fourier_half_supported(const size_t dims[3]);
 size_t csi_fourier_half_count_for(const size_t dims[3]);
 void csi_fourier_half_buffers(const size_t dims[3], csi_mem_tally *t);
 
+/* Alg. 2's motion basis (csi's extension of the paper's 3-D Fourier basis; measurements in
+ * docs/bench/animation.md): the half-spectrum basis above with a time stage. For a volume of
+ * dims = (w, h, T), T > 1 and w or h > 1, and a velocity (vx, vy) in grid cells per frame:
+ *   forward: z[u, k] = sum_t B_k(t) exp(+2 pi i (u_x vx + u_y vy) (t - tc)) X_t[u], where
+ *            X_t = numpy's rfft2(f[t], norm="ortho") is frame t's spatial half spectrum,
+ *            u_x, u_y its signed frequencies in cycles per cell (0 at the Nyquist bins: no
+ *            shift of a component that is its own mirror keeps the volume real, so it stays),
+ *            tc = (T - 1) / 2, and B_k the orthonormal transform along t: the DFT
+ *            (exp(-2 pi i k t / T) / sqrt(T): with v = 0 exactly csi_fourier_half), the DCT-II
+ *            (c_k cos(pi k (2t + 1) / 2T), c_0 = 1 / sqrt(T), c_k = sqrt(2 / T)), or none
+ *            (NONE: z holds each frame's unsheared spectrum, k = t);
+ *   inverse: the adjoint (as csi_fourier_half_inverse: Re <z, w> and <f, g>), so
+ *            inverse(z) = f when z is forward(f) with the inner planes doubled.
+ * In words: each frame is moved back by v (t - tc), a shift by the spectral phase (fractional
+ * velocities exact, spatial axes periodic), and the aligned volume is transformed along t; the
+ * DCT's ends are mirrored instead of the DFT's wrap of the last frame onto the first. Content
+ * moving at v is static in the aligned volume, so its coefficients lie on the k = 0 plane (the
+ * sheared plane of Egan et al. 2009 becomes an axis plane). Same layout and count as
+ * csi_fourier_half (squeezed: t is the last axis). May be called again to change the
+ * transform or the velocity; dims must be those the basis was created with. */
+typedef enum { CSI_TIME_DFT = 0, CSI_TIME_DCT, CSI_TIME_NONE } csi_time_transform;
+const char *csi_time_transform_name(csi_time_transform t);
+csi_status csi_time_transform_parse(const char *s, csi_time_transform *out); /* dft, dct, none */
+csi_status csi_fourier_half_set_motion(csi_fourier_half *h, const size_t dims[3],
+                                       csi_time_transform t, double vx, double vy);
+/* The device buffers the first csi_fourier_half_set_motion adds (its phase and DCT tables, kept
+ * until the basis is freed; later calls rewrite them in place). */
+void csi_fourier_half_motion_buffers(const size_t dims[3], csi_mem_tally *t);
+
 /* CSI_OK if clFFT can transform an axis of length n (n >= 1 and only factors 2, 3, 5, 7);
  * otherwise CSI_ERR_ARG with a message naming `what` and the size. */
 csi_status csi_fft_check_size(const char *what, const size_t dims[3]);
