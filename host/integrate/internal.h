@@ -161,6 +161,11 @@ typedef struct {
 /* yscratch: n floats and scratch: k floats of device scratch; ones: n floats of host scratch. */
 csi_status csi_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
                        double sigma, cl_mem yscratch, cl_mem scratch, float *ones, csi_nc_op *r);
+/* The same with another smoothing filter G (real, symmetric; r takes ownership, also on
+ * failure) and the density below which a cell is left 0. */
+csi_status csi_nc_init_filter(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
+                              csi_linop *G, float eps, cl_mem yscratch, cl_mem scratch,
+                              float *ones, csi_nc_op *r);
 /* out = NC(yd): yd is n floats on the device; out (k floats) may be `scratch`. */
 csi_status csi_nc_interp(csi_ctx *ctx, csi_nc_op *r, cl_mem yd, size_t k, cl_mem scratch,
                          cl_mem out);
@@ -169,5 +174,26 @@ csi_status csi_nc_interp(csi_ctx *ctx, csi_nc_op *r, cl_mem yd, size_t k, cl_mem
 csi_status csi_nc_correct(csi_ctx *ctx, csi_nc_op *r, const float *y, size_t n, size_t k,
                           cl_mem f, cl_mem yscratch, cl_mem scratch, float *host);
 void csi_nc_free(csi_nc_op *r);
+
+/* Alg. 2's basis velocity from the samples (motion_velocity.c): candidates from the energy of
+ * the motion-compensated mean of a rough estimate, chosen and refined by the leave-one-out error
+ * of the normalized convolution along each velocity. h: the operator's basis and G a motion
+ * filter on it with the DCT (csi/motion_filter.h), both left in arbitrary states (the caller
+ * sets what it wants next); z: the filter's coefficient scratch; va, vb: k floats and ydev, gat:
+ * n floats of device scratch; S: the real sampling operator at idx; y: the n values (host) the
+ * motion is judged on. Allocates nothing on the device (csi/plan.h counts the caller's). */
+typedef struct {
+    double v[2];      /* cells per frame; 0, 0 when no velocity predicts the samples at least 3%
+                         better than the still basis */
+    double loo, loo0; /* leave-one-out mean squared errors: the chosen velocity's, v = 0's */
+    int evaluations;  /* leave-one-out evaluations (two filter passes each) */
+    double seconds;
+} csi_motion_velocity;
+csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fourier_half *h,
+                                        csi_linop *G, cl_mem z, cl_mem va, cl_mem vb,
+                                        const csi_linop *S, cl_mem ydev, cl_mem gat, const float *y,
+                                        const uint32_t *idx, size_t n, csi_motion_velocity *out);
+/* The host bytes it holds at most. */
+uint64_t csi_motion_velocity_host_bytes(const csi_grid *g, size_t n);
 
 #endif

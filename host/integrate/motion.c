@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "csi/integrate_ops.h"
+#include "csi/motion_filter.h"
 #include "csi/sampled_half_fourier.h"
 #include "csi/sampling.h"
 #include "csi/spectral.h"
@@ -19,7 +20,71 @@
  * between, so H z = F3^H x and ||z||_1 = ||x||_1): half the unknowns and about half the FFT
  * work, the same tau and the same minimiser (docs/bench/motion.md has the measurements). The
  * full complex formulation stays available (csi_recon_options.motion_full_spectrum) and is
- * used when the size does not allow the half spectrum (an odd first axis). */
+ * used when the size does not allow the half spectrum (an odd first axis).
+ *
+ * csi's motion basis (csi_recon_options.motion_time, motion_velocity; docs/bench/animation.md):
+ * the half-spectrum basis sheared by the velocity at which most of the scene moves, estimated
+ * from the samples (csi_motion_velocity_estimate), with the DCT along t; the residual correction
+ * then runs along that motion too. The full spectrum keeps the paper's basis. */
+
+/* The values the velocity is judged on: the mean over channels, compressed as m / (1 + m) so
+ * that a few very bright samples (HDR) do not decide the motion alone. */
+static void motion_values(const float *values, uint32_t channels, size_t n, float *y)
+{
+    for (size_t i = 0; i < n; i++) {
+        double m = 0;
+        for (uint32_t c = 0; c < channels; c++)
+            m += values[i * channels + c];
+        m = m / channels;
+        m = m > 0 ? m : 0;
+        y[i] = (float)(m / (1.0 + m));
+    }
+}
+
+/* The transform along t: the option's, or with auto the DCT for a sheared basis (whose aligned
+ * volume is not periodic in t: the DFT's wrap spreads its ends over the temporal spectrum) and
+ * the DFT for a still one (measured better there at 3%, docs/bench/animation.md). */
+static csi_motion_time time_for(csi_motion_time t, const double v[2])
+{
+    if (t != CSI_MOTION_TIME_AUTO)
+        return t;
+    return v[0] != 0 || v[1] != 0 ? CSI_MOTION_TIME_DCT : CSI_MOTION_TIME_DFT;
+}
+
+static csi_time_transform transform_of(csi_motion_time t)
+{
+    return t == CSI_MOTION_TIME_DFT ? CSI_TIME_DFT : CSI_TIME_DCT;
+}
+
+/* Gives the operator's basis its time stage and velocity (the options' or the estimated one),
+ * both reported in res->options. The search borrows G, the coefficients, the operator's scratch volume and sampler, the real
+ * volume and the measurements' buffer: none of them holds anything yet. */
+static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *values,
+                               uint32_t channels, size_t n, const csi_recon_options *opt,
+                               csi_recon_state *st, csi_linop *G, cl_mem ydev, csi_recon_result *res)
+{
+    const size_t dims[3] = {g->w, g->h, g->t};
+    csi_fourier_half *H = csi_half_fourier_basis(st->A);
+    double v[2] = {0, 0};
+    if (opt->motion_velocity == CSI_VELOCITY_GIVEN) {
+        v[0] = opt->motion_vx;
+        v[1] = opt->motion_vy;
+    } else if (opt->motion_velocity == CSI_VELOCITY_ESTIMATE) {
+        csi_motion_velocity mv;
+        motion_values(values, channels, n, st->plane);
+        CSI_TRY(csi_motion_velocity_estimate(ctx, g, H, G, st->x, csi_half_fourier_scratch(st->A),
+                                             st->tmp, csi_half_fourier_sampler(st->A), ydev, st->y,
+                                             st->plane, st->idx, n, &mv));
+        v[0] = mv.v[0];
+        v[1] = mv.v[1];
+        res->t_velocity = mv.seconds;
+    }
+    res->options.motion_vx = v[0];
+    res->options.motion_vy = v[1];
+    res->options.motion_time = time_for(opt->motion_time, v);
+    return csi_fourier_half_set_motion(H, dims, transform_of(res->options.motion_time), v[0], v[1]);
+}
+
 csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
                             const csi_recon_options *opt, csi_recon_result *res,
@@ -47,8 +112,6 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         CSI_TRY(csi_linop_compose("S F3^H", st->S, st->inner, true, &st->A));
     }
     const size_t ncoef = st->A->cols;
-    CSI_TRY(csi_solver_create(st->A, &st->solver));
-
     CSI_TRY(csi_buffer(ctx, n * 8, CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, ncoef * 8, CL_MEM_READ_WRITE, "the Fourier coefficients", &st->x));
     if (!half)
@@ -68,16 +131,50 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK)
         s = csi_kernel(ctx, "sampling", "csi_complex_real", &c2r);
 
+    /* The motion basis (before the solver, whose buffers do not change with it). Its filter G,
+     * on the basis with the coefficients as scratch, serves the velocity search and then the
+     * residual correction. A single pixel over time has no space to shear: the paper's basis. */
+    const bool moved = half && (g->w > 1 || g->h > 1) &&
+                       (opt->motion_time != CSI_MOTION_TIME_DFT || opt->motion_velocity != CSI_VELOCITY_NONE);
+    if (!moved && res->options.motion_time == CSI_MOTION_TIME_AUTO)
+        res->options.motion_time = CSI_MOTION_TIME_DFT; /* the paper's basis, the only one here */
+    const bool correct = opt->motion_resid_sigma > 0;
+    csi_linop *G = NULL;
+    if (s == CSI_OK && moved && (correct || opt->motion_velocity == CSI_VELOCITY_ESTIMATE))
+        s = csi_motion_filter_create(ctx, csi_half_fourier_basis(st->A), dims, CSI_TIME_DCT, 1.0, 1.0,
+                                     st->x, &G);
+    if (s == CSI_OK && moved)
+        s = motion_basis(ctx, g, values, channels, n, opt, st, G, real_y, res);
+    if (s == CSI_OK)
+        s = csi_solver_create(st->A, &st->solver);
+
     csi_nc_op rnc;
     memset(&rnc, 0, sizeof rnc);
     float *yhost = NULL;
-    const bool correct = opt->motion_resid_sigma > 0;
     if (s == CSI_OK && correct) {
         yhost = malloc(n * sizeof *yhost);
         if (!yhost)
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
-        if (s == CSI_OK)
-            s = csi_nc_init(ctx, g, st->idx, n, opt->motion_resid_sigma, real_y, scratch, yhost, &rnc);
+        const double sig = opt->motion_resid_sigma;
+        if (s == CSI_OK && moved) {
+            /* along the basis's motion, mirrored at the ends of t with the DCT (the time
+             * transform motion_basis chose); its scratch
+             * spectrum is the coefficients, free whenever the correction runs (before the solve
+             * and after the synthesis) */
+            const double sig_t = opt->motion_resid_sigma_t > 0 ? opt->motion_resid_sigma_t : sig;
+            /* A cell whose filtered density is below 1e-3 of one sample's peak weight (no
+             * sample within 3.7 widths) gets no correction: there the density is within a few
+             * hundred float32 roundings of the FFT's sum, and a ratio of two such numbers is
+             * noise (measured: at widths below a cell, 1e-6 let it blow the image up 6-20x). */
+            const float eps = (float)(1e-3 / (pow(2 * 3.14159265358979323846, 1.5) * sig * sig * sig_t));
+            s = csi_motion_filter_set(G, transform_of(res->options.motion_time), sig, sig_t);
+            if (s == CSI_OK) {
+                s = csi_nc_init_filter(ctx, g, st->idx, n, G, eps, real_y, scratch, yhost, &rnc);
+                G = NULL; /* rnc's now */
+            }
+        } else if (s == CSI_OK) {
+            s = csi_nc_init(ctx, g, st->idx, n, sig, real_y, scratch, yhost, &rnc);
+        }
     }
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
@@ -131,6 +228,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         t_int += res->t_channel_integrate[c];
     }
     csi_nc_free(&rnc);
+    csi_linop_free(G);
     free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);

@@ -20,18 +20,27 @@ csi_status csi_nc_init(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, siz
                        double sigma, cl_mem yscratch, cl_mem scratch, float *ones,
                        csi_nc_op *r)
 {
-    const size_t k = (size_t)g->w * g->h * g->t;
     const size_t dims[3] = {g->w, g->h, g->t};
     const int nd = g->t > 1 ? 3 : 2;
     const double sphi[3] = {sigma, sigma, g->t > 1 ? sigma : 0};
-    CSI_TRY(csi_sampling_create(ctx, k, idx, n, false, &r->S));
     CSI_TRY(csi_filter_create(ctx, dims, sphi, CSI_FILTER_GAUSS, 1.0f, &r->G));
+    /* Cells whose filtered density is below 1e-6 of a single sample's peak contribution (no
+     * sample within reach of the filter) are left 0 instead of 0/0. */
+    const float eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, nd));
+    return csi_nc_init_filter(ctx, g, idx, n, r->G, eps, yscratch, scratch, ones, r);
+}
+
+csi_status csi_nc_init_filter(csi_ctx *ctx, const csi_grid *g, const uint32_t *idx, size_t n,
+                              csi_linop *G, float eps, cl_mem yscratch, cl_mem scratch,
+                              float *ones, csi_nc_op *r)
+{
+    const size_t k = (size_t)g->w * g->h * g->t;
+    r->G = G;
+    r->eps = eps;
+    CSI_TRY(csi_sampling_create(ctx, k, idx, n, false, &r->S));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered sample density", &r->den));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered samples", &r->b));
     CSI_TRY(csi_buffer(ctx, n * 4, CL_MEM_READ_WRITE, "the estimate at the samples", &r->fs));
-    /* Cells whose filtered density is below 1e-6 of a single sample's peak contribution (no
-     * sample within reach of the filter) are left 0 instead of 0/0. */
-    r->eps = (float)(1e-6 / pow(sqrt(2 * 3.14159265358979323846) * sigma, nd));
     for (size_t i = 0; i < n; i++)
         ones[i] = 1.0f;
     CSI_TRY(csi_write(ctx, yscratch, 0, n * 4, ones));

@@ -53,6 +53,8 @@ static const choice corrects[] = {{"auto", CSI_CORRECT_AUTO}, {"none", CSI_CORRE
 static const choice stops[] = {{"auto", CSI_STOP_AUTO}, {"gap", CSI_STOP_GAP}, {"objective", CSI_STOP_OBJECTIVE}, {0}};
 static const choice switches[] = {{"auto", CSI_SWITCH_AUTO}, {"on", CSI_SWITCH_ON}, {"off", CSI_SWITCH_OFF}, {0}};
 static const choice presets[] = {{"csi", CSI_ROMP_PRESET_CSI}, {"published", CSI_ROMP_PRESET_PUBLISHED}, {0}};
+static const choice times[] = {{"auto", CSI_MOTION_TIME_AUTO}, {"dft", CSI_MOTION_TIME_DFT}, {"dct", CSI_MOTION_TIME_DCT}, {0}};
+static const choice velocities[] = {{"estimate", CSI_VELOCITY_ESTIMATE}, {"none", CSI_VELOCITY_NONE}, {"given", CSI_VELOCITY_GIVEN}, {0}};
 
 #define AT(field) offsetof(csi_recon_options, field)
 
@@ -126,6 +128,20 @@ static const row table[] = {
      "Alg. 1 with SpaRSA: each channel after the first starts from the previous one's solution "
      "(scaled by the ratio of their sample sums) at the final tau, stopping on a 3x tighter "
      "objective change (faster; the MSE moves by a few %, docs/bench/cost.md)", "off"},
+    {"motion-time", K_CHOICE, AT(motion_time), 0, 0, times, F_AUTO, "auto", "auto|dft|dct",
+     "volumes: the basis along t: the DFT (the paper's, periodic) or the DCT-II (mirrored ends)",
+     "dct when the basis is sheared (a velocity), else dft"},
+    {"motion-velocity", K_CHOICE, AT(motion_velocity), 0, 0, velocities, 0, "estimate",
+     "estimate|none|given", "volumes: the velocity the basis is sheared by (what moves at it is "
+     "static in the basis): estimated from the samples, none (the paper's), or --motion-vx/-vy",
+     NULL},
+    {"motion-vx", K_DOUBLE, AT(motion_vx), -1e6, 1e6, NULL, 0, "0", "V",
+     "volumes: the given velocity along x (cells per frame)", NULL},
+    {"motion-vy", K_DOUBLE, AT(motion_vy), -1e6, 1e6, NULL, 0, "0", "V",
+     "volumes: the given velocity along y (cells per frame)", NULL},
+    {"motion-resid-sigma-t", K_DOUBLE, AT(motion_resid_sigma_t), 1e-3, 1e4, NULL, F_AUTO, "auto",
+     "F", "volumes: width (frames) of the residual correction along the basis's motion (when it "
+     "moves or has the DCT)", "the spatial width"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -12,6 +12,7 @@
 #include "csi/integrate_ops.h"
 #include "csi/interp.h"
 #include "csi/model_grid.h"
+#include "csi/motion_filter.h"
 #include "csi/sampled_half_fourier.h"
 #include "csi/sampling.h"
 #include "csi/solve.h"
@@ -94,13 +95,14 @@ static csi_status check_unknowns(uint64_t rows, uint64_t cols)
     return CSI_OK;
 }
 
-/* Normalized convolution (normconv.c: csi_nc_init): S, the Gaussian, density, filtered samples,
- * the estimate at the samples. */
-static void nc_buffers(const size_t dims[3], size_t n, model *m)
+/* Normalized convolution (normconv.c: csi_nc_init): S, the Gaussian (unless the caller's,
+ * csi_nc_init_filter), density, filtered samples, the estimate at the samples. */
+static void nc_buffers(const size_t dims[3], size_t n, bool own_filter, model *m)
 {
     const uint64_t k = (uint64_t)dims[0] * dims[1] * dims[2];
+    if (own_filter)
+        csi_filter_buffers(dims, &m->dev);
     csi_sampling_buffers(n, &m->dev);
-    csi_filter_buffers(dims, &m->dev);
     csi_mem_tally_add(&m->dev, k * 4, "the filtered sample density");
     csi_mem_tally_add(&m->dev, k * 4, "the filtered samples");
     csi_mem_tally_add(&m->dev, n * 4, "the estimate at the samples");
@@ -216,9 +218,21 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
     csi_mem_tally_add(&m->dev, (uint64_t)n * 4, "the real measurements");
     m->host += csi_solver_host_bytes(n, ncoef, true, false);
     transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
-    if (opt->motion_resid_sigma >= 0) {
-        CSI_TRY(csi_fft_check_size("Gaussian filter", dims));
-        nc_buffers(dims, n, m);
+    /* the motion basis's tables and its filter (velocity search, residual correction) */
+    const bool moved = half && (g->w > 1 || g->h > 1) &&
+                       (opt->motion_time != CSI_MOTION_TIME_DFT || opt->motion_velocity != CSI_VELOCITY_NONE);
+    const bool correct = opt->motion_resid_sigma > 0;
+    if (moved) {
+        csi_fourier_half_motion_buffers(dims, &m->dev);
+        if (correct || opt->motion_velocity == CSI_VELOCITY_ESTIMATE)
+            csi_motion_filter_buffers(dims, &m->dev);
+        if (opt->motion_velocity == CSI_VELOCITY_ESTIMATE)
+            transient_host(m, csi_motion_velocity_host_bytes(g, n));
+    }
+    if (correct) {
+        if (!moved)
+            CSI_TRY(csi_fft_check_size("Gaussian filter", dims));
+        nc_buffers(dims, n, !moved, m);
         m->host += (uint64_t)n * 4; /* the residuals on the host */
     }
     return CSI_OK;
@@ -237,7 +251,7 @@ static csi_status plan_gauss(const csi_grid *g, size_t n, csi_recon_plan *p, mod
     csi_mem_tally_add(&m->dev, (uint64_t)k * 4, "the interpolated samples");
     csi_mem_tally_add(&m->dev, (uint64_t)(np > wh ? np : wh) * 4, "the output image");
     csi_mem_tally_add(&m->dev, (uint64_t)wh * 4, "a frame");
-    nc_buffers(dims, n, m);
+    nc_buffers(dims, n, true, m);
     if (g->t == 1) /* the per-pixel correction, when asked for */
         transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 12);
     return CSI_OK;

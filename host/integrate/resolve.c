@@ -126,6 +126,12 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     if (!still) {
         if (o->motion_resid_sigma == 0)
             o->motion_resid_sigma = csi_gauss_nc_default_sigma(k, nd, 3);
+        /* the full spectrum has the DFT only; on the half spectrum auto waits for the velocity
+         * (motion.c: the DCT for a sheared basis, the DFT for a still one) */
+        if (o->motion_time == CSI_MOTION_TIME_AUTO && o->motion_full_spectrum)
+            o->motion_time = CSI_MOTION_TIME_DFT;
+        if (o->motion_resid_sigma_t == 0 && o->motion_resid_sigma > 0)
+            o->motion_resid_sigma_t = o->motion_resid_sigma;
         if (o->solver == CSI_SOLVER_SPARSA)
             motion_sparsa(o, n);
         return CSI_OK;

@@ -185,10 +185,13 @@ int main(void)
             CHECK(finite, "%s: frames are finite", rates[r].name);
         }
 
-        /* half spectrum (default) vs the paper's full complex spectrum: the same minimiser */
+        /* the paper's basis on the half spectrum vs on the full complex spectrum: the same
+         * minimiser */
         if (r == 0 && st == CSI_OK) {
             csi_recon_options of = o;
             of.motion_resid_sigma = -1.0; /* compare the solves alone */
+            of.motion_time = CSI_MOTION_TIME_DFT;
+            of.motion_velocity = CSI_VELOCITY_NONE;
             of.frames = false;
             csi_recon_result a, b;
             CHECK_OK(csi_recon(ctx, &d.grid, 1, d.pos, d.values, d.count, &of, &a));

@@ -27,6 +27,7 @@
 #include "csi/runtime.h"
 #include "csi/samples.h"
 #include "csi/solve.h"
+#include "csi/spectral.h"
 #include "csi/wavelet.h"
 
 #ifdef __cplusplus
@@ -83,6 +84,12 @@ typedef enum {
     CSI_EST_GAUSS,  /* normalized convolution with a 2-D / 3-D Gaussian (the paper's linear
                        baseline, Sec. 6.1): f = G*(S^T y) / G*(S^T 1), then integrated like CS */
 } csi_estimator;
+
+/* Alg. 2's basis along t (csi_fourier_half_set_motion): AUTO is the measured best. */
+typedef enum { CSI_MOTION_TIME_AUTO = 0, CSI_MOTION_TIME_DFT, CSI_MOTION_TIME_DCT } csi_motion_time;
+/* Alg. 2's basis velocity: estimated from the samples, none (the paper's still basis), or given
+ * (motion_vx, motion_vy). */
+typedef enum { CSI_VELOCITY_ESTIMATE = 0, CSI_VELOCITY_NONE, CSI_VELOCITY_GIVEN } csi_velocity_mode;
 
 /* ROMP's defaults for images: csi's (measured, docs/bench/romp.md) or the published ROMP's. */
 typedef enum { CSI_ROMP_PRESET_CSI = 0, CSI_ROMP_PRESET_PUBLISHED } csi_romp_preset;
@@ -148,6 +155,15 @@ typedef struct csi_recon_options {
                                      (the paper's), 0 auto */
     bool motion_full_spectrum;
     bool motion_debias;
+    /* Alg. 2's basis (csi's extension, docs/bench/animation.md): the half-spectrum Fourier basis
+     * with a transform along t, sheared by a velocity so that what moves at it is static in the
+     * basis (csi_fourier_half_set_motion). The paper's basis: time dft, velocity none. */
+    csi_motion_time motion_time;
+    csi_velocity_mode motion_velocity;
+    double motion_vx, motion_vy;  /* cells per frame: given (CSI_VELOCITY_GIVEN); in a result's
+                                     options, the velocity the basis had */
+    double motion_resid_sigma_t;  /* the residual correction's width along t (frames) when the
+                                     basis moves or has the DCT; 0 auto */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */
@@ -206,6 +222,8 @@ typedef struct csi_recon_result {
     size_t unknowns;        /* the solver's unknowns per channel: k, or fewer on a model grid */
     uint32_t model_factor;  /* Alg. 1: the model grid's coarsening D (csi/model_grid.h), else 1 */
     uint32_t tiles;         /* tiles it was solved in (1: the whole at once) */
+    double t_velocity;      /* Alg. 2: of t_setup, the seconds spent estimating the basis's
+                               velocity (options.motion_vx, motion_vy hold it) */
 } csi_recon_result;
 void csi_recon_result_free(csi_recon_result *r);
 
