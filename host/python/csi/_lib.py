@@ -290,7 +290,9 @@ class Result:
 
 def _hwc(img: _Image) -> np.ndarray:
     planar = np.ctypeslib.as_array(img.data, shape=(img.channels, img.h, img.w))
-    return np.ascontiguousarray(planar.transpose(1, 2, 0))
+    # a copy always: for one channel the transpose is already contiguous, and ascontiguousarray
+    # would return a view of the library's buffer, freed with the result
+    return planar.transpose(1, 2, 0).copy()
 
 
 def _result(L, r) -> Result:

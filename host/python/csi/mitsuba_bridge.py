@@ -8,6 +8,12 @@
     csi.dump.write("s.csid", req.with_values(s.values))     # the dump for csi-reconstruct
     ref = mb.render_reference(mb.load_scene("cornell", size=(128, 128), box_filter=True), spp=4096)
 
+Animation (Mitsuba has no motion blur of its own): a .py scene may also define
+animate(params, time), which poses the scene at shutter time `time` in [0, 1] by setting entries
+of params = mi.traverse(scene) (a camera's or a shape's to_world, ...). A request with T > 1
+time steps is then evaluated frame by frame, the scene re-posed at each cell's time
+(t + 0.5) / T; render_reference_frames renders the reference of every such frame.
+
 Each sample is evaluated with Mitsuba's own sensor and integrator: the sensor's ray through image
 point ((x + 0.5) / grid_w, (y + 0.5) / grid_h) (v = 0 on the top row, the same convention as
 csi's dumps), at shutter time (t + 0.5) / grid_t of the sensor's shutter interval, then the
@@ -119,6 +125,19 @@ class Scene:
     mi_scene: object
     size: tuple  # (w, h) of the film = the output image
     name: str
+    animate: object = None  # a .py scene's animate(params, time), or None (still)
+    params: object = None  # mi.traverse(mi_scene) when animated
+
+
+def pose(scene: Scene, time: float):
+    """Poses an animated scene at shutter time `time` in [0, 1]; a still scene is left as it is."""
+    if scene.animate is None:
+        return
+    try:
+        scene.animate(scene.params, float(time))
+        scene.params.update()
+    except Exception as e:  # the scene's own code: name it
+        raise BridgeError(f"{scene.name}: animate(params, {float(time):.4g}) failed: {_one_line(e)}") from None
 
 
 #: Mitsuba's sensor plugins: how a scene dictionary's sensor entry is recognised.
@@ -179,6 +198,7 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
         raise BridgeError(f"{spec}: no such scene file (give a Mitsuba XML file, a .py with scene(), or 'cornell')")
     text = _xml_override(spec, size, box_filter) if spec != "cornell" and not spec.endswith(".py") else None
     mi = mitsuba()
+    animate = None
     try:
         if spec == "cornell":
             scene = mi.load_dict(_film_dict_override(mi.cornell_box(), size, box_filter))
@@ -187,6 +207,9 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
             if not callable(ns.get("scene")):
                 raise BridgeError(f"{spec}: defines no scene() function returning a Mitsuba scene dictionary")
             scene = mi.load_dict(_film_dict_override(ns["scene"](), size, box_filter))
+            animate = ns.get("animate")
+            if animate is not None and not callable(animate):
+                raise BridgeError(f"{spec}: animate is not a function animate(params, time)")
         else:
             resolver = mi.Thread.thread().file_resolver()
             resolver.prepend(os.path.dirname(os.path.abspath(spec)))
@@ -199,7 +222,10 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
         raise BridgeError(f"{spec}: the scene has no sensor")
     film = scene.sensors()[0].film()
     w, h = (int(v) for v in film.crop_size())
-    return Scene(mi_scene=scene, size=(w, h), name=os.path.basename(spec))
+    out = Scene(mi_scene=scene, size=(w, h), name=os.path.basename(spec), animate=animate,
+                params=mi.traverse(scene) if animate else None)
+    pose(out, 0.5)  # a still request of an animated scene sees the middle of the shutter
+    return out
 
 
 # ---- positions --------------------------------------------------------------------------------
@@ -281,6 +307,10 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
         raise BridgeError(f"paths per sample must be >= 1 (got {paths})")
     mi = mitsuba()
     seed = req.seed if seed is None else int(seed)
+    if scene.animate is not None and req.grid[2] > 1:
+        if aov:
+            raise BridgeError(f"{scene.name}: albedo and normal (aov) are not available for an animated scene")
+        return _render_frames(scene, req, paths, seed, progress)
     s = scene.mi_scene
     sensor = s.sensors()[0]
     u, v, tt = req.cell_centres()
@@ -331,6 +361,57 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
     return Samples(values=values, albedo=albedo, normal=normal, paths=paths, nonfinite=nonfinite, timing=timing)
 
 
+def _render_frames(scene: Scene, req: csid.Dump, paths, seed, progress) -> Samples:
+    """render_request of an animated scene: the samples of each time step t evaluated with the
+    scene posed at (t + 0.5) / T. Every launch has the same number of lanes (the last one of a
+    frame padded by repeating its first sample), so Dr.Jit compiles one kernel for all frames
+    and poses."""
+    s = scene.mi_scene
+    sensor = s.sensors()[0]
+    integrator = s.integrator()
+    u, v, tt = req.cell_centres()
+    time_ = sensor.shutter_open() + tt * sensor.shutter_open_time()
+    n, T = len(u), req.grid[2]
+    ts = req.xyt[:, 2].astype(np.int64)
+    order = np.argsort(ts, kind="stable")
+    counts = np.bincount(ts, minlength=T)
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    per = max(1, min(BATCH_LANES // paths, int(counts.max())))  # samples per launch
+    lanes = lambda a, sel: np.repeat(a[sel], paths)
+
+    t0 = time.perf_counter()
+    first = order[np.zeros(per, np.int64)]
+    _launch(s, integrator, lanes(u, first), lanes(v, first), lanes(time_, first), _batch_seed(seed, 1 << 40))
+    jit_s = time.perf_counter() - t0
+
+    values = np.empty((n, 3), np.float32)
+    nonfinite = 0
+    t0 = time.perf_counter()
+    for t in range(T):
+        if counts[t] == 0:
+            continue
+        pose(scene, (t + 0.5) / T)
+        mine = order[starts[t]:starts[t + 1]]
+        for c, i0 in enumerate(range(0, len(mine), per)):
+            chunk = mine[i0:i0 + per]
+            sel = np.concatenate([chunk, np.full(per - len(chunk), chunk[0])])
+            L = _launch(s, integrator, lanes(u, sel), lanes(v, sel), lanes(time_, sel),
+                        _batch_seed(seed, (1 << 42) + (t << 20) + c)).astype(np.float64)
+            L = L[: len(chunk) * paths]
+            bad = ~np.isfinite(L).all(axis=1)
+            if bad.any():
+                nonfinite += int(bad.sum())
+                L[bad] = 0.0
+            values[chunk] = L.reshape(len(chunk), paths, 3).mean(axis=1)
+        if progress:
+            progress(int(starts[t + 1]), n)
+    render_s = time.perf_counter() - t0
+    pose(scene, 0.5)
+    timing = {"jit_s": jit_s, "render_s": render_s, "samples": n, "paths": n * paths,
+              "per_sample_us": 1e6 * render_s / n, "per_path_us": 1e6 * render_s / (n * paths), "aov_s": 0.0}
+    return Samples(values=values, albedo=None, normal=None, paths=paths, nonfinite=nonfinite, timing=timing)
+
+
 def render(spec, size=None, spp=4, paths=1, seed=1, method="poisson", grid=None, aov=False):
     """Everything in one call: the scene (see load_scene) at csi's positions for `spp` samples
     per pixel, `paths` paths each. Returns (dump, samples): dump a csi.dump.Dump with the values
@@ -357,3 +438,20 @@ def render_reference(scene: Scene, spp: int, seed=0, progress=None) -> np.ndarra
         if progress:
             progress(i + 1, passes)
     return (acc / passes).astype(np.float32)
+
+
+def render_reference_frames(scene: Scene, frames: int, spp: int, seed=0, progress=None) -> np.ndarray:
+    """The reference of an animation: render_reference of each of `frames` time steps with the
+    scene posed at (t + 0.5) / frames, (frames, h, w, 3) float32. Every frame is rendered with
+    the same seeds, so what does not change between two poses has the same bits in both (a
+    still scene gives the same image for every t): the reference's own noise does not flicker,
+    and a frame-to-frame difference measures the motion only. The motion-blurred reference of
+    the paper's discrete model is their mean over t."""
+    out = []
+    for t in range(frames):
+        pose(scene, (t + 0.5) / frames)
+        out.append(render_reference(scene, spp, seed=seed))
+        if progress:
+            progress(t + 1, frames)
+    pose(scene, 0.5)
+    return np.stack(out)
