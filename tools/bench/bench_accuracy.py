@@ -28,6 +28,8 @@ Methods (names used in the CSVs and plots):
                                 against the reference (an oracle: separately for the blurred image
                                 and for the frames)
     cs3d-<solver>               the compressive 3-D method (Alg. 2)
+    cs3d-paper                  the same with the paper's basis (--motion-time dft
+                                --motion-velocity none: csi's default before issue 12; on request)
 The compressive runs trace once per (scene, spp, seed) with --dump and reconstruct the same
 samples with csi-reconstruct for each variant: render time comes from the render, reconstruction
 time from csi-reconstruct's stats (setup + solve + integrate), both per run.
@@ -56,6 +58,9 @@ STATIC_METHODS = ["random", "stratified", "oidn"] + STATIC_CS
 # on request (--methods): the same with --integrate sharp (integrate Phi^-1 f_b, not f_b)
 STATIC_CS_SHARP = [m + "-sharp" for m in STATIC_CS]
 MOTION_METHODS = ["random", "stratified", "oidn", "gauss", "cs3d-sparsa"]
+# Alg. 2 variants run only when --methods names them: their csi-reconstruct options
+CS3D_ON_REQUEST = {"cs3d-romp": ["--solver", "romp"],
+                   "cs3d-paper": ["--solver", "sparsa", "--motion-time", "dft", "--motion-velocity", "none"]}
 GAUSS_FACTORS = [0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83]
 
 RESULT_FIELDS = ["scene", "kind", "width", "height", "grid_w", "grid_h", "grid_t", "k", "spp", "seed",
@@ -283,11 +288,11 @@ class Bench:
 
     # ---- bookkeeping -----------------------------------------------------------------------
     def want(self, m, motion):
-        pool = MOTION_METHODS + ["cs3d-romp"] if motion else STATIC_METHODS + STATIC_CS_SHARP
+        pool = MOTION_METHODS + list(CS3D_ON_REQUEST) if motion else STATIC_METHODS + STATIC_CS_SHARP
         if m not in pool:
             return False
         if self.a.methods is None:  # ROMP is real-valued (the 3-D problem is complex); sharp: on request
-            return m != "cs3d-romp" and not m.endswith("-sharp")
+            return m not in CS3D_ON_REQUEST and not m.endswith("-sharp")
         return m in self.a.methods
 
     def row(self, ctx, method, img, ref, edges, st_render, t_recon, frames=None, ref_frames=None,
@@ -455,7 +460,7 @@ class Bench:
                             dfr.append(y)
                             t += tf
                         self.row(ctx, "oidn", den, ref, edges, st, st["t_reconstruct_s"] + t, np.stack(dfr), ref_frames)
-                want_cs = [m for m in ("cs3d-sparsa", "cs3d-romp") if self.want(m, True)]
+                want_cs = [m for m in ("cs3d-sparsa",) + tuple(CS3D_ON_REQUEST) if self.want(m, True)]
                 if not (want_cs or self.want("gauss", True)):
                     continue
                 dump = os.path.join(self.work, tag + ".csid")
@@ -483,7 +488,8 @@ class Bench:
                              param=f"sigma={s_img}/{s_fr}", st_recon=sr)
                 for m in want_cs:
                     try:
-                        img, sr, fr = self.reconstruct(dump, f"{tag}_{m}", ["--solver", m.split("-")[1]] + so, fdir)
+                        args = CS3D_ON_REQUEST.get(m, ["--solver", m.split("-")[1]])
+                        img, sr, fr = self.reconstruct(dump, f"{tag}_{m}", args + so, fdir)
                     except bc.BenchError as e:
                         self.failed(ctx, m, e, st)
                         continue

@@ -19,6 +19,7 @@ STYLE = {  # colour, marker: one per method, stable across figures
     "cs-romp-db4": ("#d62728", "s"), "cs-romp-db8": ("#ff9896", "s"),
     "cs-sparsa-db4": ("#2ca02c", "^"), "cs-sparsa-db8": ("#98df8a", "^"),
     "gauss": ("#9467bd", "v"), "cs3d-sparsa": ("#2ca02c", "^"), "cs3d-romp": ("#d62728", "s"),
+    "cs3d-paper": ("#bcbd22", "^"),
 }
 DPI = 80
 
