@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # What the programs promise against hostile input (issue 14), end to end:
-#   - sizes before work: oversized dumps and scenes refused in under a second with little memory
+#   - sizes before work: oversized dumps and scenes refused before the work (seconds, not minutes) with little memory
 #     (limits set here: CSI_HOST_MEMORY_LIMIT, never the machine's free memory);
 #   - outputs all or nothing: a write failure injected after each output file (CSI_FAIL_OUTPUT=N)
 #     leaves the directory exactly as it was (no new file, folder or temporary, replaced files
@@ -35,8 +35,11 @@ open(f, "wb").write(hdr + rec * n)
 EOF
 }
 
-# refused FILE: exit 2, one line containing WANT, in under a second (the checks are arithmetic;
-# a second leaves room for PoCL's start on a loaded machine), peak RSS under 300 MB.
+# refused FILE: exit 2, one line containing WANT, within 5 s and under 300 MB of peak RSS: before
+# the work, which for these inputs takes minutes and gigabytes. The checks themselves are
+# arithmetic (0.04-0.3 s with PoCL's start, docs/bench/robustness.md); the margin is for a shared
+# machine, where load ~35 stretched refusals to 1.1-1.6 s (speed is measured in benchmarks, not
+# asserted here).
 refused() { # name want cmd...
     local name="$1" want="$2"; shift 2
     local t0 t1 rc
@@ -44,7 +47,7 @@ refused() { # name want cmd...
     /usr/bin/time -f '%M' -o "$T/rss" "$@" > /dev/null 2> "$T/e"; rc=$?
     t1=$(now_ms)
     local rss; rss=$(tail -1 "$T/rss")
-    if [[ $rc == 2 && $(wc -l < "$T/e") == 1 ]] && grep -q -- "$want" "$T/e" && ((t1 - t0 < 1000 && rss < 300000)); then
+    if [[ $rc == 2 && $(wc -l < "$T/e") == 1 ]] && grep -q -- "$want" "$T/e" && ((t1 - t0 < 5000 && rss < 300000)); then
         ok
     else
         bad "$name: rc=$rc $((t1 - t0)) ms ${rss} KB: $(cat "$T/e")"
@@ -68,15 +71,15 @@ refused "scene 8192^2" "s8192.scene" "$B/csi-render" "$T/s8192.scene" -o "$T/o.e
 sed 's/size 32 32/size 2048 2048/' "$static" > "$T/s2048.scene"
 CSI_HOST_MEMORY_LIMIT=$((256 << 20)) refused "scene 2048^2, host memory" "s2048.scene: grid" \
     "$B/csi-render" "$T/s2048.scene" -o "$T/o.exr"
-# a spinning mesh of 20000 triangles: 129 vertex buffers (Embree's time steps) and its motion BVH
-# take about 225 MiB when traced (csi_tracer_host_bytes counts 262 MiB), while the reconstruction
-# of its 16x16x64 grid needs under 10 MiB: refused under a 200 MiB host limit only if the tracer
-# is counted
-awk 'BEGIN { for (i = 0; i < 20000; i++) { x = (i % 200) * 0.01; y = int(i / 200) * 0.01;
+# a spinning mesh of 4000 triangles: 129 vertex buffers (Embree's time steps) and its motion BVH
+# take about 45 MiB when traced (csi_tracer_host_bytes counts 65 MiB), while the reconstruction of
+# its 16x16x64 grid needs under 2 MiB: refused under a 40 MiB host limit only if the tracer is
+# counted (a small mesh: the OBJ is read before the refusal)
+awk 'BEGIN { for (i = 0; i < 4000; i++) { x = (i % 200) * 0.01; y = int(i / 200) * 0.01;
              printf "v %g %g 0\nv %g %g 0\nv %g %g 0\nf %d %d %d\n", x, y, x + 0.01, y, x, y + 0.01, 3*i+1, 3*i+2, 3*i+3 } }' \
     > "$T/spin.obj"
 printf 'camera { position 0 0 -3 target 0 0 0 size 16 16 }\nmaterial m { diffuse 1 1 1 }\nmesh { file "spin.obj" material m motion { key 0 { } key 1 { rotate 0 1 0 720 } } }\n' > "$T/spin.scene"
-CSI_HOST_MEMORY_LIMIT=$((200 << 20)) refused "spinning mesh, host memory" "spin.scene: grid .*for the samples and inputs" \
+CSI_HOST_MEMORY_LIMIT=$((40 << 20)) refused "spinning mesh, host memory" "spin.scene: grid .*for the samples and inputs" \
     "$B/csi-render" "$T/spin.scene" -o "$T/o.exr"
 sed 's/frames 8/frames 4096/' "$moving" > "$T/f4096.scene"
 refused "frames 4096" "integer in \[1, 1024\]" "$B/csi-render" "$T/f4096.scene" -o "$T/o.exr"
