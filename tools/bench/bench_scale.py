@@ -3,6 +3,7 @@
 against image size and against Dask worker count, and single large targets.
 
   .venv/bin/python tools/bench/bench_scale.py seams   --out bench-scale   # tiled vs untiled, 256^2 (+ motion)
+  .venv/bin/python tools/bench/bench_scale.py margins --out bench-scale   # tiled error against the margin
   .venv/bin/python tools/bench/bench_scale.py sizes   --out bench-scale   # 256^2 .. 3840x2160 at 4 spp
   .venv/bin/python tools/bench/bench_scale.py workers --out bench-scale   # csi-farm, 1 and 2 workers
   .venv/bin/python tools/bench/bench_scale.py target  --out bench-scale --size 3840x2160 --spp 16
@@ -193,7 +194,36 @@ def seams(a, bins, env, work, logf):
                 rows.append(dict(row, tiles=f"{n} own scale", mse_tiled=mse(loc, ref), ratio=mse(loc, ref) / e_u,
                                  rms_diff_band=np.sqrt(mse(loc, u, m)), rms_diff_rest=np.sqrt(mse(loc, u, ~m)),
                                  mse_band_tiled=mse(loc, ref, m)))
-    write_csv(os.path.join(a.out, "seams.csv"), rows)
+        write_csv(os.path.join(a.out, "seams.csv"), rows)
+    return rows
+
+
+def margins(a, bins, env, work, logf):
+    """The tiled error against the tile margin: checkerboard (unbounded frequencies, the hardest
+    case for a margin) at 16 spp on its 16x grid, and the moving train (a volume) at 4 spp."""
+    rows = []
+    cases = (("checkerboard", (256, 256), 16, (8, 16, 24)), ("train", (128, 128), 4, (4, 8, 16, 32)))
+    for scene, size, spp, margins_px in cases:
+        path, dump = make_dump(bins, env, scene, size, spp, work, logf)
+        ref = reference(bins, env, path, work, logf)
+        u_exr = os.path.join(work, f"{scene}_{spp}_untiled.exr")
+        if not os.path.exists(u_exr):
+            recon(bins, env, dump, u_exr, ["--tiles", "1", "--mem-budget", str(device_memory(bins, env, dump, work))],
+                  work)
+        e_u = mse(bc.read_exr(u_exr), ref)
+        for m in margins_px:
+            args = ["--tiles", "4", "--tile-margin", str(m)]
+            info = json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tile-info", "-q"] + args,
+                                             capture_output=True, env=env, check=True).stdout)
+            out = os.path.join(work, f"{scene}_{spp}_t4_m{m}.exr")
+            wall, _, st = recon(bins, env, dump, out, args, work)
+            e_t = mse(bc.read_exr(out), ref)
+            rows.append(dict(scene=scene, size=f"{size[0]}x{size[1]}", spp=spp, tiles=4,
+                             layout=f"{info['tiles_x']}x{info['tiles_y']}x{info['tiles_t']}", margin_px=m,
+                             margin_cells=m * info["grid_w"] // info["out_w"], mse_untiled=e_u, mse_tiled=e_t,
+                             ratio=e_t / e_u, wall_tiled=wall, tile_bytes=info["tile_bytes"]))
+            bc.log(f"  {scene} spp {spp} margin {m} px: MSE ratio {e_t / e_u:.4f}")
+    write_csv(os.path.join(a.out, "margins.csv"), rows)
     return rows
 
 
@@ -212,7 +242,8 @@ def sizes(a, bins, env, work, logf):
                    f"device peak {st.get('device_peak_bytes', 0) / 2**20:.0f} MiB (load {up})")
         if not a.keep:
             os.remove(dump)
-    write_csv(os.path.join(a.out, "sizes.csv"), rows)
+        # after each size: the large ones take long, and the rows so far stay usable if stopped
+        write_csv(os.path.join(a.out, "sizes.csv"), rows)
     return rows
 
 
@@ -303,12 +334,12 @@ def plot(a):
         ax[1].legend()
         ax[1].grid(True, which="both", alpha=0.3)
         fig.tight_layout()
-        fig.savefig(os.path.join(figdir, "sizes.png"), dpi=110)
+        fig.savefig(os.path.join(figdir, "sizes.png"), dpi=80)
     if os.path.exists(os.path.join(a.out, "seam_tiled.npy")):
         t = np.load(os.path.join(a.out, "seam_tiled.npy"))
         u = np.load(os.path.join(a.out, "seam_untiled.npy"))
         info = json.load(open(os.path.join(a.out, "seam_info.json")))
-        fig, ax = plt.subplots(1, 3, figsize=(12, 4.2))
+        fig, ax = plt.subplots(1, 4, figsize=(15, 4.0))
         srgb = lambda x: np.clip(np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.clip(x, 0, None) ** (1 / 2.4) - 0.055), 0, 1)
         ax[0].imshow(srgb(u))
         ax[0].set_title("untiled")
@@ -316,22 +347,30 @@ def plot(a):
         ax[1].set_title(f"{info['tiles']} tiles ({info['tiles_x']}x{info['tiles_y']})")
         d = np.abs(t - u).mean(axis=2)
         im = ax[2].imshow(d, cmap="magma", vmin=0, vmax=max(1e-6, np.percentile(d, 99.5)))
-        ax[2].set_title("|tiled - untiled| (core boundaries dotted)")
-        for b in [int(v) for v in info["cores_x"].split(",")][1:-1]:
+        ax[2].set_title("|tiled - untiled|, boundaries dotted")
+        bx = [int(v) for v in info["cores_x"].split(",")][1:-1]
+        by = [int(v) for v in info["cores_y"].split(",")][1:-1]
+        for b in bx:
             ax[2].axvline(b - 0.5, color="c", lw=0.6, ls=":")
-        for b in [int(v) for v in info["cores_y"].split(",")][1:-1]:
+        for b in by:
             ax[2].axhline(b - 0.5, color="c", lw=0.6, ls=":")
         fig.colorbar(im, ax=ax[2], fraction=0.046)
+        # a 64-pixel crop of the tiled image centred on a core boundary, pixels shown as blocks
+        c = bx[len(bx) // 2] if bx else t.shape[1] // 2
+        y0 = t.shape[0] // 2
+        ax[3].imshow(srgb(t[y0 - 32:y0 + 32, c - 32:c + 32]), interpolation="nearest")
+        ax[3].axvline(31.5, color="c", lw=0.6, ls=":")
+        ax[3].set_title(f"tiled, crop at boundary x = {c}")
         for x in ax:
             x.set_xticks([])
             x.set_yticks([])
         fig.tight_layout()
-        fig.savefig(os.path.join(figdir, "seams_garden.png"), dpi=110)
+        fig.savefig(os.path.join(figdir, "seams_garden.png"), dpi=72)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["seams", "sizes", "workers", "target", "plot"])
+    ap.add_argument("what", choices=["seams", "margins", "sizes", "workers", "target", "plot"])
     ap.add_argument("--out", default="bench-scale")
     ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "bench", "scale"))
     ap.add_argument("--scene", default="garden")
@@ -353,7 +392,7 @@ def main():
     os.makedirs(work, exist_ok=True)
     with open(os.path.join(a.out, f"{a.what}.log"), "a") as logf:
         bc.log(f"{a.what}: load {load_avg()}")
-        rows = globals()[a.what](a, bins, env, work if a.what != "seams" else a.out, logf)
+        rows = globals()[a.what](a, bins, env, work if a.what not in ("seams", "margins") else a.out, logf)
     print(json.dumps(rows, indent=1, default=float))
 
 
