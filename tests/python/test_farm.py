@@ -83,6 +83,12 @@ def main():
 
     os.environ.setdefault("CSI_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "csi"))
     tmp = tempfile.mkdtemp(prefix="csi-test-farm-")
+    # A private temporary directory for this process and the workers it starts (they inherit
+    # TMPDIR): the scratch check below must not see the farm directories of other runs on a
+    # shared machine.
+    private = os.path.join(tmp, "tmp")
+    os.mkdir(private)
+    os.environ["TMPDIR"] = tempfile.tempdir = private
     dump = os.path.join(tmp, "img.csid")
     write_dump(dump)
     recon = os.path.join(BUILD, "csi-reconstruct")
@@ -144,9 +150,8 @@ def main():
         time.sleep(0.5)
         alive = [p for p in victim_children if os.path.exists(f"/proc/{p}")]
         check(not alive, f"the killed worker's csi-reconstruct {alive} outlived it")
-        leftovers = [d for d in os.listdir(tempfile.gettempdir()) if d.startswith("csi-farm-scratch-")]
-        check(not any(os.path.getmtime(os.path.join(tempfile.gettempdir(), d)) > os.path.getmtime(dump) for d in leftovers),
-              f"scratch directories left: {leftovers}")
+        leftovers = [d for d in os.listdir(private) if d.startswith("csi-farm-scratch-")]
+        check(not leftovers, f"scratch directories left: {leftovers}")
 
         # 3. frames of an animation: two scenes
         scenes = [os.path.join(SOURCE, "tests", "cli", "scenes", s) for s in ("small_triangle.scene", "small_moving.scene")]
