@@ -1,5 +1,5 @@
-/* Alg. 1 (antialiasing): A = S Phi^-1 Psi, solve, integrate, control-variate correction; on a
- * coarser model grid when the filter allows it (csi/model_grid.h). */
+/* Alg. 1 (antialiasing): A = S Phi^-1 Psi, solve, integrate, per-pixel correction; on a coarser
+ * model grid when the filter allows it (csi/model_grid.h). */
 #include <math.h>
 #include <stdlib.h>
 
@@ -154,6 +154,7 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
 
+    const csi_aa_correct how = opt->correct == CSI_CORRECT_AUTO ? CSI_CORRECT_BLEND : opt->correct;
     double t_solve = 0, t_int = 0;
     int warm_from = -1; /* the last channel solved, whose x the next one may start from */
     for (uint32_t c = 0; c < channels; c++) {
@@ -204,10 +205,11 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), res->image + (size_t)c * np));
         /* The correction reads the estimate at the samples: S src, which on the model grid is
          * A x (the same for the sharp estimate on the fine grid, where A x = S Phi^-1 Psi x). */
-        if (opt->correct != CSI_CORRECT_NONE)
-            CSI_TRY(csi_recon_cv_correct(ctx, g, opt, D > 1 ? st->A : st->S, D > 1 ? st->x : src,
-                                         st->y, values, channels, c, pos, n,
-                                         res->image + (size_t)c * np));
+        if (how != CSI_CORRECT_NONE)
+            CSI_TRY(csi_recon_correct(ctx, g, opt, how, D > 1 ? st->A : st->S, D > 1 ? st->x : src,
+                                      st->y, values, channels, c, pos, n,
+                                      how == CSI_CORRECT_BLEND && csi_recon_nonneg(values, channels, c, n),
+                                      res->image + (size_t)c * np));
         res->t_channel_integrate[c] = csi_recon_now() - t1;
         t_int += res->t_channel_integrate[c];
     }

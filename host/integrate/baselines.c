@@ -37,9 +37,9 @@ csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels
             s = csi_nc_interp(ctx, &nc, st->y, k, st->x, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, scratch, st->out);
-        if (s == CSI_OK && g->t == 1 && opt->correct == CSI_CORRECT_CV)
-            s = csi_recon_cv_correct(ctx, g, opt, nc.S, st->tmp, st->y, values, channels, c, pos, n,
-                           res->image + (size_t)c * np);
+        if (s == CSI_OK && g->t == 1 && (opt->correct == CSI_CORRECT_CV || opt->correct == CSI_CORRECT_BLEND))
+            s = csi_recon_correct(ctx, g, opt, opt->correct, nc.S, st->tmp, st->y, values, channels, c,
+                                  pos, n, false, res->image + (size_t)c * np);
         if (s == CSI_OK) {
             csi_solve_report *r = &res->report[c];
             r->converged = true;

@@ -1,16 +1,33 @@
-/* The per-pixel control-variate correction of Alg. 1 (csi_aa_correct in csi/reconstruct.h). */
+/* The per-pixel correction of Alg. 1: gathers the fine estimate at the samples, then applies the
+ * control variate (below) or the blend (blend.c). See csi_aa_correct in csi/reconstruct.h. */
 #include <stdlib.h>
 
 #include "internal.h"
 
-csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
-                                const csi_linop *S, cl_mem fine, cl_mem gathered,
-                                const float *values, uint32_t channels, uint32_t c,
-                                const csi_sample_pos *pos, size_t n, float *plane)
+/* pixel += n_p / (n_p + n0) * mean over the pixel's samples of (y_i - g(x_i)), in double, in
+ * sample order (deterministic). */
+static void cv_correct(const csi_grid *g, double n0, const float *values, uint32_t channels,
+                       uint32_t c, const csi_sample_pos *pos, const float *gs, size_t n,
+                       double *sum, uint32_t *cnt, float *plane)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const double n0 = opt->cv_n0;
+    for (size_t i = 0; i < n; i++) {
+        size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+        sum[p] += (double)values[i * channels + c] - (double)gs[i];
+        cnt[p]++;
+    }
+    for (size_t p = 0; p < np; p++)
+        if (cnt[p])
+            plane[p] = (float)((double)plane[p] + sum[p] / ((double)cnt[p] + n0));
+}
+
+csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                             csi_aa_correct how, const csi_linop *S, cl_mem fine, cl_mem gathered,
+                             const float *values, uint32_t channels, uint32_t c,
+                             const csi_sample_pos *pos, size_t n, bool clamp, float *plane)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
     float *gs = malloc(n * sizeof *gs);
     double *sum = calloc(np, sizeof *sum);
     uint32_t *cnt = calloc(np, sizeof *cnt);
@@ -21,19 +38,12 @@ csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon
         s = csi_linop_apply(S, fine, gathered);
     if (s == CSI_OK)
         s = csi_read(ctx, gathered, 0, n * sizeof(float), gs);
-    if (s == CSI_OK) {
-        for (size_t i = 0; i < n; i++) {
-            size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
-            sum[p] += (double)values[i * channels + c] - (double)gs[i];
-            cnt[p]++;
-        }
-        for (size_t p = 0; p < np; p++)
-            if (cnt[p])
-                plane[p] = (float)((double)plane[p] + sum[p] / ((double)cnt[p] + n0));
-    }
+    if (s == CSI_OK && how == CSI_CORRECT_BLEND)
+        s = csi_recon_blend(g, values, channels, c, pos, gs, n, clamp, plane);
+    else if (s == CSI_OK)
+        cv_correct(g, opt->cv_n0, values, channels, c, pos, gs, n, sum, cnt, plane);
     free(gs);
     free(sum);
     free(cnt);
     return s;
 }
-

@@ -140,14 +140,35 @@ csi_status csi_recon_integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vo
                                       const csi_recon_options *opt, csi_recon_result *res,
                                       cl_mem scratch_wh, cl_mem out);
 
-/* The control-variate correction of one channel (see csi_aa_correct in csi/reconstruct.h): gathers
- * the fine estimate `fine` at the samples through S (into `gathered`, n floats on the device),
- * then adds beta_p * (mean residual of pixel p) to plane[p] on the host, in double, in sample
- * order (deterministic). values: sample-major, `channels` per sample; this is channel c. */
-csi_status csi_recon_cv_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
-                                const csi_linop *S, cl_mem fine, cl_mem gathered,
-                                const float *values, uint32_t channels, uint32_t c,
-                                const csi_sample_pos *pos, size_t n, float *plane);
+/* The per-pixel correction of one channel (csi_aa_correct in csi/reconstruct.h; `how` is CV or
+ * BLEND) of plane, which holds the box integral of the fine estimate `fine`: gathers `fine` at
+ * the samples through S (into `gathered`, n floats on the device), then all on the host, in
+ * double, in sample order (deterministic). values: sample-major, `channels` per sample; this is
+ * channel c. clamp: the result is clamped at 0 (BLEND; see csi_recon_nonneg). */
+csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                             csi_aa_correct how, const csi_linop *S, cl_mem fine, cl_mem gathered,
+                             const float *values, uint32_t channels, uint32_t c,
+                             const csi_sample_pos *pos, size_t n, bool clamp, float *plane);
+/* The blend of the fine estimate's box integral (plane, in and out) with each pixel's sample
+ * mean (blend.c). fine_at: the fine estimate at the n samples. Pixels span all t. */
+csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
+                           const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
+                           float *plane);
+/* Projects the fine estimate `fine` (the grid's w x h x t cells, on the device) onto the range
+ * of the samples: each cell into [min, max] of channel c's samples in its output pixel and the
+ * 8 around it (blend.c). Overshoot and ringing beyond what any nearby sample saw (a sharpened
+ * HDR edge) is not signal; with non-negative samples this also makes `fine` non-negative. */
+csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
+                                 uint32_t channels, uint32_t c, const csi_sample_pos *pos,
+                                 size_t n, cl_mem fine);
+/* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
+ * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */
+void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
+                          const csi_sample_pos *pos, size_t n, float *plane);
+/* Whether every sample of channel c is >= 0: then the truth is too, and the image may be
+ * projected onto non-negative values (which never moves a value away from a non-negative
+ * truth). */
+bool csi_recon_nonneg(const float *values, uint32_t channels, uint32_t c, size_t n);
 
 /* Normalized convolution with a Gaussian of one width on every axis of the grid (t too when the
  * grid has one): NC(y) = G*(S^T y) / G*(S^T 1). The Gaussian baseline is NC of the samples; Alg.

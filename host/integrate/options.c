@@ -49,7 +49,8 @@ static const choice estimators[] = {{"cs", CSI_EST_CS}, {"mean", CSI_EST_MEAN}, 
 static const choice solvers[] = {{"auto", CSI_SOLVER_AUTO}, {"romp", CSI_SOLVER_ROMP}, {"sparsa", CSI_SOLVER_SPARSA}, {0}};
 static const choice wavelets[] = {{"db4", CSI_WAVELET_DB4}, {"db8", CSI_WAVELET_DB8}, {0}};
 static const choice outputs[] = {{"filtered", CSI_AA_FILTERED}, {"sharp", CSI_AA_SHARP}, {0}};
-static const choice corrects[] = {{"auto", CSI_CORRECT_AUTO}, {"none", CSI_CORRECT_NONE}, {"cv", CSI_CORRECT_CV}, {0}};
+static const choice corrects[] = {{"auto", CSI_CORRECT_AUTO}, {"none", CSI_CORRECT_NONE}, {"cv", CSI_CORRECT_CV},
+                                  {"blend", CSI_CORRECT_BLEND}, {0}};
 static const choice stops[] = {{"auto", CSI_STOP_AUTO}, {"gap", CSI_STOP_GAP}, {"objective", CSI_STOP_OBJECTIVE}, {0}};
 static const choice switches[] = {{"auto", CSI_SWITCH_AUTO}, {"on", CSI_SWITCH_ON}, {"off", CSI_SWITCH_OFF}, {0}};
 static const choice presets[] = {{"csi", CSI_ROMP_PRESET_CSI}, {"published", CSI_ROMP_PRESET_PUBLISHED}, {0}};
@@ -80,11 +81,14 @@ static const row table[] = {
      NULL},
     {"integrate", K_CHOICE, AT(output), 0, 0, outputs, 0, "sharp", "filtered|sharp",
      "integrate f_b (the paper's) or Phi^-1 f_b", NULL},
-    {"correct", K_CHOICE, AT(correct), 0, 0, corrects, F_AUTO, "auto", "auto|none|cv",
-     "correct each pixel with its own samples (control variate: box(g) + mean of the pixel's "
-     "residuals y - g)", "cv for cs, none for the gauss baseline"},
+    {"correct", K_CHOICE, AT(correct), 0, 0, corrects, F_AUTO, "auto", "auto|none|cv|blend",
+     "correct each pixel with its own samples; blend: box(g) moved towards the pixel's sample "
+     "mean by weights estimated from the samples (meant never to be worse than the mean; "
+     "clamped at 0 when the samples are >= 0); cv: control variate, box(g) + mean of the "
+     "pixel's residuals y - g", "blend for cs images, none for the gauss baseline; volumes: "
+     "the fine estimate kept within the samples' range, no blend"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
-     "shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
+     "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",
      "SpaRSA stopping rule (relative duality gap or objective change)",
      "objective for images, gap for volumes"},

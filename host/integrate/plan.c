@@ -161,8 +161,10 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
     csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the sharpened image");
     csi_mem_tally_add(&m->dev, np * 4, "the output image");
     m->host += csi_solver_host_bytes(n, km, false, romp);
-    /* the per-pixel correction (cv_correct.c), per channel */
-    transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 12);
+    /* the per-pixel correction (cv_correct.c), per channel; the blend (blend.c) holds 80 bytes
+     * per pixel more while it runs */
+    transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 12 +
+                          (opt->correct == CSI_CORRECT_CV ? 0 : (uint64_t)np * 80));
     if (romp) {
         /* solver_setup.c: the column norms first (their probes freed before ROMP runs), then
          * ROMP's buffers, held to the end: the peak holds one or the other. */
@@ -234,6 +236,18 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
             CSI_TRY(csi_fft_check_size("Gaussian filter", dims));
         nc_buffers(dims, n, !moved, m);
         m->host += (uint64_t)n * 4; /* the residuals on the host */
+    }
+    if (opt->correct == CSI_CORRECT_AUTO || opt->correct == CSI_CORRECT_BLEND) {
+        /* blend.c: the samples' range per pixel (freed after each channel's projection), the
+         * exact means of fully sampled pixels */
+        csi_mem_tally r = {0};
+        csi_mem_tally_add(&r, (uint64_t)np * 8, "the sample range");
+        transient_dev(m, &r);
+        transient_host(m, (uint64_t)np * 16);
+    }
+    if (opt->correct == CSI_CORRECT_BLEND) {
+        csi_sampling_buffers(n, &m->dev); /* the volume gathered at the samples */
+        transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 92);
     }
     return CSI_OK;
 }

@@ -145,8 +145,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         int l = csi_wavelet_default_levels(o->wavelet, g->w, g->h);
         o->levels = l > 5 ? 5 : l;
     }
+    /* The blend (issue 9): never worse than the pixels' own means on a path tracer's samples,
+     * where the control variate was (docs/bench/real-samples.md). */
     if (o->correct == CSI_CORRECT_AUTO)
-        o->correct = CSI_CORRECT_CV;
+        o->correct = CSI_CORRECT_BLEND;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)

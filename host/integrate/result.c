@@ -146,6 +146,14 @@ csi_status csi_recon_check_finite(const float *a, size_t n, const char *what)
     return CSI_OK;
 }
 
+bool csi_recon_nonneg(const float *values, uint32_t channels, uint32_t c, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!(values[i * channels + c] >= 0))
+            return false;
+    return true;
+}
+
 csi_status csi_recon_integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vol,
                                       uint32_t c, const csi_recon_options *opt, csi_recon_result *res,
                                       cl_mem scratch_wh, cl_mem out)

@@ -17,11 +17,14 @@
  *   2. At 4 spp the per-pixel variance over the 10 seeds, averaged over edge pixels (pixels
  *      whose cells span a step > 0.15), is below stratified's (Fig. 5).
  *   3. At 1 and 16 spp (3 seeds), the MSE is not above stratified's (issue 4: never worse
- *      than stratified up to 16 spp; at 16 spp every cell of a 4 x 4 block is sampled and
- *      stratified is the exact cell mean).
+ *      than stratified up to 16 spp). At 16 spp every cell of a 4 x 4 block is sampled, so
+ *      both are the exact cell mean (issue 9: a dump that samples every cell gives the box
+ *      mean) and their MSEs agree to float rounding: each pixel is a float32 mean of 16
+ *      values, a relative error of a few 1e-7, so the MSEs may differ by ~1e-6 relative; 1e-5
+ *      is allowed.
  * The compressive method uses Poisson-disk positions (the paper's Alg. 1 step 4 and csi-render's
  * default), stratified Monte Carlo its own stratified positions, each with the same seed and spp.
- * The measured figures (docs/bench/quality.md) leave margins of 8% (16 spp) to 3x (1 spp); the
+ * The measured figures (docs/bench/quality.md) leave margins of 15% (4 spp) to 2x (1 spp); the
  * test prints every figure it compares. */
 #include <math.h>
 #include <stdio.h>
@@ -128,8 +131,9 @@ int main(void)
             figures m = measure(ctx, &sc, CSI_POS_STRATIFIED, CSI_EST_MEAN, spps[j], 3);
             printf("%-8s %2u spp, 3 seeds: MSE cs %.3e stratified %.3e\n", images[i].name, spps[j],
                    c.mse, m.mse);
-            CHECK(c.mse <= m.mse, "%s, %u spp: MSE %.3e is above stratified's %.3e", images[i].name,
-                  spps[j], c.mse, m.mse);
+            const double tol = spps[j] == 16 ? 1e-5 : 0.0; /* see claim 3 */
+            CHECK(c.mse <= m.mse * (1 + tol), "%s, %u spp: MSE %.6e is above stratified's %.6e",
+                  images[i].name, spps[j], c.mse, m.mse);
         }
     }
     return test_done();

@@ -128,7 +128,7 @@ int main(void)
     CHECK_OK(csi_recon_resolve(&d, &still, 600, &r));
     const double spp = 600.0 / 256.0;
     int lv = csi_wavelet_default_levels(CSI_WAVELET_DB4, 64, 64);
-    CHECK(r.solver == CSI_SOLVER_SPARSA && r.levels == (lv > 5 ? 5 : lv) && r.correct == CSI_CORRECT_CV &&
+    CHECK(r.solver == CSI_SOLVER_SPARSA && r.levels == (lv > 5 ? 5 : lv) && r.correct == CSI_CORRECT_BLEND &&
               r.stop == CSI_STOP_OBJECTIVE && r.tol == 3e-3 && r.max_iter == 300 &&
               r.debias == CSI_SWITCH_OFF && r.continuation == CSI_SWITCH_ON &&
               r.model_grid == CSI_SWITCH_ON && r.tau_rel == fmin(3e-3, fmax(1e-5, 3e-3 / spp)),

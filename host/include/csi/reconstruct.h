@@ -7,10 +7,11 @@
  *                each output pixel, then (default) correct each pixel with its own samples.
  *                The defaults differ from the paper where measurements showed it (sharp target,
  *                Gaussian width following the sample spacing, SpaRSA stopped on the objective
- *                with tau from the samples per pixel, no debiasing, control-variate correction,
- *                at most 5 levels): docs/bench/quality.md has the figures. They beat stratified
- *                sampling's MSE at 1 to 16 spp on the measured images; the paper's
- *                configuration loses to it from 9 spp on.
+ *                with tau from the samples per pixel, no debiasing, a per-pixel blend with the
+ *                pixel's own samples, at most 5 levels): docs/bench/quality.md and
+ *                docs/bench/real-samples.md have the figures. On a path tracer's samples (HDR,
+ *                Monte Carlo noise) the default is meant never to be worse than the per-pixel
+ *                mean; the paper's configuration loses to stratified sampling from 9 spp on.
  *   grid.t  > 1  Alg. 2: A = S F3^H (3-D orthonormal Fourier basis over x, y, t); solve for the
  *                complex coefficients; f = Re(F3^H x); the image is the mean of f over t, box-
  *                integrated to the output size; optionally every frame too (Sec. 6.1).
@@ -55,20 +56,39 @@ typedef enum {
     CSI_AA_SHARP,        /* Phi^-1 f_b, the estimate of f the samples constrain */
 } csi_aa_output;
 
-/* After integration, Alg. 1 can correct each pixel with its own samples (csi's addition, not
- * the paper's). CV treats the fine estimate g (f_b, Phi^-1 f_b, or the Gaussian baseline's
- * image) as a control variate of the pixel's Monte Carlo mean:
- *     pixel = box(g) + beta_p * mean over the pixel's samples i of (y_i - g(x_i)),
- *     beta_p = n_p / (n_p + cv_n0),  n_p = the number of samples in the pixel.
- * With beta = 1 this is the stratified sample mean plus the term box(g) - mean_i g(x_i), which
- * removes the part of the sample mean's error that g predicts: the bias of g (its blur)
- * cancels, and when the samples cover every cell of the pixel the result is the exact cell
- * mean, as stratified sampling's is. cv_n0 > 0 shrinks the correction where a pixel has few
- * samples, where one residual is noisier than g's bias. Measurements: docs/bench/quality.md. */
+/* After integration, each pixel can be corrected with its own samples (csi's addition, not the
+ * paper's); g is the fine estimate (Phi^-1 f_b or f_b for Alg. 1, the volume f for Alg. 2, the
+ * Gaussian baseline's image), b = box(g) the uncorrected pixel, m the mean of the pixel's
+ * samples (all t), n_p their number.
+ *
+ * BLEND (the default for the compressive estimator's images): pixel = b + beta_p (m - b), with
+ * beta_p = B^2 / (B^2 + V) from the samples alone: V estimates the error variance of m (its
+ * samples' spread, pooled robustly over the 3 x 3 pixels around, plus the error that the
+ * positions of its samples explain through g; 0 when every cell of the pixel is sampled), B^2
+ * the squared bias of b (the excess of (m - b)^2 over V: the pixel's own, pooled, and of one
+ * sign over the 3 x 3 pixels). Where b is biased (a blurred or ringing edge, an HDR neighbour's
+ * light leaking in) the pixel follows its own samples; where m is noisy and b consistent with
+ * it (Monte Carlo noise over smooth shading) it follows b. Every approximation errs towards m,
+ * so that the result is not worse than the per-pixel mean. b and g are first projected onto the
+ * range of the samples in the pixel and its 8 neighbours, so the result stays in that range (no
+ * halo; no negative value from non-negative samples). A pixel without a sample moves from b
+ * towards its neighbours' median by their mean beta. A dump that samples every cell gives the
+ * exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames too)
+ * and fully sampled pixels take their exact mean; the blend itself only on request (BLEND).
+ * Design and measurements: host/integrate/blend.c, docs/bench/real-samples.md.
+ *
+ * CV (the previous default): pixel = b + n_p / (n_p + cv_n0) * mean_i (y_i - g(x_i)), g as a
+ * control variate of the pixel's Monte Carlo mean. With n0 = 0 it is the sample mean plus
+ * b - mean_i g(x_i); n0 > 0 shrinks the correction where a pixel has few samples.
+ *
+ * Measurements: docs/bench/quality.md (analytic images), docs/bench/real-samples.md (a path
+ * tracer's samples: HDR, Monte Carlo noise). */
 typedef enum {
-    CSI_CORRECT_AUTO = 0, /* CV for the compressive estimator, NONE for the Gaussian baseline */
-    CSI_CORRECT_NONE,     /* the image is box(g) */
+    CSI_CORRECT_AUTO = 0, /* BLEND for Alg. 1's images, the range projection alone for Alg. 2,
+                             NONE for the Gaussian baseline */
+    CSI_CORRECT_NONE,     /* the image is box(g): the paper's */
     CSI_CORRECT_CV,       /* the control-variate correction above */
+    CSI_CORRECT_BLEND,    /* the risk-weighted blend of b and the sample mean above */
 } csi_aa_correct;
 
 /* A setting that is on, off, or left to the method's measured default. */

@@ -1,0 +1,331 @@
+/* The final per-pixel estimate (csi_aa_correct CSI_CORRECT_BLEND in csi/reconstruct.h), and the
+ * projection of Alg. 2's volume onto the samples' range. The blend: each
+ * pixel is the box integral b of the fine estimate moved towards the mean m of the pixel's own
+ * samples by a weight that the samples choose,
+ *
+ *     out = b + beta (m - b),   beta = B^2 / (B^2 + V),
+ *
+ * where V estimates the variance of m and B^2 the squared bias of b. This beta minimises
+ * (1 - beta)^2 B^2 + beta^2 V, the risk of the blend when b's own noise is small against m's
+ * (Stein's positive-part shrinkage of m towards b). Both come from the samples alone:
+ *
+ *   V = s^2 / n_p (1 - n_p / cells) + min((gbar - b)^2, (m / 2)^2).
+ *       The first term is the sampling noise of m. s^2 is the per-sample variance: where most
+ *       pixels hold two samples or more, the variance of the pixel's own samples; else (one
+ *       sample per pixel) the second smallest of (m_p - m_q)^2 / 2 over the 8 neighbouring
+ *       pixels q, divided by its expectation for independent Gaussian noise (the median of it
+ *       over 3 x 3 pixels is 0.083 sigma^2, simulated), so that a thin line or an edge through
+ *       the neighbourhood does not count as noise. s^2 is then the median over the 3 x 3
+ *       pixels around, each relative to its pixel's magnitude, so that one edge pixel or one
+ *       firefly does not set its neighbours' noise level. The finite-population factor makes
+ *       V = 0, so out = m exactly, when every cell of the pixel is sampled.
+ *       The second term is the error of m that its positions explain: gbar, the mean of the
+ *       fine estimate g at the pixel's samples, differs from b as much as m differs from the
+ *       truth wherever g is right (an edge that all of a pixel's samples missed, which the
+ *       sample variance cannot see). It is capped at (m/2)^2: a pixel is not taken to hide a
+ *       region far brighter than everything its own samples saw, since that is also what a
+ *       fit blurring a bright neighbour's light into a dark pixel looks like.
+ *   B^2 = E(m - b)^2 - V, estimated three ways and the largest kept: the pixel's own
+ *       (m - b)^2 - V, its mean over the 3 x 3 pixels, and the square of the mean of (m - b)
+ *       over them less its variance (a bias of one sign over a region, as where an emitter's
+ *       light leaks into its dark neighbours, stands out of noise that a pixel alone cannot),
+ *       all relative to the pixels' magnitudes and clipped at 0.
+ *
+ * Before all this, b and the fine estimate at the samples are projected onto the range of the
+ * samples in the pixel and its 8 neighbours: overshoot and ringing beyond anything the samples
+ * near a pixel saw (a sharpened HDR edge) is not signal. Since m lies in that range too, so does
+ * the result: no halo and, for non-negative samples, no negative value.
+ *
+ * Every approximation errs towards m (smaller V, larger B^2): the mean is unbiased, the fine
+ * estimate is not, and where they cannot be told apart the unbiased one is the safe choice.
+ * When every sample of the channel is >= 0 the result is clamped at 0, which never increases
+ * any pixel's error when the truth is non-negative. A pixel without a sample is moved from b
+ * towards the median of its neighbours' means by the mean of their betas. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "internal.h"
+
+/* The magnitude below which pixels are treated alike when statistics are made relative, as a
+ * fraction of the image's mean absolute value: 1% (the relMSE convention adds 0.01 to ref^2
+ * for values of order 1, the same idea). */
+#define CSI_BLEND_EPS_REL 1e-2
+/* E[median over 3 x 3 pixels of the second smallest (y_p - y_q)^2 / 2 over the 8 neighbours q]
+ * / sigma^2 for independent Gaussian noise of variance sigma^2 (simulated on 10^6 pixels). */
+#define CSI_BLEND_NBR_CAL 0.083
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The 3 x 3 neighbourhood of pixel p clipped to the image: its pixel indices, and their count. */
+static int window(size_t p, size_t ow, size_t oh, size_t nb[9])
+{
+    long px = (long)(p % ow), py = (long)(p / ow);
+    int k = 0;
+    for (long dy = -1; dy <= 1; dy++)
+        for (long dx = -1; dx <= 1; dx++) {
+            long x = px + dx, y = py + dy;
+            if (x >= 0 && y >= 0 && x < (long)ow && y < (long)oh)
+                nb[k++] = (size_t)y * ow + (size_t)x;
+        }
+    return k;
+}
+
+/* The median of the non-NaN values among a[nb[0..k)]; INFINITY if there is none. */
+static double window_median(const double *a, const size_t *nb, int k)
+{
+    double w[9];
+    int m = 0;
+    for (int i = 0; i < k; i++)
+        if (!isnan(a[nb[i]]))
+            w[m++] = a[nb[i]];
+    if (!m)
+        return INFINITY;
+    qsort(w, (size_t)m, sizeof *w, cmp_double);
+    return m % 2 ? w[m / 2] : 0.5 * (w[m / 2 - 1] + w[m / 2]);
+}
+
+csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
+                           const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
+                           float *plane)
+{
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const double cells = (double)bw * bh * g->t;
+    size_t *cnt = calloc(np, sizeof *cnt);
+    double *m = calloc(np, sizeof *m), *ss = calloc(np, sizeof *ss), *gbar = calloc(np, sizeof *gbar);
+    double *sc = malloc(np * sizeof *sc), *rel = malloc(np * sizeof *rel);
+    double *V = malloc(np * sizeof *V), *q = malloc(np * sizeof *q), *d = malloc(np * sizeof *d);
+    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
+    csi_status s = CSI_OK;
+    if (!cnt || !m || !ss || !gbar || !sc || !rel || !V || !q || !d || !lo || !hi) {
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel blend");
+        goto done;
+    }
+    /* The range of the samples in each pixel and its 8 neighbours (in V, q as scratch first):
+     * b and the fine estimate at the samples are projected onto it. */
+    for (size_t p = 0; p < np; p++)
+        V[p] = INFINITY, q[p] = -INFINITY;
+    for (size_t i = 0; i < n; i++) {
+        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+        V[p] = fmin(V[p], values[i * channels + c]);
+        q[p] = fmax(q[p], values[i * channels + c]);
+    }
+    size_t nb[9];
+    for (size_t p = 0; p < np; p++) {
+        double l = INFINITY, h = -INFINITY;
+        int k = window(p, ow, oh, nb);
+        for (int j = 0; j < k; j++) {
+            l = fmin(l, V[nb[j]]);
+            h = fmax(h, q[nb[j]]);
+        }
+        lo[p] = l <= h ? (float)l : -INFINITY; /* no sample around: nothing to project onto */
+        hi[p] = l <= h ? (float)h : INFINITY;
+        plane[p] = fminf(fmaxf(plane[p], lo[p]), hi[p]);
+    }
+    /* The pixels' means and (two passes, in sample order: deterministic) sums of squares. */
+    for (size_t i = 0; i < n; i++) {
+        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+        cnt[p]++;
+        m[p] += values[i * channels + c];
+        gbar[p] += fminf(fmaxf(fine_at[i], lo[p]), hi[p]);
+    }
+    size_t multi = 0, filled = 0;
+    double mabs = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (cnt[p]) {
+            m[p] /= (double)cnt[p];
+            gbar[p] /= (double)cnt[p];
+            mabs += fabs(m[p]);
+            filled++;
+        }
+        multi += cnt[p] >= 2;
+    }
+    for (size_t i = 0; i < n; i++) {
+        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+        double e = values[i * channels + c] - m[p];
+        ss[p] += e * e;
+    }
+    const bool by_pixel = 2 * multi >= np;
+    const double eps = fmax(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
+    for (size_t p = 0; p < np; p++) {
+        const double b = plane[p], mm = cnt[p] ? m[p] : b;
+        sc[p] = 0.5 * (mm * mm + b * b) + eps;
+        double s2 = NAN;
+        if (by_pixel) {
+            if (cnt[p] >= 2)
+                s2 = ss[p] / (double)(cnt[p] - 1);
+        } else if (cnt[p]) {
+            double d1 = INFINITY, d2 = INFINITY; /* the two smallest neighbour differences */
+            int k = window(p, ow, oh, nb);
+            for (int j = 0; j < k; j++) {
+                if (nb[j] == p || !cnt[nb[j]])
+                    continue;
+                double e = 0.5 * (m[p] - m[nb[j]]) * (m[p] - m[nb[j]]);
+                if (e < d1) {
+                    d2 = d1;
+                    d1 = e;
+                } else if (e < d2) {
+                    d2 = e;
+                }
+            }
+            if (isfinite(d2))
+                s2 = d2 / CSI_BLEND_NBR_CAL;
+        }
+        rel[p] = s2 / sc[p];
+    }
+    /* V, relative to the pixel's magnitude: the window's median per-sample variance over n_p
+     * (0 where no pixel around has a variance: m is then taken as it is), plus the error that
+     * the positions explain. */
+    for (size_t p = 0; p < np; p++) {
+        if (!cnt[p]) {
+            V[p] = INFINITY;
+            continue;
+        }
+        double fpc = 1.0 - (double)cnt[p] / cells;
+        double med = window_median(rel, nb, window(p, ow, oh, nb));
+        double noise = fpc > 0 && isfinite(med) ? med / (double)cnt[p] * fpc : 0.0;
+        double pe = gbar[p] - plane[p];
+        V[p] = noise + fmin(pe * pe, 0.25 * m[p] * m[p]) / sc[p];
+    }
+    /* The relative bias of b seen at each pixel: d signed, q squared less noise, clipped at 0. */
+    for (size_t p = 0; p < np; p++) {
+        double diff = cnt[p] ? m[p] - plane[p] : 0.0;
+        d[p] = diff / sqrt(sc[p]);
+        double e = cnt[p] && isfinite(V[p]) ? d[p] * d[p] - V[p] : 0.0;
+        q[p] = e > 0 ? e : 0.0;
+    }
+    /* beta per pixel with samples (kept in rel, no longer needed), then the blend. */
+    for (size_t p = 0; p < np; p++) {
+        rel[p] = NAN;
+        if (!cnt[p])
+            continue;
+        int k = window(p, ow, oh, nb), kf = 0;
+        double qs = 0, ds = 0, vs = 0;
+        for (int j = 0; j < k; j++) {
+            qs += q[nb[j]];
+            if (cnt[nb[j]]) {
+                ds += d[nb[j]];
+                vs += isfinite(V[nb[j]]) ? V[nb[j]] : 0.0;
+                kf++;
+            }
+        }
+        double dbar = ds / kf;
+        double B2 = fmax(fmax(qs / k, q[p]), dbar * dbar - vs / kf / kf);
+        rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
+    }
+    for (size_t p = 0; p < np; p++) {
+        double out = plane[p];
+        if (cnt[p] && (double)cnt[p] >= cells) {
+            out = m[p]; /* every cell sampled: the exact cell mean (beta is 1 here anyway) */
+        } else if (cnt[p]) {
+            out = plane[p] + rel[p] * (m[p] - plane[p]);
+        } else {
+            /* No sample of its own: the median of the neighbours' means, trusted as much as
+             * the neighbours trust their own (b alone leaks a bright neighbour's light into an
+             * unsampled dark pixel as readily as into a sampled one). */
+            double w[9], bs = 0;
+            int k = window(p, ow, oh, nb), kf = 0;
+            for (int j = 0; j < k; j++)
+                if (cnt[nb[j]]) {
+                    w[kf++] = m[nb[j]];
+                    bs += rel[nb[j]];
+                }
+            if (kf) {
+                qsort(w, (size_t)kf, sizeof *w, cmp_double);
+                double med = kf % 2 ? w[kf / 2] : 0.5 * (w[kf / 2 - 1] + w[kf / 2]);
+                out = plane[p] + bs / kf * (med - plane[p]);
+            }
+        }
+        if (clamp && out < 0)
+            out = 0;
+        plane[p] = (float)out;
+    }
+done:
+    free(cnt), free(m), free(ss), free(gbar), free(sc), free(rel), free(V), free(q), free(d);
+    free(lo), free(hi);
+    return s;
+}
+
+csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
+                                 uint32_t channels, uint32_t c, const csi_sample_pos *pos,
+                                 size_t n, cl_mem fine)
+{
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
+    float *lohi = malloc(2 * np * sizeof *lohi);
+    cl_mem dev = NULL;
+    csi_status s = CSI_OK;
+    if (!lo || !hi || !lohi) {
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range");
+        goto done;
+    }
+    for (size_t p = 0; p < np; p++) {
+        lo[p] = INFINITY;
+        hi[p] = -INFINITY;
+    }
+    for (size_t i = 0; i < n; i++) {
+        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+        float v = values[i * channels + c];
+        lo[p] = fminf(lo[p], v);
+        hi[p] = fmaxf(hi[p], v);
+    }
+    size_t nb[9];
+    for (size_t p = 0; p < np; p++) {
+        float l = INFINITY, h = -INFINITY;
+        int k = window(p, ow, oh, nb);
+        for (int j = 0; j < k; j++) {
+            l = fminf(l, lo[nb[j]]);
+            h = fmaxf(h, hi[nb[j]]);
+        }
+        /* No sample around: nothing to clamp to. */
+        lohi[2 * p] = l <= h ? l : -INFINITY;
+        lohi[2 * p + 1] = l <= h ? h : INFINITY;
+    }
+    cl_kernel kc;
+    const cl_uint w = g->w, h = g->h, cbw = bw, cbh = bh, cow = (cl_uint)ow;
+    const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);
+    s = csi_buffer(ctx, 2 * np * sizeof(float), CL_MEM_READ_ONLY, "the sample range", &dev);
+    if (s == CSI_OK)
+        s = csi_write(ctx, dev, 0, 2 * np * sizeof(float), lohi);
+    if (s == CSI_OK)
+        s = csi_kernel(ctx, "recon", "csi_clamp_pixel_range", &kc);
+    if (s == CSI_OK)
+        s = CSI_ARGS(kc, CSI_MEM(fine), CSI_MEM(dev), CSI_ARG(w), CSI_ARG(h), CSI_ARG(cbw), CSI_ARG(cbh),
+                     CSI_ARG(cow), CSI_ARG(cells));
+    if (s == CSI_OK)
+        s = csi_run1d(ctx, kc, cells);
+    if (s == CSI_OK)
+        s = csi_finish(ctx); /* dev is released below */
+done:
+    csi_buffer_release(&dev);
+    free(lo), free(hi), free(lohi);
+    return s;
+}
+
+void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
+                          const csi_sample_pos *pos, size_t n, float *plane)
+{
+    const size_t ow = g->out_w, np = ow * g->out_h;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t cells = (size_t)bw * bh * g->t;
+    size_t *cnt = calloc(np, sizeof *cnt);
+    double *sum = calloc(np, sizeof *sum);
+    if (cnt && sum) {
+        for (size_t i = 0; i < n; i++) {
+            size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+            cnt[p]++;
+            sum[p] += values[i * channels + c];
+        }
+        for (size_t p = 0; p < np; p++)
+            if (cnt[p] == cells)
+                plane[p] = (float)(sum[p] / (double)cells);
+    }
+    /* Out of memory: the fit's pixels stay, which is what the caller had. */
+    free(cnt);
+    free(sum);
+}
