@@ -146,7 +146,7 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->levels = l > 5 ? 5 : l;
     }
     /* The blend (issue 9): never worse than the pixels' own means on a path tracer's samples,
-     * where the control variate was (docs/bench/real-samples.md). */
+     * where the control variate was (docs/bench/mitsuba.md). */
     if (o->correct == CSI_CORRECT_AUTO)
         o->correct = CSI_CORRECT_BLEND;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);

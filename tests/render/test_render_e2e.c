@@ -151,7 +151,7 @@ int main(void)
          * default (the blend) is also run and printed, and compared with the mean of its own
          * samples (its guarantee); on the triangle, white on black and noise-free, it leans
          * towards the Poisson-disk samples' own means and no longer beats stratified positions
-         * (docs/bench/real-samples.md). */
+         * (docs/bench/mitsuba.md). */
         double mse_cs = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_CV, ref, 1, &t_cs);
         double t_def = 0, t_pm = 0;
         double mse_def = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_AUTO, ref, 1, &t_def);

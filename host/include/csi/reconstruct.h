@@ -9,7 +9,7 @@
  *                Gaussian width following the sample spacing, SpaRSA stopped on the objective
  *                with tau from the samples per pixel, no debiasing, a per-pixel blend with the
  *                pixel's own samples, at most 5 levels): docs/bench/quality.md and
- *                docs/bench/real-samples.md have the figures. On a path tracer's samples (HDR,
+ *                docs/bench/mitsuba.md have the figures. On a path tracer's samples (HDR,
  *                Monte Carlo noise) the default is meant never to be worse than the per-pixel
  *                mean; the paper's configuration loses to stratified sampling from 9 spp on.
  *   grid.t  > 1  Alg. 2: A = S F3^H (3-D orthonormal Fourier basis over x, y, t); solve for the
@@ -75,13 +75,13 @@ typedef enum {
  * towards its neighbours' median by their mean beta. A dump that samples every cell gives the
  * exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames too)
  * and fully sampled pixels take their exact mean; the blend itself only on request (BLEND).
- * Design and measurements: host/integrate/blend.c, docs/bench/real-samples.md.
+ * Design and measurements: host/integrate/blend.c, docs/bench/mitsuba.md.
  *
  * CV (the previous default): pixel = b + n_p / (n_p + cv_n0) * mean_i (y_i - g(x_i)), g as a
  * control variate of the pixel's Monte Carlo mean. With n0 = 0 it is the sample mean plus
  * b - mean_i g(x_i); n0 > 0 shrinks the correction where a pixel has few samples.
  *
- * Measurements: docs/bench/quality.md (analytic images), docs/bench/real-samples.md (a path
+ * Measurements: docs/bench/quality.md (analytic images), docs/bench/mitsuba.md (a path
  * tracer's samples: HDR, Monte Carlo noise). */
 typedef enum {
     CSI_CORRECT_AUTO = 0, /* BLEND for Alg. 1's images, the range projection alone for Alg. 2,
