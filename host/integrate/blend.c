@@ -9,7 +9,7 @@
  * (1 - beta)^2 B^2 + beta^2 V, the risk of the blend when b's own noise is small against m's
  * (Stein's positive-part shrinkage of m towards b). Both come from the samples alone:
  *
- *   V = s^2 / n_p (1 - n_p / cells) + min((gbar - b)^2, (m / 2)^2).
+ *   V = s^2 / n_p (1 - n_p / cells) + min(max((gbar - b)^2 - (gbar - m)^2, 0), (m / 2)^2).
  *       The first term is the sampling noise of m. s^2 is the per-sample variance: where most
  *       pixels hold two samples or more, the variance of the pixel's own samples; else (one
  *       sample per pixel) the second smallest of (m_p - m_q)^2 / 2 over the 8 neighbouring
@@ -17,14 +17,22 @@
  *       over 3 x 3 pixels is 0.083 sigma^2, simulated), so that a thin line or an edge through
  *       the neighbourhood does not count as noise. s^2 is then the median over the 3 x 3
  *       pixels around, each relative to its pixel's magnitude, so that one edge pixel or one
- *       firefly does not set its neighbours' noise level. The finite-population factor makes
- *       V = 0, so out = m exactly, when every cell of the pixel is sampled.
+ *       firefly does not set its neighbours' noise level; with one sample per pixel, the
+ *       pixel's own estimate where it is lower (next to one very bright sample, a sun's glint,
+ *       most of the 3 x 3 differences are large, and a large V handed the pixel to a fit that
+ *       spreads the glint: horizon, 1 spp on Poisson-disk positions, 1.08x the mean's relMSE;
+ *       docs/bench/mitsuba.md). The finite-population factor makes V = 0, so out = m exactly,
+ *       when every cell of the pixel is sampled.
  *       The second term is the error of m that its positions explain: gbar, the mean of the
  *       fine estimate g at the pixel's samples, differs from b as much as m differs from the
  *       truth wherever g is right (an edge that all of a pixel's samples missed, which the
- *       sample variance cannot see). It is capped at (m/2)^2: a pixel is not taken to hide a
- *       region far brighter than everything its own samples saw, since that is also what a
- *       fit blurring a bright neighbour's light into a dark pixel looks like.
+ *       sample variance cannot see). It counts only beyond (gbar - m)^2, the fit's own misfit
+ *       at those samples: a fit that does not pass near the pixel's samples (ringing between
+ *       them: thin_geometry, 16 spp x 64 paths on Poisson-disk positions, 1.23x the mean's
+ *       relMSE without this) says nothing about where between them the pixel's light lies.
+ *       It is capped at (m/2)^2: a pixel is not taken to hide a region far brighter than
+ *       everything its own samples saw, since that is also what a fit blurring a bright
+ *       neighbour's light into a dark pixel looks like.
  *   B^2 = E(m - b)^2 - V, estimated three ways and the largest kept: the pixel's own
  *       (m - b)^2 - V, its mean over the 3 x 3 pixels, and the square of the mean of (m - b)
  *       over them less its variance (a bias of one sign over a region, as where an emitter's
@@ -33,8 +41,14 @@
  *
  * Before all this, b and the fine estimate at the samples are projected onto the range of the
  * samples in the pixel and its 8 neighbours: overshoot and ringing beyond anything the samples
- * near a pixel saw (a sharpened HDR edge) is not signal. Since m lies in that range too, so does
- * the result: no halo and, for non-negative samples, no negative value.
+ * near a pixel saw (a sharpened HDR edge) is not signal. Once the weights are chosen, b is also
+ * projected onto the range of those 9 pixels' sample means: a box integral outside every mean
+ * around it is the fit spreading one bright sample (a caustic path of radiance 10^4 among
+ * values below 1: envmap, 4 spp on Poisson-disk positions, 1.20x the mean's relMSE without it)
+ * rather than anything the means all missed. The weights are chosen before, so that B^2 still
+ * sees how far b was from m (after, the projection hides part of b's bias and the weights
+ * trust it more: the Cornell box at 4 spp, stratified, 1.15x the mean's MSE). Since m lies in
+ * both ranges, so does the result: no halo and, for non-negative samples, no negative value.
  *
  * Every approximation errs towards m (smaller V, larger B^2): the mean is unbiased, the fine
  * estimate is not, and where they cannot be told apart the unbiased one is the safe choice.
@@ -114,6 +128,23 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         V[p] = fmin(V[p], values[i * channels + c]);
         q[p] = fmax(q[p], values[i * channels + c]);
     }
+    /* The pixels' means and (two passes, in sample order: deterministic) sums of squares. */
+    for (size_t i = 0; i < n; i++) {
+        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+        cnt[p]++;
+        m[p] += values[i * channels + c];
+    }
+    size_t multi = 0, filled = 0;
+    double mabs = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (cnt[p]) {
+            m[p] /= (double)cnt[p];
+            mabs += fabs(m[p]);
+            filled++;
+        }
+        multi += cnt[p] >= 2;
+    }
+    /* b onto the samples' range. */
     size_t nb[9];
     for (size_t p = 0; p < np; p++) {
         double l = INFINITY, h = -INFINITY;
@@ -126,24 +157,13 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         hi[p] = l <= h ? (float)h : INFINITY;
         plane[p] = fminf(fmaxf(plane[p], lo[p]), hi[p]);
     }
-    /* The pixels' means and (two passes, in sample order: deterministic) sums of squares. */
     for (size_t i = 0; i < n; i++) {
         size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
-        cnt[p]++;
-        m[p] += values[i * channels + c];
         gbar[p] += fminf(fmaxf(fine_at[i], lo[p]), hi[p]);
     }
-    size_t multi = 0, filled = 0;
-    double mabs = 0;
-    for (size_t p = 0; p < np; p++) {
-        if (cnt[p]) {
-            m[p] /= (double)cnt[p];
+    for (size_t p = 0; p < np; p++)
+        if (cnt[p])
             gbar[p] /= (double)cnt[p];
-            mabs += fabs(m[p]);
-            filled++;
-        }
-        multi += cnt[p] >= 2;
-    }
     for (size_t i = 0; i < n; i++) {
         size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
         double e = values[i * channels + c] - m[p];
@@ -187,9 +207,11 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         }
         double fpc = 1.0 - (double)cnt[p] / cells;
         double med = window_median(rel, nb, window(p, ow, oh, nb));
+        if (!by_pixel && !isnan(rel[p]))
+            med = fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
         double noise = fpc > 0 && isfinite(med) ? med / (double)cnt[p] * fpc : 0.0;
-        double pe = gbar[p] - plane[p];
-        V[p] = noise + fmin(pe * pe, 0.25 * m[p] * m[p]) / sc[p];
+        double pe = gbar[p] - plane[p], mf = gbar[p] - m[p];
+        V[p] = noise + fmin(fmax(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
     }
     /* The relative bias of b seen at each pixel: d signed, q squared less noise, clipped at 0. */
     for (size_t p = 0; p < np; p++) {
@@ -216,6 +238,19 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         double dbar = ds / kf;
         double B2 = fmax(fmax(qs / k, q[p]), dbar * dbar - vs / kf / kf);
         rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
+    }
+    /* b onto the range of the 3 x 3 pixels' means (after the weights, which see b's distance
+     * from m before it), then the blend. */
+    for (size_t p = 0; p < np; p++) {
+        double ml = INFINITY, mh = -INFINITY;
+        int k = window(p, ow, oh, nb);
+        for (int j = 0; j < k; j++)
+            if (cnt[nb[j]]) {
+                ml = fmin(ml, m[nb[j]]);
+                mh = fmax(mh, m[nb[j]]);
+            }
+        if (ml <= mh)
+            plane[p] = (float)fmin(fmax(plane[p], ml), mh);
     }
     for (size_t p = 0; p < np; p++) {
         double out = plane[p];

@@ -69,9 +69,11 @@ typedef enum {
  * sign over the 3 x 3 pixels). Where b is biased (a blurred or ringing edge, an HDR neighbour's
  * light leaking in) the pixel follows its own samples; where m is noisy and b consistent with
  * it (Monte Carlo noise over smooth shading) it follows b. Every approximation errs towards m,
- * so that the result is not worse than the per-pixel mean. b and g are first projected onto the
- * range of the samples in the pixel and its 8 neighbours, so the result stays in that range (no
- * halo; no negative value from non-negative samples). A pixel without a sample moves from b
+ * meant to keep the result from being worse than the per-pixel mean (where it still is:
+ * docs/bench/mitsuba.md). b and g are first projected onto the range of the samples in the
+ * pixel and its 8 neighbours, and b onto the range of those pixels' means, so the result stays
+ * in that range (no halo; no negative value from non-negative samples). A pixel without a
+ * sample moves from b
  * towards its neighbours' median by their mean beta. A dump that samples every cell gives the
  * exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames too)
  * and fully sampled pixels take their exact mean; the blend itself only on request (BLEND).
