@@ -28,8 +28,8 @@
  *       truth wherever g is right (an edge that all of a pixel's samples missed, which the
  *       sample variance cannot see). It counts only beyond (gbar - m)^2, the fit's own misfit
  *       at those samples: a fit that does not pass near the pixel's samples (ringing between
- *       them: thin_geometry, 16 spp x 64 paths on Poisson-disk positions, 1.23x the mean's
- *       relMSE without this) says nothing about where between them the pixel's light lies.
+ *       them: thin_geometry, 16 spp x 64 paths on Poisson-disk positions, 1.13x the mean's
+ *       relMSE before this) says nothing about where between them the pixel's light lies.
  *       It is capped at (m/2)^2: a pixel is not taken to hide a region far brighter than
  *       everything its own samples saw, since that is also what a fit blurring a bright
  *       neighbour's light into a dark pixel looks like.
