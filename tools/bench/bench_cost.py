@@ -218,24 +218,40 @@ def rel_mse(img, ref):
     return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
 
 
-def quality_dumps(args, bins):
-    """(name, dump, reference image) triples."""
+def scene_dumps(args, bins, size, spps, seeds):
+    """The bundled scenes at size x size: (name, dump, reference) for each spp and seed."""
     out = []
     for scene in ("triangle", "garden", "checkerboard"):
-        path, _ = bc.scene_variant(scene, (128, 128), args.work)
-        ref_exr = os.path.join(args.work, f"q_{scene}_ref.exr")
+        path, _ = bc.scene_variant(scene, (size, size), args.work)
+        tag = "" if size == 128 else f"_{size}"
+        ref_exr = os.path.join(args.work, f"q_{scene}{tag}_ref.exr")
         if not os.path.exists(ref_exr):
-            bc.log(f"reference {scene} 128x128")
+            bc.log(f"reference {scene} {size}x{size}")
             bc.run([bins["csi-render"], path, "--reference", "256", "-o", ref_exr, "-q"])
         ref = bc.read_exr(ref_exr)
-        for spp in (1, 4, 16):
-            for seed in (1, 2):
-                name = f"q_{scene}_s{spp}_{seed}"
+        for spp in spps:
+            for seed in seeds:
+                name = f"q_{scene}{tag}_s{spp}_{seed}"
                 dump = os.path.join(args.work, name + ".csid")
                 if not os.path.exists(dump):
                     bc.run([bins["csi-render"], path, "--spp", str(spp), "--seed", str(seed), "--dump", dump,
                             "--estimator", "mean", "-o", os.path.join(args.work, name + ".r.exr"), "-q"])
-                out.append((f"{scene} 128x128 {spp} spp seed {seed}", dump, ref))
+                out.append((f"{scene} {size}x{size} {spp} spp seed {seed}", dump, ref))
+    return out
+
+
+def quality_dumps(args, bins):
+    """(name, dump, reference image) triples of the sets in --quality-sets."""
+    sets = args.quality_sets.split(",")
+    out = []
+    if "bundled" in sets:
+        out += scene_dumps(args, bins, 128, (1, 4, 16), (1, 2))
+    if "bundled256" in sets:
+        # 256x256 at 4 spp: the demo's size, where the model grid is coarser than the samples'
+        # (D = 2); at 128x128 the default grid allows no coarser model (D = 1)
+        out += scene_dumps(args, bins, 256, (4,), (1, 2))
+    if "analytic" not in sets:
+        return out + mitsuba_quality_dumps(args, sets)
     import quality_sweep as qs
     for img, fn in qs.IMAGES.items():
         for grid, o, spp in ((512, 64, 4), (256, 64, 1), (256, 64, 4), (256, 64, 16)):
@@ -250,6 +266,13 @@ def quality_dumps(args, bins):
                     bc.run([bins["csi-mkdump"], fine_exr, "-o", dump, "--out", f"{o}x{o}", "--spp", str(spp),
                             "--seed", str(seed), "--method", "poisson", "-q"])
                 out.append((f"analytic {img} {grid}->{o} {spp} spp seed {seed}", dump, truth))
+    return out + mitsuba_quality_dumps(args, sets)
+
+
+def mitsuba_quality_dumps(args, sets):
+    out = []
+    if "mitsuba" not in sets:
+        return out
     for s in MITSUBA_SCENES:
         d = os.path.join(args.mitsuba_data, s)
         refs = sorted(f for f in os.listdir(d) if f.startswith("reference_") and f.endswith(".npy")) if os.path.isdir(d) else []
@@ -383,6 +406,9 @@ def main(argv=None):
     ap.add_argument("--batches", type=int, default=3, help="warm Mitsuba batches per measurement [3]")
     ap.add_argument("--mitsuba-data", default="/work/data/mitsuba")
     ap.add_argument("--quality", action="store_true", help="compare --base and --build on the same samples")
+    ap.add_argument("--quality-sets", default="bundled,analytic,mitsuba",
+                    help="--quality: which dumps (bundled: the scenes at 128x128, 1/4/16 spp; bundled256: at "
+                    "256x256, 4 spp; analytic; mitsuba) [bundled,analytic,mitsuba]")
     ap.add_argument("--variant", action="append", default=[], metavar="NAME:ARGS",
                     help="--quality: also the new build with these csi-reconstruct arguments, e.g. "
                     "'warm:--warm-channels on' (repeatable)")
