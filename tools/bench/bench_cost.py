@@ -160,9 +160,14 @@ def cost_section(args, bins, report):
         for bname, build in builds:
             # warm-up: PoCL's and clFFT's caches, the dump in the page cache
             reconstruct(build, dump, os.path.join(args.work, "warm.exr"), os.path.join(args.work, "warm.json"))
-            runs = args.runs if bname == "after" else args.base_runs
-            best = None
-            for r in range(runs):
+        best, cpus = {}, {b: [] for b, _ in builds}
+        nruns = {"after": args.runs, "before": args.base_runs}
+        # the builds' runs alternate (after, before, before, after, ...) so that a change of the
+        # machine's load hits both alike
+        for r in range(max(nruns[b] for b, _ in builds)):
+            for bname, build in (builds if r % 2 == 0 else builds[::-1]):
+                if r >= nruns[bname]:
+                    continue
                 m = mitsuba_cost(args, 100 + len(paths))
                 paths.append(m)
                 wall, cpu, st = reconstruct(build, dump, os.path.join(args.work, "cost.exr"), os.path.join(args.work, "cost.json"))
@@ -173,6 +178,7 @@ def cost_section(args, bins, report):
                 path_cpu = min(b["cpu_us"] for b in m)
                 # CPU of the solves and integration (new builds' stats), else the whole process's
                 cpu_per = st.get("cpu_per_sample_us", 1e6 * cpu / n)
+                cpus[bname].append(cpu_per)
                 rec = dict(case=label, build=bname, samples=n, grid=f"{hdr['grid_w']}x{hdr['grid_h']}",
                            D=st.get("model_grid_factor", 1), tiles=st.get("tiles", 1),
                            steps="/".join(str(c["iterations"]) for c in st["channels"].values()),
@@ -180,10 +186,13 @@ def cost_section(args, bins, report):
                            cpu_is_work="cpu_per_sample_us" in st, path_wall_us=path_wall,
                            path_cpu_us=path_cpu, **ph)
                 bc.log(f"{label} [{bname}] run {r + 1}: wall {wall:.2f} s, {per:.2f} us/sample, "
-                       f"path {path_wall:.3f} us -> {per / path_wall:.1f} paths/sample")
-                if best is None or wall < best["wall"]:
-                    best = rec
-            rows.append(best)
+                       f"path {path_wall:.3f} us -> {per / path_wall:.1f} paths/sample; CPU {cpu_per:.2f} us/sample")
+                if bname not in best or wall < best[bname]["wall"]:
+                    best[bname] = rec
+        for bname, _ in builds:
+            best[bname]["cpu_median_us"] = float(np.median(cpus[bname]))
+            best[bname]["runs"] = len(cpus[bname])
+            rows.append(best[bname])
     report["cost"] = rows
     report["paths"] = paths
     return rows, paths
@@ -198,18 +207,18 @@ def cost_markdown(rows, paths):
     allc = [b["cpu_us"] for m in paths for b in m]
     lines = [f"Mitsuba 3 Cornell box, depth 8, {len(allw)} warm batches: wall {min(allw):.3f}-{max(allw):.3f} us per "
              f"path (median {np.median(allw):.3f}); CPU {min(allc):.3f}-{max(allc):.3f} us per path.", "",
-             "| case | build | samples | grid | D | tiles | steps per channel | fixed s | programs s | solve s | integrate s | write s | wall s | reconstruction us/sample | Mitsuba us/path (same run) | paths per sample | CPU us/sample | CPU paths per sample |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| case | build | samples | grid | D | tiles | steps per channel | fixed s | programs s | solve s | integrate s | write s | wall s | reconstruction us/sample | Mitsuba us/path (same run) | paths per sample | CPU us/sample | CPU paths per sample | CPU us/sample, median of runs |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     notes = ["", "Per sample: (solve + integrate) / samples, wall clock; CPU: process CPU time of the solves and "
              "integration (all threads; * = an old build's whole process, setup included, which its stats do not "
              "split). Paths per sample: that over Mitsuba's cost per path (wall over wall, CPU over CPU), the fastest "
-             "batch measured just before the case's run."]
+             "batch measured just before the case's run. The builds' runs alternate; the row is each build's fastest run (wall), the last column the median CPU cost over all its runs."]
     for r in rows:
         lines.append(f"| {r['case']} | {r['build']} | {r['samples']} | {r['grid']} | {r['D']} | {r['tiles']} | {r['steps']} | "
                      f"{fmt(r['fixed'])} | {fmt(r['programs'])} | {fmt(r['solve'])} | {fmt(r['integrate'])} | {fmt(r['write'])} | "
                      f"{r['wall']:.2f} | {r['per_sample_us']:.2f} | {r['path_wall_us']:.3f} | "
                      f"{r['per_sample_us'] / r['path_wall_us']:.1f} | {r['cpu_per_sample_us']:.2f}{'' if r['cpu_is_work'] else '*'} | "
-                     f"{r['cpu_per_sample_us'] / r['path_cpu_us']:.1f} |")
+                     f"{r['cpu_per_sample_us'] / r['path_cpu_us']:.1f} | {r['cpu_median_us']:.2f} ({r['runs']}) |")
     return "\n".join(lines + notes)
 
 
@@ -245,7 +254,7 @@ def quality_dumps(args, bins):
     sets = args.quality_sets.split(",")
     out = []
     if "bundled" in sets:
-        out += scene_dumps(args, bins, 128, (1, 4, 16), (1, 2))
+        out += scene_dumps(args, bins, 128, args.quality_spp, (1, 2))
     if "bundled256" in sets:
         # 256x256 at 4 spp: the demo's size, where the model grid is coarser than the samples'
         # (D = 2); at 128x128 the default grid allows no coarser model (D = 1)
@@ -279,7 +288,7 @@ def mitsuba_quality_dumps(args, sets):
         if not refs:
             continue
         ref = np.load(os.path.join(d, refs[-1])).astype(np.float32)
-        for spp in (1, 4, 16):
+        for spp in args.quality_spp:
             for paths in (1, 64):
                 dump = os.path.join(d, f"s{spp}_p{paths}_poisson.csid")
                 if os.path.exists(dump):
@@ -409,6 +418,8 @@ def main(argv=None):
     ap.add_argument("--quality-sets", default="bundled,analytic,mitsuba",
                     help="--quality: which dumps (bundled: the scenes at 128x128, 1/4/16 spp; bundled256: at "
                     "256x256, 4 spp; analytic; mitsuba) [bundled,analytic,mitsuba]")
+    ap.add_argument("--quality-spp", default="1,4,16", type=lambda v: tuple(int(x) for x in v.split(",")),
+                    help="--quality: the spp of the bundled 128x128 and Mitsuba dumps [1,4,16]")
     ap.add_argument("--variant", action="append", default=[], metavar="NAME:ARGS",
                     help="--quality: also the new build with these csi-reconstruct arguments, e.g. "
                     "'warm:--warm-channels on' (repeatable)")
