@@ -35,19 +35,18 @@ open(f, "wb").write(hdr + rec * n)
 EOF
 }
 
-# refused FILE: exit 2, one line containing WANT, within 5 s and under 300 MB of peak RSS: before
-# the work, which for these inputs takes minutes and gigabytes. The checks themselves are
-# arithmetic (0.04-0.3 s with PoCL's start, docs/bench/robustness.md); the margin is for a shared
-# machine, where load ~35 stretched refusals to 1.1-1.6 s (speed is measured in benchmarks, not
-# asserted here).
+# refused FILE: exit 2, one line containing WANT, under 300 MB of peak RSS: before the work, which
+# for these inputs takes minutes and gigabytes. Refusal times are measured in
+# docs/bench/robustness.md, not asserted here; the 120 s timeout only turns a hang (the work
+# started after all) into a failure instead of a stuck suite.
 refused() { # name want cmd...
     local name="$1" want="$2"; shift 2
     local t0 t1 rc
     t0=$(now_ms)
-    /usr/bin/time -f '%M' -o "$T/rss" "$@" > /dev/null 2> "$T/e"; rc=$?
+    timeout 120 /usr/bin/time -f '%M' -o "$T/rss" "$@" > /dev/null 2> "$T/e"; rc=$?
     t1=$(now_ms)
     local rss; rss=$(tail -1 "$T/rss")
-    if [[ $rc == 2 && $(wc -l < "$T/e") == 1 ]] && grep -q -- "$want" "$T/e" && ((t1 - t0 < 5000 && rss < 300000)); then
+    if [[ $rc == 2 && $(wc -l < "$T/e") == 1 ]] && grep -q -- "$want" "$T/e" && ((rss < 300000)); then
         ok
     else
         bad "$name: rc=$rc $((t1 - t0)) ms ${rss} KB: $(cat "$T/e")"
