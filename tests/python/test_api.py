@@ -17,18 +17,9 @@ import numpy as np
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BUILD = os.environ.get("CSI_BUILD_DIR") or os.path.join(SOURCE, "build")
 sys.path.insert(0, os.path.join(SOURCE, "host", "python"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import csi  # noqa: E402
-
-passed = failed = 0
-
-
-def check(cond, what):
-    global passed, failed
-    if cond:
-        passed += 1
-    else:
-        failed += 1
-        print("FAIL:", what, file=sys.stderr)
+from checks import check, done  # noqa: E402
 
 
 def fnv1a64(a: np.ndarray) -> str:
@@ -109,5 +100,4 @@ with tempfile.TemporaryDirectory() as T:
     except csi.CsiError as e:
         check(e.status == "CSI_ERR_CANCELLED" and calls[0] == "setup", f"cancel: {e.status} {e} {calls[:3]}")
 
-print(f"{passed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+sys.exit(done())
