@@ -6,11 +6,7 @@
 # usage: positions.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
-T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()   { pass=$((pass + 1)); }
-bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
-check() { if eval "$1"; then ok; else bad "$2"; fi; }
+source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
 # header fields as unsigned 32-bit words: grid_w grid_h grid_t out_w out_h channels count_lo
 hdr() { od -An -v -tu4 -j8 -N28 "$1" | tr -s ' \n' ' ' | sed 's/^ //; s/ $//'; }
 # the (x, y, t) of every record of a file whose records are $2 bytes long
@@ -54,14 +50,6 @@ check "[[ '$(hdr "$T/g.csid")' == '64 32 1 32 16 0 1024' ]]" "--grid 64 on 32x16
 check "[[ '$(hdr "$T/f.csid")' == '64 64 1 32 32 0 1024' ]]" "--fraction 0.25: $(hdr "$T/f.csid")"
 
 # --- bad input: exit 2, one line naming the problem, nothing written ---------------------------
-expect_fail() { # name, expected-substring, command...
-    local name="$1" want="$2"; shift 2
-    rm -f "$T/out.csid"
-    "$@" > "$T/o" 2> "$T/e"; local rc=$?
-    local lines; lines=$(wc -l < "$T/e")
-    if [[ $rc == 2 && $lines == 1 ]] && grep -q -- "$want" "$T/e" && [[ ! -e "$T/out.csid" && ! -e "$T/out.exr" ]] && \
-       ! ls -A "$T" | grep -q '^\.out'; then ok; else bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"; fi
-}
 expect_fail "request is not samples" "positions request" "$B/csi-reconstruct" "$T/q4.csid" -o "$T/out.exr"
 expect_fail "no output" "-o" "$P" --out 32x32
 expect_fail "no size" "--out" "$P" -o "$T/out.csid"
@@ -74,5 +62,4 @@ expect_fail "unwritable output" "no-such-dir" "$P" --out 32x32 -o "$T/no-such-di
 expect_fail "stray argument" "stray" "$P" --out 32x32 -o "$T/out.csid" stray
 expect_fail "unknown option" "--bogus" "$P" --out 32x32 -o "$T/out.csid" --bogus
 
-echo "$pass passed, $fail failed"
-[[ $fail == 0 ]]
+finish

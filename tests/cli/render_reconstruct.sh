@@ -5,12 +5,7 @@
 # usage: render_reconstruct.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
-T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()   { pass=$((pass + 1)); }
-bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
-check() { if eval "$1"; then ok; else bad "$2"; fi; }
-json() { sed -n "s/.*\"$2\": \"\\{0,1\\}\\([^\",]*\\).*/\\1/p" "$1" | head -1; }
+source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
 static="$S/tests/cli/scenes/small_triangle.scene"
 moving="$S/tests/cli/scenes/small_moving.scene"
 fast=(--max-iter 40 -q)
@@ -66,14 +61,6 @@ for sc in static moving; do
 done
 
 # --- bad input: exit 2, one line naming the problem, no output file --------------------------
-expect_fail() { # name, expected-substring, command...
-    local name="$1" want="$2"; shift 2
-    rm -f "$T/out.exr"
-    "$@" > "$T/o" 2> "$T/e"; local rc=$?
-    local lines; lines=$(wc -l < "$T/e")
-    if [[ $rc == 2 && $lines == 1 ]] && grep -q -- "$want" "$T/e" && [[ ! -e "$T/out.exr" ]] && \
-       ! ls "$T" | grep -q '^\.out\.exr'; then ok; else bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"; fi
-}
 good="$T/static.csid"
 expect_fail "missing dump" "nonexistent.csid" "$B/csi-reconstruct" "$T/nonexistent.csid" -o "$T/out.exr"
 printf 'XXXX' | cat - <(tail -c +5 "$good") > "$T/magic.csid"
@@ -104,5 +91,4 @@ expect_fail "grid not a multiple" "--grid" "$B/csi-render" "$static" -o "$T/out.
 CSI_DEVICE=no-such-device expect_fail "render without device" "no OpenCL device matches" \
     "$B/csi-render" "$static" -o "$T/out.exr"
 
-echo "$pass passed, $fail failed"
-[[ $fail == 0 ]]
+finish

@@ -12,10 +12,7 @@
 # usage: robustness.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
-T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
+source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
 static="$S/tests/cli/scenes/small_triangle.scene"
 moving="$S/tests/cli/scenes/small_moving.scene"
 fast=(--max-iter 20 -q)
@@ -184,5 +181,4 @@ if grep -q $'\e' "$T/e"; then bad "an escape character reached stderr"; elif gre
 "$B/csi-reconstruct" "$T/s.csid" -o "$T/r1.exr" "${fast[@]}" && "$B/csi-reconstruct" "$T/s.csid" -o "$T/r2.exr" "${fast[@]}"
 cmp -s "$T/r1.exr" "$T/r2.exr" && ok || bad "two runs of the same dump wrote different EXR bytes"
 
-echo "$pass passed, $fail failed"
-[[ $fail == 0 ]]
+finish

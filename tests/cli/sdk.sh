@@ -7,12 +7,7 @@
 # usage: sdk.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
-T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()   { pass=$((pass + 1)); }
-bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
-check() { if eval "$1"; then ok; else bad "$2"; fi; }
-json() { sed -n "s/.*\"$2\": \"\\{0,1\\}\\([^\",]*\\).*/\\1/p" "$1" | head -1; }
+source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
 
 cmake --install "$B" --prefix "$T/prefix" > "$T/install.log" 2>&1
 check "[[ $? == 0 ]]" "cmake --install: $(tail -3 "$T/install.log")"
@@ -54,5 +49,4 @@ check "[[ $? == 0 ]]" "pkg-config build: $(head -3 "$T/pc.log")"
 LD_LIBRARY_PATH="$(dirname "$lib")" "$T/toy_pc" "$T/toy2.exr" 2 > /dev/null 2>&1
 check "[[ $? == 0 && -s '$T/toy2.exr' ]]" "pkg-config build runs"
 
-echo "$pass passed, $fail failed"
-[[ $fail == 0 ]]
+finish

@@ -7,12 +7,7 @@
 # usage: tiles.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
-T="$(mktemp -d)"; trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()   { pass=$((pass + 1)); }
-bad()  { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
-check() { if eval "$1"; then ok; else bad "$2"; fi; }
-json() { sed -n "s/.*\"$2\": \"\\{0,1\\}\\([^\",]*\\).*/\\1/p" "$1" | head -1; }
+source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
 static="$S/tests/cli/scenes/small_triangle.scene"
 moving="$S/tests/cli/scenes/small_moving.scene"
 # 32x32 pixels: 4-pixel margins (2 frames in t) let a 32-pixel image hold several tiles
@@ -58,14 +53,6 @@ same=1; for f in "$T"/f1/*.png; do cmp -s "$f" "$T/f2/$(basename "$f")" || same=
 check "[[ $same == 1 && -s '$T/f2/frame_0007.png' ]]" "merged frames differ from the tiled run's"
 
 # --- bad input: exit 2, one line naming the problem, no output ---------------------------------
-expect_fail() { # name, expected-substring, command...
-    local name="$1" want="$2"; shift 2
-    rm -f "$T/out.exr"
-    "$@" > "$T/o" 2> "$T/e"; local rc=$?
-    local lines; lines=$(wc -l < "$T/e")
-    if [[ $rc == 2 && $lines == 1 ]] && grep -q -- "$want" "$T/e" && [[ ! -e "$T/out.exr" ]] && \
-       ! ls -a "$T" | grep -q '^\.out\.exr'; then ok; else bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"; fi
-}
 expect_fail "missing tile" "tile 3 of 4 is missing" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/p2.csip" -o "$T/out.exr"
 expect_fail "repeated tile" "both hold tile 1" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/p1.csip" "$T/p3.csip" -o "$T/out.exr"
 "$B/csi-reconstruct" "$T/s.csid" --tile 1/4 --tile-scale "$scale" -o "$T/other1.csip" --tile-margin 4 --max-iter 41 -q
@@ -81,5 +68,4 @@ expect_fail "tile out of range" "--tile" "$B/csi-reconstruct" "$T/s.csid" --tile
 expect_fail "tile and png" "csi-merge" "$B/csi-reconstruct" "$T/s.csid" --tile 0/4 -o "$T/out.exr" --png "$T/x.png"
 expect_fail "too many tiles" "cannot be laid out" "$B/csi-reconstruct" "$T/s.csid" --tile 0/999 -o "$T/out.exr"
 
-echo "$pass passed, $fail failed"
-[[ $fail == 0 ]]
+finish
