@@ -328,9 +328,12 @@ typedef struct {
 } pd_state;
 
 /* Bitmap path limits: at most this many offsets (r^2 <= ~9 in 3-D, ~40 in 2-D) and a bitmap
- * of at most 2^30 cells (128 MiB). */
+ * of at most 2^32 cells (512 MiB): a 4K image on the 16x grid (2.1 G cells) stays on the bitmap
+ * path, whose random-order tests are a few bit lookups; the accelerator's linked buckets are an
+ * order of magnitude slower there. Both test the same predicate, so the positions do not
+ * depend on which path ran. */
 #define PD_MAX_OFFSETS 128
-#define PD_MAX_BITMAP_CELLS (UINT64_C(1) << 30)
+#define PD_MAX_BITMAP_CELLS (UINT64_C(1) << 32)
 
 static csi_status pd_offsets(pd_state *s)
 {
