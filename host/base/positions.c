@@ -309,6 +309,14 @@ static uint64_t feistel_apply(const feistel *f, uint64_t x)
     return x;
 }
 
+/* The rows (dy, dt) that the offsets of one candidate span: at most (2 r + 1)^2 for r^2 <= ~9 in
+ * 3-D, 2 r + 1 for r^2 <= ~40 in 2-D. */
+#define PD_MAX_ROWS 64
+/* Candidates whose bitmap words are prefetched ahead of their test. The candidates come in a
+ * pseudo-random order, so without it every test waits on several cache misses in turn; with it
+ * the misses of the next candidates overlap the current test. */
+#define PD_LOOKAHEAD 16
+
 typedef struct {
     const csi_grid *g;
     int dims;
@@ -325,6 +333,9 @@ typedef struct {
     uint64_t *bits;     /* k bits, or NULL when the accelerator is used */
     int32_t (*off)[3];  /* offsets (dx, dy, dt) with 0 < |d|^2 < r^2 */
     size_t noff;
+    int64_t rows[PD_MAX_ROWS]; /* the linear offsets dt W H + dy W of the rows the offsets touch */
+    size_t nrows;
+    int32_t reach;             /* the largest |dx| */
 } pd_state;
 
 /* Bitmap path limits: at most this many offsets (r^2 <= ~9 in 3-D, ~40 in 2-D) and a bitmap
@@ -354,7 +365,35 @@ static csi_status pd_offsets(pd_state *s)
                 }
             }
     s->noff = n;
+    s->nrows = 0;
+    s->reach = 0;
+    const int64_t W = s->g->w, H = s->g->h;
+    for (int dt = -tr; dt <= tr; dt++)
+        for (int dy = -R; dy <= R; dy++) {
+            bool used = dt == 0 && dy == 0; /* the candidate's own row is tested too */
+            for (size_t i = 0; i < n; i++) {
+                if (s->off[i][1] == dy && s->off[i][2] == dt)
+                    used = true;
+                if (abs(s->off[i][0]) > s->reach)
+                    s->reach = abs(s->off[i][0]);
+            }
+            if (used && s->nrows < PD_MAX_ROWS)
+                s->rows[s->nrows++] = ((int64_t)dt * H + dy) * W;
+        }
     return CSI_OK;
+}
+
+/* A hint only: the words of the bitmap a test of `lin` will read (ends of each row it spans). */
+static void pd_prefetch(const pd_state *s, uint64_t lin)
+{
+    const int64_t k = (int64_t)s->g->w * s->g->h * s->g->t;
+    for (size_t i = 0; i < s->nrows; i++) {
+        const int64_t lo = (int64_t)lin + s->rows[i] - s->reach, hi = (int64_t)lin + s->rows[i] + s->reach;
+        if (lo >= 0 && lo < k)
+            __builtin_prefetch(&s->bits[lo >> 6]);
+        if (hi >= 0 && hi < k && (hi >> 6) != (lo >> 6))
+            __builtin_prefetch(&s->bits[hi >> 6]);
+    }
 }
 
 static csi_status pd_rebuild(pd_state *s, double r)
@@ -462,10 +501,22 @@ static csi_status poisson(const csi_grid *g, const csi_pos_opts *o, uint64_t *li
             goto done;
         feistel f;
         feistel_init(&f, k, &rng);
+        const bool bitmap = s.bits && s.noff > 0;
+        uint64_t ahead[PD_LOOKAHEAD];
+        for (uint64_t j = 0; j < PD_LOOKAHEAD && j < k; j++) {
+            ahead[j] = feistel_apply(&f, j);
+            if (bitmap)
+                pd_prefetch(&s, ahead[j]);
+        }
         for (uint64_t i = 0; i < k && s.n < N; i++) {
-            const uint64_t lin = feistel_apply(&f, i);
+            const uint64_t lin = ahead[i % PD_LOOKAHEAD];
+            if (i + PD_LOOKAHEAD < k) {
+                ahead[i % PD_LOOKAHEAD] = feistel_apply(&f, i + PD_LOOKAHEAD);
+                if (bitmap)
+                    pd_prefetch(&s, ahead[i % PD_LOOKAHEAD]);
+            }
             const csi_sample_pos p = pos_of(g, lin);
-            if (s.bits && s.noff > 0) {
+            if (bitmap) {
                 if (!pd_accept_bits(&s, p, lin))
                     continue;
                 s.bits[lin >> 6] |= UINT64_C(1) << (lin & 63);
