@@ -93,6 +93,9 @@ typedef struct csi_plan {
     double ao_distance;
     bool path_tracing;
     uint32_t max_bounces, roulette_start;
+    bool exact;                   /* no random number is drawn (no area light, ambient
+                                     occlusion or path tracing): every value is the noise-free
+                                     radiance at its cell's centre (csi/csi.h CSI_SAMPLES_EXACT) */
 } csi_plan;
 
 /* Decides what is simulated (docs/scene-format.md, "The plan"). overrides may be NULL.

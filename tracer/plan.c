@@ -268,6 +268,9 @@ csi_status csi_plan_make(const csi_scene *sc, const csi_plan_overrides *ov, csi_
     pl->path_tracing = sc->path;
     pl->max_bounces = sc->path ? sc->max_bounces : 0;
     pl->roulette_start = sc->path ? sc->roulette_start : 0;
+    /* The tracer's only random numbers: area-light points, AO directions, bounces and roulette
+     * (tracer.c); without them a value is a function of its cell's centre alone. */
+    pl->exact = pl->n_area_lights == 0 && !pl->ambient_occlusion && !pl->path_tracing;
     return CSI_OK;
 }
 
@@ -371,6 +374,7 @@ csi_status csi_plan_json_string(const csi_scene *sc, const csi_plan *pl, char **
                   pl->roulette_start);
     else
         sb_printf(&b, "false");
+    sb_printf(&b, ", \"exact\": %s", pl->exact ? "true" : "false");
     sb_printf(&b, "}\n");
     if (b.oom) {
         free(b.s);

@@ -24,6 +24,11 @@ typedef struct {
 } csi_api_progress;
 bool csi_api_progress_relay(void *user, const char *phase, int iter, double rel_residual);
 
+/* The options a reconstruction of samples s runs with: *options (NULL: the defaults) and what
+ * the samples are (s->flags); CSI_ERR_ARG naming fn when a flag is not one csi knows. */
+csi_status csi_api_options_for(const csi_options *options, const csi_samples *s, const char *fn,
+                               csi_recon_options *o);
+
 /* Records st's failure (this thread's last message) on dev, unless an earlier one is still
  * unread; returns st. dev may be NULL. */
 csi_status csi_device_record(csi_device *dev, csi_status st);

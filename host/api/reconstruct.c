@@ -26,6 +26,20 @@ bool csi_api_progress_relay(void *user, const char *phase, int iter, double rel_
     return r->fn(r->user, &p);
 }
 
+csi_status csi_api_options_for(const csi_options *options, const csi_samples *s, const char *fn,
+                               csi_recon_options *o)
+{
+    if (options)
+        *o = options->o;
+    else
+        csi_recon_defaults(o);
+    if (s->flags & ~(uint32_t)CSI_SAMPLES_KNOWN_FLAGS)
+        return csi_fail(CSI_ERR_ARG, "%s: the samples' flags 0x%08x have reserved bits set (known: 0x%08x)", fn,
+                        (unsigned)s->flags, CSI_SAMPLES_KNOWN_FLAGS);
+    o->sample_flags = s->flags;
+    return CSI_OK;
+}
+
 csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_options *options,
                            csi_progress_fn progress, void *user, csi_result **out)
 {
@@ -37,14 +51,11 @@ csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_opti
     if (s->count && (!s->pos || !s->values))
         return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_reconstruct: %zu samples but no %s",
                                                s->count, s->pos ? "values" : "positions"));
+    csi_recon_options o;
+    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_reconstruct", &o)));
     csi_result *r = calloc(1, sizeof *r);
     if (!r)
         return csi_device_record(dev, csi_fail(CSI_ERR_NOMEM, "out of host memory for a result"));
-    csi_recon_options o;
-    if (options)
-        o = options->o;
-    else
-        csi_recon_defaults(&o);
     csi_api_progress pr = {progress, user};
     o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;

@@ -14,21 +14,13 @@ static csi_status check_args(csi_device *dev, const csi_samples *s, const char *
     return CSI_OK;
 }
 
-static void options_of(const csi_options *options, csi_recon_options *o)
-{
-    if (options)
-        *o = options->o;
-    else
-        csi_recon_defaults(o);
-}
-
 csi_status csi_tiling_get(csi_device *dev, const csi_samples *s, const csi_options *options, csi_tiling_info *out)
 {
     CSI_TRY(csi_device_record(dev, check_args(dev, s, "csi_tiling_get")));
     if (!out)
         return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_tiling_get: out is NULL"));
     csi_recon_options o;
-    options_of(options, &o);
+    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_tiling_get", &o)));
     csi_tiling tl;
     CSI_TRY(csi_device_record(dev, csi_tiling_plan(dev->ctx, &s->grid, s->channels, s->count, &o, &tl)));
     memset(out, 0, sizeof *out);
@@ -49,7 +41,7 @@ csi_status csi_tile_scale(csi_device *dev, const csi_samples *s, const csi_optio
     if (!scale)
         return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_tile_scale: scale is NULL"));
     csi_recon_options o;
-    options_of(options, &o);
+    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_tile_scale", &o)));
     csi_tiling tl;
     csi_tile_scope scope;
     csi_status st = csi_tiling_plan(dev->ctx, &s->grid, s->channels, s->count, &o, &tl);
@@ -71,7 +63,7 @@ csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *s, const csi
     if (!out)
         return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_reconstruct_tile: out is NULL"));
     csi_recon_options o;
-    options_of(options, &o);
+    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_reconstruct_tile", &o)));
     csi_api_progress pr = {progress, user};
     o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;

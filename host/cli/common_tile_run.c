@@ -137,7 +137,9 @@ static uint64_t samples_id(const csi_samples *s)
         const uint32_t xyt[3] = {s->pos[i].x, s->pos[i].y, s->pos[i].t};
         id = cli_hash64(id, xyt, sizeof xyt);
     }
-    return cli_hash64(id, s->values, s->count * s->channels * sizeof(float));
+    id = cli_hash64(id, s->values, s->count * s->channels * sizeof(float));
+    /* what the samples are decides correct = auto; 0 leaves the ids of earlier partials as they were */
+    return s->flags ? cli_hash64(id, &s->flags, sizeof s->flags) : id;
 }
 
 typedef struct {
@@ -166,6 +168,10 @@ int cli_tile_run_samples(const char *prog, csi_device *dev, csi_outset *set, con
                          bool quiet)
 {
     csi_recon_options *opt = &options->o;
+    if (smp->flags & ~(uint32_t)CSI_SAMPLES_KNOWN_FLAGS)
+        return cli_error(prog, CSI_ERR_ARG, "%s: the samples' flags 0x%08x have reserved bits set", input,
+                         (unsigned)smp->flags);
+    opt->sample_flags = smp->flags;
     const uint64_t id = samples_id(smp);
     csi_tiling tl;
     csi_status s = cli_tile_layout(dev->ctx, &smp->grid, smp->channels, smp->count, tile, opt, &tl);
@@ -249,10 +255,11 @@ static bool in_window(csi_sample_pos p, const uint32_t lo[3], const uint32_t hi[
 
 int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, const char *scene_path,
                         const csi_grid *grid, const csi_pos_opts *po, const csi_sample_pos *pos, size_t n,
-                        csi_options *options, const cli_tile_opts *tile, const cli_outputs *outs, bool quiet,
-                        cli_tile_eval_fn eval, void *user)
+                        uint32_t sample_flags, csi_options *options, const cli_tile_opts *tile,
+                        const cli_outputs *outs, bool quiet, cli_tile_eval_fn eval, void *user)
 {
     csi_recon_options *opt = &options->o;
+    opt->sample_flags = sample_flags;
     uint64_t id;
     csi_tiling tl;
     csi_status s = render_id(scene_path, grid, po, &id);

@@ -34,6 +34,11 @@ static void usage(FILE *f)
             "  --frames PATTERN      printf-style pattern with one integer conversion, e.g. %%03d\n"
             "  --count T             number of frames (T >= 2)\n"
             "  --start N             number of the first frame [0]\n"
+            "  --exact               flag the dump's values as exact: the image holds a noise-free\n"
+            "                        signal's values at the cell centres (a deterministic render,\n"
+            "                        an analytic image), not a photograph's pixel integrals or a\n"
+            "                        Monte Carlo render; csi-reconstruct's --correct auto then takes\n"
+            "                        cv instead of blend (docs/dump-format.md)\n"
             "  -q, --quiet           no summary line\n"
             "  -h, --help            this text\n"
             "\n"
@@ -122,6 +127,7 @@ int main(int argc, char **argv)
     double fraction = 0;
     uint64_t seed = DEFAULT_SEED;
     bool have_out = false, have_spp = false, have_fraction = false, have_count = false, quiet = false;
+    bool exact = false;
 
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -137,6 +143,8 @@ int main(int argc, char **argv)
             return 0;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             quiet = true;
+        } else if (!strcmp(a, "--exact")) {
+            exact = true;
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
             NEED_VALUE();
             output = v;
@@ -286,6 +294,7 @@ int main(int argc, char **argv)
         if (csi_dump_alloc(&d, n, ch) != CSI_OK) {
             rc = lib_fail();
         } else {
+            d.flags = exact ? CSI_SAMPLES_EXACT : 0;
             const size_t plane = (size_t)d.grid.w * d.grid.h;
             for (size_t i = 0; i < n; i++) {
                 d.pos[i] = pos[i];

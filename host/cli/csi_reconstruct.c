@@ -216,7 +216,7 @@ int main(int argc, char **argv)
     cli_progress_init(&bar, quiet);
     cli_recon_progress ps;
     cli_recon_progress_init(&ps, &bar);
-    const csi_samples samples = {dump.grid, dump.channels, dump.count, dump.pos, dump.values};
+    const csi_samples samples = {dump.grid, dump.channels, dump.count, dump.pos, dump.values, dump.flags};
     if (tile.one || tile.info) {
         rc = cli_tile_run_samples(prog, dev, set, &samples, in, opt, &tile, &outs, quiet);
         cli_progress_end(&bar);

@@ -256,6 +256,9 @@ int main(int argc, char **argv)
         csi_options_free(opt);
         return cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
     }
+    /* A scene without random effects gives noise-free point values: flagged, in the dump too, so
+     * that csi-reconstruct of the dump resolves the same options (docs/dump-format.md). */
+    const uint32_t flags = plan.exact ? CSI_SAMPLES_EXACT : 0;
     csi_device *dev = NULL;
     csi_tracer *tr = NULL;
     csi_sample_pos *pos = NULL;
@@ -382,7 +385,7 @@ int main(int argc, char **argv)
     }
     if (tile.one || tile.info) {
         tile_eval te = {tr, &grid, seed};
-        rc = cli_tile_run_render(prog, dev, set, scene_path, &grid, &popts, pos, n, opt, &tile, &outs, quiet,
+        rc = cli_tile_run_render(prog, dev, set, scene_path, &grid, &popts, pos, n, flags, opt, &tile, &outs, quiet,
                                  eval_tile, &te);
         goto done;
     }
@@ -404,14 +407,15 @@ int main(int argc, char **argv)
         goto done;
     }
     if (dump_path) {
-        csi_dump dump = {.grid = grid, .channels = 3, .seed = seed, .count = n, .pos = pos, .values = rgb};
+        csi_dump dump = {.grid = grid, .channels = 3, .seed = seed, .count = n, .pos = pos, .values = rgb,
+                         .flags = flags};
         s = cli_write_dump(set, dump_path, &dump);
         if (s != CSI_OK) {
             rc = cli_error(prog, s, "%s", cli_last_error());
             goto done;
         }
     }
-    const csi_samples samples = {grid, 3, n, pos, rgb};
+    const csi_samples samples = {grid, 3, n, pos, rgb, flags};
     double t1 = cli_now();
     s = csi_reconstruct(dev, &samples, opt, on_solve, &ps, &res);
     double t_recon = cli_now() - t1;

@@ -55,10 +55,11 @@ typedef csi_status (*cli_tile_eval_fn)(void *user, const csi_sample_pos *pos, co
 /* csi-render --tile / --tile-info: the same over a scene whose n positions are known but not yet
  * evaluated; a tile evaluates only the samples inside its window, and without --tile-scale scales
  * tau by its own samples, as an untiled run of the window would. `positions` names the positions'
- * method for the partial's method text. */
+ * method for the partial's method text; sample_flags (CSI_SAMPLES_*) says what the values will
+ * be, as csi_samples.flags does. */
 int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, const char *scene_path,
                         const csi_grid *g, const csi_pos_opts *po, const csi_sample_pos *pos, size_t n,
-                        csi_options *opt, const cli_tile_opts *t, const cli_outputs *outs, bool quiet,
-                        cli_tile_eval_fn eval, void *user);
+                        uint32_t sample_flags, csi_options *opt, const cli_tile_opts *t, const cli_outputs *outs,
+                        bool quiet, cli_tile_eval_fn eval, void *user);
 
 #endif

@@ -154,7 +154,9 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
 
-    const csi_aa_correct how = opt->correct == CSI_CORRECT_AUTO ? CSI_CORRECT_BLEND : opt->correct;
+    const csi_aa_correct how = opt->correct != CSI_CORRECT_AUTO          ? opt->correct
+                               : opt->sample_flags & CSI_SAMPLES_EXACT ? CSI_CORRECT_CV
+                                                                       : CSI_CORRECT_BLEND;
     double t_solve = 0, t_int = 0;
     int warm_from = -1; /* the last channel solved, whose x the next one may start from */
     for (uint32_t c = 0; c < channels; c++) {

@@ -85,7 +85,9 @@ static const row table[] = {
      "correct each pixel with its own samples; blend: box(g) moved towards the pixel's sample "
      "mean by weights estimated from the samples (meant never to be worse than the mean; "
      "clamped at 0 when the samples are >= 0); cv: control variate, box(g) + mean of the "
-     "pixel's residuals y - g", "blend for cs images, none for the gauss baseline; volumes: "
+     "pixel's residuals y - g", "cs images: cv when the samples are exact (noise-free point "
+     "values: the dump's flag, csi-render without random effects), else blend; none for the "
+     "gauss baseline; volumes: "
      "the fine estimate kept within the samples' range, no blend"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},

@@ -146,9 +146,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->levels = l > 5 ? 5 : l;
     }
     /* The blend (issue 9): never worse than the pixels' own means on a path tracer's samples,
-     * where the control variate was (docs/bench/mitsuba.md). */
+     * where the control variate was; on exact (noise-free) samples the control variate is the
+     * better estimator and the blend gives part of its gain away (docs/bench/mitsuba.md). */
     if (o->correct == CSI_CORRECT_AUTO)
-        o->correct = CSI_CORRECT_BLEND;
+        o->correct = o->sample_flags & CSI_SAMPLES_EXACT ? CSI_CORRECT_CV : CSI_CORRECT_BLEND;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)

@@ -178,7 +178,14 @@ static csi_status parse_header(const char *path, const unsigned char *h, size_t 
             return csi_fail_context(st, "%s: byte %d: ", path, off);
         }
     }
-    for (int i = 48; i < 64; i++)
+    /* Bytes 48-51: the flags (CSI_SAMPLES_*); a bit this reader does not know may change what
+     * the values mean, so it is refused like the reserved bytes after it. */
+    const uint32_t flags = le32(h + 48);
+    if (flags & ~(uint32_t)CSI_SAMPLES_KNOWN_FLAGS)
+        return csi_fail(CSI_ERR_FORMAT, "%s: byte 48: flags 0x%08" PRIx32 " has reserved bits 0x%08" PRIx32
+                        " set, must be zero (this reader knows 0x%08x: exact values)", path, flags,
+                        flags & ~(uint32_t)CSI_SAMPLES_KNOWN_FLAGS, CSI_SAMPLES_KNOWN_FLAGS);
+    for (int i = 52; i < 64; i++)
         if (h[i] != 0)
             return csi_fail(CSI_ERR_FORMAT, "%s: byte %d: reserved byte is 0x%02x, must be zero", path, i, h[i]);
     if (count == 0)
@@ -196,6 +203,7 @@ static csi_status parse_header(const char *path, const unsigned char *h, size_t 
     hdr->channels = channels;
     hdr->count = count;
     hdr->seed = le64(h + 40);
+    hdr->flags = flags;
     return CSI_OK;
 }
 
@@ -251,7 +259,7 @@ static csi_status read_records(dump_src *src, const char *path, const csi_dump_h
     }
 
     /* The file holds count records, so count is bounded by the file size: allocation is safe. */
-    csi_dump raw = {.grid = g, .channels = channels, .seed = hdr->seed};
+    csi_dump raw = {.grid = g, .channels = channels, .seed = hdr->seed, .flags = hdr->flags};
     if (count > SIZE_MAX / rec_bytes)
         return csi_fail(CSI_ERR_NOMEM, "%s: %" PRIu64 " records do not fit in memory", path, count);
     if (csi_dump_alloc(&raw, (size_t)count, channels) != CSI_OK)
@@ -341,7 +349,7 @@ static csi_status read_records(dump_src *src, const char *path, const csi_dump_h
 
     /* Sort by (linear index, record) and merge runs at one position by averaging in double. */
     dump_key *keys = malloc(kept * sizeof *keys);
-    csi_dump res = {.grid = g, .channels = channels, .seed = hdr->seed};
+    csi_dump res = {.grid = g, .channels = channels, .seed = hdr->seed, .flags = hdr->flags};
     if (!keys || csi_dump_alloc(&res, kept, channels) != CSI_OK) {
         free(keys);
         csi_dump_free(&raw);
@@ -430,6 +438,12 @@ csi_status csi_dump_write(const char *path, const csi_dump *d)
         return csi_fail_context(CSI_ERR_ARG, "%s: cannot write dump: ", path);
     if (d->count == 0)
         return csi_fail(CSI_ERR_ARG, "%s: cannot write a dump with zero samples", path);
+    if (d->flags & ~(uint32_t)CSI_SAMPLES_KNOWN_FLAGS)
+        return csi_fail(CSI_ERR_ARG, "%s: cannot write dump: flags 0x%08" PRIx32 " has reserved bits set", path,
+                        d->flags);
+    if (d->channels == 0 && d->flags)
+        return csi_fail(CSI_ERR_ARG, "%s: cannot write dump: a positions request has no values to be exact "
+                        "(flags must be 0)", path);
     const uint32_t ch = d->channels;
     for (size_t i = 0; i < d->count; i++) {
         csi_sample_pos p = d->pos[i];
@@ -453,6 +467,7 @@ csi_status csi_dump_write(const char *path, const csi_dump *d)
     put32(h + 28, ch);
     put64(h + 32, (uint64_t)d->count);
     put64(h + 40, d->seed);
+    put32(h + 48, d->flags);
 
     csi_outfile of;
     CSI_TRY(csi_outfile_open(&of, path));

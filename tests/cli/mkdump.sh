@@ -62,6 +62,13 @@ for m in stratified poisson random; do
     n=$(check_records "$out" 3 "$DATA/img_rgb.txt" 0 16 12) && [ "$n" = 48 ] && ok || bad "$m records ($n)"
 done
 
+# --exact: the header's flags (byte 48, the 13th u32) = 1, the records unchanged; the default 0.
+"$MK" "$DATA/img_rgb.png" -o "$TMP/exact.csid" --out 4x3 --spp 4 --method stratified --seed 5 --exact -q ||
+    bad "--exact: exit $?"
+h=$(header "$TMP/exact.csid")
+[ "$h" = "1145656131 1 16 12 1 4 3 3 48 0 5 0 1 0 0 0 " ] && ok || bad "--exact header: $h"
+cmp -s <(tail -c +65 "$TMP/exact.csid") <(tail -c +65 "$TMP/rgb_stratified.csid") && ok || bad "--exact changed the records"
+
 # Determinism and seeds.
 "$MK" "$DATA/img_rgb.png" -o "$TMP/again.csid" --out 4x3 --spp 4 --seed 5 -q
 cmp -s "$TMP/again.csid" "$TMP/rgb_poisson.csid" && ok || bad "same seed, same bytes"

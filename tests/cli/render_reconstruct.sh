@@ -38,6 +38,26 @@ for sc in static moving; do
     h4="$(json "$T/$sc.r4.json" image_fnv1a64)"
     check "[[ '$h1' != '$h4' ]]" "$sc: another seed gives the same image"
 done
+# what the samples are (docs/dump-format.md, byte 48): a scene without random effects gives exact
+# values, flagged in the dump, and --correct auto resolves to cv in both programs; ambient
+# occlusion makes them Monte Carlo estimates: not flagged, the blend; the same pixels either way
+check "grep -q '\"exact\": true' '$T/plan_s.json'" "static plan not exact: $(cat "$T/plan_s.json")"
+for f in static.r static.c; do
+    check "[[ '$(json "$T/$f.json" correct)' == cv ]]" "$f.json: correct $(json "$T/$f.json" correct), not cv"
+done
+check "[[ \"\$(od -An -tu4 -j48 -N4 '$T/static.csid' | tr -d ' ')\" == 1 ]]" "static dump: flags not 1"
+sed 's/^background 0 0 0$/background 0 0 0\nambient_occlusion { samples 2 distance 1 color 0.5 0.5 0.5 }/' \
+    "$static" > "$T/ao.scene"
+"$B/csi-render" --plan "$T/ao.scene" > "$T/plan_ao.json"
+check "grep -q '\"exact\": false' '$T/plan_ao.json' && grep -q '\"ambient_occlusion\": {' '$T/plan_ao.json'" "AO plan: $(cat "$T/plan_ao.json")"
+"$B/csi-render" "$T/ao.scene" -o "$T/ao.exr" --dump "$T/ao.csid" --stats "$T/ao.r.json" "${fast[@]}"
+"$B/csi-reconstruct" "$T/ao.csid" -o "$T/ao.2.exr" --stats "$T/ao.c.json" "${fast[@]}"
+check "[[ \"\$(od -An -tu4 -j48 -N4 '$T/ao.csid' | tr -d ' ')\" == 0 ]]" "AO dump flagged exact"
+for f in ao.r ao.c; do
+    check "[[ '$(json "$T/$f.json" correct)' == blend ]]" "$f.json: correct $(json "$T/$f.json" correct), not blend"
+done
+h1="$(json "$T/ao.r.json" image_fnv1a64)"; h2="$(json "$T/ao.c.json" image_fnv1a64)"
+check "[[ -n '$h1' && '$h1' == '$h2' ]]" "AO: csi-render and csi-reconstruct pixels differ ($h1 vs $h2)"
 # the stats give every phase's time, per channel for the solves (issue 13)
 for f in static.r static.c moving.c; do
     check "grep -q '\"phases\": {' '$T/$f.json' && grep -q '\"read_s\": ' '$T/$f.json' && grep -q '\"write_s\": ' '$T/$f.json' && grep -q '\"fixed_s\": ' '$T/$f.json' && grep -q '\"per_sample_us\": ' '$T/$f.json'" "$f.json: phases missing"

@@ -107,11 +107,8 @@ int main(void)
 {
     csi_ctx *ctx = test_ctx();
     static analytic_scene sc;
-    const struct {
-        const char *name;
-        analytic_fn fn;
-    } images[2] = {{"triangle", analytic_triangle}, {"texture", analytic_texture}};
-    for (int i = 0; i < 2; i++) {
+    const analytic_image *images = analytic_images;
+    for (int i = 0; i < ANALYTIC_IMAGES; i++) {
         analytic_scene_make(images[i].fn, &sc);
         CHECK(sc.nedge > 50, "%s has %d edge pixels", images[i].name, sc.nedge);
 

@@ -116,11 +116,8 @@ int main(void)
 {
     csi_ctx *ctx = test_ctx();
     static analytic_scene sc;
-    const struct {
-        const char *name;
-        analytic_fn fn;
-    } images[2] = {{"triangle", analytic_triangle}, {"texture", analytic_texture}};
-    for (int i = 0; i < 2; i++) {
+    const analytic_image *images = analytic_images;
+    for (int i = 0; i < ANALYTIC_IMAGES; i++) {
         analytic_scene_make(images[i].fn, &sc);
         double m[CFG_N];
         for (int c = 0; c < CFG_N; c++) {

@@ -50,6 +50,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     o.tiles = (sel >> 6) & 1 ? 2 : 0;
     o.max_iter = 1 + (int)((sel >> 8) % 8);
     o.seed = sel >> 16;
+    o.sample_flags = d.flags; /* exact values: correct = auto takes cv */
     csi_recon_plan p;
     if (csi_recon_plan_make(ctx, &d.grid, d.channels, d.count, &o, &p) == CSI_OK) {
         const uint64_t live = csi_device_bytes_live();

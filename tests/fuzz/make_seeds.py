@@ -4,7 +4,8 @@
 dump and recon: small sample dumps (docs/dump-format.md) of every kind the reader and the
 methods meet: static and moving grids, 1 to 4 channels, unsorted records with duplicates, an odd
 width (clFFT's path), a NaN record, a positions request, extreme magnitudes; for recon the
-header's seed field selects the estimator, solver and options (tests/fuzz/fuzz_recon.c).
+header's seed field selects the estimator, solver and options (tests/fuzz/fuzz_recon.c), and a
+few carry the exact-values flag (and one a reserved flag bit, refused).
 scene: the bundled scenes (but the 44 KB garden) and the command-line tests' scenes, plus scenes
 using the test data's OBJ and PNG. obj: the tracer tests' OBJ files and the head of the garden's
 grass. Deterministic (seeded)."""
@@ -18,10 +19,10 @@ root = os.path.dirname(os.path.dirname(here))
 out = os.path.join(here, "corpus")
 
 
-def dump(grid, outsz, records, channels, seed=0):
+def dump(grid, outsz, records, channels, seed=0, flags=0):
     w, h, t = grid
     hdr = b"CSID" + struct.pack("<7I", 1, w, h, t, outsz[0], outsz[1], channels)
-    hdr += struct.pack("<QQ", len(records), seed) + bytes(16)
+    hdr += struct.pack("<QQI", len(records), seed, flags) + bytes(12)
     body = b"".join(struct.pack("<3I", *p) + struct.pack("<%df" % channels, *v) for p, v in records)
     return hdr + body
 
@@ -67,6 +68,13 @@ def main():
         for sel in (0, 1, 2, 4 | 32, 8 | 16, 64, 3 << 8):
             if grid[0] % 2 == 0:  # odd widths run on clFFT, left out of fuzz_recon
                 write("recon", "%s_%x" % (name, sel), dump(grid, osz, rec, ch, seed=sel))
+        if name in ("static_y", "static_rgb_dup"):
+            # the exact-values flag (byte 48): --correct auto takes cv instead of the blend
+            write("dump", name + "_exact", dump(grid, osz, rec, ch, seed=i, flags=1))
+            for sel in (0, 64):
+                write("recon", "%s_exact_%x" % (name, sel), dump(grid, osz, rec, ch, seed=sel, flags=1))
+            if name == "static_y":  # a flag bit no reader knows: refused
+                write("dump", "flags_reserved_bit", dump(grid, osz, rec, ch, seed=i, flags=3))
     nan = random_records(rng, (8, 8, 1), 10, 1)
     nan[3] = (nan[3][0], [float("nan")])
     write("dump", "nan_record", dump((8, 8, 1), (2, 2), nan, 1))

@@ -6,6 +6,7 @@ keyword come back resolved; csi.positions on csi's grid rule gives csi-positions
 writes (its EXR header holds only what the inputs decide); errors are CsiError with the library's
 message; a progress callback that returns False cancels. Run by ctest with CSI_BUILD_DIR
 (programs and sdk/libcsi.so)."""
+import ctypes
 import json
 import os
 import subprocess
@@ -34,6 +35,7 @@ check(csi.version() == csi.__version__, f"library {csi.version()} vs package {cs
 names = {o["keyword"] for o in csi.options()}
 check({"tau", "solver", "lambda", "mem_budget"} <= names, f"options: {sorted(names)[:5]}...")
 
+h_of = {}
 with tempfile.TemporaryDirectory() as T:
     for sc in ("small_triangle", "small_moving"):
         scene = os.path.join(SOURCE, "tests", "cli", "scenes", sc + ".scene")
@@ -43,7 +45,7 @@ with tempfile.TemporaryDirectory() as T:
         subprocess.run([os.path.join(BUILD, "csi-reconstruct"), dump, "-o", os.path.join(T, sc + ".c.exr"),
                         "--stats", os.path.join(T, sc + ".c.json"), "-q"], check=True)
         want = [json.load(open(os.path.join(T, sc + x)))for x in (".r.json", ".c.json")]
-        h_render = want[0]["reconstruction"]["image_fnv1a64"]
+        h_render = h_of[sc] = want[0]["reconstruction"]["image_fnv1a64"]
         h_recon = want[1]["image_fnv1a64"]
         res = csi.reconstruct_dump(dump)
         planar = np.ascontiguousarray(res.image.transpose(2, 0, 1))
@@ -61,6 +63,46 @@ with tempfile.TemporaryDirectory() as T:
         for ext in ("exr", "png"):
             a, b = (open(os.path.join(T, f"{sc}.{x}.{ext}"), "rb").read() for x in ("c2" if ext == "exr" else "c", "py"))
             check(a == b, f"{sc}: Result.write_{ext} ({len(b)} bytes) differs from csi-reconstruct's ({len(a)} bytes)")
+
+    # what the samples are: csi-render flags a scene without random effects exact (its plan's
+    # "exact"), the dump carries it, and correct = auto then resolves to cv; exact= on the
+    # reconstruction of the same arrays chooses between the two images
+    plan = json.loads(subprocess.run([os.path.join(BUILD, "csi-render"), "--plan", os.path.join(
+        SOURCE, "tests", "cli", "scenes", "small_triangle.scene")], check=True, capture_output=True).stdout)
+    d = csi.read_dump(os.path.join(T, "small_triangle.csid"))
+    check(plan["exact"] is True and d.exact, f"small_triangle: plan exact {plan['exact']}, dump exact {d.exact}")
+    flagged = csi.reconstruct(d.positions, d.values, d.grid, seed=d.seed, exact=True)
+    as_cv = csi.reconstruct(d.positions, d.values, d.grid, seed=d.seed, correct="cv")
+    plain = csi.reconstruct(d.positions, d.values, d.grid, seed=d.seed)
+    as_blend = csi.reconstruct(d.positions, d.values, d.grid, seed=d.seed, correct="blend")
+    check(flagged.options["correct"] == "cv" and np.array_equal(flagged.image, as_cv.image)
+          and fnv1a64(np.ascontiguousarray(flagged.image.transpose(2, 0, 1))) == h_of["small_triangle"],
+          f"exact=True: correct {flagged.options['correct']}, not cv's image or csi-render's")
+    check(plain.options["correct"] == "blend" and np.array_equal(plain.image, as_blend.image),
+          f"exact=False (default): correct {plain.options['correct']}, not the blend's image")
+    check(not np.array_equal(flagged.image, plain.image), "the flag changed nothing on noise-free samples")
+
+    # the ctypes mirrors have csi/csi.h's layout (sizes and offsets from a C compiler)
+    from csi import _lib  # noqa: E402
+    mirrors = {"csi_samples": _lib._Samples, "csi_dump": _lib._Dump}
+    lines = ["#include <stddef.h>", "#include <stdio.h>", '#include "csi/csi.h"', "int main(void) {"]
+    for cname, py in mirrors.items():
+        lines.append(f'printf("{cname} %zu\\n", sizeof({cname}));')
+        for fname, _ in py._fields_:
+            lines.append(f'printf("{cname}.{fname} %zu\\n", offsetof({cname}, {fname}));')
+    src = os.path.join(T, "layout.c")
+    with open(src, "w") as f:
+        f.write("\n".join(lines + ["return 0; }"]) + "\n")
+    exe = os.path.join(T, "layout")
+    subprocess.run(["cc", "-std=c11", "-I", os.path.join(SOURCE, "host", "include"), src, "-o", exe], check=True)
+    c_layout = dict(line.rsplit(" ", 1) for line in subprocess.run([exe], check=True, capture_output=True,
+                                                                    text=True).stdout.splitlines())
+    py_layout = {}
+    for cname, py in mirrors.items():
+        py_layout[cname] = str(ctypes.sizeof(py))
+        for fname, _ in py._fields_:
+            py_layout[f"{cname}.{fname}"] = str(getattr(py, fname).offset)
+    check(c_layout == py_layout, f"ctypes layout {py_layout} differs from C's {c_layout}")
 
     # positions: the library's on csi's grid rule are csi-positions' request (mitsuba_bridge's)
     from csi import dump as csid  # noqa: E402

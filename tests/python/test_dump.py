@@ -2,6 +2,7 @@
 csi-render's dumps record for record (raw bytes decoded independently here with struct), what it
 writes csi-reconstruct reads (its mean estimator gives numpy's per-pixel mean), and it refuses
 what docs/dump-format.md says a reader refuses, naming the byte or record."""
+import dataclasses
 import os
 import struct
 import subprocess
@@ -68,6 +69,21 @@ def main():
         pos, val = records(p("r.csid"), 3)
         check(d.xyt.tolist() == [list(r) for r in pos] and np.array_equal(d.values, np.array(val, np.float32)),
               "csi-render's dump decoded differently")
+        # the flags at byte 48: csi-render's scene has no random effect, so its values are exact
+        flags = struct.unpack_from("<I", open(p("r.csid"), "rb").read(), 48)[0]
+        check(flags == 1 and d.exact, f"csi-render's dump of a noise-free scene: flags {flags}, exact {d.exact}")
+        check(not req.exact and open(p("req.csid"), "rb").read()[48:64] == bytes(16), "a request is never exact")
+        for exact in (True, False):
+            csid.write(p("x.csid"), d.with_values(d.values, exact=exact))
+            raw = open(p("x.csid"), "rb").read()
+            back = csid.read(p("x.csid"))
+            check(struct.unpack_from("<I", raw, 48)[0] == int(exact) and raw[52:64] == bytes(12)
+                  and back.exact == exact, f"exact={exact}: flags written {raw[48:52].hex()}, read {back.exact}")
+        try:
+            csid.write(p("xreq.csid"), dataclasses.replace(req, exact=True))
+            check(False, "wrote an exact positions request")
+        except csid.DumpError:
+            check(not os.path.exists(p("xreq.csid")), "a refused request left a file")
         # written here, read by csi-reconstruct: duplicates at one position are averaged
         rng = np.random.default_rng(1)
         vals = rng.random((len(req.xyt), 3), dtype=np.float32) * 10
@@ -102,6 +118,15 @@ def main():
         expect_error(bad("div.csid", patch(8, struct.pack("<I", 130))), "byte 8: grid_w = 130 is not a multiple of out_w = 32")
         expect_error(bad("chan.csid", patch(28, struct.pack("<I", 5))), "byte 28: channels = 5")
         expect_error(bad("res.csid", patch(60, b"\x07")), "byte 60: reserved byte is 0x07")
+        flag_msg = "byte 48: flags 0x00000003 has reserved bits 0x00000002 set, must be zero"
+        expect_error(bad("flag.csid", patch(48, struct.pack("<I", 3))), flag_msg)
+        expect_error(bad("flag31.csid", patch(48, struct.pack("<I", 1 << 31))), "reserved bits 0x80000000")
+        expect_error(bad("reqflag.csid", open(p("req.csid"), "rb").read()[:48] + struct.pack("<I", 1)
+                         + open(p("req.csid"), "rb").read()[52:]), "byte 48: flags 0x00000001 on a positions request")
+        c = subprocess.run([os.path.join(B, "csi-reconstruct"), p("flag.csid"), "-o", p("flag.exr"), "-q"],
+                           capture_output=True, text=True)
+        check(c.returncode == 2 and flag_msg in c.stderr and not os.path.exists(p("flag.exr")),
+              f"csi-reconstruct on an unknown flag: {c.returncode} {c.stderr.strip()!r}")
         expect_error(bad("zero.csid", patch(32, struct.pack("<Q", 0))), "byte 32: zero samples")
         expect_error(bad("trunc.csid", good[:-5]), "byte 32: count =")
         expect_error(bad("trail.csid", good + b"\0"), "1 trailing bytes")

@@ -82,9 +82,10 @@ static float *reference(csi_tracer *tr, uint32_t w, uint32_t h, uint64_t seed)
     return img;
 }
 
-/* Renders at 4 spp with the given positions and reconstructs with the given estimator. */
+/* Renders at 4 spp with the given positions and reconstructs with the given estimator, the
+ * samples flagged with `flags` (CSI_SAMPLES_EXACT: what csi-render says of a plan's samples). */
 static double run(csi_tracer *tr, const csi_grid *g, csi_pos_method m, csi_estimator est,
-                  csi_aa_correct correct, const float *ref, uint64_t seed, double *t_recon)
+                  csi_aa_correct correct, uint32_t flags, const float *ref, uint64_t seed, double *t_recon)
 {
     csi_pos_opts po = {.method = m, .spp = 4, .seed = seed};
     csi_sample_pos *pos = NULL;
@@ -102,6 +103,7 @@ static double run(csi_tracer *tr, const csi_grid *g, csi_pos_method m, csi_estim
         csi_recon_defaults(&o);
         o.estimator = est;
         o.correct = correct;
+        o.sample_flags = flags;
         csi_recon_result res;
         if (csi_recon(test_ctx(), g, 1, pos, lum, n, &o, &res) == CSI_OK) {
             double acc = 0;
@@ -146,22 +148,30 @@ int main(void)
         const uint32_t f = plan.frames > 1 ? 1 : 4;
         csi_grid g = {.w = OUT * f, .h = OUT * f, .t = plan.frames, .out_w = OUT, .out_h = OUT};
         double t_cs = 0, t_st = 0;
-        /* The compressive estimate with the control-variate correction (--correct cv, the
-         * default before issue 9) against stratified Monte Carlo: the paper's claim. The
-         * default (the blend) is also run and printed, and compared with the mean of its own
-         * samples (its guarantee); on the triangle, white on black and noise-free, it leans
-         * towards the Poisson-disk samples' own means and no longer beats stratified positions
-         * (docs/bench/mitsuba.md). */
-        double mse_cs = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_CV, ref, 1, &t_cs);
-        double t_def = 0, t_pm = 0;
-        double mse_def = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_AUTO, ref, 1, &t_def);
-        double mse_pm = run(tr, &g, CSI_POS_POISSON, CSI_EST_MEAN, CSI_CORRECT_AUTO, ref, 1, &t_pm);
-        double mse_st = run(tr, &g, CSI_POS_STRATIFIED, CSI_EST_MEAN, CSI_CORRECT_AUTO, ref, 1, &t_st);
-        printf("%s (%ux%u, T=%u, grid %ux%u): 4 spp MSE vs 256-spp reference: compressive (cv) %.4g "
-               "(reconstruction %.2f s), stratified %.4g, ratio %.2f; default %.4g, mean of the "
-               "same Poisson samples %.4g\n", cases[c].name, OUT, OUT, plan.frames, g.w, g.h, mse_cs,
-               t_cs, mse_st, mse_cs / mse_st, mse_def, mse_pm);
-        CHECK(isfinite(mse_cs) && isfinite(mse_st) && isfinite(mse_def) && isfinite(mse_pm),
+        /* The compressive estimate with the control-variate correction (--correct cv) against
+         * stratified Monte Carlo: the paper's claim. The default on the samples as csi-render
+         * flags them (exact when the plan draws no random number) is also run: on an exact
+         * still scene it is cv itself (the same image, so the same MSE); it is compared with
+         * the mean of its own samples everywhere (the blend's guarantee on noisy samples). The
+         * blend on unflagged samples is printed: on the triangle, white on black and
+         * noise-free, it leans towards the Poisson-disk samples' own means and does not beat
+         * stratified positions (docs/bench/mitsuba.md). */
+        const uint32_t flags = plan.exact ? CSI_SAMPLES_EXACT : 0;
+        double mse_cs = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_CV, flags, ref, 1, &t_cs);
+        double t_def = 0, t_pm = 0, t_bl = 0;
+        double mse_def = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_AUTO, flags, ref, 1, &t_def);
+        double mse_bl = run(tr, &g, CSI_POS_POISSON, CSI_EST_CS, CSI_CORRECT_AUTO, 0, ref, 1, &t_bl);
+        double mse_pm = run(tr, &g, CSI_POS_POISSON, CSI_EST_MEAN, CSI_CORRECT_AUTO, flags, ref, 1, &t_pm);
+        double mse_st = run(tr, &g, CSI_POS_STRATIFIED, CSI_EST_MEAN, CSI_CORRECT_AUTO, flags, ref, 1, &t_st);
+        printf("%s (%ux%u, T=%u, grid %ux%u, %s): 4 spp MSE vs 256-spp reference: compressive (cv) %.4g "
+               "(reconstruction %.2f s), stratified %.4g, ratio %.2f; default %.4g (ratio %.2f), "
+               "unflagged default %.4g (ratio %.2f), mean of the same Poisson samples %.4g\n", cases[c].name, OUT,
+               OUT, plan.frames, g.w, g.h, plan.exact ? "exact" : "not exact", mse_cs, t_cs, mse_st,
+               mse_cs / mse_st, mse_def, mse_def / mse_st, mse_bl, mse_bl / mse_st, mse_pm);
+        if (plan.exact && plan.frames == 1)
+            CHECK(mse_def == mse_cs, "%s: exact samples, yet the default's MSE %.6g is not cv's %.6g",
+                  cases[c].name, mse_def, mse_cs);
+        CHECK(isfinite(mse_cs) && isfinite(mse_st) && isfinite(mse_def) && isfinite(mse_pm) && isfinite(mse_bl),
               "%s: every method ran", cases[c].name);
         CHECK(mse_cs < mse_st, "%s: compressive MSE %.4g is not below stratified's %.4g at 4 spp",
               cases[c].name, mse_cs, mse_st);

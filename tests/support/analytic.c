@@ -25,6 +25,9 @@ double analytic_texture(double x, double y)
     return 0.2 + sines + 0.4 * checker + disc;
 }
 
+const analytic_image analytic_images[ANALYTIC_IMAGES] = {{"triangle", analytic_triangle},
+                                                         {"texture", analytic_texture}};
+
 void analytic_scene_make(analytic_fn fn, analytic_scene *s)
 {
     for (int y = 0; y < GRID; y++)

@@ -22,6 +22,14 @@ double analytic_triangle(double x, double y);
 /* Sinusoids, a rotated checker and a disc: texture with edges and smooth parts. */
 double analytic_texture(double x, double y);
 
+/* Both images by name, for the tests that run on each. */
+typedef struct {
+    const char *name;
+    analytic_fn fn;
+} analytic_image;
+#define ANALYTIC_IMAGES 2
+extern const analytic_image analytic_images[ANALYTIC_IMAGES];
+
 typedef struct {
     float fine[GRID * GRID];
     double truth[NP];

@@ -249,6 +249,67 @@ static int test_bad_inputs(void)
     return 0;
 }
 
+/* The flags at byte 48 (docs/dump-format.md): bit 0 (exact values) written and read back, an
+ * old dump (zero) reads as not exact, and what a reader cannot know is refused. */
+static int test_flags(void)
+{
+    const float v1[1] = {0.5f};
+    bytes o;
+    /* hand-made files, decoded by the reader: flag 1, flag 0 */
+    for (uint32_t f = 0; f < 2; f++) {
+        header(&o, 4, 4, 1, 2, 2, 1, 1);
+        o.b[48] = (unsigned char)f;
+        record(&o, 0, 0, 0, v1, 1);
+        const char *path = save(&o, "flag.csid");
+        csi_dump d;
+        csi_dump_header h;
+        REQUIRE_OK(csi_dump_read(path, NULL, &d, NULL));
+        REQUIRE_OK(csi_dump_read_header(path, NULL, &h));
+        CHECK(d.flags == f && h.flags == f, "byte 48 = %u read as flags %u (header %u)", f, d.flags, h.flags);
+        csi_dump_free(&d);
+    }
+    /* the library's writer puts the flag at byte 48 (bytes read back here) and the reader keeps it */
+    csi_dump d = {.grid = {4, 4, 1, 2, 2}, .flags = CSI_SAMPLES_EXACT};
+    REQUIRE_OK(csi_dump_alloc(&d, 1, 1));
+    char path[512];
+    snprintf(path, sizeof path, "%s/exact.csid", dir);
+    CHECK_OK(csi_dump_write(path, &d));
+    unsigned char hb[64] = {0};
+    FILE *fp = fopen(path, "rb");
+    CHECK(fp && fread(hb, 1, 64, fp) == 64, "header bytes");
+    if (fp)
+        fclose(fp);
+    bool rest_zero = true;
+    for (int i = 49; i < 64; i++)
+        rest_zero &= hb[i] == 0;
+    CHECK(hb[48] == 1 && rest_zero, "byte 48 = %u, bytes 49-63 zero: %d", hb[48], rest_zero);
+    csi_dump e;
+    REQUIRE_OK(csi_dump_read(path, NULL, &e, NULL));
+    CHECK(e.flags == CSI_SAMPLES_EXACT, "flags read back %u", e.flags);
+    csi_dump_free(&e);
+    /* the writer refuses unknown bits and an exact positions request, leaving no file */
+    d.flags = 2;
+    snprintf(path, sizeof path, "%s/unknown.csid", dir);
+    CHECK(csi_dump_write(path, &d) == CSI_ERR_ARG && access(path, F_OK) != 0, "flag 2 written: %s", csi_last_error());
+    d.flags = CSI_SAMPLES_EXACT;
+    d.channels = 0;
+    CHECK(csi_dump_write(path, &d) == CSI_ERR_ARG && access(path, F_OK) != 0, "an exact request written: %s",
+          csi_last_error());
+    d.channels = 1;
+    csi_dump_free(&d);
+    /* the reader refuses every reserved bit of the flags, in any of the four bytes */
+    header(&o, 4, 4, 1, 2, 2, 1, 1);
+    o.b[48] = 3;
+    record(&o, 0, 0, 0, v1, 1);
+    expect_fail(&o, "bit1.csid", NULL, CSI_ERR_FORMAT,
+                "byte 48: flags 0x00000003 has reserved bits 0x00000002 set, must be zero");
+    header(&o, 4, 4, 1, 2, 2, 1, 1);
+    o.b[51] = 0x80;
+    record(&o, 0, 0, 0, v1, 1);
+    expect_fail(&o, "bit31.csid", NULL, CSI_ERR_FORMAT, "byte 48: flags 0x80000000 has reserved bits 0x80000000");
+    return 0;
+}
+
 static int test_drop_and_duplicates(void)
 {
     bytes o;
@@ -319,6 +380,7 @@ int main(void)
     test_roundtrip();
     test_bad_inputs();
     test_drop_and_duplicates();
+    test_flags();
     test_outfile();
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);

@@ -137,6 +137,22 @@ int main(void)
     csi_recon_options r2;
     CHECK_OK(csi_recon_resolve(&r, &still, 600, &r2));
     CHECK(same(&r, &r2), "resolving twice changes nothing");
+    /* correct = auto follows what the samples are (csi/csi.h CSI_SAMPLES_EXACT): cv for exact
+     * values, blend otherwise; for volumes and the Gaussian baseline it stays as without the flag. */
+    o = d;
+    o.sample_flags = CSI_SAMPLES_EXACT;
+    CHECK_OK(csi_recon_resolve(&o, &still, 600, &r));
+    CHECK(r.correct == CSI_CORRECT_CV && r.tau_rel == fmin(3e-3, fmax(1e-5, 3e-3 / spp)), "exact samples: correct %d",
+          (int)r.correct);
+    o.correct = CSI_CORRECT_BLEND;
+    CHECK_OK(csi_recon_resolve(&o, &still, 600, &r));
+    CHECK(r.correct == CSI_CORRECT_BLEND, "a given correct wins over the flag");
+    o.correct = CSI_CORRECT_AUTO;
+    CHECK_OK(csi_recon_resolve(&o, &(csi_grid){32, 32, 8, 32, 32}, 800, &r));
+    CHECK(r.correct == CSI_CORRECT_AUTO, "volumes: auto is the range projection, exact or not");
+    o.estimator = CSI_EST_GAUSS;
+    CHECK_OK(csi_recon_resolve(&o, &still, 600, &r));
+    CHECK(r.correct == CSI_CORRECT_NONE, "gauss: none, exact or not");
     /* Given values win. */
     o = d;
     o.tau_rel = 0.01;

@@ -154,6 +154,9 @@ def main():
     ap.add_argument("--configs", default="mean,gauss,cs",
                     help="';'-separated (or ',' when no config has args) NAME[=ARGS]")
     ap.add_argument("--ss", type=int, default=8, help="supersampling per fine cell for the truth")
+    ap.add_argument("--no-exact", dest="exact", action="store_false",
+                    help="dumps without the exact-values flag (csi-mkdump before it, or to see --correct "
+                         "auto on unflagged samples)")
     ap.add_argument("--md", help="append the table in Markdown to this file")
     ap.add_argument("--json", help="write all results as JSON")
     ap.add_argument("--from-json", help="only format a saved --json file as Markdown (to --md or stdout)")
@@ -189,8 +192,10 @@ def main():
                     method = "poisson" if name.startswith("p:") else "stratified"
                     dump = os.path.join(tmp, "%s_%s_%d_%d.csid" % (img, method, spp, seed))
                     if not os.path.exists(dump):
+                        # --exact: each cell holds the image's value at its centre (step 1), a
+                        # noise-free point value, so --correct auto takes cv (docs/dump-format.md)
                         run([mkdump, src, "-o", dump, "--out", "%dx%d" % (a.out, a.out), "--spp", str(spp),
-                             "--method", method, "--seed", str(seed), "-q"])
+                             "--method", method, "--seed", str(seed), "-q"] + (["--exact"] if a.exact else []))
                     out = os.path.join(tmp, "o.exr")
                     st = os.path.join(tmp, "o.json")
                     t0 = time.time()

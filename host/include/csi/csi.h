@@ -9,7 +9,7 @@
  *     csi_device *dev;   csi_dump d;   csi_result *r;   csi_image img;
  *     csi_device_new(NULL, &dev);                       // PoCL's CPU device, or $CSI_DEVICE
  *     csi_dump_read("samples.csid", NULL, &d, NULL);    // or fill a csi_samples from arrays
- *     csi_samples s = {d.grid, d.channels, d.count, d.pos, d.values};
+ *     csi_samples s = {d.grid, d.channels, d.count, d.pos, d.values, d.flags};
  *     csi_reconstruct(dev, &s, NULL, NULL, NULL, &r);   // NULL options: every default
  *     csi_result_image(r, &img);                        // planar float32, out_w x out_h
  *     csi_exr_write("out.exr", &img, NULL, 0);
@@ -194,6 +194,16 @@ CSI_API csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_s
  * check a run against the host's memory (csi_host_available_bytes) before making them. */
 CSI_API csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes);
 
+/* ---- what the samples are ------------------------------------------------------------------ */
+/* Flags of a set of samples (csi_samples.flags, csi_dump.flags, a dump's header at byte 48).
+ * CSI_SAMPLES_EXACT: every value is the noise-free signal at its cell's centre (a deterministic
+ * point evaluation, as a ray tracer without random effects returns), not a Monte Carlo
+ * estimate; the option "correct" = auto then takes the control-variate correction, which is the
+ * better one on such samples (the source tree's docs/bench/mitsuba.md), and the blend otherwise.
+ * 0: unknown, or noisy. Every other bit is reserved and must be zero (refused otherwise). */
+#define CSI_SAMPLES_EXACT 1u
+#define CSI_SAMPLES_KNOWN_FLAGS CSI_SAMPLES_EXACT
+
 /* ---- sample dumps (docs/dump-format.md) ---------------------------------------------------- */
 /* A dump in memory: one record per sample, a position and `channels` float32 values. */
 typedef struct csi_dump {
@@ -203,6 +213,7 @@ typedef struct csi_dump {
     size_t count;          /* number of samples */
     csi_sample_pos *pos;   /* count positions */
     float *values;         /* count x channels, sample-major: values[i * channels + c] */
+    uint32_t flags;        /* CSI_SAMPLES_* (the header's byte 48); 0 for a positions request */
 } csi_dump;
 
 typedef struct csi_dump_read_opts {
@@ -230,6 +241,7 @@ typedef struct csi_dump_header {
     uint32_t channels;
     uint64_t count;       /* records in the file (before duplicates merge and NaN/Inf drop) */
     uint64_t seed;
+    uint32_t flags;       /* CSI_SAMPLES_* */
 } csi_dump_header;
 CSI_API csi_status csi_dump_read_header(const char *path, const csi_dump_read_opts *opts, csi_dump_header *out);
 /* The host bytes csi_dump_read holds at most while reading a dump with this header (the
@@ -299,6 +311,8 @@ typedef struct csi_samples {
     size_t count;               /* N */
     const csi_sample_pos *pos;  /* N positions */
     const float *values;        /* N x channels, sample-major: values[i * channels + c] */
+    uint32_t flags;             /* CSI_SAMPLES_* (0: unknown or noisy); last, so that an
+                                   initialiser without it means 0 */
 } csi_samples;
 
 /* What the reconstruction is doing, for a progress display. */

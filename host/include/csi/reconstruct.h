@@ -86,8 +86,9 @@ typedef enum {
  * Measurements: docs/bench/quality.md (analytic images), docs/bench/mitsuba.md (a path
  * tracer's samples: HDR, Monte Carlo noise). */
 typedef enum {
-    CSI_CORRECT_AUTO = 0, /* BLEND for Alg. 1's images, the range projection alone for Alg. 2,
-                             NONE for the Gaussian baseline */
+    CSI_CORRECT_AUTO = 0, /* Alg. 1's images: CV for exact samples (CSI_SAMPLES_EXACT), BLEND
+                             otherwise; the range projection alone for Alg. 2, NONE for the
+                             Gaussian baseline */
     CSI_CORRECT_NONE,     /* the image is box(g): the paper's */
     CSI_CORRECT_CV,       /* the control-variate correction above */
     CSI_CORRECT_BLEND,    /* the risk-weighted blend of b and the sample mean above */
@@ -195,6 +196,9 @@ typedef struct csi_recon_options {
     uint32_t tiles;               /* 0 auto: as few as fit the budget (1 when the whole fits) */
     uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0 auto */
     uint32_t tile_margin_t;       /* the same in frames for a volume; 0 auto */
+    /* Not an option (no row in the table): what the samples are, CSI_SAMPLES_* of csi/csi.h,
+     * which the library copies from csi_samples.flags; correct = auto follows it. */
+    uint32_t sample_flags;
     csi_solve_progress_fn progress; /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
                                      "integrate c/C"; returning false cancels

@@ -31,14 +31,18 @@ class Grid(ctypes.Structure):
     _fields_ = [("w", u32), ("h", u32), ("t", u32), ("out_w", u32), ("out_h", u32)]
 
 
+#: csi_samples.flags / csi_dump.flags: every value is a noise-free point value (CSI_SAMPLES_EXACT).
+SAMPLES_EXACT = 1
+
+
 class _Samples(ctypes.Structure):
     _fields_ = [("grid", Grid), ("channels", u32), ("count", c_size),
-                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float))]
+                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float)), ("flags", u32)]
 
 
 class _Dump(ctypes.Structure):
     _fields_ = [("grid", Grid), ("channels", u32), ("seed", ctypes.c_uint64), ("count", c_size),
-                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float))]
+                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float)), ("flags", u32)]
 
 
 class _PosOpts(ctypes.Structure):
@@ -337,9 +341,12 @@ def _result(L, r) -> Result:
 
 def reconstruct(positions, values, grid, device: Optional[Device] = None,
                 progress: Optional[Callable[[str, int, float], Optional[bool]]] = None,
-                options: Optional[Options] = None, **kwargs) -> Result:
+                options: Optional[Options] = None, exact: bool = False, **kwargs) -> Result:
     """Reconstructs samples: positions (N, 3) integers (x, y, t cells of the fine grid), values
     (N, C) or (N,) float32, grid (w, h, t, out_w, out_h). Options as keywords (or an Options).
+    exact: every value is the noise-free signal at its cell's centre (a deterministic point
+    evaluation, not a Monte Carlo estimate; CSI_SAMPLES_EXACT), which makes correct="auto" take
+    the control-variate correction instead of the blend.
     progress(phase, iteration, residual) may return False to cancel (CsiError CSI_ERR_CANCELLED);
     an exception it raises cancels and is raised again."""
     global _default_device
@@ -361,7 +368,8 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
             _default_device = Device()
         device = _default_device
     s = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0],
-                 pos.ctypes.data_as(ctypes.POINTER(u32)), val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+                 pos.ctypes.data_as(ctypes.POINTER(u32)), val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)),
+                 SAMPLES_EXACT if exact else 0)
     raised = []
 
     def relay(_user, p):
@@ -411,10 +419,11 @@ def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fracti
 
 class Dump:
     """A sample dump read by the library (docs/dump-format.md): grid, positions (N, 3) uint32,
-    values (N, C) float32, seed."""
+    values (N, C) float32, seed, exact (the header's flag: noise-free point values)."""
 
-    def __init__(self, grid, positions, values, seed):
+    def __init__(self, grid, positions, values, seed, exact=False):
         self.grid, self.positions, self.values, self.seed = grid, positions, values, seed
+        self.exact = bool(exact)
 
 
 def read_dump(path: str) -> Dump:
@@ -426,14 +435,16 @@ def read_dump(path: str) -> Dump:
         grid = (g.w, g.h, g.t, g.out_w, g.out_h)
         pos = np.ctypeslib.as_array(d.pos, shape=(d.count, 3)).copy()
         val = np.ctypeslib.as_array(d.values, shape=(d.count, d.channels)).copy()
-        return Dump(grid, pos, val, d.seed)
+        return Dump(grid, pos, val, d.seed, bool(d.flags & SAMPLES_EXACT))
     finally:
         L.csi_dump_free(ctypes.byref(d))
 
 
 def reconstruct_dump(path: str, **kwargs) -> Result:
-    """Reconstructs a dump as csi-reconstruct does (its seed is the solver's unless given)."""
+    """Reconstructs a dump as csi-reconstruct does (its seed is the solver's unless given, its
+    exact flag the samples')."""
     d = read_dump(path)
     if d.seed and "seed" not in kwargs:
         kwargs["seed"] = d.seed
+    kwargs.setdefault("exact", d.exact)
     return reconstruct(d.positions, d.values, d.grid, **kwargs)

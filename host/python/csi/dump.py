@@ -29,6 +29,7 @@ HEADER_BYTES = 64
 MAX_SIDE = 65536
 MAX_CELLS = 1 << 31
 MAX_CHANNELS = 4
+FLAG_EXACT = 1  # header bytes 48-51 (u32 flags), bit 0: the values are exact (csi/csi.h CSI_SAMPLES_EXACT)
 
 
 class DumpError(ValueError):
@@ -42,6 +43,7 @@ class Dump:
     xyt: np.ndarray  # (n, 3) uint32 cell indices
     values: np.ndarray | None  # (n, channels) float32, None for a positions request
     seed: int = 0
+    exact: bool = False  # header flag (byte 48, bit 0): every value is a noise-free point value
 
     @property
     def channels(self) -> int:
@@ -63,14 +65,16 @@ class Dump:
         x, y, tt = (self.xyt[:, i].astype(np.float64) for i in range(3))
         return (x + 0.5) / w, (y + 0.5) / h, (tt + 0.5) / t
 
-    def with_values(self, values) -> "Dump":
-        """This request's positions with values (n, c) or (n,): a dump to write back."""
+    def with_values(self, values, exact=False) -> "Dump":
+        """This request's positions with values (n, c) or (n,): a dump to write back. exact: the
+        values are noise-free point evaluations at the cell centres (a deterministic renderer),
+        not Monte Carlo estimates (docs/dump-format.md)."""
         v = np.asarray(values, dtype=np.float32)
         if v.ndim == 1:
             v = v[:, None]
         if v.shape[0] != len(self.xyt):
             raise ValueError(f"{v.shape[0]} values for {len(self.xyt)} positions")
-        return dataclasses.replace(self, values=v)
+        return dataclasses.replace(self, values=v, exact=bool(exact))
 
     def pixel_means(self) -> np.ndarray:
         """Per-output-pixel mean of the values (out_h, out_w, channels), float64; NaN where a
@@ -132,7 +136,13 @@ def read(path, *, want=None) -> Dump:
         raise DumpError(f"{path}: byte 28: channels = 0: a positions request, not samples")
     if want == "request" and channels != 0:
         raise DumpError(f"{path}: byte 28: channels = {channels}: a sample dump, not a positions request (channels = 0)")
-    for i in range(48, 64):
+    flags = int(hdr[12])
+    if flags & ~FLAG_EXACT:
+        raise DumpError(f"{path}: byte 48: flags 0x{flags:08x} has reserved bits 0x{flags & ~FLAG_EXACT:08x} set, "
+                        f"must be zero (this reader knows 0x{FLAG_EXACT:08x}: exact values)")
+    if channels == 0 and flags:
+        raise DumpError(f"{path}: byte 48: flags 0x{flags:08x} on a positions request (it has no values to be exact)")
+    for i in range(52, 64):
         if data[i]:
             raise DumpError(f"{path}: byte {i}: reserved byte is 0x{data[i]:02x}, must be zero")
     if count == 0:
@@ -165,7 +175,7 @@ def read(path, *, want=None) -> Dump:
             r, c = (int(v) for v in np.argwhere(bad)[0])
             kind = "NaN" if np.isnan(values[r, c]) else "infinite"
             raise DumpError(f"{path}: record {r} (byte {HEADER_BYTES + r * rec + 12 + 4 * c}): channel {c} is {kind}")
-    return Dump(grid=grid, out=out, xyt=xyt, values=values, seed=seed)
+    return Dump(grid=grid, out=out, xyt=xyt, values=values, seed=seed, exact=bool(flags & FLAG_EXACT))
 
 
 def write(path, d: Dump) -> None:
@@ -184,6 +194,8 @@ def write(path, d: Dump) -> None:
         raise DumpError(f"{path}: cannot write dump: a position is outside the {d.grid[0]}x{d.grid[1]}x{d.grid[2]} grid")
     if channels and not np.isfinite(d.values).all():
         raise DumpError(f"{path}: cannot write dump: a value is not finite")
+    if d.exact and not channels:
+        raise DumpError(f"{path}: cannot write dump: a positions request has no values to be exact")
     hdr = np.zeros(16, "<u4")
     hdr[0] = int.from_bytes(MAGIC, "little")
     hdr[1] = VERSION
@@ -192,6 +204,7 @@ def write(path, d: Dump) -> None:
     hdr[7] = channels
     hdr[8:10] = [n & 0xFFFFFFFF, n >> 32]
     hdr[10:12] = [d.seed & 0xFFFFFFFF, (d.seed >> 32) & 0xFFFFFFFF]
+    hdr[12] = FLAG_EXACT if d.exact else 0
     dt = np.dtype([("p", "<u4", 3), ("v", "<f4", channels)]) if channels else np.dtype([("p", "<u4", 3)])
     rec = np.zeros(n, dtype=dt)
     rec["p"] = xyt

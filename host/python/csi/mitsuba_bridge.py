@@ -419,7 +419,7 @@ def render(spec, size=None, spp=4, paths=1, seed=1, method="poisson", grid=None,
     scene = load_scene(spec, size=size)
     req = positions_request(scene.size, spp=spp, grid=grid, method=method, seed=seed)
     s = render_request(scene, req, paths=paths, seed=seed, aov=aov)
-    return req.with_values(s.values), s
+    return req.with_values(s.values, exact=False), s  # path-traced: Monte Carlo estimates, never exact
 
 
 def render_reference(scene: Scene, spp: int, seed=0, progress=None) -> np.ndarray:

@@ -178,7 +178,7 @@ def reconstruct(d: csid.Dump, output, png=None, extra=()):
         if len(idx) > 0 and (np.diff(idx) > 0).all():
             if d.seed and "seed" not in kw:
                 kw["seed"] = d.seed  # csi-reconstruct's rule: the dump's seed unless given
-            res = csi.reconstruct(d.xyt, d.values, (w, h, t, *d.out), device=dev, **kw)
+            res = csi.reconstruct(d.xyt, d.values, (w, h, t, *d.out), device=dev, exact=d.exact, **kw)
         else:
             with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
                 path = os.path.join(tmp, "samples.csid")
