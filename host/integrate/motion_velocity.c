@@ -32,6 +32,7 @@
 
 #define PI_ 3.14159265358979323846
 #define NCAND 3
+#define MAXSEEN 256
 
 typedef struct {
     csi_ctx *ctx;
@@ -46,6 +47,8 @@ typedef struct {
     double *w0, ymean;
     float *err, *err0, *errb; /* per-sample squared errors: the last evaluation's, v = 0's, the best's */
     int evals;
+    double seen[MAXSEEN][2]; /* the velocities evaluated so far (the first MAXSEEN) */
+    int nseen;
 } vel_ctx;
 
 /* ---- step 1: the energy of the motion-compensated mean ------------------------------------ */
@@ -191,6 +194,16 @@ static csi_status try_velocity(vel_ctx *c, double vx, double vy, const uint32_t 
 {
     double e;
     *better = false;
+    /* a velocity evaluated before was not better than the best of its time, and the best only
+     * improves since: the coordinate search's steps back (and repeats) cost nothing */
+    for (int i = 0; i < c->nseen; i++)
+        if (c->seen[i][0] == vx && c->seen[i][1] == vy)
+            return CSI_OK;
+    if (c->nseen < MAXSEEN) {
+        c->seen[c->nseen][0] = vx;
+        c->seen[c->nseen][1] = vy;
+        c->nseen++;
+    }
     CSI_TRY(loo(c, vx, vy, tof, &e));
     if (e < *best) {
         *best = e;
@@ -305,8 +318,20 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     const double t0 = csi_recon_now();
     if (g->t < 2 || (g->w < 2 && g->h < 2))
         return csi_fail(CSI_ERR_ARG, "velocity search: the volume needs a time axis and a spatial one");
-    vel_ctx c = {ctx, g, h, G, S, va, vb, ydev, gat, y, n, (size_t)g->w * g->h * g->t,
-                 NULL, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
+    vel_ctx c;
+    memset(&c, 0, sizeof c);
+    c.ctx = ctx;
+    c.g = g;
+    c.h = h;
+    c.G = G;
+    c.S = S;
+    c.va = va;
+    c.vb = vb;
+    c.ydev = ydev;
+    c.gat = gat;
+    c.y = y;
+    c.n = n;
+    c.k = (size_t)g->w * g->h * g->t;
     const size_t T = g->t, wh = (size_t)g->w * g->h;
     lowspec s;
     memset(&s, 0, sizeof s);
@@ -348,6 +373,7 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     double best = 0, bx = 0, by = 0;
     if (st == CSI_OK)
         st = loo(&c, 0, 0, tof, &out->loo0);
+    c.nseen = 1; /* v = 0, zero-initialised */
     if (st == CSI_OK) {
         memcpy(c.err0, c.err, n * sizeof *c.err);
         memcpy(c.errb, c.err, n * sizeof *c.err);
