@@ -287,7 +287,7 @@ done:
 
 csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                  uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                 size_t n, cl_mem fine)
+                                 size_t n, bool whole, cl_mem fine)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
@@ -309,10 +309,15 @@ csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *v
         lo[p] = fminf(lo[p], v);
         hi[p] = fmaxf(hi[p], v);
     }
+    float gl = INFINITY, gh = -INFINITY;
+    for (size_t p = 0; whole && p < np; p++) {
+        gl = fminf(gl, lo[p]);
+        gh = fmaxf(gh, hi[p]);
+    }
     size_t nb[9];
     for (size_t p = 0; p < np; p++) {
-        float l = INFINITY, h = -INFINITY;
-        int k = window(p, ow, oh, nb);
+        float l = gl, h = gh;
+        int k = whole ? 0 : window(p, ow, oh, nb);
         for (int j = 0; j < k; j++) {
             l = fminf(l, lo[nb[j]]);
             h = fmaxf(h, hi[nb[j]]);
