@@ -155,13 +155,17 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
                            const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
                            float *plane);
 /* Projects the fine estimate `fine` (the grid's w x h x t cells, on the device) onto the range
- * of the samples: each cell into [min, max] of channel c's samples in its output pixel and the
- * 8 around it (blend.c), or of all of them (whole). Overshoot and ringing beyond what any nearby
- * sample saw (a sharpened HDR edge) is not signal; with non-negative samples this also makes
- * `fine` non-negative. */
-csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
-                                 uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                 size_t n, bool whole, cl_mem fine);
+ * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
+ * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame
+ * (the pixel at x - vx (t - tc), y - vy (t - tc); with v = 0 its own output pixel and the 8
+ * around it). Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is
+ * not signal; with non-negative samples this also makes `fine` non-negative. */
+csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
+                                        uint32_t channels, uint32_t c, const csi_sample_pos *pos,
+                                        size_t n, double vx, double vy, cl_mem fine);
+/* The aligned pixels it uses at most, as a multiple of the output pixels (beyond, it projects
+ * onto the range of all the samples). */
+#define CSI_MOTION_RANGE_MAX_PIXELS 4
 /* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
  * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,

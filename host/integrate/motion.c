@@ -178,11 +178,9 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     }
     /* By default (and with BLEND) the volume is projected onto the range of the samples around
      * each pixel, so that no value, frame or image, leaves what the samples saw (non-negative
-     * samples give non-negative frames). A pixel's neighbourhood over all t bounds its cells
-     * only where the picture is still there: with a sheared basis (the content moves across the
-     * pixels) it cut what moved in (a pan at 3% of the cells: 0.85x the tuned Gaussian's image
-     * MSE with it, 0.41x without; docs/bench/animation.md), and the volume is projected onto the
-     * range of all the samples instead. The per-pixel blend of the image with the pixels'
+     * samples give non-negative frames). With a sheared basis the neighbourhood is taken in
+     * the frame that moves with it (motion_range.c: over all t, a pixel's own neighbourhood
+     * bounds its cells only where the picture is still). The per-pixel blend of the image with the pixels'
      * own samples is applied only on request (--correct blend): with the few samples a pixel
      * gets over t at these rates the fit's image was better than the blend (the image MSE of
      * tests/e2e/test_quality_motion.c's scene went from below to 2x above a tuned Gaussian's);
@@ -240,7 +238,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK && correct)
             s = csi_nc_correct(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
         if (s == CSI_OK && blend)
-            s = csi_recon_range_clamp(ctx, g, values, channels, c, pos, n, sheared, st->tmp);
+            s = csi_recon_motion_range_clamp(ctx, g, values, channels, c, pos, n, sheared ? res->options.motion_vx : 0,
+                                             sheared ? res->options.motion_vy : 0, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         if (s == CSI_OK && blend)
