@@ -162,9 +162,11 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
  * not signal; with non-negative samples this also makes `fine` non-negative. */
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                        size_t n, double vx, double vy, cl_mem fine);
-/* The aligned pixels it uses at most, as a multiple of the output pixels (beyond, it projects
- * onto the range of all the samples). */
+                                        size_t n, double vx, double vy, bool wide, cl_mem fine);
+/* The aligned pixels it uses at most (wide: when the volume's basis can be sheared; else as many
+ * as the output pixels), as a multiple of the output pixels; beyond, it projects onto the range
+ * of all the samples. Its device buffer holds that many. A pixel with no sample around takes
+ * the range of all the samples. */
 #define CSI_MOTION_RANGE_MAX_PIXELS 4
 /* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
  * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */

@@ -239,7 +239,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_nc_correct(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
         if (s == CSI_OK && blend)
             s = csi_recon_motion_range_clamp(ctx, g, values, channels, c, pos, n, sheared ? res->options.motion_vx : 0,
-                                             sheared ? res->options.motion_vy : 0, st->tmp);
+                                             sheared ? res->options.motion_vy : 0, moved, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         if (s == CSI_OK && blend)

@@ -23,17 +23,18 @@ static long aligned(uint32_t x, uint32_t t, float v, float tc, uint32_t b, float
 
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                        size_t n, double vx, double vy, cl_mem fine)
+                                        size_t n, double vx, double vy, bool wide, cl_mem fine)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     const float tc = 0.5f * (float)(g->t - 1);
     /* the aligned frame: the output frame widened by what the motion brings in over tc frames
-     * either side, and a pixel more */
-    float ox = (float)(ceil(fabs(vx) * tc / bw) + 1), oy = (float)(ceil(fabs(vy) * tc / bh) + 1);
+     * either side, and a pixel more (along an axis it moves along) */
+    float ox = vx != 0 ? (float)(ceil(fabs(vx) * tc / bw) + 1) : 0;
+    float oy = vy != 0 ? (float)(ceil(fabs(vy) * tc / bh) + 1) : 0;
     size_t aw = g->out_w + 2 * (size_t)ox, ah = g->out_h + 2 * (size_t)oy;
     float fvx = (float)vx, fvy = (float)vy;
-    if ((double)aw * (double)ah > CSI_MOTION_RANGE_MAX_PIXELS * (double)np) {
+    if ((double)aw * (double)ah > (wide ? CSI_MOTION_RANGE_MAX_PIXELS : 1) * (double)np) {
         /* a velocity that takes the content far out of the frame (a given one): the range of
          * all the samples, one pixel holding every cell */
         aw = ah = 1;
@@ -55,6 +56,15 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         lo[p] = INFINITY;
         hi[p] = -INFINITY;
     }
+    float all_lo = INFINITY, all_hi = -INFINITY;
+    for (size_t i = 0; i < n; i++) {
+        all_lo = fminf(all_lo, values[i * channels + c]);
+        all_hi = fmaxf(all_hi, values[i * channels + c]);
+    }
+    if (!(all_lo <= all_hi)) {
+        all_lo = -INFINITY; /* no sample at all: nothing to clamp to */
+        all_hi = INFINITY;
+    }
     for (size_t i = 0; i < n; i++) {
         const long ax = aligned(pos[i].x, pos[i].t, fvx, tc, bw, ox);
         const long ay = aligned(pos[i].y, pos[i].t, fvy, tc, bh, oy);
@@ -74,14 +84,18 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
                     l = fminf(l, lo[(size_t)y * aw + (size_t)x]);
                     h = fmaxf(h, hi[(size_t)y * aw + (size_t)x]);
                 }
-        /* No sample around: nothing to clamp to. */
-        lohi[2 * p] = l <= h ? l : -INFINITY;
-        lohi[2 * p + 1] = l <= h ? h : INFINITY;
+        /* No sample around (the aligned frame's edges, which the motion shows for a few frames
+         * only): the range of all the samples, so that non-negative samples still give a
+         * non-negative volume. */
+        lohi[2 * p] = l <= h ? l : all_lo;
+        lohi[2 * p + 1] = l <= h ? h : all_hi;
     }
     cl_kernel kc;
     const cl_uint w = g->w, hh = g->h, cbw = bw, cbh = bh, caw = (cl_uint)aw, cah = (cl_uint)ah;
     const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);
-    s = csi_buffer(ctx, 2 * na * sizeof(float), CL_MEM_READ_ONLY, "the sample range along the motion", &dev);
+    /* the buffer csi/plan.h counts: the widest aligned frame (wide) or the output frame */
+    const size_t cap = wide ? CSI_MOTION_RANGE_MAX_PIXELS * np : np;
+    s = csi_buffer(ctx, 2 * cap * sizeof(float), CL_MEM_READ_ONLY, "the sample range", &dev);
     if (s == CSI_OK)
         s = csi_write(ctx, dev, 0, 2 * na * sizeof(float), lohi);
     if (s == CSI_OK)
