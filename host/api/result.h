@@ -20,6 +20,7 @@ struct csi_result {
     csi_tiling tiling;
     csi_tile_scope scope;
     csi_tile_result tile; /* index and window origin; tile.r is unused (the pixels are in r) */
+    csi_recon_options given; /* the options the tile was given (its partial holds them) */
 };
 
 /* The text csi_result_info gives as the method. */
@@ -27,6 +28,11 @@ const char *csi_result_method_of(const csi_recon_options *o, const csi_grid *g);
 /* Fills r's options, grid, method and attributes from r->r: a result made by the library is
  * complete. Frees nothing on failure. */
 csi_status csi_result_finish(csi_result *r, const csi_grid *g);
+
+/* A new result whose image (and frames) a blend of tl's tiles fills (csi_tiles_begin); *out is
+ * freed by the caller with csi_result_free, also on failure. */
+csi_status csi_result_blend_begin(const csi_tiling *tl, uint32_t channels, bool frames, csi_blend *b,
+                                  csi_result **out);
 
 /* Makes r->attrs (csi_result_attributes) once the result is complete. */
 csi_status csi_result_make_attributes(csi_result *r);

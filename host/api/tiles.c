@@ -1,5 +1,7 @@
-/* Tiles through the public API (csi/csi.h): the layout, the whole problem's scale, one tile's
- * reconstruction as a result, and the blend of a layout's tile results into the image. */
+/* Tiles through the public API (csi/csi.h): the layout (and where a tile lies), the whole
+ * problem's scale, one tile's reconstruction as a result, and the blend of a layout's tile
+ * results into the image. Partials, the tiles as files: partials.c. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,15 +16,23 @@ static csi_status check_args(csi_device *dev, const csi_samples *s, const char *
     return CSI_OK;
 }
 
+/* The layout of a problem of n samples (a run's sizes: positions and values are not read). */
+static csi_status layout_of(csi_device *dev, const csi_samples *s, size_t n, const csi_options *options,
+                            const char *fn, csi_tiling *tl)
+{
+    if (!dev || !s)
+        return csi_fail(CSI_ERR_ARG, "%s: %s is NULL", fn, !dev ? "the device" : "the samples");
+    csi_recon_options o;
+    CSI_TRY(csi_api_options_for(options, s, fn, &o));
+    return csi_tiling_plan(dev->ctx, &s->grid, s->channels, n, &o, tl);
+}
+
 csi_status csi_tiling_get(csi_device *dev, const csi_samples *s, const csi_options *options, csi_tiling_info *out)
 {
-    CSI_TRY(csi_device_record(dev, check_args(dev, s, "csi_tiling_get")));
     if (!out)
         return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_tiling_get: out is NULL"));
-    csi_recon_options o;
-    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_tiling_get", &o)));
     csi_tiling tl;
-    CSI_TRY(csi_device_record(dev, csi_tiling_plan(dev->ctx, &s->grid, s->channels, s->count, &o, &tl)));
+    CSI_TRY(csi_device_record(dev, layout_of(dev, s, s ? s->count : 0, options, "csi_tiling_get", &tl)));
     memset(out, 0, sizeof *out);
     out->count = tl.count;
     for (int a = 0; a < 3; a++) {
@@ -32,6 +42,62 @@ csi_status csi_tiling_get(csi_device *dev, const csi_samples *s, const csi_optio
     out->tile_bytes = tl.tile_bytes;
     out->whole_bytes = tl.whole_bytes;
     out->budget = tl.budget;
+    return CSI_OK;
+}
+
+csi_status csi_tiling_stats(csi_device *dev, const csi_samples *s, const csi_options *options, csi_json *j)
+{
+    if (!j)
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_tiling_stats: j is NULL"));
+    csi_tiling tl;
+    CSI_TRY(csi_device_record(dev, layout_of(dev, s, s ? s->count : 0, options, "csi_tiling_stats", &tl)));
+    csi_json_int(j, "tiles", tl.count);
+    csi_json_int(j, "tiles_x", tl.n[0]);
+    csi_json_int(j, "tiles_y", tl.n[1]);
+    csi_json_int(j, "tiles_t", tl.n[2]);
+    csi_json_int(j, "window_x", tl.window[0]);
+    csi_json_int(j, "window_y", tl.window[1]);
+    csi_json_int(j, "window_t", tl.window[2]);
+    csi_json_int(j, "margin", tl.margin[0]);
+    csi_json_int(j, "margin_t", tl.margin[2]);
+    csi_json_int(j, "band", tl.band[0]);
+    csi_json_int(j, "band_y", tl.band[1]);
+    csi_json_int(j, "band_t", tl.band[2]);
+    static const char *names[3] = {"cores_x", "cores_y", "cores_t"};
+    for (int a = 0; a < 3; a++) {
+        char list[4096];
+        size_t at = 0;
+        const uint32_t stride = a == 0 ? 1 : a == 1 ? tl.n[0] : tl.n[0] * tl.n[1];
+        for (uint32_t i = 0; i <= tl.n[a] && at < sizeof list - 16; i++) {
+            csi_tile t;
+            csi_tiling_tile(&tl, (i < tl.n[a] ? i : tl.n[a] - 1) * stride, &t);
+            at += (size_t)snprintf(list + at, sizeof list - at, "%s%u", i ? "," : "",
+                                   i < tl.n[a] ? t.core0[a] : t.core1[a]);
+        }
+        csi_json_str(j, names[a], list);
+    }
+    csi_json_int(j, "tile_bytes", (int64_t)tl.tile_bytes);
+    csi_json_int(j, "whole_bytes", (int64_t)tl.whole_bytes);
+    csi_json_int(j, "budget", (int64_t)tl.budget);
+    return CSI_OK;
+}
+
+csi_status csi_tile_window(csi_device *dev, const csi_samples *s, const csi_options *options, uint32_t index,
+                           uint32_t lo[3], uint32_t hi[3])
+{
+    if (!lo || !hi)
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_tile_window: %s is NULL", lo ? "hi" : "lo"));
+    csi_tiling tl;
+    CSI_TRY(csi_device_record(dev, layout_of(dev, s, s ? s->count : 0, options, "csi_tile_window", &tl)));
+    if (index >= tl.count)
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "tile %u of a layout of %u tiles", index, tl.count));
+    csi_tile t;
+    csi_tiling_tile(&tl, index, &t);
+    const uint32_t cell[3] = {s->grid.w / s->grid.out_w, s->grid.h / s->grid.out_h, 1};
+    for (int a = 0; a < 3; a++) {
+        lo[a] = t.win0[a] * cell[a];
+        hi[a] = lo[a] + tl.window[a] * cell[a];
+    }
     return CSI_OK;
 }
 
@@ -54,29 +120,38 @@ csi_status csi_tile_scale(csi_device *dev, const csi_samples *s, const csi_optio
     return CSI_OK;
 }
 
-csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *s, const csi_options *options, uint32_t index,
-                                const double *scale, csi_progress_fn progress, void *user, csi_result **out)
+/* Tile `index` of a problem of `whole` samples from `s` (all of them, or those of the tile's
+ * window); scale NULL: the whole's scale from s when s holds every sample, else none. */
+static csi_status reconstruct_tile(csi_device *dev, const csi_samples *s, size_t whole, const csi_options *options,
+                                   uint32_t index, const double *scale, csi_progress_fn progress, void *user,
+                                   const char *fn, csi_result **out)
 {
     if (out)
         *out = NULL;
-    CSI_TRY(csi_device_record(dev, check_args(dev, s, "csi_reconstruct_tile")));
+    CSI_TRY(csi_device_record(dev, check_args(dev, s, fn)));
     if (!out)
-        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "csi_reconstruct_tile: out is NULL"));
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "%s: out is NULL", fn));
+    if (s->count > whole)
+        return csi_device_record(dev, csi_fail(CSI_ERR_ARG, "%s: %zu samples of a problem of %zu", fn, s->count,
+                                               whole));
     csi_recon_options o;
-    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_reconstruct_tile", &o)));
-    csi_api_progress pr = {progress, user};
-    o.progress = progress ? csi_api_progress_relay : NULL;
-    o.user = &pr;
+    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, fn, &o)));
     csi_result *r = calloc(1, sizeof *r);
     if (!r)
         return csi_device_record(dev, csi_fail(CSI_ERR_NOMEM, "out of host memory for a result"));
-    csi_status st = csi_tiling_plan(dev->ctx, &s->grid, s->channels, s->count, &o, &r->tiling);
+    r->given = o;
+    r->given.progress = NULL;
+    r->given.user = NULL;
+    csi_api_progress pr = {progress, user};
+    o.progress = progress ? csi_api_progress_relay : NULL;
+    o.user = &pr;
+    csi_status st = csi_tiling_plan(dev->ctx, &s->grid, s->channels, whole, &o, &r->tiling);
     if (st == CSI_OK && index >= r->tiling.count)
         st = csi_fail(CSI_ERR_ARG, "tile %u of a layout of %u tiles", index, r->tiling.count);
-    if (st == CSI_OK && scale) {
-        csi_tile_scope_init(&s->grid, s->channels, s->count, &r->scope);
-        r->scope.has_scale = true;
-        for (uint32_t c = 0; c < s->channels && c < 4; c++)
+    if (st == CSI_OK && (scale || s->count < whole)) {
+        csi_tile_scope_init(&s->grid, s->channels, whole, &r->scope);
+        r->scope.has_scale = scale != NULL;
+        for (uint32_t c = 0; scale && c < s->channels && c < 4; c++)
             r->scope.scale[c] = scale[c];
     } else if (st == CSI_OK) {
         st = csi_tile_scope_make(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
@@ -85,8 +160,8 @@ csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *s, const csi
     csi_tile_result t;
     memset(&t, 0, sizeof t);
     if (st == CSI_OK)
-        st = csi_recon_tile(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o,
-                                         &r->tiling, &r->scope, index, &t);
+        st = csi_recon_tile(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
+                            &r->scope, index, &t);
     if (st == CSI_OK) {
         r->is_tile = true;
         r->r = t.r;
@@ -100,6 +175,30 @@ csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *s, const csi
     }
     *out = r;
     return CSI_OK;
+}
+
+csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *s, const csi_options *options, uint32_t index,
+                                const double *scale, csi_progress_fn progress, void *user, csi_result **out)
+{
+    return reconstruct_tile(dev, s, s ? s->count : 0, options, index, scale, progress, user,
+                            "csi_reconstruct_tile", out);
+}
+
+csi_status csi_reconstruct_tile_window(csi_device *dev, const csi_samples *s, size_t whole_count,
+                                       const csi_options *options, uint32_t index, const double *scale,
+                                       csi_progress_fn progress, void *user, csi_result **out)
+{
+    return reconstruct_tile(dev, s, whole_count, options, index, scale, progress, user,
+                            "csi_reconstruct_tile_window", out);
+}
+
+csi_status csi_result_blend_begin(const csi_tiling *tl, uint32_t channels, bool frames, csi_blend *b,
+                                  csi_result **out)
+{
+    *out = calloc(1, sizeof **out);
+    if (!*out)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a result");
+    return csi_tiles_begin(tl, channels, frames, b, &(*out)->r);
 }
 
 static int by_index(const void *a, const void *b)
@@ -141,14 +240,9 @@ csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_res
         frames = frames && t->r.nframes > 0;
     }
     csi_result *r = NULL;
-    if (st == CSI_OK) {
-        r = calloc(1, sizeof *r);
-        if (!r)
-            st = csi_fail(CSI_ERR_NOMEM, "out of host memory for a result");
-    }
     csi_blend b;
     if (st == CSI_OK)
-        st = csi_tiles_begin(&first->tiling, first->r.channels, frames, &b, &r->r);
+        st = csi_result_blend_begin(&first->tiling, first->r.channels, frames, &b, &r);
     for (size_t i = 0; i < count && st == CSI_OK; i++) {
         const csi_result *t = sorted[i];
         csi_tile_result tr = t->tile;

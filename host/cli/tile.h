@@ -1,12 +1,9 @@
 /* One tile of a reconstruction run alone (--tile I/N), and the layout a farm needs to know
- * (--tile-info): shared by csi-reconstruct and csi-render (see docs/tiles.md).
- *
- * The options (common_tile.c) use csi/csi.h only. The runs (common_tile_run.c) write the partial
- * format (partial.h), which holds the library's own tile layout and scope, and csi-render's runs
- * evaluate only the samples of the tile's window with the scale of those samples, which csi.h's
- * csi_reconstruct_tile does not offer: they are built on the library's internal headers, the one
- * part of csi-reconstruct and csi-render that is not over csi.h (as is csi-merge, which reads
- * the partials). */
+ * (--tile-info): shared by csi-reconstruct and csi-render (see docs/tiles.md). The options
+ * (common_tile.c) and the runs (common_tile_run.c) use csi/csi.h only: the tile's reconstruction
+ * (csi_reconstruct_tile, or csi_reconstruct_tile_window for csi-render, which traces only the
+ * samples of the tile's window) and its partial (csi_partial_write; the format is
+ * docs/partial-format.md). */
 #ifndef CSI_CLI_TILE_H
 #define CSI_CLI_TILE_H
 

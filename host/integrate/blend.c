@@ -285,63 +285,6 @@ done:
     return s;
 }
 
-csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
-                                 uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                 size_t n, cl_mem fine)
-{
-    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
-    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
-    float *lohi = malloc(2 * np * sizeof *lohi);
-    cl_mem dev = NULL;
-    csi_status s = CSI_OK;
-    if (!lo || !hi || !lohi) {
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range");
-        goto done;
-    }
-    for (size_t p = 0; p < np; p++) {
-        lo[p] = INFINITY;
-        hi[p] = -INFINITY;
-    }
-    for (size_t i = 0; i < n; i++) {
-        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
-        float v = values[i * channels + c];
-        lo[p] = fminf(lo[p], v);
-        hi[p] = fmaxf(hi[p], v);
-    }
-    size_t nb[9];
-    for (size_t p = 0; p < np; p++) {
-        float l = INFINITY, h = -INFINITY;
-        int k = window(p, ow, oh, nb);
-        for (int j = 0; j < k; j++) {
-            l = fminf(l, lo[nb[j]]);
-            h = fmaxf(h, hi[nb[j]]);
-        }
-        /* No sample around: nothing to clamp to. */
-        lohi[2 * p] = l <= h ? l : -INFINITY;
-        lohi[2 * p + 1] = l <= h ? h : INFINITY;
-    }
-    cl_kernel kc;
-    const cl_uint w = g->w, h = g->h, cbw = bw, cbh = bh, cow = (cl_uint)ow;
-    const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);
-    s = csi_buffer(ctx, 2 * np * sizeof(float), CL_MEM_READ_ONLY, "the sample range", &dev);
-    if (s == CSI_OK)
-        s = csi_write(ctx, dev, 0, 2 * np * sizeof(float), lohi);
-    if (s == CSI_OK)
-        s = csi_kernel(ctx, "recon", "csi_clamp_pixel_range", &kc);
-    if (s == CSI_OK)
-        s = CSI_ARGS(kc, CSI_MEM(fine), CSI_MEM(dev), CSI_ARG(w), CSI_ARG(h), CSI_ARG(cbw), CSI_ARG(cbh),
-                     CSI_ARG(cow), CSI_ARG(cells));
-    if (s == CSI_OK)
-        s = csi_run1d(ctx, kc, cells);
-    if (s == CSI_OK)
-        s = csi_finish(ctx); /* dev is released below */
-done:
-    csi_buffer_release(&dev);
-    free(lo), free(hi), free(lohi);
-    return s;
-}
-
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
                           const csi_sample_pos *pos, size_t n, float *plane)
 {

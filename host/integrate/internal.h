@@ -155,12 +155,19 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
                            const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
                            float *plane);
 /* Projects the fine estimate `fine` (the grid's w x h x t cells, on the device) onto the range
- * of the samples: each cell into [min, max] of channel c's samples in its output pixel and the
- * 8 around it (blend.c). Overshoot and ringing beyond what any nearby sample saw (a sharpened
- * HDR edge) is not signal; with non-negative samples this also makes `fine` non-negative. */
-csi_status csi_recon_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
-                                 uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                 size_t n, cl_mem fine);
+ * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
+ * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame
+ * (the pixel at x - vx (t - tc), y - vy (t - tc); with v = 0 its own output pixel and the 8
+ * around it). Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is
+ * not signal; with non-negative samples this also makes `fine` non-negative. */
+csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
+                                        uint32_t channels, uint32_t c, const csi_sample_pos *pos,
+                                        size_t n, double vx, double vy, bool wide, cl_mem fine);
+/* The aligned pixels it uses at most (wide: when the volume's basis can be sheared; else as many
+ * as the output pixels), as a multiple of the output pixels; beyond, it projects onto the range
+ * of all the samples. Its device buffer holds that many. A pixel with no sample around takes
+ * the range of all the samples. */
+#define CSI_MOTION_RANGE_MAX_PIXELS 4
 /* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
  * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
@@ -205,8 +212,9 @@ void csi_nc_free(csi_nc_op *r);
  * motion is judged on. Allocates nothing on the device (csi/plan.h counts the caller's). */
 typedef struct {
     double v[2];      /* cells per frame; 0, 0 when no velocity predicts the samples at least 3%
-                         better than the still basis */
+                         better (and the median sample 5% better) than the still basis */
     double loo, loo0; /* leave-one-out mean squared errors: the chosen velocity's, v = 0's */
+    double median_ratio; /* the best velocity's median squared leave-one-out error over v = 0's */
     int evaluations;  /* leave-one-out evaluations (two filter passes each) */
     double seconds;
 } csi_motion_velocity;

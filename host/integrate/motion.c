@@ -178,13 +178,16 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     }
     /* By default (and with BLEND) the volume is projected onto the range of the samples around
      * each pixel, so that no value, frame or image, leaves what the samples saw (non-negative
-     * samples give non-negative frames). The per-pixel blend of the image with the pixels'
-     * own samples is applied only on request (--correct blend): with the few samples a pixel
-     * gets over t at these rates the fit's image was better than the blend (the image MSE of
-     * tests/e2e/test_quality_motion.c's scene went from below to 2x above a tuned Gaussian's);
-     * only pixels whose every cell is sampled take their exact mean. Sr gathers the volume at
-     * the samples. */
+     * samples give non-negative frames). With a sheared basis the neighbourhood is taken in
+     * the frame that moves with it (motion_range.c: over all t, a pixel's own neighbourhood
+     * bounds its cells only where the picture is still). The per-pixel blend of the image with
+     * the pixels' own samples is applied only on request (--correct blend): with the few
+     * samples a pixel gets over t at these rates the fit's image was better than the blend (the
+     * image MSE of tests/e2e/test_quality_motion.c's scene went from below to 2x above a tuned
+     * Gaussian's); only pixels whose every cell is sampled take their exact mean. Sr gathers the
+     * volume at the samples. */
     const bool blend = opt->correct == CSI_CORRECT_AUTO || opt->correct == CSI_CORRECT_BLEND;
+    const bool sheared = moved && (res->options.motion_vx != 0 || res->options.motion_vy != 0);
     csi_linop *Sr = NULL;
     if (s == CSI_OK && opt->correct == CSI_CORRECT_BLEND)
         s = csi_sampling_create(ctx, k, st->idx, n, false, &Sr);
@@ -235,7 +238,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK && correct)
             s = csi_nc_correct(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
         if (s == CSI_OK && blend)
-            s = csi_recon_range_clamp(ctx, g, values, channels, c, pos, n, st->tmp);
+            s = csi_recon_motion_range_clamp(ctx, g, values, channels, c, pos, n, sheared ? res->options.motion_vx : 0,
+                                             sheared ? res->options.motion_vy : 0, moved, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         if (s == CSI_OK && blend)

@@ -15,9 +15,12 @@
  *  2. selection and refinement by leave-one-out cross-validation: the normalized convolution along
  *     v (csi/motion_filter.h) predicts every sample from the others,
  *         pred_i = (num_i - w0 y_i) / (den_i - w0),  num = G_v S^T y, den = G_v S^T 1,
- *     and the velocity with the smallest mean squared prediction error wins (v = 0 unless another
- *     is at least 3% better). The rough estimate's own time blur biases E's peak towards v = 0 by
- *     a few percent; the cross-validation does not depend on it.
+ *     and the velocity with the smallest mean squared prediction error wins. It replaces v = 0
+ *     only if it is at least 3% better on the mean and 5% better on the median of the squared
+ *     errors: one global velocity fits a pan (most samples predicted better) but not a mover over
+ *     a still background, whose own samples it predicts much better (the mean drops) and the
+ *     background's worse (the median does not). The rough estimate's own time blur biases E's
+ *     peak towards v = 0 by a few percent; the cross-validation does not depend on it.
  * Everything large runs on the device; the host steers with a few thousand numbers. */
 #include <math.h>
 #include <stdlib.h>
@@ -29,6 +32,7 @@
 
 #define PI_ 3.14159265358979323846
 #define NCAND 3
+#define MAXSEEN 256
 
 typedef struct {
     csi_ctx *ctx;
@@ -41,7 +45,10 @@ typedef struct {
     size_t n, k;
     float *ones, *num, *den;
     double *w0, ymean;
+    float *err, *err0, *errb; /* per-sample squared errors: the last evaluation's, v = 0's, the best's */
     int evals;
+    double seen[MAXSEEN][2]; /* the velocities evaluated so far (the first MAXSEEN) */
+    int nseen;
 } vel_ctx;
 
 /* ---- step 1: the energy of the motion-compensated mean ------------------------------------ */
@@ -173,7 +180,8 @@ static csi_status loo(vel_ctx *c, double vx, double vy, const uint32_t *tof, dou
         const double w0 = c->w0[tof[i]], d = c->den[i] - w0;
         /* a sample with no neighbour within the kernel's reach is predicted by the mean */
         const double p = d > 0.05 * w0 ? (c->num[i] - w0 * c->y[i]) / d : c->ymean;
-        e += (p - c->y[i]) * (p - c->y[i]);
+        c->err[i] = (float)((p - c->y[i]) * (p - c->y[i]));
+        e += c->err[i];
     }
     *score = e / (double)c->n;
     c->evals++;
@@ -186,14 +194,68 @@ static csi_status try_velocity(vel_ctx *c, double vx, double vy, const uint32_t 
 {
     double e;
     *better = false;
+    /* a velocity evaluated before was not better than the best of its time, and the best only
+     * improves since: the coordinate search's steps back (and repeats) cost nothing */
+    for (int i = 0; i < c->nseen; i++)
+        if (c->seen[i][0] == vx && c->seen[i][1] == vy)
+            return CSI_OK;
+    if (c->nseen < MAXSEEN) {
+        c->seen[c->nseen][0] = vx;
+        c->seen[c->nseen][1] = vy;
+        c->nseen++;
+    }
     CSI_TRY(loo(c, vx, vy, tof, &e));
     if (e < *best) {
         *best = e;
         *bx = vx;
         *by = vy;
         *better = true;
+        memcpy(c->errb, c->err, c->n * sizeof *c->err);
     }
     return CSI_OK;
+}
+
+/* The median of a[0..n) (n > 0; reorders a): quickselect, the middle element as the pivot. */
+static double median_of(float *a, size_t n)
+{
+    size_t lo = 0, hi = n - 1, m = n / 2;
+    while (lo < hi) {
+        const float p = a[lo + (hi - lo) / 2];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (a[i] < p)
+                i++;
+            while (a[j] > p)
+                j--;
+            if (i <= j) {
+                const float x = a[i];
+                a[i] = a[j];
+                a[j] = x;
+                i++;
+                if (j == 0)
+                    break;
+                j--;
+            }
+        }
+        if (m <= j)
+            hi = j;
+        else if (m >= i)
+            lo = i;
+        else
+            break;
+    }
+    return a[m];
+}
+
+/* The typical sample's gain: the median of the best velocity's squared leave-one-out errors over
+ * v = 0's (c->err is the scratch). */
+static double median_ratio(vel_ctx *c)
+{
+    memcpy(c->err, c->err0, c->n * sizeof *c->err);
+    const double m0 = median_of(c->err, c->n);
+    memcpy(c->err, c->errb, c->n * sizeof *c->err);
+    const double mb = median_of(c->err, c->n);
+    return m0 > 0 ? mb / m0 : mb > 0 ? INFINITY : 1.0;
 }
 
 /* The rough estimate's low-frequency frame spectra (step 1's input). */
@@ -256,8 +318,20 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     const double t0 = csi_recon_now();
     if (g->t < 2 || (g->w < 2 && g->h < 2))
         return csi_fail(CSI_ERR_ARG, "velocity search: the volume needs a time axis and a spatial one");
-    vel_ctx c = {ctx, g, h, G, S, va, vb, ydev, gat, y, n, (size_t)g->w * g->h * g->t,
-                 NULL, NULL, NULL, NULL, 0, 0};
+    vel_ctx c;
+    memset(&c, 0, sizeof c);
+    c.ctx = ctx;
+    c.g = g;
+    c.h = h;
+    c.G = G;
+    c.S = S;
+    c.va = va;
+    c.vb = vb;
+    c.ydev = ydev;
+    c.gat = gat;
+    c.y = y;
+    c.n = n;
+    c.k = (size_t)g->w * g->h * g->t;
     const size_t T = g->t, wh = (size_t)g->w * g->h;
     lowspec s;
     memset(&s, 0, sizeof s);
@@ -266,7 +340,10 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     c.num = malloc(n * sizeof *c.num);
     c.den = malloc(n * sizeof *c.den);
     c.w0 = malloc(T * sizeof *c.w0);
-    csi_status st = tof && c.ones && c.num && c.den && c.w0
+    c.err = malloc(n * sizeof *c.err);
+    c.err0 = malloc(n * sizeof *c.err0);
+    c.errb = malloc(n * sizeof *c.errb);
+    csi_status st = tof && c.ones && c.num && c.den && c.w0 && c.err && c.err0 && c.errb
                         ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the velocity search");
     for (size_t i = 0; st == CSI_OK && i < n; i++) {
         tof[i] = (uint32_t)(idx[i] / wh);
@@ -296,6 +373,11 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     double best = 0, bx = 0, by = 0;
     if (st == CSI_OK)
         st = loo(&c, 0, 0, tof, &out->loo0);
+    c.nseen = 1; /* v = 0, zero-initialised */
+    if (st == CSI_OK) {
+        memcpy(c.err0, c.err, n * sizeof *c.err);
+        memcpy(c.errb, c.err, n * sizeof *c.err);
+    }
     best = out->loo0;
     for (int i = 0; i < NCAND && st == CSI_OK; i++) {
         if (cands[i].e < 0)
@@ -305,10 +387,14 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
                           tof, &best, &bx, &by, &better);
     }
     /* coordinate search from the best, the step halved down to a quarter cell of drift over
-     * the shutter */
+     * the shutter; not when the best candidate predicts the typical sample no better than v = 0
+     * (a mover's velocity over a still background): the refinement that would follow costs
+     * 20-60 evaluations, and on the benchmark's volumes it took no such candidate below the
+     * acceptance's 0.95 (billiards, anim_ball: from 1.04-1.24 to 0.99-1.16) */
     double step = 0.25;
     const double finest = 0.25 / (double)(T - 1);
-    while (st == CSI_OK && (bx != 0 || by != 0) && step >= finest) {
+    const bool refine = st == CSI_OK && (bx != 0 || by != 0) && median_ratio(&c) < 1.0;
+    while (st == CSI_OK && refine && step >= finest) {
         bool moved = true;
         while (moved && st == CSI_OK) {
             moved = false;
@@ -324,7 +410,14 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
         }
         step *= 0.5;
     }
-    if (st == CSI_OK && best < 0.97 * out->loo0) {
+    if (st == CSI_OK)
+        out->median_ratio = median_ratio(&c);
+    /* accepted when it predicts the samples 3% better on the whole and the typical sample 5%
+     * better: a pan improves most samples (median ratio 0.07-0.89 on the benchmark's pans), one
+     * mover over a still background a few by much, which lowers the mean (to 0.67-0.91 on
+     * billiards and anim_ball, where the still basis's image was better) but not the median
+     * (0.99-1.16 there) */
+    if (st == CSI_OK && best < 0.97 * out->loo0 && out->median_ratio < 0.95) {
         out->v[0] = bx;
         out->v[1] = by;
         out->loo = best;
@@ -338,6 +431,9 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     free(c.num);
     free(c.den);
     free(c.w0);
+    free(c.err);
+    free(c.err0);
+    free(c.errb);
     free(s.re);
     free(s.im);
     return st;
@@ -347,5 +443,5 @@ uint64_t csi_motion_velocity_host_bytes(const csi_grid *g, size_t n)
 {
     const uint64_t na = g->w > 1 ? g->w : g->h, nb = g->w > 1 && g->h > 1 ? g->h : 1;
     const uint64_t r0 = (na / 8 > 0 ? na / 8 : 1) + 1, r1 = nb > 1 ? 2 * (nb / 8 > 0 ? nb / 8 : 1) + 1 : 1;
-    return r0 * r1 * g->t * 16 + r0 * 8 + (uint64_t)n * 16 + (uint64_t)g->t * 8;
+    return r0 * r1 * g->t * 16 + r0 * 8 + (uint64_t)n * 28 + (uint64_t)g->t * 8;
 }

@@ -239,11 +239,13 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
     }
     if (opt->correct == CSI_CORRECT_AUTO || opt->correct == CSI_CORRECT_BLEND) {
         /* blend.c: the samples' range per pixel (freed after each channel's projection), the
-         * exact means of fully sampled pixels */
+         * exact means of fully sampled pixels; along a motion (motion_range.c) per pixel of the
+         * frame that moves with it, at most CSI_MOTION_RANGE_MAX_PIXELS times as many */
+        const uint64_t rp = (uint64_t)np * (moved ? CSI_MOTION_RANGE_MAX_PIXELS : 1);
         csi_mem_tally r = {0};
-        csi_mem_tally_add(&r, (uint64_t)np * 8, "the sample range");
+        csi_mem_tally_add(&r, rp * 8, "the sample range");
         transient_dev(m, &r);
-        transient_host(m, (uint64_t)np * 16);
+        transient_host(m, rp * 16);
     }
     if (opt->correct == CSI_CORRECT_BLEND) {
         csi_sampling_buffers(n, &m->dev); /* the volume gathered at the samples */

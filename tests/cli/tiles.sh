@@ -3,7 +3,8 @@
 # by one with --tile I/N (in any order, the scale given or computed) and blended by csi-merge,
 # and csi-render tracing only each tile's samples, all give the same pixels, bit for bit (image
 # hashes in the statistics, frame PNGs byte for byte); csi-merge refuses a missing, repeated,
-# foreign, damaged or non-partial input with one line, exit 2 and no output.
+# foreign (another dump, scene, options or layout), truncated, damaged, other-version or
+# non-partial input with one line naming the file, exit 2 and no output.
 # usage: tiles.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
@@ -60,8 +61,17 @@ expect_fail "foreign options" "reconstruction options" "$B/csi-merge" "$T/p0.csi
 expect_fail "foreign input" "the input" "$B/csi-merge" "$T/p0.csip" "$T/r1.csip" "$T/p2.csip" "$T/p3.csip" -o "$T/out.exr"
 "$B/csi-reconstruct" "$T/s.csid" --tile 1/2 -o "$T/half1.csip" "${tiles[@]}"
 expect_fail "another layout" "layout" "$B/csi-merge" "$T/p0.csip" "$T/half1.csip" -o "$T/out.exr"
+"$B/csi-render" "$static" --seed 2 --dump "$T/s2.csid" -o "$T/s2.exr" -q
+"$B/csi-reconstruct" "$T/s2.csid" --tile 1/4 --tile-scale "$scale" -o "$T/dump1.csip" "${tiles[@]}"
+expect_fail "foreign dump" "dump1.csip: tile 1 belongs to another run.*the input" "$B/csi-merge" "$T/p0.csip" "$T/dump1.csip" "$T/p2.csip" "$T/p3.csip" -o "$T/out.exr"
 head -c 300 "$T/p2.csip" > "$T/trunc.csip"
-expect_fail "truncated partial" "trunc.csip" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/trunc.csip" "$T/p3.csip" -o "$T/out.exr"
+expect_fail "truncated partial" "trunc.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/trunc.csip" "$T/p3.csip" -o "$T/out.exr"
+# a byte of the pixels changed; the format version changed (byte 4)
+size=$(stat -c %s "$T/p2.csip")
+{ head -c $((size - 64)) "$T/p2.csip"; printf 'Z'; tail -c 63 "$T/p2.csip"; } > "$T/damaged.csip"
+expect_fail "damaged partial" "damaged.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/damaged.csip" "$T/p3.csip" -o "$T/out.exr"
+{ head -c 4 "$T/p2.csip"; printf '\x02'; tail -c +6 "$T/p2.csip"; } > "$T/v2.csip"
+expect_fail "another format version" "v2.csip: partial format version 2" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v2.csip" "$T/p3.csip" -o "$T/out.exr"
 expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
 expect_fail "no frames" "no frames" "$B/csi-merge" "$T"/p?.csip -o "$T/out.exr" --frames "$T/f3"
 expect_fail "tile out of range" "--tile" "$B/csi-reconstruct" "$T/s.csid" --tile 4/4 -o "$T/out.exr"

@@ -8,8 +8,12 @@
  *    refinement steps down to 0.25 / (T - 1) = 0.017; the rest is the statistics of 3932
  *    samples). The image and frames are better than with the paper's basis on the same samples
  *    (motion_time dft, velocity none): the reason the basis is sheared.
+ *  - the same pan at 3% of the cells: at most 0.7x the image MSE of the tuned 3-D Gaussian (the
+ *    issue's target);
  *  - the same texture still (v = 0) with a disc sliding over a quarter of it: the velocity stays
- *    exactly 0 (the still basis is kept unless a velocity predicts the samples 3% better).
+ *    exactly 0 (the still basis is kept unless a velocity predicts the samples 3% better);
+ *  - a still background with a large fast textured mover: the velocity stays 0 (the typical
+ *    sample is not predicted better) and the image beats the mover's shear;
  *  - a given velocity is used as given; the estimate is deterministic (same bits twice);
  *  - a single pixel over time (nothing to shear) keeps the paper's basis. */
 #include <math.h>
@@ -71,6 +75,23 @@ static float *volume(bool moving, double vx, double vy)
     return f;
 }
 
+/* a still background (the texture at 0.3 of its contrast) with a textured disc of radius r
+ * (the texture, shifted, at twice its contrast) moving at `speed` cells per frame along x from
+ * (12, 32): a ball rolling across a still table */
+static float *still_with_mover(double r, double speed)
+{
+    float *f = malloc((size_t)W * H * T * sizeof *f);
+    for (int t = 0; t < T; t++)
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                double cx = x + 0.5, cy = y + 0.5, dx = cx - (12 + speed * t), dy = cy - 32;
+                double v = dx * dx + dy * dy < r * r ? 0.5 + 2.0 * (texture(dx + 17, dy + 23) - 0.5)
+                                                     : 0.5 + 0.3 * (texture(cx, cy) - 0.5);
+                f[((size_t)t * H + y) * W + x] = (float)v;
+            }
+    return f;
+}
+
 typedef struct {
     csi_grid g;
     csi_sample_pos *pos;
@@ -78,11 +99,11 @@ typedef struct {
     size_t n;
 } samples;
 
-static samples sample(const float *f)
+static samples sample_at(const float *f, double rate)
 {
     samples s;
     s.g = (csi_grid){W, H, T, W, H};
-    csi_pos_opts po = {CSI_POS_RANDOM, 0, 0.06, 11};
+    csi_pos_opts po = {CSI_POS_RANDOM, 0, rate, 11};
     if (csi_positions(&s.g, &po, &s.pos, &s.n, NULL) != CSI_OK) {
         fprintf(stderr, "positions: %s\n", csi_last_error());
         exit(1);
@@ -91,6 +112,11 @@ static samples sample(const float *f)
     for (size_t i = 0; i < s.n; i++)
         s.val[i] = f[csi_grid_index(&s.g, s.pos[i])];
     return s;
+}
+
+static samples sample(const float *f)
+{
+    return sample_at(f, 0.06);
 }
 
 static double image_mse(const float *f, const csi_recon_result *r)
@@ -161,6 +187,43 @@ int main(void)
         free(f);
     }
 
+    /* the same pan at 3% of the cells against the paper's linear baseline, the 3-D Gaussian
+     * normalized convolution with its width chosen by an oracle (the lowest image MSE of the
+     * widths 0.5 * 1.15^j <= 6 cells): the issue's target at 3%, at most 0.7x its image MSE.
+     * Measured 0.17x; 1.84x when the sheared volume was projected onto each pixel's own sample
+     * range over all t (the content moves across the pixels: the range of the few samples
+     * around a pixel cuts what moved in). */
+    {
+        float *f = volume(true, vx, vy);
+        samples s = sample_at(f, 0.03);
+        double best = INFINITY, sbest = 0;
+        for (double sig = 0.5; sig <= 6.0; sig *= 1.15) {
+            csi_recon_options go;
+            csi_recon_defaults(&go);
+            go.estimator = CSI_EST_GAUSS;
+            go.gauss_sigma = sig;
+            csi_recon_result r;
+            REQUIRE_OK(csi_recon(ctx, &s.g, 1, s.pos, s.val, s.n, &go, &r));
+            const double e = image_mse(f, &r);
+            if (e < best) {
+                best = e;
+                sbest = sig;
+            }
+            csi_recon_result_free(&r);
+        }
+        csi_recon_options o;
+        csi_recon_defaults(&o);
+        csi_recon_result a;
+        REQUIRE_OK(csi_recon(ctx, &s.g, 1, s.pos, s.val, s.n, &o, &a));
+        const double e = image_mse(f, &a);
+        printf("pan at 3%%: image MSE %.3e, tuned Gaussian's %.3e (sigma %.2f): %.2fx\n", e, best, sbest, e / best);
+        CHECK(e <= 0.7 * best, "pan at 3%%: image MSE %.3e is %.2fx the tuned Gaussian's", e, e / best);
+        csi_recon_result_free(&a);
+        csi_free(s.pos);
+        free(s.val);
+        free(f);
+    }
+
     /* still background with a small mover: no shear */
     {
         float *f = volume(false, 0, 0);
@@ -173,6 +236,36 @@ int main(void)
         CHECK(a.options.motion_vx == 0 && a.options.motion_vy == 0, "still scene: velocity (%g, %g)",
               a.options.motion_vx, a.options.motion_vy);
         csi_recon_result_free(&a);
+        csi_free(s.pos);
+        free(s.val);
+        free(f);
+    }
+    /* a still background with a large fast mover: the mover's velocity predicts the mover's
+     * samples so much better that the mean leave-one-out error drops by half, but the typical
+     * (median) sample is on the background, which that shear predicts worse. The still basis
+     * stays, and its image is better than the mover's shear gives on the same samples (the
+     * mover's frames can be better sheared: one velocity cannot fit both). */
+    {
+        const double speed = 3;
+        float *f = still_with_mover(12, speed);
+        samples s = sample(f);
+        csi_recon_options o;
+        csi_recon_defaults(&o);
+        csi_recon_result a, b;
+        REQUIRE_OK(csi_recon(ctx, &s.g, 1, s.pos, s.val, s.n, &o, &a));
+        printf("still + large mover: estimated (%.4f, %.4f)\n", a.options.motion_vx, a.options.motion_vy);
+        CHECK(a.options.motion_vx == 0 && a.options.motion_vy == 0, "still + large mover: velocity (%g, %g)",
+              a.options.motion_vx, a.options.motion_vy);
+        csi_recon_options p = o;
+        p.motion_velocity = CSI_VELOCITY_GIVEN;
+        p.motion_vx = speed;
+        p.motion_vy = 0;
+        REQUIRE_OK(csi_recon(ctx, &s.g, 1, s.pos, s.val, s.n, &p, &b));
+        const double ia = image_mse(f, &a), ib = image_mse(f, &b);
+        printf("image MSE %.3e (sheared by the mover %.3e)\n", ia, ib);
+        CHECK(ia < ib, "image MSE %.3e not below the mover's shear's %.3e", ia, ib);
+        csi_recon_result_free(&a);
+        csi_recon_result_free(&b);
         csi_free(s.pos);
         free(s.val);
         free(f);

@@ -4,7 +4,8 @@ for bit (the stats' hash, and the same FNV-1a computed here over the returned ar
 keyword come back resolved; csi.positions on csi's grid rule gives csi-positions' request
 (mitsuba_bridge.positions_request); Result.write_exr / write_png write the very bytes csi-reconstruct
 writes (its EXR header holds only what the inputs decide); errors are CsiError with the library's
-message; a progress callback that returns False cancels. Run by ctest with CSI_BUILD_DIR
+message; a progress callback that returns False cancels; tiles made apart (csi.reconstruct_tile,
+written as partials) merge to csi.reconstruct's tiled bits. Run by ctest with CSI_BUILD_DIR
 (programs and sdk/libcsi.so)."""
 import ctypes
 import json
@@ -141,5 +142,36 @@ with tempfile.TemporaryDirectory() as T:
         check(False, "a progress callback returning False cancels")
     except csi.CsiError as e:
         check(e.status == "CSI_ERR_CANCELLED" and calls[0] == "setup", f"cancel: {e.status} {e} {calls[:3]}")
+
+    # tiles as separate jobs: tiles made by csi.reconstruct_tile and written as partials, one of
+    # them by csi-reconstruct --tile instead, merged by csi.merge_partials and by csi-merge, give
+    # csi.reconstruct's own tiled image (the same options), bit for bit
+    st = csi.read_dump(os.path.join(T, "small_triangle.csid"))
+    topts = dict(tiles=4, tile_margin=4, max_iter=40, seed=st.seed, exact=st.exact)
+    whole = csi.reconstruct(st.positions, st.values, st.grid, **topts)
+    parts = []
+    for i in (3, 0, 2):
+        t = csi.reconstruct_tile(st.positions, st.values, st.grid, i, **topts)
+        check(t.info.get("tile") == i and t.info["tiles"] == 4, f"tile {i}: info {t.info}")
+        parts.append(os.path.join(T, f"py{i}.csip"))
+        t.write_partial(parts[-1], "small_triangle.csid")
+    parts.append(os.path.join(T, "cli1.csip"))
+    subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "small_triangle.csid"), "--tile", "1/4",
+                    "--tile-margin", "4", "--max-iter", "40", "-o", parts[-1], "-q"], check=True)
+    m = csi.merge_partials(parts)
+    check(whole.info["tiles"] == 4 and np.array_equal(m.image, whole.image)
+          and m.stats["image_fnv1a64"] == whole.stats["image_fnv1a64"],
+          f"merged partials {m.stats['image_fnv1a64']} vs tiled {whole.stats['image_fnv1a64']}")
+    check(m.partial_info["tiles"] == 4 and m.partial_info["input"] == "small_triangle.csid",
+          f"the run's description {m.partial_info}")
+    subprocess.run([os.path.join(BUILD, "csi-merge")] + parts + ["-o", os.path.join(T, "pm.exr"), "--stats",
+                   os.path.join(T, "pm.json"), "-q"], check=True)
+    check(json.load(open(os.path.join(T, "pm.json")))["image_fnv1a64"] == whole.stats["image_fnv1a64"],
+          "csi-merge of the same partials")
+    try:
+        csi.merge_partials(parts[:3])
+        check(False, "a missing tile raises")
+    except csi.CsiError as e:
+        check(e.status == "CSI_ERR_ARG" and "tile 1 of 4 is missing" in str(e), f"missing tile: {e.status} {e}")
 
 sys.exit(done())

@@ -430,6 +430,85 @@ CSI_API csi_status csi_reconstruct_tile(csi_device *dev, const csi_samples *samp
  * from another layout or scale. */
 CSI_API csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_result **out);
 
+typedef struct csi_json csi_json; /* the statistics' JSON builder (below) */
+/* The layout as statistics (what a farm needs to know before it hands out tiles): "tiles",
+ * "tiles_x", "tiles_y", "tiles_t", "window_x", "window_y", "window_t", "margin", "margin_t",
+ * "band", "band_y", "band_t", the core boundaries along each axis as text ("cores_x": "0,64,96",
+ * for tools that look at the seams), "tile_bytes", "whole_bytes" and "budget". Like
+ * csi_tiling_get it reads the samples' grid, channels and count only (pos and values may be NULL),
+ * as does csi_tile_window. */
+CSI_API csi_status csi_tiling_stats(csi_device *dev, const csi_samples *samples, const csi_options *options,
+                                    csi_json *j);
+/* Where tile `index` lies on the fine grid: cells [lo[a], hi[a]) along x, y and t. A renderer
+ * that traces one tile alone evaluates only the positions inside (csi_reconstruct_tile_window). */
+CSI_API csi_status csi_tile_window(csi_device *dev, const csi_samples *samples, const csi_options *options,
+                                   uint32_t index, uint32_t lo[3], uint32_t hi[3]);
+/* csi_reconstruct_tile for a caller that holds only the samples inside tile index's window
+ * (csi_tile_window) of a problem of whole_count samples, such as a renderer that traced that
+ * window alone: `samples` are those (positions on the whole grid), whole_count decides the layout
+ * and the defaults as it would with every sample at hand. Without the whole's scale (NULL: it
+ * needs every sample) the tile scales tau by its own samples, as an untiled run of its window
+ * would. */
+CSI_API csi_status csi_reconstruct_tile_window(csi_device *dev, const csi_samples *samples, size_t whole_count,
+                                               const csi_options *options, uint32_t index, const double *scale,
+                                               csi_progress_fn progress, void *user, csi_result **out);
+
+/* ---- tiles as separate jobs: partials (docs/partial-format.md) -------------------------------
+ * A tile made on one machine is written as a partial (a versioned file with a checksum that
+ * holds the tile's pixels and what decided them); a merge reads the partials of one run, from
+ * wherever they were made, checks that they are one complete run and blends them: the same bits
+ * as csi_reconstruct tiling by itself.
+ *
+ * Identity: two partials belong to the same run when they were written by the same library
+ * version, from the same input (input_id), with the same options (the tile options aside: the
+ * layout is compared instead), the same layout and the same whole-problem scale. input_id is the
+ * caller's: csi_samples_id for samples at hand, or a hash of whatever decides the samples (a
+ * renderer: its scene and sampling, with csi_hash64). */
+typedef struct csi_partial_info {
+    char software[32];    /* "csi 0.1.0": the library that wrote it */
+    char method[96];      /* the method text for the image's csi:method */
+    char input[128];      /* the input's file name (no directory), for messages */
+    uint64_t input_id;
+    uint32_t tile_index, tile_count;
+    csi_grid grid;        /* the whole problem's */
+    uint32_t channels;
+    uint32_t frames;      /* frames of the tile's window it holds (0: the image only) */
+    uint64_t samples;     /* the whole problem's */
+} csi_partial_info;
+
+/* A 64-bit content hash, chained: h = csi_hash64(h, data, bytes) from any starting value; the
+ * bytes are read as little-endian 64-bit words, so the same bytes hash the same everywhere. */
+CSI_API uint64_t csi_hash64(uint64_t h, const void *data, size_t bytes);
+/* The identity of samples: csi_hash64 of the grid, channels, positions and values (and the flags
+ * when any is set). */
+CSI_API uint64_t csi_samples_id(const csi_samples *samples);
+
+/* Writes a tile's result (csi_reconstruct_tile or csi_reconstruct_tile_window) as a partial, to
+ * a temporary file renamed when complete. input: a name for messages (its directory is dropped);
+ * method: the text for the merged image's csi:method (NULL: the result's method). Frames are
+ * kept when the tile has them (the option "frames"). */
+CSI_API csi_status csi_partial_write(const char *path, const csi_result *tile, const char *input,
+                                     uint64_t input_id, const char *method);
+/* Reads a partial's description after checking the whole file: CSI_ERR_FORMAT (CSI_ERR_IO when
+ * it cannot be read) with one line naming the file for anything but a partial of this format
+ * version: another file, another version, a truncated or damaged file (checksum). */
+CSI_API csi_status csi_partial_read_info(const char *path, csi_partial_info *out);
+/* Reads a partial as the tile's result (for csi_tiles_blend, or to look at it); info may be
+ * NULL. Stats and attributes of the result are those of the tile as it was written. */
+CSI_API csi_status csi_partial_read(const char *path, csi_result **out, csi_partial_info *info);
+/* Merges the partials of one run, given in any order (paths[0 .. count-1]), into the image:
+ * first every partial's description (csi_partial_read_info), then the blend in tile order,
+ * reading one partial at a time. Refused with one line naming the file (CSI_ERR_FORMAT for a file
+ * that is not a partial of this version, CSI_ERR_ARG otherwise), before any blending: a partial of
+ * another run (what differs: the input, the options, the layout ...), a tile given twice, a tile
+ * missing. frames: the result holds the frames (every partial must hold them). progress (may be
+ * NULL) is called after each tile with phase "merge" and iteration = tiles blended; false
+ * cancels (CSI_ERR_CANCELLED). info (may be NULL): the run's description, from paths[0]. The
+ * result's options are the options the tiles were given (the solver as the tiles resolved it). */
+CSI_API csi_status csi_partials_merge(const char *const *paths, size_t count, bool frames,
+                                      csi_progress_fn progress, void *user, csi_result **out,
+                                      csi_partial_info *info);
+
 /* ---- images -------------------------------------------------------------------------------- */
 CSI_API csi_status csi_image_alloc(csi_image *img, uint32_t w, uint32_t h, uint32_t channels);
 CSI_API void csi_image_free(csi_image *img);

@@ -12,8 +12,8 @@ loaded on first use, and the renderer bridges import their renderer only when th
 
 __version__ = "0.1.0"
 
-_API = ("CsiError", "Device", "Dump", "Options", "Result", "default_grid_factor", "options", "positions",
-        "read_dump", "reconstruct", "reconstruct_dump", "version")
+_API = ("CsiError", "Device", "Dump", "Options", "Result", "default_grid_factor", "merge_partials", "options",
+        "positions", "read_dump", "reconstruct", "reconstruct_dump", "reconstruct_tile", "version")
 
 
 def __getattr__(name):

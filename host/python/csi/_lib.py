@@ -76,6 +76,12 @@ class _Info(ctypes.Structure):  # csi_result_info, every field (the library writ
                 ("tiles", u32), ("tile", ctypes.c_bool), ("tile_index", u32), ("tile_origin", u32 * 3)]
 
 
+class _PartialInfo(ctypes.Structure):  # csi_partial_info
+    _fields_ = [("software", ctypes.c_char * 32), ("method", ctypes.c_char * 96), ("input", ctypes.c_char * 128),
+                ("input_id", ctypes.c_uint64), ("tile_index", u32), ("tile_count", u32), ("grid", Grid),
+                ("channels", u32), ("frames", u32), ("samples", ctypes.c_uint64)]
+
+
 _PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_bool, ctypes.c_void_p, ctypes.POINTER(_Progress))
 _OPTION_KINDS = ("choice", "number", "integer", "flag")
 
@@ -168,6 +174,12 @@ def _bind(L):
         "csi_result_attributes": (c_size, [P, ctypes.POINTER(P)]),
         "csi_exr_write": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(_Image), P, c_size]),
         "csi_png_write": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(_Image)]),
+        "csi_reconstruct_tile": (ctypes.c_int, [P, ctypes.POINTER(_Samples), P, u32, ctypes.POINTER(ctypes.c_double),
+                                                _PROGRESS_FN, P, ctypes.POINTER(P)]),
+        "csi_samples_id": (ctypes.c_uint64, [ctypes.POINTER(_Samples)]),
+        "csi_partial_write": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.c_char_p, ctypes.c_uint64, ctypes.c_char_p]),
+        "csi_partials_merge": (ctypes.c_int, [ctypes.POINTER(ctypes.c_char_p), c_size, ctypes.c_bool, _PROGRESS_FN,
+                                              P, ctypes.POINTER(P), ctypes.POINTER(_PartialInfo)]),
     }
     for name, (res, args) in sig.items():
         f = getattr(L, name)
@@ -284,6 +296,13 @@ class Result:
         """An 8-bit sRGB preview (values clamped to [0, 1])."""
         self._write(path, False, frame)
 
+    def write_partial(self, path, input: str = ""):
+        """A tile's result (reconstruct_tile) as a partial (docs/partial-format.md), for
+        merge_partials or csi-merge; `input` names the samples in messages."""
+        if not getattr(self, "_h", None) or getattr(self, "_input_id", None) is None:
+            raise CsiError("CSI_ERR_ARG", "write_partial: not the open result of reconstruct_tile")
+        _check(lib().csi_partial_write(os.fsencode(path), self._h, os.fsencode(input), self._input_id, None))
+
     def close(self):
         if getattr(self, "_h", None) and _lib is not None:
             _lib.csi_result_free(self._h)
@@ -327,6 +346,8 @@ def _result(L, r) -> Result:
     L.csi_result_info_get(r, ctypes.byref(inf))
     info = {"method": inf.method.decode(), "solver": inf.solver.decode(), "k": inf.k, "n": inf.n,
             "t_setup": inf.t_setup, "t_solve": inf.t_solve, "t_integrate": inf.t_integrate, "tiles": inf.tiles}
+    if inf.tile:
+        info.update(tile=inf.tile_index, tile_origin=tuple(inf.tile_origin))
     j = ctypes.c_void_p()
     _check(L.csi_json_new(ctypes.byref(j)))
     try:
@@ -339,6 +360,54 @@ def _result(L, r) -> Result:
     return Result(image, frames, used, reports, info, stats, r)
 
 
+class _Call:
+    """The arguments of a reconstruction call: samples from numpy arrays (kept alive with it),
+    options, device, and the progress relay that passes on what the callback raised."""
+
+    def __init__(self, positions, values, grid, device, progress, options, kwargs, exact):
+        global _default_device
+        pos = np.ascontiguousarray(positions, dtype=np.uint32)
+        val = np.asarray(values, dtype=np.float32)
+        if val.ndim == 1:
+            val = val[:, None]
+        val = np.ascontiguousarray(val)
+        if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
+            raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+        if options is None:
+            options = Options(**kwargs)
+        else:
+            for k, v in kwargs.items():
+                options.set(k, v)
+        if device is None:
+            if _default_device is None:
+                _default_device = Device()
+            device = _default_device
+        self.arrays, self.options, self.device, self.raised = (pos, val), options, device, []
+        self.samples = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0],
+                                pos.ctypes.data_as(ctypes.POINTER(u32)),
+                                val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), SAMPLES_EXACT if exact else 0)
+
+        def relay(_user, p):
+            try:
+                go = progress(p.contents.phase.decode(), p.contents.iteration, p.contents.residual)
+                return go is None or bool(go)
+            except BaseException as e:  # noqa: BLE001 - passed on after the library has cleaned up
+                self.raised.append(e)
+                return False
+
+        self.fn = _PROGRESS_FN(relay) if progress else _PROGRESS_FN()
+
+    def result(self, L, st, r) -> Result:
+        if self.raised:
+            raise self.raised[0]
+        _check(st)
+        try:
+            return _result(L, r)  # which then owns r
+        except BaseException:
+            L.csi_result_free(r)
+            raise
+
+
 def reconstruct(positions, values, grid, device: Optional[Device] = None,
                 progress: Optional[Callable[[str, int, float], Optional[bool]]] = None,
                 options: Optional[Options] = None, exact: bool = False, **kwargs) -> Result:
@@ -349,48 +418,52 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
     the control-variate correction instead of the blend.
     progress(phase, iteration, residual) may return False to cancel (CsiError CSI_ERR_CANCELLED);
     an exception it raises cancels and is raised again."""
-    global _default_device
     L = lib()
-    pos = np.ascontiguousarray(positions, dtype=np.uint32)
-    val = np.asarray(values, dtype=np.float32)
-    if val.ndim == 1:
-        val = val[:, None]
-    val = np.ascontiguousarray(val)
-    if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
-        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
-    if options is None:
-        options = Options(**kwargs)
-    else:
-        for k, v in kwargs.items():
-            options.set(k, v)
-    if device is None:
-        if _default_device is None:
-            _default_device = Device()
-        device = _default_device
-    s = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0],
-                 pos.ctypes.data_as(ctypes.POINTER(u32)), val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)),
-                 SAMPLES_EXACT if exact else 0)
-    raised = []
-
-    def relay(_user, p):
-        try:
-            go = progress(p.contents.phase.decode(), p.contents.iteration, p.contents.residual)
-            return go is None or bool(go)
-        except BaseException as e:  # noqa: BLE001 - passed on after the library has cleaned up
-            raised.append(e)
-            return False
-
-    fn = _PROGRESS_FN(relay) if progress else _PROGRESS_FN()
+    c = _Call(positions, values, grid, device, progress, options, kwargs, exact)
     r = ctypes.c_void_p()
-    st = L.csi_reconstruct(device._h, ctypes.byref(s), options._h, fn, None, ctypes.byref(r))
-    if raised:
-        raise raised[0]
-    _check(st)
+    st = L.csi_reconstruct(c.device._h, ctypes.byref(c.samples), c.options._h, c.fn, None, ctypes.byref(r))
+    return c.result(L, st, r)
+
+
+def reconstruct_tile(positions, values, grid, index: int, scale=None, device: Optional[Device] = None,
+                     progress: Optional[Callable[[str, int, float], Optional[bool]]] = None,
+                     options: Optional[Options] = None, exact: bool = False, **kwargs) -> Result:
+    """Tile `index` of the layout the options give (tiles=N asks for N; docs/tiles.md) from all
+    the samples, as reconstruct takes them (exact too): a Result holding the tile's window
+    (info["tile"], info["tile_origin"]), which write_partial writes for merge_partials or
+    csi-merge on another machine. scale: the whole problem's tau scale per channel (None:
+    computed here)."""
+    L = lib()
+    c = _Call(positions, values, grid, device, progress, options, kwargs, exact)
+    sc = (ctypes.c_double * 4)(*[float(x) for x in list(scale)[:4]]) if scale is not None else None
+    r = ctypes.c_void_p()
+    st = L.csi_reconstruct_tile(c.device._h, ctypes.byref(c.samples), c.options._h, int(index), sc, c.fn, None,
+                                ctypes.byref(r))
+    res = c.result(L, st, r)
+    res._input_id = L.csi_samples_id(ctypes.byref(c.samples))
+    return res
+
+
+def merge_partials(paths, frames: bool = False) -> Result:
+    """The image of one run's partials (written by write_partial, or csi-reconstruct / csi-render
+    --tile I/N), given in any order: the bits csi-merge gives. A missing, repeated, foreign,
+    damaged or other-version partial raises CsiError naming the file. frames: keep the frames
+    (the partials must hold them). The run's description is the result's .partial_info."""
+    L = lib()
+    names = [os.fsencode(p) for p in paths]
+    arr = (ctypes.c_char_p * max(len(names), 1))(*names)
+    r, inf = ctypes.c_void_p(), _PartialInfo()
+    _check(L.csi_partials_merge(arr, len(names), bool(frames), _PROGRESS_FN(), None, ctypes.byref(r),
+                                ctypes.byref(inf)))
     try:
-        return _result(L, r)  # which then owns r
+        res = _result(L, r)
     except BaseException:
         L.csi_result_free(r)
         raise
+    res.partial_info = {"software": inf.software.decode(), "method": inf.method.decode(),
+                        "input": inf.input.decode(), "input_id": f"{inf.input_id:016x}",
+                        "tiles": inf.tile_count, "samples": inf.samples}
+    return res
 
 
 def default_grid_factor(out_w: int, out_h: int, t: int = 1, spp: int = 4) -> int:

@@ -1,5 +1,5 @@
-/* Tile partials (partial.h; the format is in docs/tiles.md): a little-endian stream of fields,
- * then the image and frames, then a checksum of everything before it. */
+/* Tile partials (partial.h; the format is docs/partial-format.md): a little-endian stream of
+ * fields, then the image and frames, then a checksum of everything before it. */
 #include "partial.h"
 
 #include <errno.h>
@@ -12,7 +12,7 @@
 #include "csi/outfile.h"
 #include "csi/positions.h"
 
-uint64_t cli_hash64(uint64_t h, const void *data, size_t bytes)
+uint64_t csi_hash64(uint64_t h, const void *data, size_t bytes)
 {
     const unsigned char *p = data;
     size_t i = 0;
@@ -277,10 +277,10 @@ static void get_report(rbuf *r, csi_solve_report *p)
 }
 
 /* Everything before the pixels. */
-static void put_header(wbuf *w, const cli_partial *p)
+static void put_header(wbuf *w, const csi_partial *p)
 {
-    put(w, CLI_PARTIAL_MAGIC, 4);
-    put(w, (const unsigned char[4]){CLI_PARTIAL_VERSION, 0, 0, 0}, 4);
+    put(w, CSI_PARTIAL_MAGIC, 4);
+    put(w, (const unsigned char[4]){CSI_PARTIAL_VERSION, 0, 0, 0}, 4);
     put_str(w, p->software, sizeof p->software);
     put_str(w, p->method, sizeof p->method);
     put_str(w, p->input, sizeof p->input);
@@ -320,7 +320,7 @@ static void put_header(wbuf *w, const cli_partial *p)
         put_report(w, &r->report[c]);
 }
 
-csi_status cli_partial_write(const char *path, const cli_partial *p)
+csi_status csi_partial_store(const char *path, const csi_partial *p)
 {
     const csi_recon_result *r = &p->tile.r;
     const size_t plane = (size_t)r->out_w * r->out_h * r->channels;
@@ -329,7 +329,7 @@ csi_status cli_partial_write(const char *path, const cli_partial *p)
     put_f32s(&w, r->image, plane);
     if (r->nframes)
         put_f32s(&w, r->frames, plane * r->nframes);
-    put_u64(&w, cli_hash64(0, w.b, w.n));
+    put_u64(&w, csi_hash64(0, w.b, w.n));
     if (w.oom) {
         free(w.b);
         return csi_fail(CSI_ERR_NOMEM, "%s: out of memory writing the partial", path);
@@ -349,12 +349,12 @@ csi_status cli_partial_write(const char *path, const cli_partial *p)
     return csi_outfile_commit(&of);
 }
 
-void cli_partial_free(cli_partial *p)
+void csi_partial_release(csi_partial *p)
 {
     csi_tile_result_free(&p->tile);
 }
 
-csi_status cli_partial_read(const char *path, bool with_data, cli_partial *out)
+csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
 {
     memset(out, 0, sizeof *out);
     FILE *fp = fopen(path, "rb");
@@ -376,14 +376,14 @@ csi_status cli_partial_read(const char *path, bool with_data, cli_partial *out)
     csi_status s = CSI_OK;
     if (got != size)
         s = csi_fail(CSI_ERR_IO, "%s: read %zu of %zu bytes", path, got, size);
-    else if (size < 16 || memcmp(b, CLI_PARTIAL_MAGIC, 4))
+    else if (size < 16 || memcmp(b, CSI_PARTIAL_MAGIC, 4))
         s = csi_fail(CSI_ERR_FORMAT, "%s: not a csi tile partial (no \"CSIP\" magic)", path);
-    else if (b[4] != CLI_PARTIAL_VERSION || b[5] || b[6] || b[7])
+    else if (b[4] != CSI_PARTIAL_VERSION || b[5] || b[6] || b[7])
         s = csi_fail(CSI_ERR_FORMAT, "%s: partial format version %u (this program reads version %u)", path,
-                     (unsigned)b[4] | (unsigned)b[5] << 8, CLI_PARTIAL_VERSION);
+                     (unsigned)b[4] | (unsigned)b[5] << 8, CSI_PARTIAL_VERSION);
     else {
         rbuf tail = {b, size, size - 8, false};
-        if (get_u64(&tail) != cli_hash64(0, b, size - 8))
+        if (get_u64(&tail) != csi_hash64(0, b, size - 8))
             s = csi_fail(CSI_ERR_FORMAT, "%s: checksum mismatch: the partial is truncated or damaged", path);
     }
     rbuf r = {b, size - 8, 8, false};
@@ -451,11 +451,11 @@ csi_status cli_partial_read(const char *path, bool with_data, cli_partial *out)
     }
     free(b);
     if (s != CSI_OK)
-        cli_partial_free(out);
+        csi_partial_release(out);
     return s;
 }
 
-const char *cli_partial_mismatch(const cli_partial *a, const cli_partial *b)
+const char *csi_partial_differs(const csi_partial *a, const csi_partial *b)
 {
     if (strcmp(a->software, b->software))
         return "the software version";
