@@ -24,69 +24,104 @@
  * no 32-bit index arithmetic that may wrap (checked in the generated code: with float2 or uint
  * indices the passes compiled to scalar code and ran 2-3x slower). */
 
-/* t = a * b (complex) */
-#define CMUL(tr, ti, ar, ai, br, bi)                                                            \
+/* t = a * b (complex), on values of type T (float, or float16 for 16 lanes: the same
+ * expression, so the same rounding per element) */
+#define CMUL_T(T, tr, ti, ar, ai, br, bi)                                                       \
     do {                                                                                       \
-        float ar_ = (ar), ai_ = (ai), br_ = (br), bi_ = (bi);                                  \
+        T ar_ = (ar), ai_ = (ai), br_ = (br), bi_ = (bi);                                      \
         tr = ar_ * br_ - ai_ * bi_;                                                            \
         ti = ar_ * bi_ + ai_ * br_;                                                            \
     } while (0)
+#define CMUL(tr, ti, ar, ai, br, bi) CMUL_T(float, tr, ti, ar, ai, br, bi)
+#define CMUL16(tr, ti, ar, ai, br, bi) CMUL_T(float16, tr, ti, ar, ai, br, bi)
 
-/* 4-point DFT in place, natural order in and out; sgn = -1 forward, +1 inverse. */
-inline void dft4(float *xr, float *xi, float sgn)
+/* The power-of-two DFTs, for scalars (T = float, S empty: dft4, dft2, dft8) and for 16 lanes
+ * at once (T = float16, S = _v16). dft4: 4-point DFT in place, natural order in and out;
+ * sgn = -1 forward, +1 inverse. dft8: 4-point DFTs of the even and odd samples, then radix 2
+ * with w8^k, w8 = exp(sgn 2 pi i / 8). */
+#define DFT_POW2(T, S)                                                                         \
+inline void dft4##S(T *xr, T *xi, float sgn)                                                   \
+{                                                                                              \
+    T a0r = xr[0] + xr[2], a0i = xi[0] + xi[2], a1r = xr[0] - xr[2], a1i = xi[0] - xi[2];      \
+    T a2r = xr[1] + xr[3], a2i = xi[1] + xi[3], dr = xr[1] - xr[3], di = xi[1] - xi[3];        \
+    T a3r = -sgn * di, a3i = sgn * dr; /* sgn i (x1 - x3) */                                   \
+    xr[0] = a0r + a2r;                                                                         \
+    xi[0] = a0i + a2i;                                                                         \
+    xr[2] = a0r - a2r;                                                                         \
+    xi[2] = a0i - a2i;                                                                         \
+    xr[1] = a1r + a3r;                                                                         \
+    xi[1] = a1i + a3i;                                                                         \
+    xr[3] = a1r - a3r;                                                                         \
+    xi[3] = a1i - a3i;                                                                         \
+}                                                                                              \
+inline void dft2##S(T *xr, T *xi, float sgn)                                                   \
+{                                                                                              \
+    T tr = xr[0] - xr[1], ti = xi[0] - xi[1];                                                  \
+    xr[0] += xr[1];                                                                            \
+    xi[0] += xi[1];                                                                            \
+    xr[1] = tr;                                                                                \
+    xi[1] = ti;                                                                                \
+}                                                                                              \
+inline void dft8##S(T *xr, T *xi, float sgn)                                                   \
+{                                                                                              \
+    const float h = 0.70710678118654752f;                                                      \
+    T er[4] = {xr[0], xr[2], xr[4], xr[6]}, ei[4] = {xi[0], xi[2], xi[4], xi[6]};              \
+    T or_[4] = {xr[1], xr[3], xr[5], xr[7]}, oi[4] = {xi[1], xi[3], xi[5], xi[7]};             \
+    dft4##S(er, ei, sgn);                                                                      \
+    dft4##S(or_, oi, sgn);                                                                     \
+    /* w8^1 = h (1 + sgn i), w8^2 = sgn i, w8^3 = h (-1 + sgn i) */                            \
+    T t1r = h * (or_[1] - sgn * oi[1]), t1i = h * (oi[1] + sgn * or_[1]);                      \
+    T t2r = -sgn * oi[2], t2i = sgn * or_[2];                                                  \
+    T t3r = h * (-or_[3] - sgn * oi[3]), t3i = h * (-oi[3] + sgn * or_[3]);                    \
+    xr[0] = er[0] + or_[0];                                                                    \
+    xi[0] = ei[0] + oi[0];                                                                     \
+    xr[4] = er[0] - or_[0];                                                                    \
+    xi[4] = ei[0] - oi[0];                                                                     \
+    xr[1] = er[1] + t1r;                                                                       \
+    xi[1] = ei[1] + t1i;                                                                       \
+    xr[5] = er[1] - t1r;                                                                       \
+    xi[5] = ei[1] - t1i;                                                                       \
+    xr[2] = er[2] + t2r;                                                                       \
+    xi[2] = ei[2] + t2i;                                                                       \
+    xr[6] = er[2] - t2r;                                                                       \
+    xi[6] = ei[2] - t2i;                                                                       \
+    xr[3] = er[3] + t3r;                                                                       \
+    xi[3] = ei[3] + t3i;                                                                       \
+    xr[7] = er[3] - t3r;                                                                       \
+    xi[7] = ei[3] - t3i;                                                                       \
+}
+DFT_POW2(float, )
+DFT_POW2(float16, _v16)
+
+/* Explicit 16-wide vectors, for the kernels PoCL's work-group vectoriser leaves scalar or turns
+ * into gathers and scatters (mirrored or transposed accesses): such kernels run one work-item
+ * per group along the vector's axis and hold 16 consecutive elements in each float16. */
+#define EVEN16 (uint16)(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30)
+#define ODD16 (uint16)(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31)
+#define REV16 (uint16)(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0)
+#define ILV_LO16 (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23)
+#define ILV_HI16 (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)
+/* float16 at float (4-byte) alignment: plain unaligned vector loads and stores (PoCL's vload16 /
+ * vstore16 split into 8-byte pieces). */
+typedef float16 float16u __attribute__((aligned(4)));
+/* 16 complex values at element e of an interleaved array, as re / im vectors (rev: reversed). */
+inline void load16c(__global const float *restrict a, size_t e, bool rev, float16 *re, float16 *im)
 {
-    float a0r = xr[0] + xr[2], a0i = xi[0] + xi[2], a1r = xr[0] - xr[2], a1i = xi[0] - xi[2];
-    float a2r = xr[1] + xr[3], a2i = xi[1] + xi[3], dr = xr[1] - xr[3], di = xi[1] - xi[3];
-    float a3r = -sgn * di, a3i = sgn * dr; /* sgn i (x1 - x3) */
-    xr[0] = a0r + a2r;
-    xi[0] = a0i + a2i;
-    xr[2] = a0r - a2r;
-    xi[2] = a0i - a2i;
-    xr[1] = a1r + a3r;
-    xi[1] = a1i + a3i;
-    xr[3] = a1r - a3r;
-    xi[3] = a1i - a3i;
+    const float16 lo = *(__global const float16u *)(a + 2 * e);
+    const float16 hi = *(__global const float16u *)(a + 2 * e + 16);
+    *re = shuffle2(lo, hi, EVEN16);
+    *im = shuffle2(lo, hi, ODD16);
+    if (rev) {
+        *re = shuffle(*re, REV16);
+        *im = shuffle(*im, REV16);
+    }
+}
+inline void store16c(__global float *restrict a, size_t e, float16 re, float16 im)
+{
+    *(__global float16u *)(a + 2 * e) = shuffle2(re, im, ILV_LO16);
+    *(__global float16u *)(a + 2 * e + 16) = shuffle2(re, im, ILV_HI16);
 }
 
-inline void dft2(float *xr, float *xi, float sgn)
-{
-    float tr = xr[0] - xr[1], ti = xi[0] - xi[1];
-    xr[0] += xr[1];
-    xi[0] += xi[1];
-    xr[1] = tr;
-    xi[1] = ti;
-}
-
-/* 8-point DFT: 4-point DFTs of the even and odd samples, then radix 2 with w8^k,
- * w8 = exp(sgn 2 pi i / 8). */
-inline void dft8(float *xr, float *xi, float sgn)
-{
-    const float h = 0.70710678118654752f;
-    float er[4] = {xr[0], xr[2], xr[4], xr[6]}, ei[4] = {xi[0], xi[2], xi[4], xi[6]};
-    float or_[4] = {xr[1], xr[3], xr[5], xr[7]}, oi[4] = {xi[1], xi[3], xi[5], xi[7]};
-    dft4(er, ei, sgn);
-    dft4(or_, oi, sgn);
-    /* w8^1 = h (1 + sgn i), w8^2 = sgn i, w8^3 = h (-1 + sgn i) */
-    float t1r = h * (or_[1] - sgn * oi[1]), t1i = h * (oi[1] + sgn * or_[1]);
-    float t2r = -sgn * oi[2], t2i = sgn * or_[2];
-    float t3r = h * (-or_[3] - sgn * oi[3]), t3i = h * (-oi[3] + sgn * or_[3]);
-    xr[0] = er[0] + or_[0];
-    xi[0] = ei[0] + oi[0];
-    xr[4] = er[0] - or_[0];
-    xi[4] = ei[0] - oi[0];
-    xr[1] = er[1] + t1r;
-    xi[1] = ei[1] + t1i;
-    xr[5] = er[1] - t1r;
-    xi[5] = ei[1] - t1i;
-    xr[2] = er[2] + t2r;
-    xi[2] = ei[2] + t2i;
-    xr[6] = er[2] - t2r;
-    xi[6] = ei[2] - t2i;
-    xr[3] = er[3] + t3r;
-    xi[3] = ei[3] + t3i;
-    xr[7] = er[3] - t3r;
-    xi[7] = ei[3] - t3i;
-}
 
 /* 16-point DFT as 4 x 4: input index q + 4 m, output s + 4 t:
  * X[s + 4t] = sum_q w4^(q t) w16^(q s) sum_m x[q + 4m] w4^(m s). */
@@ -271,8 +306,9 @@ inline void dft7(float *xr, float *xi, float sgn)
     const size_t base = c + b * (size_t)sb_;                                                   \
     const float gcb = gx[c] * gb[b];
 /* The Gaussian or Wiener gain at position q_ along the last axis, times `scale`. */
-#define GAIN_AT(q_)                                                                             \
-    float g = gcb * ga[q_];                                                                    \
+#define GAIN_AT(q_) GAIN_AT_T(float, q_)
+#define GAIN_AT_T(T, q_)                                                                        \
+    T g = gcb * ga[q_];                                                                        \
     if (wiener)                                                                                \
         g = (1.0f + lambda) * g / (g * g + lambda);                                            \
     g *= scale;
@@ -308,6 +344,37 @@ inline void dft7(float *xr, float *xi, float sgn)
         }                                                                                      \
         PASS_BODY_L(R, COL_LD, COL_ST, NOSCALE, LOAD_CPLX)                                     \
     }
+
+/* The complex gain pass (always the first inverse pass, p = 1) on 16-wide vectors, for R = 2, 4,
+ * 8: a work-item takes 16 consecutive columns c of one butterfly i, whose loads and stores are
+ * plain vectors (q sa apart). PoCL's own vectorisation of csi_fft_col_cgain_r* ran at a third of
+ * a plain column pass's speed. Same arithmetic per element, so the same bits. */
+#define COL_CGAIN_V16(R)                                                                        \
+    __kernel void csi_fft_col_cgain1v_r##R(GAIN_PASS_PARAMS,                                   \
+                                           __global const float *restrict fc,                  \
+                                           __global const float *restrict fa, const float csgn) \
+    {                                                                                          \
+        const size_t c = 16 * get_global_id(0), i = get_global_id(1), b = get_global_id(2);    \
+        const size_t T = (size_t)L_ / R, sa = sa_, base = c + b * (size_t)sb_;                 \
+        const float16 gcb = *(__global const float16u *)(gx + c) * gb[b];                      \
+        float16 fcr, fci, xr[R], xi[R];                                                        \
+        load16c(fc, c, false, &fcr, &fci);                                                     \
+        fci = csgn * fci;                                                                      \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            const size_t q_ = i + (size_t)r * T;                                               \
+            GAIN_AT_T(float16, q_)                                                             \
+            float16 er, ei, ur, ui;                                                            \
+            CMUL16(er, ei, fcr, fci, fa[2 * q_], csgn * fa[2 * q_ + 1]);                       \
+            load16c(in, base + q_ * sa, false, &ur, &ui);                                      \
+            CMUL16(xr[r], xi[r], ur, ui, g * er, g * ei);                                      \
+        }                                                                                      \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            store16c(out, base + (i * R + (size_t)r) * sa, xr[r], xi[r]);                      \
+    }
+COL_CGAIN_V16(2)
+COL_CGAIN_V16(4)
+COL_CGAIN_V16(8)
 
 /* One pass along contiguous rows: dimension 0 = butterfly i (< L/R), dimension 1 = row
  * (< nrows); row n starts at element n rs. */
@@ -376,6 +443,52 @@ inline void dft7(float *xr, float *xi, float sgn)
         PASS_BODY(R, ROW_LD, ROW_ST, USCALE)                                                   \
     }
 
+/* The first pass along rows (p = 1) on 16-wide vectors, for R = 2, 4, 8: the i-indexed form
+ * above stores with a stride of R (scatters), and when T = L / R is not a multiple of 16 PoCL
+ * vectorises it only as wide as the power of two dividing T. Here a work-item loads 16
+ * consecutive butterflies' inputs (plain vector loads), and the 16 x R outputs, one contiguous
+ * run of 16 R complex values, are transposed in registers by log2(2R) rounds of interleaving
+ * (the rows xr[0], xi[0], xr[1], ... zipped with the second half) and stored as plain vectors.
+ * Group g covers butterflies 16 g .. 16 g + 15; the last group is moved back to end at T
+ * (T >= 16), so it recomputes and rewrites a few of its neighbour's outputs with the same
+ * values. Inputs times `scale` (1 where the pass is not scaled: exact). Same arithmetic per
+ * butterfly as csi_fft_row_r*, so the same bits. */
+#define ROW1_V16(R, LOG2_2R)                                                                    \
+    __kernel void csi_fft_row1v_r##R(__global const float *restrict in,                       \
+                                     __global float *restrict out, const uint T_,              \
+                                     const uint rs, const float sgn, const float scale)        \
+    {                                                                                          \
+        const size_t T = T_, row = get_global_id(1);                                           \
+        size_t i0 = 16 * get_global_id(0);                                                     \
+        if (i0 > T - 16)                                                                       \
+            i0 = T - 16;                                                                       \
+        const size_t base = row * (size_t)rs;                                                  \
+        float16 xr[R], xi[R], v[2 * R], w[2 * R];                                              \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            load16c(in, base + i0 + (size_t)r * T, false, &xr[r], &xi[r]);                     \
+            xr[r] *= scale;                                                                    \
+            xi[r] *= scale;                                                                    \
+        }                                                                                      \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            v[2 * r] = xr[r];                                                                  \
+            v[2 * r + 1] = xi[r];                                                              \
+        }                                                                                      \
+        _Pragma("unroll") for (int round = 0; round < LOG2_2R; round++) {                      \
+            _Pragma("unroll") for (int j = 0; j < R; j++) {                                    \
+                w[2 * j] = shuffle2(v[j], v[j + R], ILV_LO16);                                 \
+                w[2 * j + 1] = shuffle2(v[j], v[j + R], ILV_HI16);                             \
+            }                                                                                  \
+            _Pragma("unroll") for (int q = 0; q < 2 * R; q++) v[q] = w[q];                     \
+        }                                                                                      \
+        __global float *o = out + 2 * (base + i0 * R);                                         \
+        _Pragma("unroll") for (int q = 0; q < 2 * R; q++)                                      \
+            *(__global float16u *)(o + 16 * q) = v[q];                                         \
+    }
+ROW1_V16(2, 2)
+ROW1_V16(4, 3)
+ROW1_V16(8, 4)
+
 #define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) COL_PASS_CGAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
@@ -408,6 +521,49 @@ __kernel void csi_fft_r2c_post(__global const float *restrict Z, __global float 
     const size_t o = row * (size_t)hs + k;
     X[2 * o] = er + tr;
     X[2 * o + 1] = ei + ti;
+}
+
+/* The unpacking and packing below, written on explicit 16-wide vectors for M a multiple of 16:
+ * PoCL leaves the one-element-per-work-item forms above scalar (the mirrored, interleaved
+ * re / im loads defeat its work-group vectoriser), which made them cost 2-3x a radix-8 pass
+ * for a quarter of its arithmetic. Each work-item handles 16 consecutive k: the mirrored run
+ * M - k is one ascending load reversed in registers. Same arithmetic per element as the scalar
+ * kernels, so the same bits. Launched over (M / 16, rows), exact. */
+/* csi_fft_r2c_post for k = 16 g .. 16 g + 15 (k = 0 is overwritten by csi_fft_r2c_edges). */
+__kernel void csi_fft_r2c_post16(__global const float *restrict Z, __global float *restrict X,
+                                 __global const float *restrict wn, const uint M_,
+                                 const uint hs, const uint nrows)
+{
+    const size_t k0 = 16 * get_global_id(0), row = get_global_id(1), M = M_;
+    float16 zr, zi, mr, mi, wr, wi;
+    load16c(Z, row * M + k0, false, &zr, &zi);
+    load16c(Z, row * M + M - k0 - 15, true, &mr, &mi);
+    load16c(wn, k0, false, &wr, &wi);
+    mi = -mi; /* m = conj */
+    float16 er = 0.5f * (zr + mr), ei = 0.5f * (zi + mi);
+    float16 dr = zr - mr, di = zi - mi;
+    float16 or_ = 0.5f * di, oi = -0.5f * dr;
+    float16 tr, ti;
+    CMUL16(tr, ti, wr, wi, or_, oi);
+    store16c(X, row * (size_t)hs + k0, er + tr, ei + ti);
+}
+
+/* csi_fft_c2r_pre for k = 16 g .. 16 g + 15. */
+__kernel void csi_fft_c2r_pre16(__global const float *restrict X, __global float *restrict Z,
+                                __global const float *restrict wn, const uint M_, const uint hs,
+                                const uint nrows)
+{
+    const size_t k0 = 16 * get_global_id(0), row = get_global_id(1), M = M_;
+    const size_t xb = row * (size_t)hs;
+    float16 xr, xi, mr, mi, wr, wi;
+    load16c(X, xb + k0, false, &xr, &xi);
+    load16c(X, xb + M - k0 - 15, true, &mr, &mi);
+    load16c(wn, k0, false, &wr, &wi);
+    mi = -mi;
+    float16 er = 0.5f * (xr + mr), ei = 0.5f * (xi + mi);
+    float16 or_, oi;
+    CMUL16(or_, oi, xr - mr, xi - mi, wr, -wi);
+    store16c(Z, row * M + k0, er - 0.5f * oi, ei + 0.5f * or_);
 }
 
 /* X[0] = Re Z[0] + Im Z[0] and X[M] = Re Z[0] - Im Z[0] (the formula above at k = 0, M). */

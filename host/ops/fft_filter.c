@@ -265,6 +265,14 @@ static const char *pass_kernel_name(const char *kind, int radix)
     return buf;
 }
 
+/* Whether pass `pass` of a row axis runs as csi_fft_row1v_r* (the first pass, radix 2, 4 or 8,
+ * at least 16 butterflies per row). */
+static bool row1v_fits(const axis_plan *a, int pass)
+{
+    const int R = a->radix[pass];
+    return pass == 0 && (R == 2 || R == 4 || R == 8) && a->L / (size_t)R >= 16;
+}
+
 /* Plans one axis's passes, uploads its twiddles (and, along x, the per-pass twiddles) and builds
  * every kernel it will launch, so that the first run pays no compile. Along x the first pass
  * uses the `first_row` kernel ("row_s" where it also scales, else "row"); along the other axes
@@ -281,6 +289,8 @@ static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, const c
         int R = ax->radix[p];
         if (x_axis) {
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? first_row : "row", R), &k));
+            if (row1v_fits(ax, p))
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row1v", R), &k));
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
         } else {
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
@@ -313,6 +323,8 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post16", &k));
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre16", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_gain_rows", &k));
     return CSI_OK;
 }
@@ -356,6 +368,27 @@ static size_t pow2_dividing(size_t n, size_t cap)
     return p;
 }
 
+/* The real <-> complex unpacking or packing (`kernel`: csi_fft_r2c_post or csi_fft_c2r_pre) of
+ * `rows` rows: its 16-wide form where M allows (see kernels/fft.cl), else the per-element one. */
+static csi_status run_unpack(csi_ctx *ctx, const char *kernel, cl_mem in, cl_mem out, cl_mem wn,
+                             size_t M_, size_t hs_, size_t rows)
+{
+    const bool v16 = M_ % 16 == 0;
+    char name[40];
+    snprintf(name, sizeof name, "%s%s", kernel, v16 ? "16" : "");
+    cl_kernel k;
+    CSI_TRY(csi_kernel(ctx, "fft", name, &k));
+    cl_uint M = (cl_uint)M_, hs = (cl_uint)hs_, nrows = (cl_uint)rows;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(wn), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+    const size_t n0 = v16 ? M_ / 16 : M_;
+    /* Exact launch (no bounds checks). The 16-wide form runs one work-item per group along k
+     * (and a few rows), so PoCL has no work-item loop along k to vectorise again: that gave
+     * 8-byte gathers instead of the plain vector loads. */
+    size_t ex = v16 ? 1 : pow2_dividing(n0, 64), ey = pow2_dividing(rows, v16 ? 16 : 64 / ex);
+    size_t global[2] = {n0, rows}, local[2] = {ex, ey};
+    return csi_run(ctx, k, 2, global, local);
+}
+
 /* One pass along contiguous rows: `rows` rows of a->L complex values, row n at element n rs.
  * scale >= 0 selects the scaled variant of the p = 1 kernel (inputs multiplied by scale). */
 static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_plan *a, int pass,
@@ -374,6 +407,15 @@ static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_pla
         return csi_run(ctx, k, 3, global, local);
     }
     const bool scaled = scale >= 0.0f;
+    if (row1v_fits(a, pass)) {
+        /* the 16-wide form of the first pass (kernels/fft.cl); local size 1 along the vectors */
+        CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row1v", R), &k));
+        cl_uint T = (cl_uint)(a->L / (size_t)R), rs = (cl_uint)rs_;
+        const float s = scaled ? scale : 1.0f;
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_ARG(T), CSI_ARG(rs), CSI_ARG(sgn), CSI_ARG(s)));
+        size_t global[2] = {((size_t)T + 15) / 16, rows}, local[2] = {1, pow2_dividing(rows, 16)};
+        return csi_run(ctx, k, 2, global, local);
+    }
     CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(scaled ? "row_s" : "row", R), &k));
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R)), nrows = (cl_uint)rows,
             rs = (cl_uint)rs_;
@@ -419,6 +461,14 @@ void csi_fft_filter_factor_buffers(const size_t c[3], csi_mem_tally *t)
     csi_mem_tally_add(t, 2 * c[1] * sizeof(float), "filter factors");
 }
 
+/* Whether the complex gain pass (pass `pass` of axis plan a, at p) runs as
+ * csi_fft_col_cgain1v_r*: p = 1, radix 2, 4 or 8, and rows of hs (a multiple of 16) columns. */
+static bool cgain1v_fits(const axis_plan *a, int pass, cl_uint p, size_t hs)
+{
+    const int R = a->radix[pass];
+    return p == 1 && (R == 2 || R == 4 || R == 8) && hs % 16 == 0;
+}
+
 csi_status csi_fft_filter_set_factor(csi_fft_filter *f, const double *fc, const double *fa)
 {
     if (f->nd != 2)
@@ -440,6 +490,10 @@ csi_status csi_fft_filter_set_factor(csi_fft_filter *f, const double *fc, const 
         cl_kernel k;
         st = csi_kernel(f->ctx, "fft", pass_kernel_name("col_cgain", f->ax[1].radix[p]), &k);
     }
+    if (st == CSI_OK && f->ax[1].np > 0 && cgain1v_fits(&f->ax[1], 0, 1, f->hs)) {
+        cl_kernel k;
+        st = csi_kernel(f->ctx, "fft", pass_kernel_name("col_cgain1v", f->ax[1].radix[0]), &k);
+    }
     return st;
 }
 
@@ -451,8 +505,12 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
     const axis_plan *a = &f->ax[axis];
     int R = a->radix[pass];
     const bool cgain = gain && f->fc;
+    /* the complex gain pass on 16-wide vectors where it has one (kernels/fft.cl) */
+    const bool v16 = cgain && cgain1v_fits(a, pass, p, f->hs);
     cl_kernel k;
-    CSI_TRY(csi_kernel(f->ctx, "fft", pass_kernel_name(cgain ? "col_cgain" : gain ? "col_gain" : "col", R), &k));
+    CSI_TRY(csi_kernel(f->ctx, "fft",
+                       pass_kernel_name(v16 ? "col_cgain1v" : cgain ? "col_cgain" : gain ? "col_gain" : "col", R),
+                       &k));
     size_t hs = f->hs, c1 = f->c[1];
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
     /* All hs columns (a multiple of 16, the padding ones are scratch): the kernel has no bounds
@@ -488,6 +546,11 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
                          CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
     }
     size_t global[3] = {nc, a->L / (size_t)R, nb}, local[3] = {16, 1, 1};
+    if (v16) {
+        global[0] = nc / 16;
+        local[0] = 1;
+        local[1] = pow2_dividing(global[1], 16);
+    }
     return csi_run(f->ctx, k, 3, global, local);
 }
 
@@ -530,12 +593,7 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     {
         cl_mem dst = cur == f->P ? f->Q : f->P;
         cl_kernel k;
-        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(f->wn), CSI_ARG(M), CSI_ARG(hs),
-                         CSI_ARG(nrows)));
-        size_t ex = pow2_dividing(f->M, 64), ey = pow2_dividing(f->rows, 64 / ex);
-        size_t global[2] = {f->M, f->rows}, local[2] = {ex, ey};
-        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", cur, dst, f->wn, f->M, f->hs, f->rows));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
         CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
         CSI_TRY(csi_run1d(ctx, k, f->rows));
@@ -562,13 +620,7 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     /* 5. pack, inverse along x; the last pass writes y */
     {
         cl_mem dst = ax->np == 0 ? y : (cur == f->P ? f->Q : f->P);
-        cl_kernel k;
-        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_MEM(f->wn), CSI_ARG(M), CSI_ARG(hs),
-                         CSI_ARG(nrows)));
-        size_t ex = pow2_dividing(f->M, 64), ey = pow2_dividing(f->rows, 64 / ex);
-        size_t global[2] = {f->M, f->rows}, local[2] = {ex, ey};
-        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        CSI_TRY(run_unpack(ctx, "csi_fft_c2r_pre", cur, dst, f->wn, f->M, f->hs, f->rows));
         cur = dst;
     }
     p = 1;
@@ -757,9 +809,9 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
         st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's spectrum", &h->P);
     if (st == CSI_OK)
         st = csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the real FFT's scratch", &h->Q);
-    static const char *extra[] = {"csi_fft_r2c_post", "csi_fft_r2c_edges", "csi_fft_zero_pad",
-                                  "csi_fft_c2r_pre_half"};
-    for (size_t i = 0; i < 4 && st == CSI_OK; i++) {
+    static const char *extra[] = {"csi_fft_r2c_post", "csi_fft_r2c_post16", "csi_fft_r2c_edges",
+                                  "csi_fft_zero_pad", "csi_fft_c2r_pre_half"};
+    for (size_t i = 0; i < 5 && st == CSI_OK; i++) {
         cl_kernel k;
         st = csi_kernel(ctx, "fft", extra[i], &k);
     }
@@ -993,12 +1045,7 @@ csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
     {
         cl_mem dst = chain_dst(&ch);
         cl_kernel k;
-        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_MEM(h->wn), CSI_ARG(M), CSI_ARG(hs),
-                         CSI_ARG(nrows)));
-        size_t ex = pow2_dividing(h->M, 64), ey = pow2_dividing(h->rows, 64 / ex);
-        size_t global[2] = {h->M, h->rows}, local[2] = {ex, ey};
-        CSI_TRY(csi_run(ctx, k, 2, global, local));
+        CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", ch.cur, dst, h->wn, h->M, h->hs, h->rows));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
         CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
         CSI_TRY(csi_run1d(ctx, k, h->rows));
