@@ -489,6 +489,43 @@ ROW1_V16(2, 2)
 ROW1_V16(4, 3)
 ROW1_V16(8, 4)
 
+/* The pass at p = 8 (the second along rows), on 16-wide vectors for R = 2, 4, 8: csi_fft_rowk_r*
+ * has only p = 8 work-items along the dimension PoCL vectorises. Here a work-item takes 16
+ * consecutive butterflies i = i0 .. i0 + 15 (i0 a multiple of 8: blocks g = i0 / 8 and g + 1,
+ * k = i mod 8): plain vector loads, the 8 twiddles of the pass repeated, and per output r two
+ * runs of 8 contiguous values, one per block. The last group is moved back to end at T, as
+ * above. Same arithmetic per butterfly as csi_fft_rowk_r*, so the same bits. */
+#define DUP8_RE (uint16)(0, 2, 4, 6, 8, 10, 12, 14, 0, 2, 4, 6, 8, 10, 12, 14)
+#define DUP8_IM (uint16)(1, 3, 5, 7, 9, 11, 13, 15, 1, 3, 5, 7, 9, 11, 13, 15)
+#define ROWK8_V16(R)                                                                            \
+    __kernel void csi_fft_rowk8v_r##R(__global const float *restrict in,                      \
+                                      __global float *restrict out,                           \
+                                      __global const float *restrict twp, const uint twoff,    \
+                                      const uint T_, const uint rs, const float sgn)           \
+    {                                                                                          \
+        const size_t T = T_, row = get_global_id(1), p = 8;                                    \
+        size_t i0 = 16 * get_global_id(0);                                                     \
+        if (i0 > T - 16)                                                                       \
+            i0 = T - 16;                                                                       \
+        const size_t base = row * (size_t)rs;                                                  \
+        float16 xr[R], xi[R];                                                                  \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            load16c(in, base + i0 + (size_t)r * T, false, &xr[r], &xi[r]);                     \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            const float16 t = *(__global const float16u *)(twp + 2 * ((size_t)twoff + (r - 1) * p)); \
+            CMUL16(xr[r], xi[r], xr[r], xi[r], shuffle(t, DUP8_RE), -sgn * shuffle(t, DUP8_IM)); \
+        }                                                                                      \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        __global float *o = out + 2 * (base + (i0 / p) * p * R);                               \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            *(__global float16u *)(o + 2 * r * p) = shuffle2(xr[r], xi[r], ILV_LO16);          \
+            *(__global float16u *)(o + 2 * (p * R + r * p)) = shuffle2(xr[r], xi[r], ILV_HI16); \
+        }                                                                                      \
+    }
+ROWK8_V16(2)
+ROWK8_V16(4)
+ROWK8_V16(8)
+
 #define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) COL_PASS_CGAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
 ALL_PASSES(2)
 ALL_PASSES(3)

@@ -273,6 +273,14 @@ static bool row1v_fits(const axis_plan *a, int pass)
     return pass == 0 && (R == 2 || R == 4 || R == 8) && a->L / (size_t)R >= 16;
 }
 
+/* Whether pass `pass` of a row axis, at p = 8, runs as csi_fft_rowk8v_r* (radix 2, 4 or 8, at
+ * least 16 butterflies per row). */
+static bool rowk8v_fits(const axis_plan *a, int pass)
+{
+    const int R = a->radix[pass];
+    return (R == 2 || R == 4 || R == 8) && a->L / (size_t)R >= 16;
+}
+
 /* Plans one axis's passes, uploads its twiddles (and, along x, the per-pass twiddles) and builds
  * every kernel it will launch, so that the first run pays no compile. Along x the first pass
  * uses the `first_row` kernel ("row_s" where it also scales, else "row"); along the other axes
@@ -284,13 +292,16 @@ static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, const c
     CSI_TRY(twiddles(ctx, ax->L, ax->L, &ax->tw));
     if (x_axis)
         CSI_TRY(pass_twiddles(ctx, ax));
-    for (int p = 0; p < ax->np; p++) {
+    size_t pp = 1; /* the pass's p */
+    for (int p = 0; p < ax->np; pp *= (size_t)ax->radix[p], p++) {
         cl_kernel k;
         int R = ax->radix[p];
         if (x_axis) {
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(p == 0 ? first_row : "row", R), &k));
             if (row1v_fits(ax, p))
                 CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row1v", R), &k));
+            if (pp == 8 && rowk8v_fits(ax, p))
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk8v", R), &k));
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
         } else {
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
@@ -396,6 +407,15 @@ static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_pla
 {
     int R = a->radix[pass];
     cl_kernel k;
+    if (p == 8 && rowk8v_fits(a, pass)) {
+        /* the 16-wide form of the pass at p = 8 (kernels/fft.cl) */
+        CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk8v", R), &k));
+        cl_uint T = (cl_uint)(a->L / (size_t)R), rs = (cl_uint)rs_, twoff = (cl_uint)a->twoff[pass];
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->twp), CSI_ARG(twoff), CSI_ARG(T),
+                         CSI_ARG(rs), CSI_ARG(sgn)));
+        size_t global[2] = {((size_t)T + 15) / 16, rows}, local[2] = {1, pow2_dividing(rows, 16)};
+        return csi_run(ctx, k, 2, global, local);
+    }
     if (p >= 8) {
         /* k-indexed form: contiguous loads and stores (see kernels/fft.cl) */
         CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
