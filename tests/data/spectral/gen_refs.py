@@ -50,6 +50,9 @@ FILTER_CASES = [
     ("f32x32x8", (8, 32, 32), (1.1, 1.1, 2.0), 0.05, 105),
     ("f60", (60,), (2.0, 0.0, 0.0), 0.3, 106),           # 1-D
     ("f28x14x6", (6, 14, 28), (0.9, 1.3, 0.7), 0.2, 107),  # radices 7, 3 and 2 in csi's FFT
+    # x = 320: rows of M = 160 = 8 x 4 x 5 complex values, so the 16-wide first pass (T = 20) and
+    # pass at p = 8 (T = 40) both run, each with a last group that overlaps the one before it
+    ("f320x24", (24, 320), (1.2, 0.9, 0.0), 0.3, 108),
 ]
 
 FOURIER_CASES = [
