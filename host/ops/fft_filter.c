@@ -567,9 +567,10 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
     }
     size_t global[3] = {nc, a->L / (size_t)R, nb}, local[3] = {16, 1, 1};
     if (v16) {
+        /* one work-item per group: with several along i, PoCL vectorised across them again
+         * (into gathers) */
         global[0] = nc / 16;
         local[0] = 1;
-        local[1] = pow2_dividing(global[1], 16);
     }
     return csi_run(f->ctx, k, 3, global, local);
 }
