@@ -370,11 +370,6 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     out->cpu_work += r->cpu_work;
     for (uint32_t c = 0; c < C && c < 4; c++)
         out->t_channel_integrate[c] += r->t_channel_integrate[c];
-    out->t_programs += r->t_programs;
-    out->cpu_setup += r->cpu_setup;
-    out->cpu_work += r->cpu_work;
-    for (uint32_t c = 0; c < out->channels; c++)
-        out->t_channel_integrate[c] += r->t_channel_integrate[c];
     b->next++;
     return CSI_OK;
 }

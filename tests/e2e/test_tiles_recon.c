@@ -64,6 +64,23 @@ static csi_status by_hand(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const 
     for (uint32_t i = 0; i < tl->count; i++)
         CSI_TRY(csi_tiles_add(&b, &tiles[i]));
     CSI_TRY(csi_tiles_end(&b));
+    /* The run's times are the tiles' sums, each tile counted once (a stats figure counted twice
+     * once made the integration look twice its cost); the same additions in the same order, so
+     * equal exactly. */
+    double cpu_work = 0, cpu_setup = 0, t_int = 0, t_int0 = 0, t_prog = 0;
+    for (uint32_t i = 0; i < tl->count; i++) {
+        cpu_work += tiles[i].r.cpu_work;
+        cpu_setup += tiles[i].r.cpu_setup;
+        t_int += tiles[i].r.t_integrate;
+        t_int0 += tiles[i].r.t_channel_integrate[0];
+        t_prog += tiles[i].r.t_programs;
+    }
+    CHECK(out->cpu_work == cpu_work && out->cpu_setup == cpu_setup && out->t_integrate == t_int &&
+              out->t_channel_integrate[0] == t_int0 && out->t_programs == t_prog,
+          "blended times are the tiles' sums: CPU of the work %g (tiles %g), of the setup %g (%g), "
+          "integration %g (%g), channel 0's %g (%g), programs %g (%g)", out->cpu_work, cpu_work,
+          out->cpu_setup, cpu_setup, out->t_integrate, t_int, out->t_channel_integrate[0], t_int0,
+          out->t_programs, t_prog);
     out->n = n;
     return CSI_OK;
 }
