@@ -228,6 +228,52 @@ inline void dft7(float *xr, float *xi, float sgn)
     xi[4] = m3i - sgn * v3r;
 }
 
+/* 3-point DFT of (r0, i0), (r1, i1), (r2, i2) of type T in place (dft3 on named values). */
+#define DFT3_V(T, r0, i0, r1, i1, r2, i2, sgn)                                                  \
+    do {                                                                                       \
+        const T ar_ = r1 + r2, ai_ = i1 + i2, br_ = r1 - r2, bi_ = i1 - i2;                    \
+        const T mr_ = r0 - 0.5f * ar_, mi_ = i0 - 0.5f * ai_;                                  \
+        const T rr_ = -(sgn) * 0.86602540378443865f * bi_;                                     \
+        const T ri_ = (sgn) * 0.86602540378443865f * br_;                                      \
+        r0 += ar_;                                                                             \
+        i0 += ai_;                                                                             \
+        r1 = mr_ + rr_;                                                                        \
+        i1 = mi_ + ri_;                                                                        \
+        r2 = mr_ - rr_;                                                                        \
+        i2 = mi_ - ri_;                                                                        \
+    } while (0)
+
+/* 9-point DFT as 3 x 3 (input index q + 3 m, output s + 3 t), for scalars (dft9) and 16 lanes
+ * (dft9_v16): X[s + 3t] = sum_q w3^(q t) w9^(q s) sum_m x[q + 3m] w3^(m s). One pass of it
+ * replaces two radix-3 passes: every pass reads and writes the whole volume, and a radix-3 pass
+ * costs about as much as a radix-8 one (docs/bench/cost.md). Named values throughout, with
+ * w9^m = (cos, sgn sin)(2 pi m / 9) for m = q s in {1, 2, 4}. */
+#define DFT9(T, S)                                                                             \
+inline void dft9##S(T *xr, T *xi, float sgn)                                                   \
+{                                                                                              \
+    const float c1 = 0.76604444311897804f, s1 = 0.64278760968653933f;                          \
+    const float c2 = 0.17364817766693035f, s2 = 0.98480775301220806f;                          \
+    const float c4 = -0.93969262078590838f, s4 = 0.34202014332566873f;                         \
+    T a0r = xr[0], a0i = xi[0], a1r = xr[3], a1i = xi[3], a2r = xr[6], a2i = xi[6];            \
+    T b0r = xr[1], b0i = xi[1], b1r = xr[4], b1i = xi[4], b2r = xr[7], b2i = xi[7];            \
+    T d0r = xr[2], d0i = xi[2], d1r = xr[5], d1i = xi[5], d2r = xr[8], d2i = xi[8];            \
+    DFT3_V(T, a0r, a0i, a1r, a1i, a2r, a2i, sgn); /* q = 0: a[s] */                           \
+    DFT3_V(T, b0r, b0i, b1r, b1i, b2r, b2i, sgn); /* q = 1 */                                 \
+    DFT3_V(T, d0r, d0i, d1r, d1i, d2r, d2i, sgn); /* q = 2 */                                 \
+    CMUL_T(T, b1r, b1i, b1r, b1i, c1, sgn * s1); /* w9^(q s) */                               \
+    CMUL_T(T, b2r, b2i, b2r, b2i, c2, sgn * s2);                                               \
+    CMUL_T(T, d1r, d1i, d1r, d1i, c2, sgn * s2);                                               \
+    CMUL_T(T, d2r, d2i, d2r, d2i, c4, sgn * s4);                                               \
+    DFT3_V(T, a0r, a0i, b0r, b0i, d0r, d0i, sgn); /* s = 0: outputs 0, 3, 6 */                \
+    DFT3_V(T, a1r, a1i, b1r, b1i, d1r, d1i, sgn); /* s = 1: outputs 1, 4, 7 */                \
+    DFT3_V(T, a2r, a2i, b2r, b2i, d2r, d2i, sgn); /* s = 2: outputs 2, 5, 8 */                \
+    xr[0] = a0r, xi[0] = a0i, xr[3] = b0r, xi[3] = b0i, xr[6] = d0r, xi[6] = d0i;              \
+    xr[1] = a1r, xi[1] = a1i, xr[4] = b1r, xi[4] = b1i, xr[7] = d1r, xi[7] = d1i;              \
+    xr[2] = a2r, xi[2] = a2i, xr[5] = b2r, xi[5] = b2i, xr[8] = d2r, xi[8] = d2i;              \
+}
+DFT9(float, )
+DFT9(float16, _v16)
+
 /* The pass kernels have no bounds checks: the host launches them with global sizes that are
  * exact multiples of the local sizes (column passes run over the padded row length hs, a
  * multiple of 16, and the padding columns are scratch). With a bounds check PoCL vectorised the
@@ -244,19 +290,22 @@ inline void dft7(float *xr, float *xi, float sgn)
     xi[r] = in[2 * e_ + 1] * SCALE(r);
 #define LOAD_CPLX(r, e_, SCALE)                                                                 \
     CMUL(xr[r], xi[r], in[2 * e_], in[2 * e_ + 1], gr_[r], gi_[r]);
+/* k = i mod p, and inputs r > 0 times w^(r k) from the table tw (CM: CMUL or CMUL16). */
+#define PASS_TWIDDLES(R, CM)                                                                   \
+    const size_t k = i % p;                                                                    \
+    if (p > 1) {                                                                               \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            const size_t m_ = k * (size_t)r * ts;                                              \
+            CM(xr[r], xi[r], xr[r], xi[r], tw[2 * m_], -sgn * tw[2 * m_ + 1]);                 \
+        }                                                                                      \
+    }
 #define PASS_BODY_L(R, LD, ST, SCALE, LOAD)                                                     \
     float xr[R], xi[R];                                                                        \
     _Pragma("unroll") for (int r = 0; r < R; r++) {                                            \
         const size_t e_ = LD(r);                                                               \
         LOAD(r, e_, SCALE)                                                                     \
     }                                                                                          \
-    const size_t k = i % p;                                                                    \
-    if (p > 1) {                                                                               \
-        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
-            const size_t m_ = k * (size_t)r * ts;                                              \
-            CMUL(xr[r], xi[r], xr[r], xi[r], tw[2 * m_], -sgn * tw[2 * m_ + 1]);               \
-        }                                                                                      \
-    }                                                                                          \
+    PASS_TWIDDLES(R, CMUL)                                                                     \
     dft##R(xr, xi, sgn);                                                                       \
     const size_t j = (i - k) * R + k;                                                          \
     _Pragma("unroll") for (int r = 0; r < R; r++) {                                            \
@@ -273,12 +322,12 @@ inline void dft7(float *xr, float *xi, float sgn)
  * ts = L / (p R). */
 #define COL_LD(r) (base + (i + (size_t)(r) * T) * sa)
 #define COL_ST(r) (base + (j + (size_t)(r) * p) * sa)
+#define COL_PASS_PARAMS                                                                         \
+    __global const float *restrict in, __global float *restrict out,                           \
+        __global const float *restrict tw, const uint L_, const uint p_, const uint ts_,       \
+        const uint sa_, const uint nc, const uint nb, const uint sb_, const float sgn
 #define COL_PASS(R)                                                                             \
-    __kernel void csi_fft_col_r##R(__global const float *restrict in,                         \
-                                   __global float *restrict out,                              \
-                                   __global const float *restrict tw, const uint L_,           \
-                                   const uint p_, const uint ts_, const uint sa_,              \
-                                   const uint nc, const uint nb, const uint sb_, const float sgn) \
+    __kernel void csi_fft_col_r##R(COL_PASS_PARAMS)                                            \
     {                                                                                          \
         const size_t c = get_global_id(0), i = get_global_id(1), b = get_global_id(2);         \
         const size_t T = (size_t)L_ / R, p = p_, ts = ts_, sa = sa_;                           \
@@ -398,12 +447,12 @@ COL_CGAIN_V16(8)
  * (g p R + k + r p) are contiguous in k, so PoCL vectorises them as plain vector accesses; the
  * i-indexed form above needs scatters for its stores (stride R). Twiddles come from a per-pass
  * table twp[twoff + (r - 1) p + k] = exp(-2 pi i r k / (p R)), also contiguous in k. */
+#define ROWK_PASS_PARAMS                                                                        \
+    __global const float *restrict in, __global float *restrict out,                           \
+        __global const float *restrict twp, const uint twoff, const uint L_, const uint p_,    \
+        const uint rs, const float sgn
 #define ROWK_PASS(R)                                                                            \
-    __kernel void csi_fft_rowk_r##R(__global const float *restrict in,                        \
-                                    __global float *restrict out,                             \
-                                    __global const float *restrict twp, const uint twoff,      \
-                                    const uint L_, const uint p_, const uint rs,               \
-                                    const float sgn)                                           \
+    __kernel void csi_fft_rowk_r##R(ROWK_PASS_PARAMS)                                          \
     {                                                                                          \
         const size_t k = get_global_id(0), g = get_global_id(1), row = get_global_id(2);       \
         const size_t T = (size_t)L_ / R, p = p_;                                               \
@@ -526,6 +575,49 @@ ROWK8_V16(2)
 ROWK8_V16(4)
 ROWK8_V16(8)
 
+/* Radix-9 passes on explicit 16-wide vectors: PoCL left the 9-point DFT's work-item loop
+ * scalar (its generated code for csi_fft_col_r9 / csi_fft_rowk_r9: scalar ss arithmetic and
+ * stack spills, 4-5x the time of a radix-3 pass). A work-item takes 16 consecutive columns
+ * (col1v: a pass along y or z at any p; launch dimension 0 counts groups of 16 of the nc
+ * columns, nc a multiple of 16) or 16 consecutive k of a row pass at p, a multiple of 16
+ * (rowkv), whose loads, twiddles and stores are all contiguous in k. Same arithmetic per element
+ * as csi_fft_col_r9 / csi_fft_rowk_r9. */
+#define COL_V16(R)                                                                              \
+    __kernel void csi_fft_col1v_r##R(COL_PASS_PARAMS)                                          \
+    {                                                                                          \
+        const size_t c = 16 * get_global_id(0), i = get_global_id(1), b = get_global_id(2);    \
+        const size_t T = (size_t)L_ / R, p = p_, ts = ts_, sa = sa_;                           \
+        const size_t base = c + b * (size_t)sb_;                                               \
+        float16 xr[R], xi[R];                                                                  \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            load16c(in, base + (i + (size_t)r * T) * sa, false, &xr[r], &xi[r]);               \
+        PASS_TWIDDLES(R, CMUL16)                                                               \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        const size_t j = (i - k) * R + k;                                                      \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            store16c(out, base + (j + (size_t)r * p) * sa, xr[r], xi[r]);                      \
+    }
+#define ROWK_V16(R)                                                                             \
+    __kernel void csi_fft_rowkv_r##R(ROWK_PASS_PARAMS)                                         \
+    {                                                                                          \
+        const size_t k = 16 * get_global_id(0), g = get_global_id(1), row = get_global_id(2);  \
+        const size_t T = (size_t)L_ / R, p = p_;                                               \
+        const size_t base = row * (size_t)rs, i = g * p + k;                                   \
+        float16 xr[R], xi[R];                                                                  \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            load16c(in, base + i + (size_t)r * T, false, &xr[r], &xi[r]);                     \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            float16 wr, wi;                                                                    \
+            load16c(twp, (size_t)twoff + (size_t)(r - 1) * p + k, false, &wr, &wi);            \
+            CMUL16(xr[r], xi[r], xr[r], xi[r], wr, -sgn * wi);                                 \
+        }                                                                                      \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            store16c(out, base + g * p * R + k + (size_t)r * p, xr[r], xi[r]);                 \
+    }
+COL_V16(9)
+ROWK_V16(9)
+
 #define ALL_PASSES(R) COL_PASS(R) COL_PASS_GAIN(R) COL_PASS_CGAIN(R) ROW_PASS(R) ROWK_PASS(R) ROW_PASS_SCALED(R)
 ALL_PASSES(2)
 ALL_PASSES(3)
@@ -533,6 +625,7 @@ ALL_PASSES(4)
 ALL_PASSES(5)
 ALL_PASSES(7)
 ALL_PASSES(8)
+ALL_PASSES(9)
 ALL_PASSES(16)
 
 /* Real-to-complex unpacking (Numerical Recipes 3rd ed. Sec. 12.3.2; Van Loan Sec. 4.4): a real

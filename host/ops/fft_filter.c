@@ -70,7 +70,8 @@ bool csi_fft_filter_supported(const size_t c[3], int nd)
 }
 
 /* Radices for a length L: the power of two 2^e in ceil(e/3) passes of near-equal radix (at most
- * 8), then one pass per factor 3, 5, 7. Radix 16 exists in kernels/fft.cl but PoCL's 16-wide
+ * 8), then one pass per factor 9 (3 x 3 in one pass: a pass costs its memory traffic more than
+ * its arithmetic), 3, 5, 7. Radix 16 exists in kernels/fft.cl but PoCL's 16-wide
  * vectorisation of it spills registers: measured 1.8 ms per 1024 x 1024 pass against 0.36 ms
  * for radix 8, so two radix-8 passes beat one radix-16 pass. */
 static void plan_radices(axis_plan *a)
@@ -90,8 +91,8 @@ static void plan_radices(axis_plan *a)
         a->radix[a->np++] = 1 << bits;
         e -= bits;
     }
-    static const int odd[] = {3, 5, 7};
-    for (int i = 0; i < 3; i++)
+    static const int odd[] = {9, 3, 5, 7};
+    for (int i = 0; i < 4; i++)
         while (n % (size_t)odd[i] == 0) {
             n /= (size_t)odd[i];
             a->radix[a->np++] = odd[i];
@@ -281,6 +282,12 @@ static bool rowk8v_fits(const axis_plan *a, int pass)
     return (R == 2 || R == 4 || R == 8) && a->L / (size_t)R >= 16;
 }
 
+/* Whether a radix-R pass along y or z over nc columns runs as csi_fft_col1v_r*, and one along
+ * rows at p as csi_fft_rowkv_r* (kernels/fft.cl: radix 9, whose per-element form PoCL leaves
+ * scalar). */
+static bool col1v_fits(int R, size_t nc) { return R == 9 && nc % 16 == 0; }
+static bool rowkv_fits(int R, size_t p) { return R == 9 && p % 16 == 0; }
+
 /* Plans one axis's passes, uploads its twiddles (and, along x, the per-pass twiddles) and builds
  * every kernel it will launch, so that the first run pays no compile. Along x the first pass
  * uses the `first_row` kernel ("row_s" where it also scales, else "row"); along the other axes
@@ -302,9 +309,13 @@ static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, const c
                 CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("row1v", R), &k));
             if (pp == 8 && rowk8v_fits(ax, p))
                 CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk8v", R), &k));
+            if (rowkv_fits(R, pp))
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowkv", R), &k));
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
         } else {
             CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+            if (col1v_fits(R, 16))
+                CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col1v", R), &k));
             if (col_gain)
                 CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col_gain", R), &k));
         }
@@ -416,6 +427,15 @@ static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_pla
         size_t global[2] = {((size_t)T + 15) / 16, rows}, local[2] = {1, pow2_dividing(rows, 16)};
         return csi_run(ctx, k, 2, global, local);
     }
+    if (rowkv_fits(R, p)) {
+        /* the k-indexed form on 16-wide vectors (kernels/fft.cl) */
+        CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowkv", R), &k));
+        cl_uint L = (cl_uint)a->L, rs = (cl_uint)rs_, twoff = (cl_uint)a->twoff[pass];
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->twp), CSI_ARG(twoff), CSI_ARG(L),
+                         CSI_ARG(p), CSI_ARG(rs), CSI_ARG(sgn)));
+        size_t global[3] = {p / 16, a->L / ((size_t)R * p), rows}, local[3] = {1, 1, 1};
+        return csi_run(ctx, k, 3, global, local);
+    }
     if (p >= 8) {
         /* k-indexed form: contiguous loads and stores (see kernels/fft.cl) */
         CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("rowk", R), &k));
@@ -464,14 +484,17 @@ static csi_status launch_col(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_pla
                              cl_uint p, float sgn, size_t nc_, size_t sa_, size_t nb_, size_t sb_)
 {
     int R = a->radix[pass];
+    const bool v16 = col1v_fits(R, nc_);
     cl_kernel k;
-    CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name("col", R), &k));
+    CSI_TRY(csi_kernel(ctx, "fft", pass_kernel_name(v16 ? "col1v" : "col", R), &k));
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));
     cl_uint nc = (cl_uint)nc_, sa = (cl_uint)sa_, nb = (cl_uint)nb_, sb = (cl_uint)sb_;
     CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(a->tw), CSI_ARG(L), CSI_ARG(p),
                      CSI_ARG(ts), CSI_ARG(sa), CSI_ARG(nc), CSI_ARG(nb), CSI_ARG(sb), CSI_ARG(sgn)));
-    /* Exact launch: the local size divides nc (the kernel has no bounds check). */
-    size_t global[3] = {nc_, a->L / (size_t)R, nb_}, local[3] = {pow2_dividing(nc_, 16), 1, 1};
+    /* Exact launch: the local size divides nc (the kernel has no bounds check); the 16-wide
+     * form runs one work-item per group of 16 columns. */
+    size_t global[3] = {v16 ? nc_ / 16 : nc_, a->L / (size_t)R, nb_};
+    size_t local[3] = {v16 ? 1 : pow2_dividing(nc_, 16), 1, 1};
     return csi_run(ctx, k, 3, global, local);
 }
 
@@ -526,10 +549,11 @@ static csi_status col_pass(csi_fft_filter *f, cl_mem in, cl_mem out, int axis, i
     int R = a->radix[pass];
     const bool cgain = gain && f->fc;
     /* the complex gain pass on 16-wide vectors where it has one (kernels/fft.cl) */
-    const bool v16 = cgain && cgain1v_fits(a, pass, p, f->hs);
+    const bool v16 = cgain ? cgain1v_fits(a, pass, p, f->hs) : !gain && col1v_fits(R, f->hs);
     cl_kernel k;
     CSI_TRY(csi_kernel(f->ctx, "fft",
-                       pass_kernel_name(v16 ? "col_cgain1v" : cgain ? "col_cgain" : gain ? "col_gain" : "col", R),
+                       pass_kernel_name(v16 ? (cgain ? "col_cgain1v" : "col1v")
+                                            : cgain ? "col_cgain" : gain ? "col_gain" : "col", R),
                        &k));
     size_t hs = f->hs, c1 = f->c[1];
     cl_uint L = (cl_uint)a->L, ts = (cl_uint)(a->L / ((size_t)p * (size_t)R));

@@ -259,6 +259,10 @@ def quality_dumps(args, bins):
         # 256x256 at 4 spp: the demo's size, where the model grid is coarser than the samples'
         # (D = 2); at 128x128 the default grid allows no coarser model (D = 1)
         out += scene_dumps(args, bins, 256, (4,), (1, 2))
+    if "bundled288" in sets:
+        # 288x288 at 4 spp: a model grid of 1152 x 1152 (rows of M = 576 = 8 x 8 x 9, columns
+        # 8 x 4 x 4 x 9), so the radix-9 passes run along both axes, as in the 1920x1080 tiles
+        out += scene_dumps(args, bins, 288, (4,), (1, 2))
     if "analytic" not in sets:
         return out + mitsuba_quality_dumps(args, sets)
     import quality_sweep as qs
@@ -417,7 +421,7 @@ def main(argv=None):
     ap.add_argument("--quality", action="store_true", help="compare --base and --build on the same samples")
     ap.add_argument("--quality-sets", default="bundled,analytic,mitsuba",
                     help="--quality: which dumps (bundled: the scenes at 128x128, 1/4/16 spp; bundled256: at "
-                    "256x256, 4 spp; analytic; mitsuba) [bundled,analytic,mitsuba]")
+                    "256x256, 4 spp; bundled288: at 288x288, 4 spp; analytic; mitsuba) [bundled,analytic,mitsuba]")
     ap.add_argument("--quality-spp", default="1,4,16", type=lambda v: tuple(int(x) for x in v.split(",")),
                     help="--quality: the spp of the bundled 128x128 and Mitsuba dumps [1,4,16]")
     ap.add_argument("--variant", action="append", default=[], metavar="NAME:ARGS",
