@@ -35,7 +35,7 @@ uint64_t csi_hash64(uint64_t h, const void *data, size_t bytes)
 static bool partial_option(const char *name)
 {
     return strcmp(name, "mem-budget") && strcmp(name, "tiles") && strcmp(name, "tile-margin") &&
-           strcmp(name, "tile-margin-t");
+           strcmp(name, "tile-margin-t") && strcmp(name, "tiles-t");
 }
 
 /* ---- a growable little-endian byte stream ---- */

@@ -163,6 +163,9 @@ static const row table[] = {
      "(256 at the defaults), at least 4 pixels; 16 for volumes"},
     {"tile-margin-t", K_U32, AT(tile_margin_t), 1, 65536, NULL, F_AUTO, "auto", "F",
      "the same in frames for a volume", "4"},
+    {"tiles-t", K_U32, AT(tiles_t), 1, 65536, NULL, F_AUTO, "auto", "N",
+     "volumes: exactly N time windows (1: never split t)", "1 unless no split of x and y alone "
+     "fits the budget"},
     {"frames", K_BOOL, AT(frames), 0, 0, NULL, F_LIBRARY, "off", NULL,
      "volumes: also return every frame", NULL},
     {"seed", K_U64, AT(seed), 0, 18446744073709551615.0, NULL, F_LIBRARY, "1", "S",

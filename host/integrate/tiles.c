@@ -278,17 +278,29 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     out->tile_bytes = whole.bytes;
     out->tile_samples = n;
     bool have = false;
-    if (p.m == M_MEAN || (opt->tiles <= 1 && fits(&whole, budget, max_alloc))) {
-        if (opt->tiles > 1)
-            return csi_fail(CSI_ERR_ARG, "the per-pixel sample mean needs no tiles (asked for %u)", opt->tiles);
+    const uint32_t frames = g->t > 1 ? g->t : 1;
+    if (opt->tiles_t > frames)
+        return csi_fail(CSI_ERR_ARG, "%u time windows asked for %s", opt->tiles_t,
+                        g->t > 1 ? "more than the volume's frames" : "an image (one frame)");
+    if (opt->tiles_t > 1 && opt->tiles && opt->tiles % opt->tiles_t)
+        return csi_fail(CSI_ERR_ARG, "%u tiles cannot hold %u time windows (not a multiple)", opt->tiles,
+                        opt->tiles_t);
+    if (p.m == M_MEAN || (opt->tiles <= 1 && opt->tiles_t <= 1 && fits(&whole, budget, max_alloc))) {
+        if (opt->tiles > 1 || opt->tiles_t > 1)
+            return csi_fail(CSI_ERR_ARG, "the per-pixel sample mean needs no tiles (asked for %u)",
+                            opt->tiles > 1 ? opt->tiles : opt->tiles_t);
         return CSI_OK;
     }
-    const uint32_t maxn[3] = {p.ax[0].length / p.ax[0].align, p.ax[1].length / p.ax[1].align,
-                              g->t > 1 ? g->t : 1};
+    const uint32_t maxn[3] = {p.ax[0].length / p.ax[0].align, p.ax[1].length / p.ax[1].align, frames};
+    /* Time windows only when no split of x and y alone fits (or as asked): a window's Fourier
+     * model fits only its stretch of the motion, and the windows lose against the whole where
+     * the x/y tiles do not (docs/bench/scale.md). Among the layouts with the fewest windows that
+     * fit, the one covering the fewest cells. */
+    const uint32_t nt_lo = opt->tiles_t ? opt->tiles_t : 1, nt_hi = opt->tiles_t ? opt->tiles_t : maxn[2];
     if (opt->tiles > 1) {
         const uint32_t N = opt->tiles;
         bool any = false;
-        for (uint32_t nt = 1; nt <= N && nt <= maxn[2]; nt++) {
+        for (uint32_t nt = nt_lo; nt <= N && nt <= nt_hi && !have; nt++) {
             if (N % nt)
                 continue;
             for (uint32_t ny = 1; ny <= N / nt && ny <= maxn[1]; ny++) {
@@ -313,14 +325,19 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
             return csi_fail(CSI_ERR_ARG, "%u tiles do not fit the device budget of %llu bytes: ask "
                             "for more tiles or a larger budget", N, (unsigned long long)budget);
     } else {
-        for (uint32_t nt = 1; nt <= maxn[2]; nt++) {
+        bool laid = false;
+        for (uint32_t nt = nt_lo; nt <= nt_hi && !have; nt++) {
             for (uint32_t ny = 1; ny <= maxn[1]; ny++) {
                 /* The fewest tiles along x that fit, by bisection (a tile's bytes fall as the
                  * tiles along x grow, up to the rounding of window lengths). */
                 uint32_t lo = 1, hi = maxn[0];
                 candidate c;
-                const uint32_t top[3] = {hi, ny, nt};
-                if (!evaluate(&p, opt, top, &c) || !fits(&c, budget, max_alloc))
+                const uint32_t first[3] = {1, ny, nt}, top[3] = {hi, ny, nt};
+                const bool made = evaluate(&p, opt, first, &c);
+                laid |= made;
+                if (made && fits(&c, budget, max_alloc))
+                    hi = 1; /* one along x (2 may not be laid out at all: the bisection would skip 1) */
+                else if (!evaluate(&p, opt, top, &c) || (laid = true, !fits(&c, budget, max_alloc)))
                     continue;
                 while (lo < hi) {
                     uint32_t mid = lo + (hi - lo) / 2;
@@ -339,9 +356,11 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                 if (lo == 1)
                     break; /* more tiles along y only add overlap */
             }
-            if (have && best.n[2] < nt)
-                break;
         }
+        if (!laid && opt->tiles_t > 1)
+            return csi_fail(CSI_ERR_ARG, "%u time windows cannot be laid out on %u frames with margins of %u "
+                            "frames (a window's core and margins must be shorter than the volume)",
+                            opt->tiles_t, g->t, p.ax[2].margin);
         if (!have && !whole_ok) {
             csi_recon_plan pw;
             return csi_recon_plan_whole(g, channels, n, opt, NULL, &pw); /* its message */

@@ -135,9 +135,73 @@ int main(void)
         o.tile_margin_t = 4;
         csi_tiling tl;
         REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl));
-        CHECK(tl.n[2] > 1, "a 64x48x64 volume in 4 tiles with 16-pixel margins splits t (n = %u %u %u)", tl.n[0],
-              tl.n[1], tl.n[2]);
+        CHECK(tl.n[2] == 1 && tl.count == 4, "a 64x48x64 volume in 4 tiles with 16-pixel margins is split in "
+              "x and y only (n = %u %u %u)", tl.n[0], tl.n[1], tl.n[2]);
         check_layout(&tl, "volume 64x48x64, 4 tiles");
+        o.tiles = 8;
+        o.tiles_t = 2;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl));
+        CHECK(tl.n[2] == 2 && tl.count == 8, "--tiles 8 --tiles-t 2: 2 time windows (n = %u %u %u)", tl.n[0],
+              tl.n[1], tl.n[2]);
+        check_layout(&tl, "volume 64x48x64, 8 tiles, 2 in t");
+        o.tiles_t = 4;
+        o.tiles = 0;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl));
+        CHECK(tl.n[2] == 4 && tl.count == 4, "--tiles-t 4 alone: 4 windows although the whole fits (n = %u %u %u)",
+              tl.n[0], tl.n[1], tl.n[2]);
+        o.tiles = 6;
+        CHECK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "not a multiple") != NULL,
+              "6 tiles in 4 time windows are refused: %s", csi_last_error());
+        o.tiles = 0;
+        o.tiles_t = 65;
+        CHECK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "frames") != NULL,
+              "65 windows of 64 frames are refused: %s", csi_last_error());
+        o.tiles_t = 2;
+        o.tile_margin_t = 16;
+        CHECK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "cannot be laid out on 64 frames") != NULL,
+              "2 windows of 64 frames with 16-frame margins are refused: %s", csi_last_error());
+        o.tile_margin_t = 4;
+        const csi_grid img = {256, 256, 1, 64, 64};
+        o.tiles_t = 2;
+        CHECK(csi_tiling_plan(NULL, &img, 1, 4096, &o, &tl) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "image") != NULL,
+              "time windows of an image are refused: %s", csi_last_error());
+        o.tiles_t = 0;
+    }
+
+    /* The budget's layouts of a volume split t only when no x/y layout fits it: over budgets from
+     * the whole's bytes down, a layout with time windows means that no count of x/y tiles fits. */
+    {
+        const csi_grid g = {96, 64, 48, 96, 64};
+        const size_t n = (size_t)96 * 64 * 48 / 10;
+        csi_recon_defaults(&o);
+        csi_tiling whole, tl;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, n, &o, &whole));
+        int split_t = 0, split_xy = 0;
+        for (int b = 1; b <= 40; b++) {
+            o.tiles = 0;
+            o.tiles_t = 0;
+            o.mem_budget = whole.whole_bytes * (uint64_t)(41 - b) / 41;
+            if (csi_tiling_plan(NULL, &g, 1, n, &o, &tl) != CSI_OK)
+                continue;
+            if (tl.n[2] == 1) {
+                split_xy += tl.count > 1;
+                continue;
+            }
+            split_t++;
+            o.tiles_t = 1;
+            for (uint32_t N = 2; N <= 64; N++) {
+                o.tiles = N;
+                csi_tiling t2;
+                CHECK(csi_tiling_plan(NULL, &g, 1, n, &o, &t2) != CSI_OK, "budget %llu: %u time windows where "
+                      "%u x/y tiles fit", (unsigned long long)o.mem_budget, tl.n[2], N);
+            }
+        }
+        CHECK(split_xy > 0 && split_t > 0, "the budgets gave x/y layouts (%d) and, below them, time windows (%d)",
+              split_xy, split_t);
     }
 
     /* The plan from a budget. */
