@@ -122,19 +122,57 @@ double cli_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-void cli_progress_init(cli_progress *p, bool quiet)
+bool cli_progress_init(cli_progress *p, const char *prog, bool quiet)
 {
     memset(p, 0, sizeof *p);
-    p->enabled = !quiet && isatty(STDERR_FILENO);
+    p->prog = prog;
     p->start = cli_now();
     p->last = -1;
+    p->every = CLI_PROGRESS_EVERY;
+    const char *env = getenv("CSI_PROGRESS");
+    double every = 0;
+    if (env && !strcmp(env, "off"))
+        p->mode = CLI_PROGRESS_OFF;
+    else if (env && !strcmp(env, "bar"))
+        p->mode = CLI_PROGRESS_BAR;
+    else if (env && *env && strcmp(env, "auto")) {
+        if (!cli_parse_double(env, 0.001, 1e9, &every)) {
+            cli_fail(CSI_ERR_ARG, "CSI_PROGRESS=%.40s is not off, bar, auto or a number of seconds", env);
+            return false;
+        }
+        p->mode = CLI_PROGRESS_LINES;
+        p->every = every;
+    } else
+        p->mode = isatty(STDERR_FILENO) ? CLI_PROGRESS_BAR : CLI_PROGRESS_LINES;
+    if (quiet)
+        p->mode = CLI_PROGRESS_OFF;
+    return true;
+}
+
+static void progress_line(cli_progress *p, const char *phase, double fraction, const char *detail, double now)
+{
+    /* One line a log can hold: no carriage return, no escape sequence; a phase that changed
+     * since the last line is named as it is now. */
+    if (p->last < 0 ? now - p->start < p->every : now - p->last < p->every)
+        return;
+    p->last = now;
+    char pct[16] = "";
+    if (fraction >= 0)
+        snprintf(pct, sizeof pct, " %.0f%%", 100 * (fraction > 1 ? 1 : fraction));
+    fprintf(stderr, "%s: progress: %s%s%s%s [%.0f s]\n", p->prog ? p->prog : "csi", phase, pct,
+            detail && *detail ? "  " : "", detail ? detail : "", now - p->start);
+    fflush(stderr);
 }
 
 void cli_progress_update(cli_progress *p, const char *phase, double fraction, const char *detail)
 {
-    if (!p->enabled)
+    if (p->mode == CLI_PROGRESS_OFF)
         return;
     double now = cli_now();
+    if (p->mode == CLI_PROGRESS_LINES) {
+        progress_line(p, phase, fraction, detail, now);
+        return;
+    }
     bool new_phase = strncmp(p->phase, phase, sizeof p->phase - 1) != 0;
     if (!new_phase && now - p->last < 0.1 && fraction < 1.0)
         return;
@@ -157,11 +195,11 @@ void cli_progress_update(cli_progress *p, const char *phase, double fraction, co
 
 void cli_progress_end(cli_progress *p)
 {
-    if (p->enabled && p->last >= 0) {
+    if (p->mode == CLI_PROGRESS_BAR && p->last >= 0) {
         fprintf(stderr, "\r\033[K");
         fflush(stderr);
+        p->last = -1;
     }
-    p->last = -1;
 }
 
 void cli_json_grid(csi_json *j, const csi_grid *g)

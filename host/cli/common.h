@@ -60,14 +60,23 @@ bool cli_parse_double(const char *s, double lo, double hi, double *out);
 /* "WxH" -> w, h (both >= 1). */
 bool cli_parse_size(const char *s, uint32_t *w, uint32_t *h);
 
-/* Progress on stderr: drawn only when stderr is a terminal and not quiet; at most ~10 redraws
- * a second; cleared by cli_progress_end. */
+/* Progress on stderr (none when quiet). On a terminal: one line redrawn at most ~10 times a
+ * second and cleared by cli_progress_end. Elsewhere (a log file, a farm's or a batch job's
+ * output): plain lines "prog: progress: phase ... [elapsed]", at most one every CLI_PROGRESS_EVERY
+ * seconds and the first only after as long, so that a short run, and a refusal, print nothing
+ * but their own lines. The environment variable CSI_PROGRESS chooses instead: "off", "bar" (the
+ * redrawn line wherever stderr goes), or a number of seconds between plain lines. */
+#define CLI_PROGRESS_EVERY 60.0
+typedef enum { CLI_PROGRESS_OFF, CLI_PROGRESS_BAR, CLI_PROGRESS_LINES } cli_progress_mode;
 typedef struct cli_progress {
-    bool enabled;
+    cli_progress_mode mode;
+    double every; /* CLI_PROGRESS_LINES: seconds between lines */
     double start, last;
     char phase[48];
+    const char *prog;
 } cli_progress;
-void cli_progress_init(cli_progress *p, bool quiet);
+/* false when CSI_PROGRESS holds something else than the above (the message: cli_last_error). */
+bool cli_progress_init(cli_progress *p, const char *prog, bool quiet);
 /* fraction < 0: unknown (spinner-free text only). detail: free text such as "iter 12 res 3e-3". */
 void cli_progress_update(cli_progress *p, const char *phase, double fraction, const char *detail);
 void cli_progress_end(cli_progress *p);
@@ -85,5 +94,7 @@ void cli_recon_progress_init(cli_recon_progress *p, cli_progress *bar);
 void cli_recon_progress_update(cli_recon_progress *p, const char *phase, int iter, double res);
 /* Seconds left, or < 0 while no channel is done. */
 double cli_recon_progress_eta(const cli_recon_progress *p, double now);
+/* A csi_progress_fn whose user is a cli_recon_progress (or NULL: nothing shown). */
+bool cli_recon_progress_fn(void *user, const csi_progress *p);
 
 #endif

@@ -44,3 +44,10 @@ void cli_recon_progress_update(cli_recon_progress *p, const char *phase, int ite
         snprintf(detail, sizeof detail, "%s", eta[0] ? eta + 2 : "");
     cli_progress_update(p->bar, phase, -1, detail);
 }
+
+bool cli_recon_progress_fn(void *user, const csi_progress *p)
+{
+    if (user)
+        cli_recon_progress_update(user, p->phase, p->iteration, p->residual);
+    return true;
+}

@@ -103,7 +103,7 @@ static void add_samples_stats(csi_json *j, const void *user)
 
 int cli_tile_run_samples(const char *prog, csi_device *dev, csi_outset *set, const csi_samples *smp,
                          const char *input, csi_options *opt, const cli_tile_opts *tile, const cli_outputs *outs,
-                         bool quiet)
+                         bool quiet, cli_recon_progress *progress)
 {
     const uint64_t id = csi_samples_id(smp);
     double given[4], whole[4];
@@ -119,7 +119,9 @@ int cli_tile_run_samples(const char *prog, csi_device *dev, csi_outset *set, con
         return s == CSI_OK ? 0 : cli_error(prog, s, "%s: %s", input, cli_last_error());
     const double t0 = cli_now();
     csi_result *res = NULL;
-    s = csi_reconstruct_tile(dev, smp, opt, tile->index, scale, NULL, NULL, &res);
+    s = csi_reconstruct_tile(dev, smp, opt, tile->index, scale, cli_recon_progress_fn, progress, &res);
+    if (progress)
+        cli_progress_end(progress->bar);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s: %s", input, cli_last_error());
     csi_result_info info;
@@ -180,7 +182,8 @@ static bool in_window(csi_sample_pos p, const uint32_t lo[3], const uint32_t hi[
 int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, const char *scene_path,
                         const csi_grid *grid, const csi_pos_opts *po, const csi_sample_pos *pos, size_t n,
                         uint32_t sample_flags, csi_options *opt, const cli_tile_opts *tile,
-                        const cli_outputs *outs, bool quiet, cli_tile_eval_fn eval, void *user)
+                        const cli_outputs *outs, bool quiet, cli_recon_progress *progress, cli_tile_eval_fn eval,
+                        void *user)
 {
     uint64_t id;
     double given[4];
@@ -217,7 +220,9 @@ int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, cons
     csi_result *res = NULL;
     if (s == CSI_OK)
         s = csi_reconstruct_tile_window(dev, &(csi_samples){*grid, 3, m, sub, rgb, sample_flags}, n, opt,
-                                        tile->index, scale, NULL, NULL, &res);
+                                        tile->index, scale, cli_recon_progress_fn, progress, &res);
+    if (progress)
+        cli_progress_end(progress->bar);
     csi_result_info info = {0};
     if (s == CSI_OK) {
         csi_result_info_get(res, &info);

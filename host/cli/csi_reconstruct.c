@@ -39,15 +39,11 @@ static void usage(FILE *f)
 "      --device NAME         OpenCL device (substring of 'platform / device'; default: PoCL CPU,\n"
 "                            or $CSI_DEVICE); --device list prints the devices\n"
 "  -q, --quiet               no progress or warnings on stderr\n"
+"      (progress: a redrawn line on a terminal; elsewhere, as in a log, a plain line at most\n"
+"      every 60 s; $CSI_PROGRESS = off, bar, or the seconds between plain lines)\n"
 "  -h, --help                this text\n"
 "      --version             version\n"
 "exit status: 0 success, 2 bad input or usage, 1 other failure\n", f);
-}
-
-static bool on_progress(void *user, const csi_progress *p)
-{
-    cli_recon_progress_update(user, p->phase, p->iteration, p->residual);
-    return true;
 }
 
 /* Option `name` of o is `value` (a choice's name). */
@@ -213,17 +209,20 @@ int main(int argc, char **argv)
         cli_warn(prog, "%s is a static dump (grid_t = 1): --frames writes nothing", in);
 
     cli_progress bar;
-    cli_progress_init(&bar, quiet);
+    if (!cli_progress_init(&bar, prog, quiet)) {
+        rc = cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
+        goto done;
+    }
     cli_recon_progress ps;
     cli_recon_progress_init(&ps, &bar);
     const csi_samples samples = {dump.grid, dump.channels, dump.count, dump.pos, dump.values, dump.flags};
     if (tile.one || tile.info) {
-        rc = cli_tile_run_samples(prog, dev, set, &samples, in, opt, &tile, &outs, quiet);
+        rc = cli_tile_run_samples(prog, dev, set, &samples, in, opt, &tile, &outs, quiet, &ps);
         cli_progress_end(&bar);
         goto done;
     }
     const double t0 = cli_now();
-    s = csi_reconstruct(dev, &samples, opt, on_progress, &ps, &res);
+    s = csi_reconstruct(dev, &samples, opt, cli_recon_progress_fn, &ps, &res);
     cli_progress_end(&bar);
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s: %s", in, cli_last_error());

@@ -55,6 +55,8 @@ static void usage(FILE *f)
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
 "  -q, --quiet               no progress on stderr\n"
+"      (progress: a redrawn line on a terminal; elsewhere, as in a log, a plain line at most\n"
+"      every 60 s; $CSI_PROGRESS = off, bar, or the seconds between plain lines)\n"
 "  -h, --help                this text\n"
 "      --version             version\n"
 "exit status: 0 success, 2 bad input or usage, 1 other failure\n", f);
@@ -383,10 +385,17 @@ int main(int argc, char **argv)
         rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
         goto done;
     }
+    cli_progress bar;
+    if (!cli_progress_init(&bar, prog, quiet)) {
+        rc = cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
+        goto done;
+    }
+    prog_state ps = {&bar, {0}};
+    cli_recon_progress_init(&ps.recon, &bar);
     if (tile.one || tile.info) {
         tile_eval te = {tr, &grid, seed};
         rc = cli_tile_run_render(prog, dev, set, scene_path, &grid, &popts, pos, n, flags, opt, &tile, &outs, quiet,
-                                 eval_tile, &te);
+                                 &ps.recon, eval_tile, &te);
         goto done;
     }
     rgb = malloc(n * 3 * sizeof(float));
@@ -394,10 +403,6 @@ int main(int argc, char **argv)
         rc = cli_error(prog, CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
         goto done;
     }
-    cli_progress bar;
-    cli_progress_init(&bar, quiet);
-    prog_state ps = {&bar, {0}};
-    cli_recon_progress_init(&ps.recon, &bar);
     double t0 = cli_now();
     s = csi_tracer_eval(tr, &grid, pos, n, seed, rgb, on_trace, &ps);
     double t_render = cli_now() - t0;

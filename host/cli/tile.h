@@ -38,12 +38,13 @@ void cli_tile_usage(FILE *f);
 /* Checks the tile options against each other and the outputs (one line, exit code) or 0. */
 int cli_tile_check(const char *prog, const cli_tile_opts *t, bool png, bool frames_dir);
 
+/* progress (may be NULL) shows the tile's reconstruction (cli_progress on stderr). */
 /* csi-reconstruct --tile / --tile-info over the dump's samples s (`input`: the dump's path): the
  * layout and the whole problem's scale, then tile t->index's partial written to outs->exr (and
  * statistics), or the layout as JSON on stdout. Returns the exit code, after printing an error. */
 int cli_tile_run_samples(const char *prog, csi_device *dev, csi_outset *set, const csi_samples *s,
                          const char *input, csi_options *opt, const cli_tile_opts *t, const cli_outputs *outs,
-                         bool quiet);
+                         bool quiet, cli_recon_progress *progress);
 
 /* Evaluates n samples (their positions, and their indices among all the samples of the run, so
  * that they get the values an untiled render gives them) into rgb (n x 3). */
@@ -57,6 +58,6 @@ typedef csi_status (*cli_tile_eval_fn)(void *user, const csi_sample_pos *pos, co
 int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, const char *scene_path,
                         const csi_grid *g, const csi_pos_opts *po, const csi_sample_pos *pos, size_t n,
                         uint32_t sample_flags, csi_options *opt, const cli_tile_opts *t, const cli_outputs *outs,
-                        bool quiet, cli_tile_eval_fn eval, void *user);
+                        bool quiet, cli_recon_progress *progress, cli_tile_eval_fn eval, void *user);
 
 #endif

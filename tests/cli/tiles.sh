@@ -43,15 +43,35 @@ done
 check "[[ '$(json "$T/rm.json" image_fnv1a64)' == '$ha' ]]" "csi-render's tiles differ from the tiled run"
 
 # --- moving: time and space tiles, frames ---------------------------------------------------
-"$B/csi-render" "$moving" --dump "$T/m.csid" -o "$T/mv.exr" --stats "$T/mv.json" --frames "$T/f1" --tiles 3 "${tiles[@]}"
-check "[[ $? == 0 ]] && grep -q '\"tiles\": 3,' '$T/mv.json'" "moving --tiles 3"
-for i in 0 1 2; do
-    "$B/csi-reconstruct" "$T/m.csid" --tile $i/3 --partial-frames -o "$T/q$i.csip" "${tiles[@]}"
+# (time windows only when asked: --tiles-t; the budget alone splits x and y first)
+"$B/csi-render" "$moving" --dump "$T/m.csid" -o "$T/mv.exr" --stats "$T/mv.json" --frames "$T/f1" --tiles 6 --tiles-t 3 "${tiles[@]}"
+check "[[ $? == 0 ]] && grep -q '\"tiles\": 6,' '$T/mv.json'" "moving --tiles 6 --tiles-t 3"
+"$B/csi-reconstruct" "$T/m.csid" --tiles 6 --tiles-t 3 --tile-info "${tiles[@]}" > "$T/minfo.json"
+check "grep -q '\"tiles_x\": 2,' '$T/minfo.json' && grep -q '\"tiles_t\": 3,' '$T/minfo.json'" "2x1x3 layout: $(cat "$T/minfo.json")"
+for i in 0 1 2 3 4 5; do
+    "$B/csi-reconstruct" "$T/m.csid" --tiles-t 3 --tile $i/6 --partial-frames -o "$T/q$i.csip" "${tiles[@]}"
 done
 "$B/csi-merge" "$T"/q?.csip -o "$T/mm.exr" --frames "$T/f2" --stats "$T/mm.json" -q
 check "[[ $? == 0 && '$(json "$T/mm.json" image_fnv1a64)' == '$(json "$T/mv.json" image_fnv1a64)' ]]" "moving tiles differ"
 same=1; for f in "$T"/f1/*.png; do cmp -s "$f" "$T/f2/$(basename "$f")" || same=0; done
 check "[[ $same == 1 && -s '$T/f2/frame_0007.png' ]]" "merged frames differ from the tiled run's"
+
+# --- progress where stderr is a file (a log): plain lines, at most one every CSI_PROGRESS s ------
+prog=(--tile-margin 4 --max-iter 40)
+CSI_PROGRESS=0.001 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pg.exr" --stats "$T/pg.json" "${prog[@]}" 2> "$T/pg.err"
+check "[[ $? == 0 ]] && grep -q '^csi-reconstruct: progress: solve 1/3' '$T/pg.err'" "progress lines: $(head -3 "$T/pg.err")"
+check "! grep -q \$'[\r\e]' '$T/pg.err'" "a progress line holds a carriage return or an escape"
+"$B/csi-reconstruct" "$T/m.csid" -o "$T/pq.exr" --stats "$T/pq.json" "${prog[@]}" -q 2> "$T/pq.err"
+check "[[ ! -s '$T/pq.err' && '$(json "$T/pq.json" image_fnv1a64)' == '$(json "$T/pg.json" image_fnv1a64)' ]]" \
+    "quiet: nothing on stderr, the same pixels: $(cat "$T/pq.err")"
+CSI_PROGRESS=1000 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pg.exr" "${prog[@]}" 2> "$T/pl.err"
+check "[[ $? == 0 ]] && ! grep -q progress '$T/pl.err'" "a line before the first 1000 s: $(cat "$T/pl.err")"
+CSI_PROGRESS=0.001 "$B/csi-reconstruct" "$T/m.csid" --tiles 2 --tile 1/2 -o "$T/pt.csip" "${prog[@]}" 2> "$T/pt.err"
+check "[[ $? == 0 ]] && grep -q '^csi-reconstruct: progress: solve' '$T/pt.err' && grep -q '^csi-reconstruct: tile 1/2' '$T/pt.err'" \
+    "a --tile run's progress: $(head -3 "$T/pt.err")"
+CSI_PROGRESS=0.001 "$B/csi-render" "$static" -o "$T/pr.exr" "${prog[@]}" 2> "$T/pr.err"
+check "[[ $? == 0 ]] && grep -q '^csi-render: progress: ' '$T/pr.err'" "csi-render's progress: $(head -3 "$T/pr.err")"
+expect_fail "bad CSI_PROGRESS" "CSI_PROGRESS=often is not" env CSI_PROGRESS=often "$B/csi-reconstruct" "$T/m.csid" -o "$T/out.exr"
 
 # --- bad input: exit 2, one line naming the problem, no output ---------------------------------
 expect_fail "missing tile" "tile 3 of 4 is missing" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/p2.csip" -o "$T/out.exr"
@@ -77,5 +97,7 @@ expect_fail "no frames" "no frames" "$B/csi-merge" "$T"/p?.csip -o "$T/out.exr" 
 expect_fail "tile out of range" "--tile" "$B/csi-reconstruct" "$T/s.csid" --tile 4/4 -o "$T/out.exr"
 expect_fail "tile and png" "csi-merge" "$B/csi-reconstruct" "$T/s.csid" --tile 0/4 -o "$T/out.exr" --png "$T/x.png"
 expect_fail "too many tiles" "cannot be laid out" "$B/csi-reconstruct" "$T/s.csid" --tile 0/999 -o "$T/out.exr"
+expect_fail "time windows of an image" "time windows asked for an image" "$B/csi-reconstruct" "$T/s.csid" --tiles-t 2 -o "$T/out.exr"
+expect_fail "windows too long" "cannot be laid out on 8 frames" "$B/csi-reconstruct" "$T/m.csid" --tiles-t 2 --tile-margin-t 4 -o "$T/out.exr"
 
 finish
