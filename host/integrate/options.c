@@ -162,7 +162,8 @@ static const row table[] = {
      "overlap beyond a tile's core in output pixels", "the wavelet's taps x 2^levels grid cells "
      "(256 at the defaults), at least 4 pixels; 16 for volumes"},
     {"tile-margin-t", K_U32, AT(tile_margin_t), 1, 65536, NULL, F_AUTO, "auto", "F",
-     "the same in frames for a volume", "4"},
+     "the same in frames for a volume", "a third of a time window's core, at least 4, and windows of at least 32 frames where the "
+     "volume is longer"},
     {"tiles-t", K_U32, AT(tiles_t), 1, 65536, NULL, F_AUTO, "auto", "N",
      "volumes: exactly N time windows (1: never split t)", "1 unless no split of x and y alone "
      "fits the budget"},

@@ -13,10 +13,31 @@
  * ((taps - 1) 2^levels cells). At 128 cells the tiled MSE on checkerboard at 16 spp (16x grid, 4
  * tiles) was 2.7% above the untiled one's, at 256 cells 1.5%, at 384 1.1% (docs/bench/scale.md).
  * Volumes: 16 pixels (the moving train in 2 and 4 tiles along x: 1.1% and 0.7% below untiled,
- * same page) and 4 frames (a guess: no measured layout has split t yet). */
+ * same page). Time windows: the window (core and margins) spans at least 32 frames where the
+ * volume is longer, and the margin is at least a third of the core and 4 frames. A window's
+ * Fourier model in t fits only its own stretch of the motion, so its length counts, not a fixed
+ * margin: on the 48-frame disc of docs/bench/scale.md, 4 windows of 20 frames lost 17-25% against
+ * the whole, of 32 frames -4% to +7% (mean 0%); 2 windows of 32 frames lost up to 7%, of 40
+ * frames none. */
 #define TILE_MARGIN_MIN_PX 4u
 #define TILE_MARGIN_MOTION_PX 16u
 #define TILE_MARGIN_MOTION_T 4u
+#define TILE_MARGIN_T_CORE_DIV 3u
+#define TILE_WINDOW_T_MIN 32u
+
+/* The default margin of n time windows over L frames (the longest core's). */
+static uint32_t margin_t_auto(uint32_t L, uint32_t n)
+{
+    const uint32_t core = (L + n - 1) / n;
+    uint32_t m = (core + TILE_MARGIN_T_CORE_DIV - 1) / TILE_MARGIN_T_CORE_DIV;
+    if (core < TILE_WINDOW_T_MIN && m < (TILE_WINDOW_T_MIN - core + 1) / 2)
+        m = (TILE_WINDOW_T_MIN - core + 1) / 2;
+    const uint32_t cap = L > core + 1 ? (L - 1 - core) / 2 : 0; /* a window shorter than the volume */
+    if (m > cap)
+        m = cap;
+    return m > TILE_MARGIN_MOTION_T ? m : TILE_MARGIN_MOTION_T;
+}
+
 /* Headroom on a tile's samples: a tile holds about its share of the samples when they are
  * spread evenly (Poisson-disk, stratified or uniform positions). */
 #define TILE_SAMPLE_HEADROOM 1.25
@@ -138,6 +159,7 @@ static uint32_t min_core(uint32_t L, uint32_t n, uint32_t align)
 typedef struct {
     tile_method m;
     axis_req ax[3];
+    bool auto_margin_t; /* ax[2].margin follows the number of windows (margin_t_auto) */
     uint64_t k, n;
     uint32_t bw, bh, channels;
     int levels;
@@ -154,8 +176,11 @@ typedef struct {
 static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint32_t n[3], candidate *c)
 {
     for (int a = 0; a < 3; a++) {
+        axis_req ax = p->ax[a];
+        if (a == 2 && p->auto_margin_t)
+            ax.margin = margin_t_auto(ax.length, n[2]);
         c->n[a] = n[a];
-        c->window[a] = axis_window(&p->ax[a], n[a]);
+        c->window[a] = axis_window(&ax, n[a]);
         if (!c->window[a])
             return false;
     }
@@ -254,9 +279,10 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         } else if (a == 0 && p.m != M_MEAN) {
             ax->multiple = 2; /* csi's own FFT kernels and the half spectrum want an even first axis */
         }
-        if (a == 2)
+        if (a == 2) {
             ax->margin = opt->tile_margin_t ? opt->tile_margin_t : TILE_MARGIN_MOTION_T;
-        else if (p.m == M_AA) {
+            p.auto_margin_t = !opt->tile_margin_t;
+        } else if (p.m == M_AA) {
             const uint32_t mc = (uint32_t)csi_wavelet_taps(opt->wavelet) << (p.levels > 0 && p.levels < 20 ? p.levels : 5);
             uint32_t m = (mc + cells[a] - 1) / cells[a];
             ax->margin = opt->tile_margin ? opt->tile_margin : m < TILE_MARGIN_MIN_PX ? TILE_MARGIN_MIN_PX : m;
@@ -360,7 +386,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         if (!laid && opt->tiles_t > 1)
             return csi_fail(CSI_ERR_ARG, "%u time windows cannot be laid out on %u frames with margins of %u "
                             "frames (a window's core and margins must be shorter than the volume)",
-                            opt->tiles_t, g->t, p.ax[2].margin);
+                            opt->tiles_t, g->t, p.auto_margin_t ? margin_t_auto(g->t, opt->tiles_t) : p.ax[2].margin);
         if (!have && !whole_ok) {
             csi_recon_plan pw;
             return csi_recon_plan_whole(g, channels, n, opt, NULL, &pw); /* its message */
@@ -373,6 +399,8 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     out->count = best.n[0] * best.n[1] * best.n[2];
     out->tile_bytes = best.bytes;
     out->tile_samples = best.samples;
+    if (p.auto_margin_t)
+        out->margin[2] = margin_t_auto(out->length[2], best.n[2]);
     for (int a = 0; a < 3; a++) {
         out->n[a] = best.n[a];
         out->window[a] = best.window[a];

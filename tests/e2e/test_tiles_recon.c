@@ -15,11 +15,11 @@
  *      OpenCL context, and blended in index order; blending out of order is refused; one tile
  *      gives the untiled bits.
  * Alg. 2: a 32 x 32 x 48 volume (a disc sliding over a textured background), 10% random
- * samples, 2 time windows of 28 frames (4-frame margins). Claims: the blurred image's MSE
- * against the volume's mean over t is within 2% of the untiled one's (measured 0.97: a window's
- * Fourier model fits its shorter stretch of motion; with 32 frames, windows of 24 frames, 1.10,
- * so the windows must be long enough for the margin to matter little); frames outside the time
- * band are the window's own frames. */
+ * samples, 2 time windows of 40 frames (the default 8-frame margins). Claims: the blurred image's
+ * MSE against the volume's mean over t is within 2% of the untiled one's (a window's Fourier
+ * model fits its shorter stretch of motion, so the windows must be long: with 4-frame margins,
+ * windows of 32 frames, this scene lost up to 7% on other position seeds; docs/bench/scale.md
+ * has the 5 seeds); frames outside the time band are the window's own frames. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -242,10 +242,9 @@ static void alg2(csi_ctx *ctx)
     csi_recon_options o;
     csi_recon_defaults(&o);
     o.frames = true;
-    /* The windows and their blend with the paper's basis (the 3-D DFT, no shear). csi's sheared
-     * basis (the default since issue 12) loses more to time windows on this scene: 1.11-1.18x
-     * the whole's MSE over 5 position seeds, against 0.96-1.26x for this basis
-     * (docs/bench/animation.md); at this seed the whole is 0.92x this basis's whole. */
+    /* The windows and their blend with the paper's basis (the 3-D DFT, no shear), so that the
+     * claim does not follow the velocity search: csi's default now keeps v = 0 on this scene
+     * and gives the same images (docs/bench/scale.md). */
     o.motion_time = CSI_MOTION_TIME_DFT;
     o.motion_velocity = CSI_VELOCITY_NONE;
     csi_recon_result whole, tiled;

@@ -158,6 +158,31 @@ int main(void)
         CHECK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl) == CSI_ERR_ARG &&
                   strstr(csi_last_error(), "frames") != NULL,
               "65 windows of 64 frames are refused: %s", csi_last_error());
+        /* The default time margin: windows of at least 32 frames where the volume is longer, a
+         * margin of at least a third of the core (and 4 frames). */
+        {
+            const csi_grid gv = {64, 48, 48, 64, 48};
+            const uint32_t nts[] = {2, 4, 3, 12}, margins[] = {8, 10, 8, 14};
+            csi_recon_options ov;
+            csi_recon_defaults(&ov);
+            for (int i = 0; i < 4; i++) {
+                ov.tiles_t = nts[i];
+                REQUIRE_OK(csi_tiling_plan(NULL, &gv, 1, 64 * 48 * 48 / 10, &ov, &tl));
+                CHECK(tl.n[2] == nts[i] && tl.margin[2] == margins[i] && tl.window[2] < 48 &&
+                          tl.window[2] >= (48 + nts[i] - 1) / nts[i] + 2 * margins[i],
+                      "%u windows of 48 frames: margin %u (want %u), window %u", nts[i], tl.margin[2], margins[i],
+                      tl.window[2]);
+                check_layout(&tl, "48 frames in time windows");
+            }
+            const csi_grid g32 = {64, 48, 32, 64, 48};
+            ov.tiles_t = 2;
+            REQUIRE_OK(csi_tiling_plan(NULL, &g32, 1, 64 * 48 * 32 / 10, &ov, &tl));
+            CHECK(tl.margin[2] == 7 && tl.window[2] < 32, "2 windows of 32 frames: margin %u (the longest that "
+                  "fits), window %u", tl.margin[2], tl.window[2]);
+            ov.tile_margin_t = 3;
+            REQUIRE_OK(csi_tiling_plan(NULL, &g32, 1, 64 * 48 * 32 / 10, &ov, &tl));
+            CHECK(tl.margin[2] == 3, "a given margin is kept (%u)", tl.margin[2]);
+        }
         o.tiles_t = 2;
         o.tile_margin_t = 16;
         CHECK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl) == CSI_ERR_ARG &&
