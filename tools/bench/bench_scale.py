@@ -4,6 +4,7 @@ against image size and against Dask worker count, and single large targets.
 
   .venv/bin/python tools/bench/bench_scale.py seams   --out bench-scale   # tiled vs untiled, 256^2 (+ motion)
   .venv/bin/python tools/bench/bench_scale.py margins --out bench-scale   # tiled error against the margin
+  .venv/bin/python tools/bench/bench_scale.py windows --out bench-scale   # volumes in time windows vs whole
   .venv/bin/python tools/bench/bench_scale.py sizes   --out bench-scale   # 256^2 .. 3840x2160 at 4 spp
   .venv/bin/python tools/bench/bench_scale.py workers --out bench-scale   # csi-farm, 1 and 2 workers
   .venv/bin/python tools/bench/bench_scale.py target  --out bench-scale --size 3840x2160 --spp 16
@@ -227,6 +228,73 @@ def margins(a, bins, env, work, logf):
     return rows
 
 
+def disc_volume(seed):
+    """tests/e2e/test_tiles_recon.c's volume: a disc sliding over a still sinusoid, 32 x 32 x 48,
+    10% random cells (position seed `seed`); the truth is the exact mean over t of the cells."""
+    import csi
+    W, T = 32, 48
+    t, y, x = np.mgrid[0:T, 0:W, 0:W]
+    u, v, s = (x + 0.5) / W, (y + 0.5) / W, (t + 0.5) / T
+    f = np.where(np.hypot(u - (0.2 + 0.6 * s), v - 0.4) < 0.15, 0.85,
+                 0.4 + 0.15 * np.sin(2 * np.pi * (3 * u + 2 * v))).astype(np.float32)
+    grid = (W, W, T, W, W)
+    pos = csi.positions(grid, method="random", fraction=0.1, seed=seed)
+    vals = f[pos[:, 2], pos[:, 1], pos[:, 0]][:, None]
+    return grid, pos, vals, f.astype(np.float64).mean(axis=0)[..., None]
+
+
+def pan_volume(name, seed, size=(64, 64, 32), rate=0.1):
+    """bench_animation's procedural volume `name` (anim_volumes.py) at `rate` of its cells."""
+    import anim_volumes as av
+    import bench_animation as ba
+    W, H, T = size
+    f, _ = av.volume(name, W, H, T, seed)
+    pos, idx = ba.random_cells((T, H, W), rate, seed)
+    vals = f.reshape(-1)[idx][:, None].astype(np.float32)
+    return (W, H, T, W, H), pos, vals, f.astype(np.float64).mean(axis=0)[..., None]
+
+
+def windows(a, bins, env, work, logf):
+    """Volumes split in t against the whole, through the library (csi.reconstruct): 2 windows
+    (--tiles-t 2) with the default margin (a third of a window's core) and with the former 4
+    frames, 2 windows given the whole's velocity (each window searches its own by default), 4
+    windows; and the paper's basis (no shear, DFT in t) whole and in 2 windows. Error: MSE of the blurred image against the exact mean over t (procedural) or the
+    256-spp reference (rendered)."""
+    import csi
+    cases = [(f"disc s{s}", lambda s=s: disc_volume(s)) for s in range(5)]
+    cases += [(f"{n} s{s}", lambda n=n, s=s: pan_volume(n, s)) for n in ("pan", "pan+disc") for s in range(2)]
+    for scene in ("train", "billiards"):
+        def rendered(scene=scene):
+            path, dump = make_dump(bins, env, scene, (128, 128), 4, work, logf)
+            d = csi.read_dump(dump)
+            return d.grid, d.positions, d.values, reference(bins, env, path, work, logf).astype(np.float64)
+        cases.append((f"{scene} 4 spp", rendered))
+    paper = dict(motion_time="dft", motion_velocity="none")
+    rows = []
+    for label, make in cases:
+        grid, pos, vals, truth = make()
+        def run(**kw):
+            r = csi.reconstruct(pos, vals, grid, seed=1, **kw)
+            return r, float(((r.image.astype(np.float64) - truth) ** 2).mean())
+        whole, e_w = run()
+        v = (float(whole.options["motion_vx"]), float(whole.options["motion_vy"]))
+        row = dict(case=label, frames=grid[2], samples=len(pos), v_whole=f"{v[0]:.2f},{v[1]:.2f}", mse_whole=e_w)
+        variants = dict(t2=dict(tiles_t=2), t2_m4=dict(tiles_t=2, tile_margin_t=4),
+                        t2_shared_v=dict(tiles_t=2, motion_velocity="given", motion_vx=v[0], motion_vy=v[1]),
+                        t4=dict(tiles_t=4))
+        for name, kw in variants.items():
+            r, e = run(**kw)
+            row[f"ratio_{name}"] = e / e_w
+            row[f"margin_{name}"] = r.options["tile_margin_t"]
+        _, e_pw = run(**paper)
+        _, e_pt = run(tiles_t=2, **paper)
+        row.update(mse_paper_whole=e_pw, ratio_paper_t2=e_pt / e_pw)
+        rows.append(row)
+        bc.log("  " + ", ".join(f"{k} {val:.4g}" if isinstance(val, float) else f"{k} {val}" for k, val in row.items()))
+        write_csv(os.path.join(a.out, "windows.csv"), rows)
+    return rows
+
+
 def sizes(a, bins, env, work, logf):
     rows = []
     for w, h in a.sizes:
@@ -370,7 +438,7 @@ def plot(a):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["seams", "margins", "sizes", "workers", "target", "plot"])
+    ap.add_argument("what", choices=["seams", "margins", "windows", "sizes", "workers", "target", "plot"])
     ap.add_argument("--out", default="bench-scale")
     ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "bench", "scale"))
     ap.add_argument("--scene", default="garden")
@@ -392,7 +460,7 @@ def main():
     os.makedirs(work, exist_ok=True)
     with open(os.path.join(a.out, f"{a.what}.log"), "a") as logf:
         bc.log(f"{a.what}: load {load_avg()}")
-        rows = globals()[a.what](a, bins, env, work if a.what not in ("seams", "margins") else a.out, logf)
+        rows = globals()[a.what](a, bins, env, work if a.what not in ("seams", "margins", "windows") else a.out, logf)
     print(json.dumps(rows, indent=1, default=float))
 
 
