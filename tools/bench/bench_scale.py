@@ -5,6 +5,7 @@ against image size and against Dask worker count, and single large targets.
   .venv/bin/python tools/bench/bench_scale.py seams   --out bench-scale   # tiled vs untiled, 256^2 (+ motion)
   .venv/bin/python tools/bench/bench_scale.py margins --out bench-scale   # tiled error against the margin
   .venv/bin/python tools/bench/bench_scale.py windows --out bench-scale   # volumes in time windows vs whole
+  .venv/bin/python tools/bench/bench_scale.py seams_t --out bench-scale   # seams of 2 time windows (frames)
   .venv/bin/python tools/bench/bench_scale.py sizes   --out bench-scale   # 256^2 .. 3840x2160 at 4 spp
   .venv/bin/python tools/bench/bench_scale.py workers --out bench-scale   # csi-farm, 1 and 2 workers
   .venv/bin/python tools/bench/bench_scale.py target  --out bench-scale --size 3840x2160 --spp 16
@@ -295,6 +296,43 @@ def windows(a, bins, env, work, logf):
     return rows
 
 
+def frames_of(d):
+    return np.stack([bc.read_exr(os.path.join(d, f)) for f in sorted(os.listdir(d)) if f.endswith(".exr")])
+
+
+def seams_t(a, bins, env, work, logf):
+    """The seam table's rows for volumes split in t: the bundled moving scenes at 128^2, 4 spp,
+    untiled and in 2 time windows (--tiles-t 2) by csi-reconstruct with --frames; the band is the
+    frames within band_t of the interior core boundary, the difference is over the frames."""
+    rows = []
+    for scene in ("train", "billiards"):
+        path, dump = make_dump(bins, env, scene, (128, 128), 4, work, logf)
+        ref = reference(bins, env, path, work, logf)
+        whole_budget = device_memory(bins, env, dump, work)
+        fu, ft = os.path.join(work, f"{scene}_fu"), os.path.join(work, f"{scene}_ft")
+        u_exr, t_exr = os.path.join(work, f"{scene}_u.exr"), os.path.join(work, f"{scene}_t.exr")
+        _, _, st_u = recon(bins, env, dump, u_exr, ["--tiles", "1", "--mem-budget", str(whole_budget), "--frames", fu], work)
+        _, _, st_t = recon(bins, env, dump, t_exr, ["--tiles-t", "2", "--frames", ft], work)
+        info = json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tiles-t", "2", "--tile-info", "-q"],
+                                         capture_output=True, env=env, check=True).stdout)
+        u, t = bc.read_exr(u_exr), bc.read_exr(t_exr)
+        Fu, Ft = frames_of(fu), frames_of(ft)
+        T, band = Fu.shape[0], int(info["band_t"])
+        m = np.zeros(T, bool)
+        for b in [int(v) for v in info["cores_t"].split(",")][1:-1]:
+            m[max(0, b - band):b + band] = True
+        d2 = ((Ft.astype(np.float64) - Fu) ** 2).mean(axis=(1, 2, 3))
+        row = dict(scene=scene, size="128x128", spp=4, tiles=2, layout="1x1x2", frames=T, window_t=info["window_t"],
+                   margin_t=info["margin_t"], mse_untiled=mse(u, ref), mse_tiled=mse(t, ref),
+                   ratio=mse(t, ref) / mse(u, ref), rms_diff_band=float(np.sqrt(d2[m].mean())),
+                   rms_diff_rest=float(np.sqrt(d2[~m].mean())), dev_untiled=st_u.get("device_peak_bytes", 0),
+                   dev_tiled=st_t.get("device_peak_bytes", 0))
+        rows.append(row)
+        bc.log("  " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
+        write_csv(os.path.join(a.out, "seams_t.csv"), rows)
+    return rows
+
+
 def sizes(a, bins, env, work, logf):
     rows = []
     for w, h in a.sizes:
@@ -438,7 +476,7 @@ def plot(a):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["seams", "margins", "windows", "sizes", "workers", "target", "plot"])
+    ap.add_argument("what", choices=["seams", "seams_t", "margins", "windows", "sizes", "workers", "target", "plot"])
     ap.add_argument("--out", default="bench-scale")
     ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "bench", "scale"))
     ap.add_argument("--scene", default="garden")
@@ -460,7 +498,7 @@ def main():
     os.makedirs(work, exist_ok=True)
     with open(os.path.join(a.out, f"{a.what}.log"), "a") as logf:
         bc.log(f"{a.what}: load {load_avg()}")
-        rows = globals()[a.what](a, bins, env, work if a.what not in ("seams", "margins", "windows") else a.out, logf)
+        rows = globals()[a.what](a, bins, env, work if a.what not in ("seams", "seams_t", "margins", "windows") else a.out, logf)
     print(json.dumps(rows, indent=1, default=float))
 
 
