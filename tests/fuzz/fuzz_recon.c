@@ -1,8 +1,12 @@
 /* libFuzzer target: the whole reconstruction pipeline on tiny grids. The input is a sample dump
  * (the reader limits it to 4096 cells); a dump it accepts goes through the resource plan and
  * csi_recon with options chosen by the header's seed field (estimator, solver, frames, the
- * half or full spectrum, the model grid, tiles, 1 to 8 iterations), on one OpenCL context made
- * once. Properties: csi_recon succeeds or fails with a one-line message (never NaN in an image it
+ * half or full spectrum, the model grid, tiles, 1 to 8 iterations, and for a volume the basis's
+ * velocity and time transform), on one OpenCL context made once. The velocity is estimated for
+ * a third of the volumes and none or given (any value) for the others: the estimate's search
+ * filters the volume a dozen times or more, most of a volume's cost, and the other two modes are
+ * paths of their own (a given shear, the DFT along t with a shear) that the default never takes.
+ * Properties: csi_recon succeeds or fails with a one-line message (never NaN in an image it
  * returns: any finite float32 sample must reconstruct, docs/dump-format.md), and the device bytes
  * it held at its peak are within the plan. Grids whose width is odd or below 4 are left out: their
  * filters run on clFFT, whose plans take seconds to bake for every new size (its own path is
@@ -50,6 +54,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     o.tiles = (sel >> 6) & 1 ? 2 : 0;
     o.max_iter = 1 + (int)((sel >> 8) % 8);
     o.seed = sel >> 16;
+    o.motion_velocity = (csi_velocity_mode)((sel >> 11) % 3);
+    o.motion_vx = (int8_t)(sel >> 32) / 8.0; /* cells per frame, used when given */
+    o.motion_vy = (int8_t)(sel >> 40) / 8.0;
+    o.motion_time = (csi_motion_time)((sel >> 13) % 3);
     o.sample_flags = d.flags; /* exact values: correct = auto takes cv */
     csi_recon_plan p;
     if (csi_recon_plan_make(ctx, &d.grid, d.channels, d.count, &o, &p) == CSI_OK) {
