@@ -437,6 +437,23 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
             s = csi_fail(CSI_ERR_FORMAT, "%s: malformed header at byte %zu", path, r.at);
         else if (t->index >= out->tiling.count || out->tiling.count == 0)
             s = csi_fail(CSI_ERR_FORMAT, "%s: tile %u of a layout of %u tiles", path, t->index, out->tiling.count);
+        else if (csi_tiling_check(&out->tiling))
+            s = csi_fail(CSI_ERR_FORMAT, "%s: not a layout of tiles csi makes (%s)", path,
+                         csi_tiling_check(&out->tiling));
+        if (s == CSI_OK) {
+            /* the window the layout gives this tile, which a merge blends it into */
+            csi_tile w;
+            csi_tiling_tile(&out->tiling, t->index, &w);
+            const csi_tiling *tl = &out->tiling;
+            if (res->out_w != tl->window[0] || res->out_h != tl->window[1] || t->x0 != w.win0[0] ||
+                t->y0 != w.win0[1] || t->t0 != w.win0[2] || (res->nframes && res->nframes != tl->window[2]) ||
+                res->channels != sc->channels)
+                s = csi_fail(CSI_ERR_FORMAT, "%s: tile %u is a %ux%u window at (%u, %u, %u) with %u frames and %u "
+                             "channels; its layout's is %ux%u at (%u, %u, %u) with %u frames and %u", path, t->index,
+                             res->out_w, res->out_h, t->x0, t->y0, t->t0, res->nframes, res->channels,
+                             tl->window[0], tl->window[1], w.win0[0], w.win0[1], w.win0[2], tl->window[2],
+                             sc->channels);
+        }
         if (s == CSI_OK && with_data) {
             res->image = malloc((size_t)plane * sizeof(float));
             res->frames = res->nframes ? malloc((size_t)plane * res->nframes * sizeof(float)) : NULL;

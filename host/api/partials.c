@@ -101,32 +101,65 @@ csi_status csi_partial_read(const char *path, csi_result **out, csi_partial_info
     return CSI_OK;
 }
 
+static int cmp_u32(const void *a, const void *b)
+{
+    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 /* Pass 1 of a merge: every partial's header (its checksum verified), all of paths[0]'s run, each
- * tile once and none missing; by_index[i] = the path of tile i. */
+ * tile once and none missing; by_index[i] = the path of tile i. With fewer paths than the layout
+ * has tiles, by_index is NULL (the count comes from a file, so nothing is allocated by it) and the
+ * tiles given are compared among themselves to name the first one missing. */
 static csi_status merge_check(const char *const *paths, size_t count, const csi_partial *first,
                               const char **by_index)
 {
+    uint32_t *given = malloc(count * sizeof *given);
+    if (!given)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu tiles", count);
     for (size_t a = 0; a < count; a++) {
         csi_partial p;
-        CSI_TRY(csi_partial_load(paths[a], false, &p));
+        csi_status st = csi_partial_load(paths[a], false, &p);
+        if (st != CSI_OK) {
+            free(given);
+            return st;
+        }
         const char *diff = csi_partial_differs(first, &p);
-        csi_status st = CSI_OK;
+        const char *twice = by_index ? by_index[p.tile.index] : NULL;
+        for (size_t b = 0; !by_index && b < a && !twice; b++)
+            if (given[b] == p.tile.index)
+                twice = paths[b];
         if (diff)
             st = csi_fail(CSI_ERR_ARG, "%s: tile %u belongs to another run than %s (they differ in %s; inputs %s "
                           "and %s)", paths[a], p.tile.index, paths[0], diff, p.input, first->input);
-        else if (by_index[p.tile.index])
-            st = csi_fail(CSI_ERR_ARG, "%s and %s both hold tile %u", by_index[p.tile.index], paths[a],
-                          p.tile.index);
-        else
+        else if (twice)
+            st = csi_fail(CSI_ERR_ARG, "%s and %s both hold tile %u", twice, paths[a], p.tile.index);
+        else if (by_index)
             by_index[p.tile.index] = paths[a];
+        given[a] = p.tile.index;
         csi_partial_release(&p);
-        CSI_TRY(st);
+        if (st != CSI_OK) {
+            free(given);
+            return st;
+        }
     }
     const uint32_t n = first->tiling.count;
     uint32_t missing = 0, first_missing = 0;
-    for (uint32_t i = 0; i < n; i++)
-        if (!by_index[i] && missing++ == 0)
-            first_missing = i;
+    if (by_index) {
+        for (uint32_t i = 0; i < n; i++)
+            if (!by_index[i] && missing++ == 0)
+                first_missing = i;
+    } else {
+        qsort(given, count, sizeof *given, cmp_u32);
+        missing = n - (uint32_t)count;
+        first_missing = (uint32_t)count;
+        for (size_t i = 0; i < count; i++)
+            if (given[i] != i) {
+                first_missing = (uint32_t)i;
+                break;
+            }
+    }
+    free(given);
     if (missing)
         return csi_fail(CSI_ERR_ARG, "tile %u of %u is missing (%u of the %u partials of the run of %s, input %s, "
                         "are not given)", first_missing, n, missing, n, paths[0], first->input);
@@ -148,8 +181,8 @@ csi_status csi_partials_merge(const char *const *paths, size_t count, bool frame
     if (info)
         info_of(&first, info);
     const uint32_t n = first.tiling.count;
-    const char **by_index = calloc(n, sizeof *by_index);
-    if (!by_index) {
+    const char **by_index = n <= count ? calloc(n, sizeof *by_index) : NULL;
+    if (n <= count && !by_index) {
         csi_partial_release(&first);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %u tiles", n);
     }

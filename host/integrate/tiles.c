@@ -447,6 +447,24 @@ double csi_tile_weight(const csi_tiling *tl, const csi_tile *t, int axis, uint32
     return w;
 }
 
+const char *csi_tiling_check(const csi_tiling *tl)
+{
+    const csi_grid *g = &tl->grid;
+    if (!g->w || !g->h || !g->t || !g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
+        return "the grid";
+    if (tl->length[0] != g->out_w || tl->length[1] != g->out_h || tl->length[2] != g->t)
+        return "the lengths of the axes";
+    uint64_t count = 1;
+    for (int a = 0; a < 3; a++) {
+        const uint32_t L = tl->length[a], n = tl->n[a], e = tl->window[a];
+        if (n == 0 || tl->align[a] == 0 || e == 0 || e > L || (n == 1 && e != L) ||
+            (n > 1 && L / tl->align[a] < n) || (uint64_t)n * e < L)
+            return "the tiles along an axis";
+        count *= n;
+    }
+    return count == tl->count ? NULL : "the tile count";
+}
+
 bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b)
 {
     if (memcmp(&a->grid, &b->grid, sizeof a->grid) || a->count != b->count || a->levels != b->levels)

@@ -4,7 +4,8 @@
 # and csi-render tracing only each tile's samples, all give the same pixels, bit for bit (image
 # hashes in the statistics, frame PNGs byte for byte); csi-merge refuses a missing, repeated,
 # foreign (another dump, scene, options or layout), truncated, damaged, other-version or
-# non-partial input with one line naming the file, exit 2 and no output.
+# non-partial input, and a layout csi does not make, with one line naming the file, exit 2 and
+# no output.
 # usage: tiles.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
@@ -93,6 +94,13 @@ expect_fail "damaged partial" "damaged.csip: checksum" "$B/csi-merge" "$T/p0.csi
 { head -c 4 "$T/p2.csip"; printf '\x02'; tail -c +6 "$T/p2.csip"; } > "$T/v2.csip"
 expect_fail "another format version" "v2.csip: partial format version 2" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v2.csip" "$T/p3.csip" -o "$T/out.exr"
 expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
+# layouts written over a 2x2 tile with a valid checksum (tests/fuzz/make_seeds.py): the merge of
+# the file alone once allocated the 60000x60000 image (14 GB), or a path for each of 4.3e9 tiles
+hostile="$S/tests/fuzz/corpus/partial"
+expect_fail "a layout csi does not make" "huge_image_one_tile: not a layout of tiles csi makes" \
+    "$B/csi-merge" "$hostile/huge_image_one_tile" -o "$T/out.exr"
+expect_fail "4.3e9 tiles, one given" "tile 1 of 4294836225 is missing" "$B/csi-merge" "$hostile/huge_tile_count" \
+    -o "$T/out.exr"
 expect_fail "no frames" "no frames" "$B/csi-merge" "$T"/p?.csip -o "$T/out.exr" --frames "$T/f3"
 expect_fail "tile out of range" "--tile" "$B/csi-reconstruct" "$T/s.csid" --tile 4/4 -o "$T/out.exr"
 expect_fail "tile and png" "csi-merge" "$B/csi-reconstruct" "$T/s.csid" --tile 0/4 -o "$T/out.exr" --png "$T/x.png"

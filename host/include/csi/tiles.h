@@ -97,6 +97,15 @@ void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *out);
  * window). The weights of all tiles at any coordinate sum to 1. */
 double csi_tile_weight(const csi_tiling *tl, const csi_tile *t, int axis, uint32_t c);
 
+/* NULL when tl could be a layout csi_tiling_plan made: a grid whose sizes divide, the axes'
+ * lengths its output's, on each axis at least one tile and no more than the axis has alignment
+ * units, windows no longer than the axis (the whole axis for one tile) and together at least as
+ * long, and count the product of the tiles per axis; otherwise what is wrong ("the tile count").
+ * A layout read from a file (docs/partial-format.md) is checked before csi_tiling_tile or a
+ * blend uses it: they divide by its tile counts and index the output with its windows, and the
+ * windows' lengths make the output no larger than the tiles' pixels, which the files hold. */
+const char *csi_tiling_check(const csi_tiling *tl);
+
 /* Whether two layouts are the same (every field that decides windows and weights). */
 bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b);
 
