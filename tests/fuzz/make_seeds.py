@@ -8,11 +8,19 @@ header's seed field selects the estimator, solver and options (tests/fuzz/fuzz_r
 few carry the exact-values flag (and one a reserved flag bit, refused).
 scene: the bundled scenes (but the 44 KB garden) and the command-line tests' scenes, plus scenes
 using the test data's OBJ and PNG. obj: the tracer tests' OBJ files and the head of the garden's
-grass. Deterministic (seeded)."""
+grass. partial: tile partials (docs/partial-format.md) that csi-reconstruct --tile writes from
+some of the dumps (static and moving, 1 to 3 channels, with frames, ROMP and the Gaussian
+baseline, a layout of one tile that a merge blends alone), made with the programs of the build
+given as the argument (default: build), their timings set to 0 and the checksum recomputed here
+so that the bytes do not depend on the run (they do on the library's pixels), and two whose
+layout claims a huge image or tile count (regressions of the merge). Deterministic (seeded)."""
 import os
 import random
 import shutil
 import struct
+import subprocess
+import sys
+import tempfile
 
 here = os.path.dirname(os.path.abspath(__file__))
 root = os.path.dirname(os.path.dirname(here))
@@ -40,6 +48,56 @@ def random_records(rng, grid, n, channels, scale=1.0, sort=True, dup=0):
     return rec
 
 
+M64 = (1 << 64) - 1
+
+
+def mix64(z):
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & M64
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & M64
+    return z ^ (z >> 31)
+
+
+def hash64(h, data):
+    """csi_hash64 (docs/partial-format.md)."""
+    n8 = len(data) // 8 * 8
+    for i in range(0, n8, 8):
+        h = mix64(h ^ struct.unpack_from("<Q", data, i)[0])
+    h = mix64(h ^ int.from_bytes(data[n8:], "little"))
+    return mix64(h ^ len(data))
+
+
+def untimed_partial(b):
+    """A partial with its seconds (the tile's 10, each channel report's 5) set to 0 and the
+    checksum recomputed; the offsets follow docs/partial-format.md."""
+    b = bytearray(b)
+    m = struct.unpack_from("<Q", b, 272)[0]
+    at = 280 + 96 * m + (5 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
+    channels = struct.unpack_from("<Q", b, at + 48)[0]
+    at += 8 * 8 + 8 + 8 + 3 * 8
+    b[at:at + 80] = bytes(80)
+    at += 80
+    for _ in range(channels):
+        b[at + 96:at + 136] = bytes(40)
+        at += 336
+    struct.pack_into("<Q", b, len(b) - 8, hash64(0, bytes(b[:-8])))
+    return bytes(b)
+
+
+def relaid_partial(b, size, n, window):
+    """A partial whose layout (docs/partial-format.md) claims a size x size image in n x n tiles
+    of the given window, its checksum recomputed: layouts that a merge of that file alone once
+    allocated for before it refused them (14 GB for the image, 34 GB for the tiles' paths)."""
+    b = bytearray(b)
+    at = 280 + 96 * struct.unpack_from("<Q", b, 272)[0]
+    struct.pack_into("<5Q", b, at, size, size, 1, size, size)
+    for a, (length, tiles, win) in enumerate(((size, n, window), (size, n, window), (1, 1, 1))):
+        struct.pack_into("<6Q", b, at + 40 + 48 * a, length, tiles, win, 0, 1, 1)
+    struct.pack_into("<Q", b, at + 184, n * n)
+    struct.pack_into("<2Q", b, at + 240, size, size)  # the scope's out_w, out_h
+    struct.pack_into("<Q", b, len(b) - 8, hash64(0, bytes(b[:-8])))
+    return bytes(b)
+
+
 def write(sub, name, data):
     d = os.path.join(out, sub)
     os.makedirs(d, exist_ok=True)
@@ -48,7 +106,12 @@ def write(sub, name, data):
 
 
 def main():
+    build = sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "build")
+    recon = os.path.join(build, "csi-reconstruct")
+    if not os.access(recon, os.X_OK):
+        sys.exit("make_seeds.py: %s is not a program: give the build directory" % recon)
     shutil.rmtree(out, ignore_errors=True)
+    dumps = {}
     rng = random.Random(14)
     cases = [
         ("static_y", (8, 8, 1), (2, 2), 16, 1, {}),
@@ -62,10 +125,16 @@ def main():
     ]
     for i, (name, grid, osz, n, ch, kw) in enumerate(cases):
         rec = random_records(rng, grid, n, ch, **kw)
-        write("dump", name, dump(grid, osz, rec, ch, seed=i))
+        dumps[name] = dump(grid, osz, rec, ch, seed=i)
+        write("dump", name, dumps[name])
         # recon: the seed field picks the options: estimator (bits 0-1), ROMP (2), frames (3),
-        # full spectrum (4), model grid off (5), two tiles (6), iterations (8-10)
-        for sel in (0, 1, 2, 4 | 32, 8 | 16, 64, 3 << 8):
+        # full spectrum (4), model grid off (5), two tiles (6), iterations (8-10), a volume's
+        # velocity (11-12: estimate, none, given by bytes 4 and 5 in eighths of a cell per
+        # frame) and time transform (13-14: auto, dft, dct)
+        sels = (0, 1, 2, 4 | 32, 8 | 16, 64, 3 << 8)
+        if grid[2] > 1:
+            sels += (1 << 11, 2 << 11 | 12 << 32 | 0xF8 << 40, 1 << 11 | 2 << 13, 2 << 11 | 20 << 32 | 1 << 13)
+        for sel in sels:
             if grid[0] % 2 == 0:  # odd widths run on clFFT, left out of fuzz_recon
                 write("recon", "%s_%x" % (name, sel), dump(grid, osz, rec, ch, seed=sel))
         if name in ("static_y", "static_rgb_dup"):
@@ -95,6 +164,27 @@ def main():
           b"path_tracing { max_bounces 2 }\nmaterial m { checker 1 0 0 0 0 1 0.25 uv_scale 2 2 }\n"
           b"box { min -1 -1 -1 max 1 1 1 material m motion { key 0 { rotate 0 1 0 30 } key 2 { translate 1 0 0 "
           b"scale 2 } } }\nlight area { corner -1 3 -1 edge_u 2 0 0 edge_v 0 0 2 radiance 4 4 4 samples 2 }\n")
+    # partials: (dump, seed name, csi-reconstruct's arguments)
+    partials = [
+        ("static_y", "static_y_whole", ["--tile", "0/1"]),
+        ("static_rgb32", "static_rgb_tile2of4", ["--tile", "2/4", "--tile-margin", "2"]),
+        ("static_rgb32", "static_rgb_romp_whole", ["--tile", "0/1", "--solver", "romp"]),
+        ("moving_y32", "moving_y_frames", ["--tile", "1/2", "--partial-frames", "--tile-margin", "4", "--tile-margin-t", "2"]),
+        ("moving_ya", "moving_ya_gauss_whole", ["--tile", "0/1", "--partial-frames", "--estimator", "gauss"]),
+    ]
+    prng = random.Random(1414)  # its own: the other corpora stay as they were
+    dumps["static_rgb32"] = dump((32, 32, 1), (32, 32), random_records(prng, (32, 32, 1), 200, 3), 3)
+    dumps["moving_y32"] = dump((32, 16, 4), (32, 16), random_records(prng, (32, 16, 4), 200, 1), 1)
+    with tempfile.TemporaryDirectory() as tmp:
+        for src, name, args in partials:
+            dpath, ppath = os.path.join(tmp, src + ".csid"), os.path.join(tmp, name + ".csip")
+            with open(dpath, "wb") as f:
+                f.write(dumps[src])
+            subprocess.run([recon, dpath, "-o", ppath, "-q", "--max-iter", "4"] + args, check=True)
+            write("partial", name, untimed_partial(open(ppath, "rb").read()))
+    whole = open(os.path.join(out, "partial", "static_y_whole"), "rb").read()  # a 2x2 window
+    write("partial", "huge_image_one_tile", relaid_partial(whole, 60000, 1, 2))
+    write("partial", "huge_tile_count", relaid_partial(whole, 65536, 65535, 2))
     data = os.path.join(root, "tests", "tracer", "data")
     for f in sorted(os.listdir(data)):
         if f.endswith(".obj"):
