@@ -168,6 +168,14 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
  * of all the samples. Its device buffer holds that many. A pixel with no sample around takes
  * the range of all the samples. */
 #define CSI_MOTION_RANGE_MAX_PIXELS 4
+/* Alg. 2's image with a still basis (csi_aa_correct AUTO): each pixel of plane (channel c, the
+ * box mean of the fitted volume, in and out) moved by the mean of its samples' residuals
+ * y - fine_at, shrunk by that correction's estimated risk, then projected onto the range of the
+ * samples in the pixel and its 8 neighbours (motion_correct.c). fine_at: the volume at the n
+ * samples. */
+csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
+                                    uint32_t c, const csi_sample_pos *pos, const float *fine_at,
+                                    size_t n, float *plane);
 /* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
  * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,

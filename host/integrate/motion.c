@@ -184,13 +184,24 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * the pixels' own samples is applied only on request (--correct blend): with the few
      * samples a pixel gets over t at these rates the fit's image was better than the blend (the
      * image MSE of tests/e2e/test_quality_motion.c's scene went from below to 2x above a tuned
-     * Gaussian's); only pixels whose every cell is sampled take their exact mean. Sr gathers the
+     * Gaussian's: the blend moves towards the pixel's sample mean, which sees a mover at a few
+     * frames only); pixels whose every cell is sampled take their exact mean. Sr gathers the
      * volume at the samples. */
     const bool blend = opt->correct == CSI_CORRECT_AUTO || opt->correct == CSI_CORRECT_BLEND;
     const bool sheared = moved && (res->options.motion_vx != 0 || res->options.motion_vy != 0);
+    /* With a still basis (the default's choice over a still background, whatever moves on it)
+     * the image is then corrected with each pixel's own samples, the fit as their control
+     * variate (motion_correct.c): the fit of small movers and of a still texture at a few
+     * percent of the cells is where the samples know better. With a sheared basis the fit
+     * follows the motion, and the correction measured worse (a pan at 3%: 1.47x the image MSE
+     * without it; docs/bench/animation.md). */
+    const bool own = opt->correct == CSI_CORRECT_AUTO && !sheared;
     csi_linop *Sr = NULL;
-    if (s == CSI_OK && opt->correct == CSI_CORRECT_BLEND)
+    float *fine_at = NULL;
+    if (s == CSI_OK && opt->correct != CSI_CORRECT_NONE) /* AUTO too: the plan counts it (csi/plan.h) */
         s = csi_sampling_create(ctx, k, st->idx, n, false, &Sr);
+    if (s == CSI_OK && own && !(fine_at = malloc(n * sizeof *fine_at)))
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the volume at %zu samples", n);
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
 
@@ -242,11 +253,18 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                              sheared ? res->options.motion_vy : 0, moved, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
+        if (s == CSI_OK && own)
+            s = csi_linop_apply(Sr, st->tmp, real_y);
+        if (s == CSI_OK && own)
+            s = csi_read(ctx, real_y, 0, n * sizeof *fine_at, fine_at);
+        if (s == CSI_OK && own)
+            s = csi_recon_motion_correct(g, values, channels, c, pos, fine_at, n, res->image + (size_t)c * np);
         if (s == CSI_OK && blend)
             csi_recon_exact_full(g, values, channels, c, pos, n, res->image + (size_t)c * np);
-        if (s == CSI_OK && opt->correct == CSI_CORRECT_BLEND)
-            s = csi_recon_correct(ctx, g, opt, CSI_CORRECT_BLEND, Sr, st->tmp, real_y, values,
-                                  channels, c, pos, n, csi_recon_nonneg(values, channels, c, n),
+        if (s == CSI_OK && (opt->correct == CSI_CORRECT_BLEND || opt->correct == CSI_CORRECT_CV))
+            s = csi_recon_correct(ctx, g, opt, opt->correct, Sr, st->tmp, real_y, values,
+                                  channels, c, pos, n,
+                                  opt->correct == CSI_CORRECT_BLEND && csi_recon_nonneg(values, channels, c, n),
                                   res->image + (size_t)c * np);
         res->t_channel_integrate[c] = csi_recon_now() - t1;
         t_int += res->t_channel_integrate[c];
@@ -254,6 +272,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_nc_free(&rnc);
     csi_linop_free(G);
     csi_linop_free(Sr);
+    free(fine_at);
     free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);

@@ -88,7 +88,8 @@ static const row table[] = {
      "pixel's residuals y - g", "cs images: cv when the samples are exact (noise-free point "
      "values: the dump's flag, csi-render without random effects), else blend; none for the "
      "gauss baseline; volumes: "
-     "the fine estimate kept within the samples' range, no blend"},
+     "the fine estimate kept within the samples' range and, with a still basis, the image "
+     "corrected by each pixel's mean residual shrunk by its estimated risk"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

@@ -247,9 +247,14 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         transient_dev(m, &r);
         transient_host(m, rp * 16);
     }
-    if (opt->correct == CSI_CORRECT_BLEND) {
+    if (opt->correct == CSI_CORRECT_BLEND || opt->correct == CSI_CORRECT_CV) {
         csi_sampling_buffers(n, &m->dev); /* the volume gathered at the samples */
         transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 92);
+    } else if (opt->correct == CSI_CORRECT_AUTO) {
+        /* motion_correct.c, with a still basis (the velocity is not known yet: counted always):
+         * the volume at the samples, on the device and the host, and 48 bytes per pixel */
+        csi_sampling_buffers(n, &m->dev);
+        transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 48);
     }
     return CSI_OK;
 }

@@ -75,8 +75,11 @@ typedef enum {
  * in that range (no halo; no negative value from non-negative samples). A pixel without a
  * sample moves from b
  * towards its neighbours' median by their mean beta. A dump that samples every cell gives the
- * exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames too)
- * and fully sampled pixels take their exact mean; the blend itself only on request (BLEND).
+ * exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames too);
+ * with a still basis the image is then corrected by each pixel's mean residual y - g (the fit
+ * as the samples' control variate), shrunk by that correction's estimated risk
+ * (host/integrate/motion_correct.c); fully sampled pixels take their exact mean; the blend
+ * itself only on request (BLEND), CV as above.
  * Design and measurements: host/integrate/blend.c, docs/bench/mitsuba.md.
  *
  * CV (the previous default): pixel = b + n_p / (n_p + cv_n0) * mean_i (y_i - g(x_i)), g as a
@@ -87,8 +90,9 @@ typedef enum {
  * tracer's samples: HDR, Monte Carlo noise). */
 typedef enum {
     CSI_CORRECT_AUTO = 0, /* Alg. 1's images: CV for exact samples (CSI_SAMPLES_EXACT), BLEND
-                             otherwise; the range projection alone for Alg. 2, NONE for the
-                             Gaussian baseline */
+                             otherwise; for Alg. 2 the range projection and, with a still
+                             basis, the shrunk control variate; NONE for the Gaussian
+                             baseline */
     CSI_CORRECT_NONE,     /* the image is box(g): the paper's */
     CSI_CORRECT_CV,       /* the control-variate correction above */
     CSI_CORRECT_BLEND,    /* the risk-weighted blend of b and the sample mean above */
