@@ -73,8 +73,11 @@ bool csi_fft_filter_supported(const size_t c[3], int nd)
  * 8), then one pass per factor 9 (3 x 3 in one pass: a pass costs its memory traffic more than
  * its arithmetic), 3, 5, 7. Radix 16 exists in kernels/fft.cl but PoCL's 16-wide
  * vectorisation of it spills registers: measured 1.8 ms per 1024 x 1024 pass against 0.36 ms
- * for radix 8, so two radix-8 passes beat one radix-16 pass. */
-static void plan_radices(axis_plan *a)
+ * for radix 8, so two radix-8 passes beat one radix-16 pass. Radix 9 only where its passes run
+ * on 16-wide vectors (PoCL leaves the per-element radix-9 kernels scalar, slower than two
+ * radix-3 passes): along rows (nc = 0) when they come at p a multiple of 16 (p = 2^e 9^j, so
+ * 2^e >= 16), along y or z when the nc columns are a multiple of 16. */
+static void plan_radices(axis_plan *a, size_t nc)
 {
     size_t n = a->L;
     int e = 0;
@@ -82,6 +85,7 @@ static void plan_radices(axis_plan *a)
         n /= 2;
         e++;
     }
+    const bool nine = nc ? nc % 16 == 0 : e >= 4;
     a->np = 0;
     int passes = (e + 2) / 3;
     for (int i = 0; i < passes; i++) {
@@ -92,7 +96,7 @@ static void plan_radices(axis_plan *a)
         e -= bits;
     }
     static const int odd[] = {9, 3, 5, 7};
-    for (int i = 0; i < 4; i++)
+    for (int i = nine ? 0 : 1; i < 4; i++)
         while (n % (size_t)odd[i] == 0) {
             n /= (size_t)odd[i];
             a->radix[a->np++] = odd[i];
@@ -169,7 +173,7 @@ static csi_status pass_twiddles(csi_ctx *ctx, axis_plan *a)
 static void axis_buffers(size_t L, bool x_axis, csi_mem_tally *t)
 {
     axis_plan a = {.L = L};
-    plan_radices(&a);
+    plan_radices(&a, x_axis ? 0 : 16); /* only the rows' tables depend on the radices */
     csi_mem_tally_add(t, L * 8, "FFT twiddles");
     if (x_axis) {
         size_t total = 0, p = 1;
@@ -291,11 +295,12 @@ static bool rowkv_fits(int R, size_t p) { return R == 9 && p % 16 == 0; }
 /* Plans one axis's passes, uploads its twiddles (and, along x, the per-pass twiddles) and builds
  * every kernel it will launch, so that the first run pays no compile. Along x the first pass
  * uses the `first_row` kernel ("row_s" where it also scales, else "row"); along the other axes
- * `col_gain` also builds the gain-fused column kernels (the filter's first inverse pass). */
-static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, const char *first_row,
-                               bool col_gain)
+ * `col_gain` also builds the gain-fused column kernels (the filter's first inverse pass), and
+ * nc is the number of columns their passes run over (plan_radices). */
+static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, size_t nc,
+                               const char *first_row, bool col_gain)
 {
-    plan_radices(ax);
+    plan_radices(ax, x_axis ? 0 : nc);
     CSI_TRY(twiddles(ctx, ax->L, ax->L, &ax->tw));
     if (x_axis)
         CSI_TRY(pass_twiddles(ctx, ax));
@@ -331,7 +336,7 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     f->ax[1].L = f->c[1];
     f->ax[2].L = f->c[2];
     for (int a = 0; a < f->nd; a++)
-        CSI_TRY(prepare_axis(ctx, &f->ax[a], a == 0, "row", true));
+        CSI_TRY(prepare_axis(ctx, &f->ax[a], a == 0, f->hs, "row", true));
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
     const size_t bytes = spectrum_bytes(M, f->hs, f->rows);
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
@@ -737,7 +742,7 @@ csi_status csi_fft_c2c_create(csi_ctx *ctx, const size_t c[3], int nd, float sca
     csi_status st = CSI_OK;
     for (int a = 0; a < nd && st == CSI_OK; a++) {
         f->ax[a].L = f->c[a];
-        st = prepare_axis(ctx, &f->ax[a], a == 0, "row_s", false);
+        st = prepare_axis(ctx, &f->ax[a], a == 0, f->c[0], "row_s", false);
     }
     if (st == CSI_OK)
         st = csi_buffer(ctx, f->n * 8, CL_MEM_READ_WRITE, "the FFT's scratch volume", &f->Q);
@@ -845,7 +850,7 @@ csi_status csi_fft_half_create(csi_ctx *ctx, const size_t c[3], int nd, float sc
     h->ax[1].L = h->c[1];
     h->ax[2].L = h->c[2];
     for (int a = 0; a < nd && st == CSI_OK; a++) {
-        st = prepare_axis(ctx, &h->ax[a], a == 0, "row_s", false);
+        st = prepare_axis(ctx, &h->ax[a], a == 0, h->hs, "row_s", false);
     }
     if (st == CSI_OK)
         st = twiddles(ctx, 2 * h->M, h->M + 1, &h->wn);

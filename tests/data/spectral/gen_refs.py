@@ -53,9 +53,11 @@ FILTER_CASES = [
     # x = 320: rows of M = 160 = 8 x 4 x 5 complex values, so the 16-wide first pass (T = 20) and
     # pass at p = 8 (T = 40) both run, each with a last group that overlaps the one before it
     ("f320x24", (24, 320), (1.2, 0.9, 0.0), 0.3, 108),
-    # radix 9: rows of M = 81 = 9 x 9 complex values (the radix-9 pass at p = 1 and, in the
-    # k-indexed form, at p = 9), columns of 18 = 2 x 9
+    # radix 9 runs only on 16-wide vectors: rows of M = 81 = 3^4 complex values keep four
+    # radix-3 passes (a radix-9 pass would come at p = 1 or 9, not a multiple of 16), columns of
+    # 18 = 2 x 9 run a radix-9 pass; rows of M = 144 = 4 x 4 x 9 run it at p = 16
     ("f162x18", (18, 162), (1.3, 1.1, 0.0), 0.3, 109),
+    ("f288x18", (18, 288), (0.9, 1.4, 0.0), 0.3, 110),
 ]
 
 FOURIER_CASES = [
