@@ -1,6 +1,8 @@
 /* The per-pixel correction of Alg. 1: gathers the fine estimate at the samples, then applies the
- * control variate (below) or the blend (blend.c). See csi_aa_correct in csi/reconstruct.h. */
+ * control variate (below) or the blend (blend.c, then fit_trust.c on a still image). See
+ * csi_aa_correct in csi/reconstruct.h. */
 #include <stdlib.h>
+#include <string.h>
 
 #include "internal.h"
 
@@ -38,9 +40,19 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
         s = csi_linop_apply(S, fine, gathered);
     if (s == CSI_OK)
         s = csi_read(ctx, gathered, 0, n * sizeof(float), gs);
-    if (s == CSI_OK && how == CSI_CORRECT_BLEND)
-        s = csi_recon_blend(g, values, channels, c, pos, gs, n, clamp, plane);
-    else if (s == CSI_OK)
+    if (s == CSI_OK && how == CSI_CORRECT_BLEND) {
+        /* b, before the blend, for the fit's trust on a still image (fit_trust.c) */
+        float *box = g->t == 1 ? malloc(np * sizeof *box) : NULL;
+        if (g->t == 1 && !box)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction");
+        if (box)
+            memcpy(box, plane, np * sizeof *box);
+        if (s == CSI_OK)
+            s = csi_recon_blend(g, values, channels, c, pos, gs, n, clamp, plane);
+        if (s == CSI_OK && box)
+            s = csi_recon_fit_trust(g, values, channels, c, pos, gs, n, opt->cv_n0, box, plane);
+        free(box);
+    } else if (s == CSI_OK)
         cv_correct(g, opt->cv_n0, values, channels, c, pos, gs, n, sum, cnt, plane);
     free(gs);
     free(sum);

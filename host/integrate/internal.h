@@ -154,6 +154,13 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
 csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
                            const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
                            float *plane);
+/* The blend's last step on a still image (fit_trust.c): each pixel of plane (the blend's
+ * output, in and out) that holds one sample moves towards the control variate made from box
+ * (b, the fine estimate's box integral before the blend) by how far the fit can be trusted
+ * there. n0: the control variate's shrinkage (csi_recon_options.cv_n0). */
+csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t channels,
+                               uint32_t c, const csi_sample_pos *pos, const float *fine_at,
+                               size_t n, double n0, const float *box, float *plane);
 /* Projects the fine estimate `fine` (the grid's w x h x t cells, on the device) onto the range
  * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
  * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame

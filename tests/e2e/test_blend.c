@@ -109,24 +109,6 @@ static double disc_and_edge(double x, double y)
 static double hdr_triangle(double x, double y) { return 0.01 + 1000.0 * (analytic_triangle(x, y) - 0.1); }
 static double hdr_texture(double x, double y) { double f = analytic_texture(x, y); return 10.0 * f * f * f; }
 
-/* Sample values: the image at the cell centres times a noise factor of mean 1 (paths = 0: none;
- * else the mean of `paths` unit exponentials). */
-static float *sample(const analytic_scene *s, const csi_sample_pos *pos, size_t n, int paths, test_rng *r)
-{
-    float *v = malloc(n * sizeof *v);
-    for (size_t i = 0; i < n; i++) {
-        double f = 1.0;
-        if (paths > 0) {
-            f = 0;
-            for (int k = 0; k < paths; k++)
-                f -= log(1.0 - test_rng_uniform(r));
-            f /= paths;
-        }
-        v[i] = (float)(s->fine[pos[i].y * GRID + pos[i].x] * f);
-    }
-    return v;
-}
-
 static csi_status run(csi_ctx *ctx, const csi_grid *g, const csi_sample_pos *pos, const float *v,
                       size_t n, csi_estimator est, csi_recon_result *res)
 {
@@ -187,7 +169,7 @@ static void hdr_range(csi_ctx *ctx, analytic_fn fn, const char *name, analytic_s
                 csi_sample_pos *pos = NULL;
                 size_t n = 0;
                 NEED_OK(csi_positions(&g, &po, &pos, &n, NULL));
-                float *v = sample(s, pos, n, paths[pi], &r);
+                float *v = analytic_sample(s, pos, n, paths[pi], &r);
                 csi_recon_result res;
                 char what[160];
                 snprintf(what, sizeof what, "%s, %s, %u spp, %s", name, csi_pos_method_name(methods[mi]),
@@ -251,7 +233,7 @@ static void never_worse(csi_ctx *ctx, analytic_fn fn, const char *name, analytic
                 NEED_OK(csi_positions(&g, &po, &pos, &n, NULL));
                 test_rng r;
                 test_rng_seed(&r, 100 + seed);
-                float *v = sample(s, pos, n, paths[pi], &r);
+                float *v = analytic_sample(s, pos, n, paths[pi], &r);
                 for (int k = 0; k < 2; k++) {
                     csi_recon_result res;
                     NEED_OK(run(ctx, &g, pos, v, n, k ? CSI_EST_MEAN : CSI_EST_CS, &res));

@@ -8,6 +8,10 @@
 #define CSI_TEST_ANALYTIC_H
 
 #include <stdbool.h>
+#include <stddef.h>
+
+#include "csi/csi.h"
+#include "testlib.h"
 
 #define GRID 256
 #define OUT 64
@@ -38,5 +42,11 @@ typedef struct {
 } analytic_scene;
 
 void analytic_scene_make(analytic_fn fn, analytic_scene *s);
+
+/* Sample values (malloc'd, n): the scene at the cells of pos times a noise factor of mean 1:
+ * paths = 0, none; else the mean of `paths` unit exponentials (the distribution of a single
+ * light path's weight in the simplest case), drawn from r. */
+float *analytic_sample(const analytic_scene *s, const csi_sample_pos *pos, size_t n, int paths,
+                       test_rng *r);
 
 #endif
