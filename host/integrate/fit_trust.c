@@ -4,30 +4,34 @@
  *
  *     out = blend + w (c - blend),   c = b + (y - g(x)) / (1 + n0), projected onto the range of
  *                                         the samples in the pixel and its 8 neighbours,
- *     w = w_fit * w_dark,
+ *     w = w_fit * w_dark * w_peak,
  *     w_fit  = 1 / (1 + e^2 / TAU^2),        e^2 = (y - g(x))^2 / (y^2 + eps): the fit's relative
  *                                            misfit at the pixel's own sample,
  *     w_dark = clamp(log(R1 / R) / log(R1 / R0), 0, 1),  R = (max of the samples in the 3 x 3
  *                                            pixels + e) / (y + e): how much darker the pixel's
- *                                            sample is than the brightest one around it.
+ *                                            sample is than the brightest one around it;
+ *     w_peak = the same of (y + e) / (max of the 8 neighbours' samples + e).
  *
  * Why. With one sample a pixel's mean is a point value, and its error is the signal's variation
  * over the pixel (aliasing) as much as any noise; the blend's noise estimate (from neighbouring
- * means) sees little of it and hands such pixels to their one sample, where the fit, which has
- * seen the sub-pixel structure, predicts the box better. CV's image had 0.59x the blend's MSE on
- * garden (ambient occlusion: lightly noisy, not flagged exact) and 0.35-0.72x on the Mitsuba
- * dumps at 1 spp, yet up to 400x the blend's relMSE on those, all of it in pixels that are dark
- * next to a bright neighbour, where the fit leaks or rings (docs/bench/mitsuba.md). w trusts the
- * fit where neither of its two failures can be present: where it passes through the pixel's
- * own sample (a fit that misses its samples says nothing about the box between them) and where
- * the pixel is not much darker than what is around it (a leak of a few percent of a 100:1 step
- * is a 100% error in the dark pixel). Noise alone is not what separates the two estimators: on
- * these samples the fit absorbs most of the noise (the relative spread of the residuals within
- * a pixel was 0.01-0.28 of the samples' on the Mitsuba dumps at 4 spp, 0.16-0.21 on garden's),
- * and garden's samples differ from their nearest neighbours more than those of the Mitsuba
- * dumps with 64 paths per sample (docs/bench/mitsuba.md). Pixels with two samples or more keep
- * the blend: its within-pixel variance sees their aliasing, and CV there made the Cornell box at
- * 4 spp worse than the mean (1.04x in MSE with one path, 1.08x in relMSE with 64).
+ * means) sees little of it and hands such pixels to their one sample, where the fit, which has seen
+ * the sub-pixel structure, predicts the box better. CV's image (projected as below) had 0.52x the
+ * blend's MSE on garden at 1 spp (ambient occlusion: lightly noisy, not flagged exact) and
+ * 0.35-0.99x in 8 of the 10 stratified Mitsuba cells at 1 spp, yet up to 460x the blend's relMSE
+ * there, in pixels that are dark next to a bright neighbour, where the fit leaks or rings, and more
+ * MSE around isolated bright samples (a glint), which it spreads (docs/bench/mitsuba.md). w trusts
+ * the fit where none of its failures can be present: where it passes through the pixel's own sample
+ * (a fit that misses its samples says nothing about the box between them), where the pixel is not
+ * much darker than what is around it (a leak of a few percent of a 100:1 step is a 100% error in
+ * the dark pixel) and where its sample is not much brighter than every neighbour's (w_peak, the
+ * same ratio the other way). Noise alone is not what separates the two estimators: on these samples
+ * the fit absorbs most of the noise (the relative spread of the residuals within a pixel was
+ * 0.01-0.28 of the samples' on the Mitsuba dumps at 4 spp, 0.16-0.21 on garden's), and garden's
+ * samples differ from their nearest neighbours more than those of the Mitsuba dumps with 64 paths
+ * per sample (docs/bench/mitsuba.md). Pixels with two samples or more keep the blend: its
+ * within-pixel variance sees their aliasing, and CV there made the Cornell box at 4 spp worse than
+ * the mean (1.04x in MSE with one path, 1.08x in relMSE with 64). So does every pixel of an image
+ * where most pixels hold two samples or more (below).
  *
  * The result stays in the range of the samples around (both terms do), so it is non-negative
  * for non-negative samples; pixels with no sample or more than one are untouched, and so is a
@@ -83,6 +87,16 @@ csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t 
         lo[p] = fminf(lo[p], v);
         hi[p] = fmaxf(hi[p], v);
         sabs += fabs((double)v);
+    }
+    /* Where most pixels hold two samples or more the blend has measured its noise within the
+     * pixels (blend.c), and the few single-sample pixels among them are its business: moving
+     * them changed the Mitsuba dumps' Poisson-disk 4-spp cells by < 0.1%, in both directions. */
+    size_t multi = 0;
+    for (size_t p = 0; p < np; p++)
+        multi += cnt[p] >= 2;
+    if (2 * multi >= np) {
+        free(cnt), free(y), free(gx), free(lo), free(hi);
+        return CSI_OK;
     }
     double mabs = 0;
     size_t filled = 0;

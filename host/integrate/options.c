@@ -83,7 +83,8 @@ static const row table[] = {
      "integrate f_b (the paper's) or Phi^-1 f_b", NULL},
     {"correct", K_CHOICE, AT(correct), 0, 0, corrects, F_AUTO, "auto", "auto|none|cv|blend",
      "correct each pixel with its own samples; blend: box(g) moved towards the pixel's sample "
-     "mean by weights estimated from the samples (meant never to be worse than the mean; "
+     "mean by weights estimated from the samples, a pixel with one sample towards cv where the "
+     "fit passes through it and no HDR step is near (meant never to be worse than the mean; "
      "clamped at 0 when the samples are >= 0); cv: control variate, box(g) + mean of the "
      "pixel's residuals y - g", "cs images: cv when the samples are exact (noise-free point "
      "values: the dump's flag, csi-render without random effects), else blend; none for the "

@@ -74,10 +74,13 @@ typedef enum {
  * pixel and its 8 neighbours, and b onto the range of those pixels' means, so the result stays
  * in that range (no halo; no negative value from non-negative samples). A pixel without a
  * sample moves from b
- * towards its neighbours' median by their mean beta. A dump that samples every cell gives the
- * exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames too);
- * with a still basis the image is then corrected by each pixel's mean residual y - g (the fit
- * as the samples' control variate), shrunk by that correction's estimated risk
+ * towards its neighbours' median by their mean beta. On a still image a pixel holding one
+ * sample then moves towards CV (below, projected onto the same range) by a weight that trusts
+ * the fit where it passes through that sample and no HDR step is near (host/integrate/
+ * fit_trust.c; not where most pixels hold two samples or more). A dump that samples every cell
+ * gives the exact cell means. Alg. 2 (AUTO): the volume is projected onto the same range (frames
+ * too); with a still basis the image is then corrected by each pixel's mean residual y - g (the
+ * fit as the samples' control variate), shrunk by that correction's estimated risk
  * (host/integrate/motion_correct.c); fully sampled pixels take their exact mean; the blend
  * itself only on request (BLEND), CV as above.
  * Design and measurements: host/integrate/blend.c, docs/bench/mitsuba.md.
