@@ -5,7 +5,7 @@
  *
  *   1. Noise-free samples, not flagged (a renderer's exact samples without the flag), at 1 spp
  *      on stratified and Poisson-disk positions, summed over 3 position seeds: on the texture
- *      (LDR: 0.2 .. 0.95, every pixel within the trust's 4:1 darkness ratio) the default's MSE
+ *      (LDR: 0.2 .. 0.95, at most 4.75:1, about the trust's full 4:1 ratio) the default's MSE
  *      is at most 1.25x the control variate's (the estimator the flag would choose). The blend
  *      alone (the trust step disabled, measured once on these cases) was 1.60x / 1.40x
  *      (stratified / Poisson-disk), the default with the step is 1.18x / 1.15x: the bound
