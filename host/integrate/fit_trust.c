@@ -15,23 +15,20 @@
  * Why. With one sample a pixel's mean is a point value, and its error is the signal's variation
  * over the pixel (aliasing) as much as any noise; the blend's noise estimate (from neighbouring
  * means) sees little of it and hands such pixels to their one sample, where the fit, which has seen
- * the sub-pixel structure, predicts the box better. CV's image (projected as below) had 0.52x the
- * blend's MSE on garden at 1 spp (ambient occlusion: lightly noisy, not flagged exact) and
- * 0.35-0.99x in 8 of the 10 stratified Mitsuba cells at 1 spp, yet up to 460x the blend's relMSE
- * there, in pixels that are dark next to a bright neighbour, where the fit leaks or rings, and more
+ * the sub-pixel structure, predicts the box better: CV's image beat the blend's on lightly noisy
+ * samples (ambient occlusion) and on most single-path Mitsuba images at 1 spp, yet lost badly in
+ * relMSE in pixels that are dark next to a bright neighbour, where the fit leaks or rings, and in
  * MSE around isolated bright samples (a glint), which it spreads (docs/bench/mitsuba.md). w trusts
  * the fit where none of its failures can be present: where it passes through the pixel's own sample
  * (a fit that misses its samples says nothing about the box between them), where the pixel is not
  * much darker than what is around it (a leak of a few percent of a 100:1 step is a 100% error in
  * the dark pixel) and where its sample is not much brighter than every neighbour's (w_peak, the
- * same ratio the other way). Noise alone is not what separates the two estimators: on these samples
- * the fit absorbs most of the noise (the relative spread of the residuals within a pixel was
- * 0.01-0.28 of the samples' on the Mitsuba dumps at 4 spp, 0.16-0.21 on garden's), and garden's
- * samples differ from their nearest neighbours more than those of the Mitsuba dumps with 64 paths
- * per sample (docs/bench/mitsuba.md). Pixels with two samples or more keep the blend: its
- * within-pixel variance sees their aliasing, and CV there made the Cornell box at 4 spp worse than
- * the mean (1.04x in MSE with one path, 1.08x in relMSE with 64). So does every pixel of an image
- * where most pixels hold two samples or more (below).
+ * same ratio the other way). Noise alone is not what separates the two estimators: the fit
+ * absorbs most of the noise, so the residuals' spread within a pixel hardly sees it, and textures
+ * make noise-free samples differ from their neighbours as much as Monte Carlo noise does
+ * (docs/bench/mitsuba.md). Pixels with two samples or more keep the blend: its within-pixel
+ * variance sees their aliasing, and CV there made the Cornell box at 4 spp worse than the mean.
+ * So does every pixel of an image where most pixels hold two samples or more (below).
  *
  * The result stays in the range of the samples around (both terms do), so it is non-negative
  * for non-negative samples; pixels with no sample or more than one are untouched, and so is a
