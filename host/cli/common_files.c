@@ -1,6 +1,7 @@
 /* A run's outputs (csi_outset): the set, whose temporary files a signal removes too, and an
  * output written by one of the library's writers (the writer names the temporary file it was
  * given, the message names the output the user asked for). */
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
@@ -9,9 +10,19 @@
 
 /* The run's outputs, for the signal handler: an interrupted run leaves nothing either. */
 static csi_outset *volatile signal_set;
+/* The thread that makes the outputs' temporary files. */
+static pthread_t signal_thread;
 
 static void on_signal(int sig)
 {
+    /* A signal sent to the process lands on any thread that does not block it (PoCL's and
+     * Embree's workers too); a cleanup there would run while the writing thread goes on making
+     * files. So it is handed to the writing thread, which stops while its handler runs and holds
+     * signals back while it makes a temporary file (csi_outfile_hold_signals). */
+    if (!pthread_equal(pthread_self(), signal_thread)) {
+        pthread_kill(signal_thread, sig);
+        return;
+    }
     csi_outset_signal_cleanup(signal_set);
     signal(sig, SIG_DFL);
     raise(sig);
@@ -21,6 +32,7 @@ csi_status cli_outset_new(csi_outset **set)
 {
     CSI_TRY(csi_outset_create(set));
     signal_set = *set;
+    signal_thread = pthread_self();
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;

@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -18,6 +19,21 @@ void csi_outfile_signal_cleanup(void)
     char *t = active_tmp;
     if (t)
         unlink(t);
+}
+
+void csi_outfile_hold_signals(sigset_t *old)
+{
+    sigset_t s;
+    sigemptyset(&s);
+    sigaddset(&s, SIGINT);
+    sigaddset(&s, SIGTERM);
+    sigaddset(&s, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &s, old);
+}
+
+void csi_outfile_release_signals(const sigset_t *old)
+{
+    pthread_sigmask(SIG_SETMASK, old, NULL);
 }
 
 static void outfile_release(csi_outfile *of)
@@ -53,9 +69,12 @@ csi_status csi_outfile_open(csi_outfile *of, const char *path)
     memcpy(of->path, path, len + 1);
     memcpy(of->tmp, path, dirlen);
     snprintf(of->tmp + dirlen, len + 16 - dirlen, ".%s.tmpXXXXXX", path + dirlen);
+    sigset_t held;
+    csi_outfile_hold_signals(&held);
     int fd = mkstemp(of->tmp);
     if (fd >= 0)
         active_tmp = of->tmp;
+    csi_outfile_release_signals(&held);
     if (fd < 0) {
         int e = errno;
         outfile_release(of);

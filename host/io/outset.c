@@ -358,21 +358,26 @@ csi_status csi_outset_tmp(csi_outset *s, const char *path, const char **tmp)
     if (i < 0)
         return csi_fail(CSI_ERR_ARG, "%s: not a stated output", path);
     entry *e = &s->e[i];
+    csi_status st = CSI_OK;
+    sigset_t held; /* the temporary is made and recorded with no signal handler in between */
+    csi_outfile_hold_signals(&held);
     if (!e->tmp) {
         if (e->kind == E_DIRFILE && !s->e[e->dir].exists) {
             entry *d = &s->e[e->dir];
-            if (!d->tmp)
-                CSI_TRY(make_temp(d->path, "csi-", true, &d->tmp));
             char t[PATH_MAX];
-            CSI_TRY(join(d->tmp, base_of(e->path), t, sizeof t));
-            if (!(e->tmp = dup_str(t)))
-                return csi_fail(CSI_ERR_NOMEM, "out of memory");
+            if (!d->tmp)
+                st = make_temp(d->path, "csi-", true, &d->tmp);
+            if (st == CSI_OK)
+                st = join(d->tmp, base_of(e->path), t, sizeof t);
+            if (st == CSI_OK && !(e->tmp = dup_str(t)))
+                st = csi_fail(CSI_ERR_NOMEM, "out of memory");
         } else {
-            CSI_TRY(make_temp(e->path, "csi-", false, &e->tmp));
+            st = make_temp(e->path, "csi-", false, &e->tmp);
         }
     }
-    *tmp = e->tmp;
-    return CSI_OK;
+    csi_outfile_release_signals(&held);
+    *tmp = st == CSI_OK ? e->tmp : NULL;
+    return st;
 }
 
 /* Whether an entry's temporary is renamed into place by itself (not inside a new folder). */

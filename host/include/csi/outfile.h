@@ -8,6 +8,7 @@
 #ifndef CSI_OUTFILE_H
 #define CSI_OUTFILE_H
 
+#include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
 
@@ -38,6 +39,12 @@ void csi_outfile_abort(csi_outfile *of);
 /* Removes the temporary file being written, if any: async-signal-safe (unlink only), for a
  * program's SIGINT/SIGTERM handler (csi_outset_signal_cleanup calls it). */
 void csi_outfile_signal_cleanup(void);
+
+/* Holds back SIGINT, SIGTERM and SIGHUP on the calling thread while a temporary file is created
+ * and recorded for the handler (between the two, an interrupted run would leave the file behind):
+ * block saves the thread's mask in *old, unblock restores it and lets a held-back signal in. */
+void csi_outfile_hold_signals(sigset_t *old);
+void csi_outfile_release_signals(const sigset_t *old);
 
 /* Test hook: true for the Nth output event of the process when $CSI_FAIL_OUTPUT = N > 0 (an
  * event: a file's data completed by csi_outfile_commit, or one rename of csi_outset_commit),
