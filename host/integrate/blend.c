@@ -129,7 +129,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         goto done;
     }
     for (size_t i = 0; i < n; i++)
-        pix[i] = (uint32_t)((size_t)(pos[i].y / bh) * ow + pos[i].x / bw);
+        pix[i] = (uint32_t)csi_recon_pixel_of(pos[i], bw, bh, ow);
     /* The range of the samples in each pixel and its 8 neighbours (in V, q as scratch first):
      * b and the fine estimate at the samples are projected onto it. */
     for (size_t p = 0; p < np; p++)
@@ -306,7 +306,7 @@ void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t chann
     double *sum = calloc(np, sizeof *sum);
     if (cnt && sum) {
         for (size_t i = 0; i < n; i++) {
-            size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+            size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
             cnt[p]++;
             sum[p] += values[i * channels + c];
         }

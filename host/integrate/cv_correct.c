@@ -15,7 +15,7 @@ static void cv_correct(const csi_grid *g, double n0, const float *values, uint32
     const size_t np = (size_t)g->out_w * g->out_h;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     for (size_t i = 0; i < n; i++) {
-        size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+        size_t p = csi_recon_pixel_of(pos[i], bw, bh, g->out_w);
         sum[p] += (double)values[i * channels + c] - (double)gs[i];
         cnt[p]++;
     }

@@ -76,7 +76,7 @@ csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t 
     for (size_t p = 0; p < np; p++)
         lo[p] = INFINITY, hi[p] = -INFINITY;
     for (size_t i = 0; i < n; i++) { /* in sample order: deterministic */
-        size_t p = (size_t)(pos[i].y / bh) * ow + pos[i].x / bw;
+        size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
         float v = values[i * channels + c];
         cnt[p]++;
         y[p] += v;

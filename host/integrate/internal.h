@@ -140,6 +140,12 @@ csi_status csi_recon_integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vo
                                       const csi_recon_options *opt, csi_recon_result *res,
                                       cl_mem scratch_wh, cl_mem out);
 
+/* The output pixel (row-major, ow wide) that holds a sample, for pixels of bw x bh cells. */
+static inline size_t csi_recon_pixel_of(csi_sample_pos p, uint32_t bw, uint32_t bh, size_t ow)
+{
+    return (size_t)(p.y / bh) * ow + p.x / bw;
+}
+
 /* The per-pixel correction of one channel (csi_aa_correct in csi/reconstruct.h; `how` is CV or
  * BLEND) of plane, which holds the box integral of the fine estimate `fine`: gathers `fine` at
  * the samples through S (into `gathered`, n floats on the device), then all on the host, in

@@ -70,7 +70,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         st[p].hi = -INFINITY;
     }
     for (size_t i = 0; i < n; i++) {
-        px_stat *s = &st[(size_t)(pos[i].y / bh) * ow + pos[i].x / bw];
+        px_stat *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
         const float y = values[i * channels + c];
         s->d += (double)y - (double)fine_at[i];
         s->n++;
@@ -82,7 +82,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
             st[p].d /= st[p].n;
     /* the spread about each pixel's mean residual: a second pass, no cancellation */
     for (size_t i = 0; i < n; i++) {
-        px_stat *s = &st[(size_t)(pos[i].y / bh) * ow + pos[i].x / bw];
+        px_stat *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
         const double r = (double)values[i * channels + c] - (double)fine_at[i] - s->d;
         s->ss += r * r;
     }
