@@ -318,6 +318,7 @@ static void put_header(wbuf *w, const csi_partial *p)
         put_f64(w, times[i]);
     for (uint32_t c = 0; c < r->channels && c < 4; c++)
         put_report(w, &r->report[c]);
+    put_u32(w, t->resid != NULL);
 }
 
 csi_status csi_partial_store(const char *path, const csi_partial *p)
@@ -329,6 +330,8 @@ csi_status csi_partial_store(const char *path, const csi_partial *p)
     put_f32s(&w, r->image, plane);
     if (r->nframes)
         put_f32s(&w, r->frames, plane * r->nframes);
+    for (size_t i = 0; p->tile.resid && i < plane * CSI_RESID_SUMS; i++)
+        put_f64(&w, p->tile.resid[i]);
     put_u64(&w, csi_hash64(0, w.b, w.n));
     if (w.oom) {
         free(w.b);
@@ -428,11 +431,15 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
             r.bad = true;
         for (uint32_t c = 0; c < res->channels && !r.bad; c++)
             get_report(&r, &res->report[c]);
+        const uint32_t has_resid = get_u32(&r);
         const uint64_t plane = (uint64_t)res->out_w * res->out_h * res->channels;
-        if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes) * 4 != r.n - r.at))
-            s = csi_fail(CSI_ERR_FORMAT, "%s: a %ux%u window with %u channels and %u frames does not match "
-                         "the %zu bytes of pixels", path, res->out_w, res->out_h, res->channels, res->nframes,
-                         r.n - r.at);
+        if (has_resid > 1)
+            r.bad = true;
+        if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes) * 4 + has_resid * plane * CSI_RESID_SUMS * 8 !=
+                                         r.n - r.at))
+            s = csi_fail(CSI_ERR_FORMAT, "%s: a %ux%u window with %u channels, %u frames and%s residual sums does not "
+                         "match the %zu bytes of pixels", path, res->out_w, res->out_h, res->channels, res->nframes,
+                         has_resid ? "" : " no", r.n - r.at);
         else if (r.bad)
             s = csi_fail(CSI_ERR_FORMAT, "%s: malformed header at byte %zu", path, r.at);
         else if (t->index >= out->tiling.count || out->tiling.count == 0)
@@ -457,12 +464,15 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
         if (s == CSI_OK && with_data) {
             res->image = malloc((size_t)plane * sizeof(float));
             res->frames = res->nframes ? malloc((size_t)plane * res->nframes * sizeof(float)) : NULL;
-            if (!res->image || (res->nframes && !res->frames))
+            t->resid = has_resid ? malloc((size_t)plane * CSI_RESID_SUMS * sizeof *t->resid) : NULL;
+            if (!res->image || (res->nframes && !res->frames) || (has_resid && !t->resid))
                 s = csi_fail(CSI_ERR_NOMEM, "%s: out of memory for the tile's pixels", path);
             else {
                 get_f32s(&r, res->image, (size_t)plane);
                 if (res->nframes)
                     get_f32s(&r, res->frames, (size_t)plane * res->nframes);
+                for (size_t i = 0; has_resid && i < plane * CSI_RESID_SUMS; i++)
+                    t->resid[i] = get_f64(&r);
             }
         }
     }

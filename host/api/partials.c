@@ -193,7 +193,7 @@ csi_status csi_partials_merge(const char *const *paths, size_t count, bool frame
 
     /* Pass 2: blend in index order (the order that makes the bits), one partial at a time. */
     csi_result *r = NULL;
-    csi_blend b;
+    csi_blend b = {.next = 0}; /* released below whatever happens */
     if (st == CSI_OK)
         st = csi_result_blend_begin(&first.tiling, first.scope.channels, frames, &b, &r);
     for (uint32_t i = 0; i < n && st == CSI_OK; i++) {
@@ -216,6 +216,7 @@ csi_status csi_partials_merge(const char *const *paths, size_t count, bool frame
     }
     if (st == CSI_OK)
         st = csi_tiles_end(&b);
+    csi_tiles_release(&b);
     if (st == CSI_OK) {
         r->r.n = first.scope.n;
         const csi_solver_kind used = r->r.options.solver; /* the tiles' (their partials hold it) */

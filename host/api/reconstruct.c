@@ -107,6 +107,7 @@ void csi_result_free(csi_result *r)
     if (!r)
         return;
     csi_recon_result_free(&r->r);
+    free(r->tile.resid);
     free(r->attrs);
     free(r);
 }

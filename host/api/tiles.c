@@ -240,7 +240,7 @@ csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_res
         frames = frames && t->r.nframes > 0;
     }
     csi_result *r = NULL;
-    csi_blend b;
+    csi_blend b = {.next = 0}; /* released below whatever happens */
     if (st == CSI_OK)
         st = csi_result_blend_begin(&first->tiling, first->r.channels, frames, &b, &r);
     for (size_t i = 0; i < count && st == CSI_OK; i++) {
@@ -251,6 +251,7 @@ csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_res
     }
     if (st == CSI_OK)
         st = csi_tiles_end(&b);
+    csi_tiles_release(&b);
     if (st == CSI_OK) {
         r->r.n = first->scope.n;
         r->r.options = first->r.options; /* tile 0's, with the autos it resolved */

@@ -24,7 +24,18 @@ typedef struct {
     const csi_tile_scope *scope;
     uint32_t channel, channels; /* the channel being solved, for the progress reports */
     bool warm;                  /* x holds the starting point of this solve (warm_channels) */
+    /* A time window's fit at its samples (csi_recon_scoped); NULL otherwise. Borrowed. */
+    struct csi_recon_fit *fit;
 } csi_recon_state;
+
+/* What a time window (csi/tiles.h) hands on for the correction of the whole shutter's image:
+ * Alg. 2 with a still basis then leaves the window's image uncorrected (its frames are what the
+ * blend uses) and stores the volume at the samples in `at` (the caller's n * channels floats,
+ * channel-major), setting `kept`. Another method or a sheared basis leaves kept false. */
+typedef struct csi_recon_fit {
+    float *at;
+    bool kept;
+} csi_recon_fit;
 
 /* Releases everything in st (not st itself). */
 void csi_recon_state_free(csi_recon_state *st);
@@ -51,7 +62,7 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
 csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
                             const csi_recon_options *opt, const csi_tile_scope *scope,
-                            csi_recon_result *out);
+                            csi_recon_fit *fit, csi_recon_result *out);
 
 /* Alg. 1's tau scale of one problem: ||A^H y||_inf per channel, A built as csi_recon_antialias
  * builds it (st->idx and st->plane filled by the caller; st freed by the caller). */
@@ -189,6 +200,16 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
 csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
                                     uint32_t c, const csi_sample_pos *pos, const float *fine_at,
                                     size_t n, float *plane);
+/* Its per-pixel part, from what each pixel's samples say (a whole-shutter image blended from
+ * time windows has them from the windows' sums, csi/tiles.h): n samples, d their mean residual,
+ * ss the sum of their squared deviations from d, lo and hi the range of their values; v and e
+ * are scratch. g: the whole image's grid (its cells per pixel over all t). */
+typedef struct {
+    double d, ss, v, e;
+    uint32_t n;
+    float lo, hi;
+} csi_px_resid;
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, float *plane);
 /* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
  * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,

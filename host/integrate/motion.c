@@ -257,8 +257,12 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_linop_apply(Sr, st->tmp, real_y);
         if (s == CSI_OK && own)
             s = csi_read(ctx, real_y, 0, n * sizeof *fine_at, fine_at);
-        if (s == CSI_OK && own)
+        if (s == CSI_OK && own && st->fit) { /* a time window: the whole shutter's image is corrected */
+            memcpy(st->fit->at + (size_t)c * n, fine_at, n * sizeof *fine_at);
+            st->fit->kept = true;
+        } else if (s == CSI_OK && own) {
             s = csi_recon_motion_correct(g, values, channels, c, pos, fine_at, n, res->image + (size_t)c * np);
+        }
         if (s == CSI_OK && blend)
             csi_recon_exact_full(g, values, channels, c, pos, n, res->image + (size_t)c * np);
         if (s == CSI_OK && (opt->correct == CSI_CORRECT_BLEND || opt->correct == CSI_CORRECT_CV))

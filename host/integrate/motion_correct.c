@@ -38,12 +38,6 @@
 
 #include "internal.h"
 
-typedef struct {
-    double d, ss, v, e;
-    uint32_t n;
-    float lo, hi;
-} px_stat;
-
 /* The 3 x 3 pixels around p, clipped to the image: rows y0..y1, columns x0..x1. */
 typedef struct {
     size_t x0, x1, y0, y1;
@@ -61,8 +55,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const double cells = (double)bw * bh * g->t;
-    px_stat *st = calloc(np, sizeof *st);
+    csi_px_resid *st = calloc(np, sizeof *st);
     if (!st)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
     for (size_t p = 0; p < np; p++) {
@@ -70,7 +63,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         st[p].hi = -INFINITY;
     }
     for (size_t i = 0; i < n; i++) {
-        px_stat *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
+        csi_px_resid *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
         const float y = values[i * channels + c];
         s->d += (double)y - (double)fine_at[i];
         s->n++;
@@ -82,10 +75,19 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
             st[p].d /= st[p].n;
     /* the spread about each pixel's mean residual: a second pass, no cancellation */
     for (size_t i = 0; i < n; i++) {
-        px_stat *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
+        csi_px_resid *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
         const double r = (double)values[i * channels + c] - (double)fine_at[i] - s->d;
         s->ss += r * r;
     }
+    csi_recon_motion_correct_pixels(g, st, plane);
+    free(st);
+    return CSI_OK;
+}
+
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, float *plane)
+{
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    const double cells = (double)(g->w / g->out_w) * (g->h / g->out_h) * g->t;
     for (size_t p = 0; p < np; p++) {
         if (!st[p].n)
             continue;
@@ -93,7 +95,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         const box3 r = around(p, ow, oh);
         for (size_t y = r.y0; y <= r.y1; y++)
             for (size_t x = r.x0; x <= r.x1; x++) {
-                const px_stat *q = &st[y * ow + x];
+                const csi_px_resid *q = &st[y * ow + x];
                 ss += q->ss;
                 dof += q->n ? q->n - 1.0 : 0.0;
                 sum += q->n * q->d;
@@ -104,7 +106,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         double all = ss;
         for (size_t y = r.y0; y <= r.y1; y++)
             for (size_t x = r.x0; x <= r.x1; x++) {
-                const px_stat *q = &st[y * ow + x];
+                const csi_px_resid *q = &st[y * ow + x];
                 all += q->n * (q->d - sum / cnt) * (q->d - sum / cnt);
             }
         double s2 = fmax(dof > 0 ? ss / dof : 0, cnt > 1 ? all / (cnt - 1) : 0);
@@ -121,7 +123,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         const box3 r = around(p, ow, oh);
         for (size_t y = r.y0; y <= r.y1; y++)
             for (size_t x = r.x0; x <= r.x1; x++) {
-                const px_stat *q = &st[y * ow + x];
+                const csi_px_resid *q = &st[y * ow + x];
                 if (q->n) {
                     e += q->e;
                     m += 1;
@@ -134,6 +136,4 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         const double out = (double)plane[p] + k * st[p].d;
         plane[p] = fminf(fmaxf((float)out, lo), hi);
     }
-    free(st);
-    return CSI_OK;
 }

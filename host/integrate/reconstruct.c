@@ -102,7 +102,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         if (s == CSI_OK)
             s = csi_recon_resolve(&opt, grid, n, &out->options);
     } else {
-        s = csi_recon_scoped(ctx, grid, channels, pos, v, n, &opt, NULL, out);
+        s = csi_recon_scoped(ctx, grid, channels, pos, v, n, &opt, NULL, NULL, out);
     }
     free(scaled);
     CSI_TRY(s);
@@ -122,7 +122,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
 csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
                             const csi_recon_options *opt_in, const csi_tile_scope *scope,
-                            csi_recon_result *out)
+                            csi_recon_fit *fit, csi_recon_result *out)
 {
     memset(out, 0, sizeof *out);
     csi_recon_options opt;
@@ -150,6 +150,7 @@ csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channel
     csi_recon_state st;
     memset(&st, 0, sizeof st);
     st.scope = scope;
+    st.fit = fit;
     double t0 = csi_recon_now();
     const double b0 = csi_ctx_build_seconds(ctx), c0 = csi_recon_cpu_now();
     csi_status s = csi_recon_progress(&opt, "setup");

@@ -10,8 +10,11 @@
 
 void csi_tile_result_free(csi_tile_result *t)
 {
-    if (t)
+    if (t) {
         csi_recon_result_free(&t->r);
+        free(t->resid);
+        t->resid = NULL;
+    }
 }
 
 /* The tile's own problem: its grid and the samples inside its window, shifted to its origin. */
@@ -166,7 +169,78 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
+    const size_t np = (size_t)out->r.out_w * out->r.out_h;
+    for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)
+        for (size_t q = 0; e[c] && q < np; q++) {
+            double *a = out->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
+            a[1] = ldexp(a[1], e[c]);
+            a[2] = ldexp(a[2], 2 * e[c]);
+            a[3] = ldexp(a[3], e[c]);
+            a[4] = ldexp(a[4], e[c]);
+        }
     return s;
+}
+
+/* Residual sums of `pixels` pixels that hold no sample yet. */
+static void resid_clear(double *r, size_t pixels)
+{
+    for (size_t q = 0; q < pixels; q++) {
+        double *a = r + q * CSI_RESID_SUMS;
+        a[0] = a[1] = a[2] = 0;
+        a[3] = INFINITY;
+        a[4] = -INFINITY;
+    }
+}
+
+/* A time window's residual sums (csi_tile_result.resid) from its samples and its volume at them
+ * (fit_at, channel-major; NULL when the window has no sample): two passes in sample order, the
+ * second about each pixel's weighted mean (no cancellation), deterministic. */
+static csi_status resid_sums(const csi_tiling *tl, const csi_tile *tile, const tile_problem *p,
+                             uint32_t channels, const float *fit_at, double **out)
+{
+    const uint32_t ow = p->g.out_w, oh = p->g.out_h, bw = p->g.w / ow, bh = p->g.h / oh;
+    const size_t np = (size_t)ow * oh, n = p->n;
+    double *r = malloc(np * channels * CSI_RESID_SUMS * sizeof *r), *w = malloc((n ? n : 1) * sizeof *w);
+    size_t *px = malloc((n ? n : 1) * sizeof *px);
+    if (!r || !w || !px) {
+        free(r), free(w), free(px);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the residual sums of tile %u", tile->index);
+    }
+    resid_clear(r, np * channels);
+    /* each sample's pixel and blend weight, the tiles' weights at its pixel and frame */
+    for (size_t i = 0; i < n; i++) {
+        const csi_sample_pos q = p->pos[i];
+        px[i] = csi_recon_pixel_of(q, bw, bh, ow) * CSI_RESID_SUMS;
+        w[i] = csi_tile_weight(tl, tile, 0, tile->win0[0] + q.x / bw) *
+               csi_tile_weight(tl, tile, 1, tile->win0[1] + q.y / bh) *
+               csi_tile_weight(tl, tile, 2, tile->win0[2] + q.t);
+    }
+    for (uint32_t c = 0; c < channels && fit_at; c++) {
+        double *rc = r + (size_t)c * np * CSI_RESID_SUMS;
+        const float *g = fit_at + (size_t)c * n;
+        for (size_t i = 0; i < n; i++) {
+            const float y = p->values[i * channels + c];
+            double *a = rc + px[i];
+            if (w[i] > 0) {
+                a[0] += w[i];
+                a[1] += w[i] * ((double)y - (double)g[i]);
+                a[3] = fmin(a[3], y);
+                a[4] = fmax(a[4], y);
+            }
+        }
+        for (size_t q = 0; q < np; q++)
+            if (rc[q * CSI_RESID_SUMS] > 0)
+                rc[q * CSI_RESID_SUMS + 1] /= rc[q * CSI_RESID_SUMS];
+        for (size_t i = 0; i < n; i++) {
+            double *a = rc + px[i];
+            const double d = (double)p->values[i * channels + c] - (double)g[i] - a[1];
+            if (w[i] > 0)
+                a[2] += w[i] * d * d;
+        }
+    }
+    free(w), free(px);
+    *out = r;
+    return CSI_OK;
 }
 
 static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
@@ -188,8 +262,12 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     o.levels = tl->levels > 0 ? tl->levels : opt->levels;
     o.frames = opt->frames || split_t; /* a time window's share of the mean needs its frames */
     o.tiles = 0;
+    /* A time window keeps its volume at its samples for the whole shutter's correction. */
+    csi_recon_fit fit = {NULL, false};
     csi_status s = CSI_OK;
-    if (p.n == 0) {
+    if (split_t && p.n > 0 && !(fit.at = malloc(p.n * channels * sizeof *fit.at)))
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the volume at the %zu samples of tile %u", p.n, index);
+    if (s == CSI_OK && p.n == 0) {
         /* No sample reaches this window: the tile knows nothing, and says so. */
         csi_recon_result *r = &out->r;
         const size_t np = (size_t)p.g.out_w * p.g.out_h;
@@ -210,9 +288,12 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
         }
         if (s == CSI_OK && (!r->image || (r->nframes && !r->frames)))
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for tile %u", index);
-    } else {
-        s = csi_recon_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, scope, &out->r);
+    } else if (s == CSI_OK) {
+        s = csi_recon_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, scope, split_t ? &fit : NULL, &out->r);
     }
+    if (s == CSI_OK && split_t && (p.n == 0 || fit.kept))
+        s = resid_sums(tl, &p.tile, &p, channels, fit.kept ? fit.at : NULL, &out->resid);
+    free(fit.at);
     tile_problem_free(&p);
     if (s != CSI_OK) {
         csi_tile_result_free(out);
@@ -265,6 +346,66 @@ csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
     }
     for (uint32_t c = 0; c < channels; c++)
         out->report[c].converged = true;
+    if (tl->n[2] > 1) {
+        b->resid_all = true;
+        b->resid = malloc(np * channels * CSI_RESID_SUMS * sizeof *b->resid);
+        if (!b->resid) {
+            csi_recon_result_free(out);
+            return csi_fail(CSI_ERR_NOMEM, "out of host memory for the residual sums of the %ux%u output",
+                            g->out_w, g->out_h);
+        }
+        resid_clear(b->resid, np * channels);
+    }
+    return CSI_OK;
+}
+
+void csi_tiles_release(csi_blend *b)
+{
+    free(b->resid);
+    b->resid = NULL;
+}
+
+/* A tile's residual sums into the whole image's: weights add, the means combine weighted, and
+ * the sums of squares about them as in Chan et al.'s pairwise update (in tile order, so the
+ * same bits for any completion order). */
+static void resid_add(csi_blend *b, const csi_tile_result *t)
+{
+    const csi_recon_result *r = &t->r;
+    const size_t W = b->tl.grid.out_w, np = W * b->tl.grid.out_h, tnp = (size_t)r->out_w * r->out_h;
+    for (uint32_t c = 0; c < r->channels; c++)
+        for (uint32_t y = 0; y < r->out_h; y++)
+            for (uint32_t x = 0; x < r->out_w; x++) {
+                const double *a = t->resid + ((size_t)c * tnp + (size_t)y * r->out_w + x) * CSI_RESID_SUMS;
+                if (!(a[0] > 0))
+                    continue;
+                double *s = b->resid + ((size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x) * CSI_RESID_SUMS;
+                const double w = s[0] + a[0], delta = a[1] - s[1];
+                s[2] += a[2] + delta * delta * (s[0] * a[0] / w);
+                s[1] += delta * (a[0] / w);
+                s[0] = w;
+                s[3] = fmin(s[3], a[3]);
+                s[4] = fmax(s[4], a[4]);
+            }
+}
+
+/* The whole shutter's correction of channel c from the blended sums (csi_tile_result). */
+static csi_status resid_correct(csi_blend *b, uint32_t c)
+{
+    const csi_grid *g = &b->tl.grid;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    csi_px_resid *st = calloc(np, sizeof *st);
+    if (!st)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
+    for (size_t q = 0; q < np; q++) {
+        const double *a = b->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
+        st[q].n = (uint32_t)llround(a[0]); /* the weights of a sample's tiles sum to 1 */
+        st[q].d = a[1];
+        st[q].ss = a[2];
+        st[q].lo = (float)a[3];
+        st[q].hi = (float)a[4];
+    }
+    csi_recon_motion_correct_pixels(g, st, b->out->image + (size_t)c * np);
+    free(st);
     return CSI_OK;
 }
 
@@ -328,6 +469,10 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     }
     free(wx);
     free(wy);
+    if (b->resid && !t->resid)
+        b->resid_all = false;
+    else if (b->resid)
+        resid_add(b, t);
     /* The run's figures: operator calls, iterations and times add up; the residual is the worst
      * tile's; converged when every tile did. */
     if (t->index == 0) {
@@ -377,8 +522,15 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
 csi_status csi_tiles_end(csi_blend *b)
 {
     csi_recon_result *out = b->out;
-    if (b->next != b->tl.count)
+    if (b->next != b->tl.count) {
+        csi_tiles_release(b);
         return csi_fail(CSI_ERR_ARG, "%u of %u tiles blended: tile %u is missing", b->next, b->tl.count, b->next);
+    }
+    csi_status s = CSI_OK;
+    for (uint32_t c = 0; b->resid && b->resid_all && c < out->channels && s == CSI_OK; c++)
+        s = resid_correct(b, c);
+    csi_tiles_release(b);
+    CSI_TRY(s);
     for (uint32_t c = 0; c < out->channels; c++) {
         csi_solve_report *a = &out->report[c];
         if (a->converged)
@@ -434,6 +586,7 @@ csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     }
     if (s == CSI_OK)
         s = csi_tiles_end(&b);
+    csi_tiles_release(&b);
     out->n = n;
     if (s != CSI_OK)
         csi_recon_result_free(out);

@@ -91,8 +91,8 @@ expect_fail "truncated partial" "trunc.csip: checksum" "$B/csi-merge" "$T/p0.csi
 size=$(stat -c %s "$T/p2.csip")
 { head -c $((size - 64)) "$T/p2.csip"; printf 'Z'; tail -c 63 "$T/p2.csip"; } > "$T/damaged.csip"
 expect_fail "damaged partial" "damaged.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/damaged.csip" "$T/p3.csip" -o "$T/out.exr"
-{ head -c 4 "$T/p2.csip"; printf '\x02'; tail -c +6 "$T/p2.csip"; } > "$T/v2.csip"
-expect_fail "another format version" "v2.csip: partial format version 2" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v2.csip" "$T/p3.csip" -o "$T/out.exr"
+{ head -c 4 "$T/p2.csip"; printf '\x03'; tail -c +6 "$T/p2.csip"; } > "$T/v3.csip"
+expect_fail "another format version" "v3.csip: partial format version 3" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v3.csip" "$T/p3.csip" -o "$T/out.exr"
 expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
 # layouts written over a 2x2 tile with a valid checksum (tests/fuzz/make_seeds.py): the merge of
 # the file alone once allocated the 60000x60000 image (14 GB), or a path for each of 4.3e9 tiles

@@ -8,7 +8,10 @@ Claims:
      outlive it, nothing but the requested outputs appears in the output directory, and the
      farm's scratch directory is gone at the end;
   3. the frames of an animation: two scenes rendered and reconstructed by csi-farm render give
-     each the bits of csi-render --tiles N on that scene.
+     each the bits of csi-render --tiles N on that scene;
+  4. a moving scene's volume in time windows (--tiles-t 2), each window a task whose partial
+     carries its residual sums for the whole shutter's correction (csi/tiles.h): the bits of
+     csi-reconstruct --tiles-t 2 in one process.
 The dump is written here from an analytic image (no renderer involved): a 128 x 128 image on a
 1024 x 1024 grid, 4 samples per pixel at distinct random cells, 8 tiles.
 Run by ctest with CSI_BUILD_DIR set (the programs) and this tree's host/python on PYTHONPATH.
@@ -169,6 +172,23 @@ def main():
             b = read_exr(os.path.join(tmp, f"scene{i}.exr"))
             check(a is not None and b is not None and a.shape == b.shape and np.array_equal(a, b),
                   f"frame {i}: csi-farm render differs from csi-render --tiles 2")
+
+        # 4. time windows as tasks
+        mdump = os.path.join(tmp, "moving.csid")
+        subprocess.run([os.path.join(BUILD, "csi-render"), scenes[1], "--spp", "4", "--time-steps", "16", "--dump", mdump, "-o",
+                        os.path.join(tmp, "moving_render.exr"), "-q"], check=True)
+        topts = ["--tiles-t", "2", "--tile-margin-t", "2", "--max-iter", "40"]
+        tref = os.path.join(tmp, "moving_ref.json")
+        subprocess.run([recon, mdump, "-o", os.path.join(tmp, "moving_ref.exr"), "--tiles", "2", "--stats", tref,
+                        "-q"] + topts, check=True)
+        with open(tref) as f:
+            check(json.load(f)["tiles"] == 2, "the moving reference run has 2 time windows")
+        out4 = os.path.join(tmp, "out4")
+        os.mkdir(out4)
+        farm.reconstruct(mdump, os.path.join(out4, "moving.exr"), stats=os.path.join(out4, "moving.json"), tiles=2,
+                         options=topts, client=client, bin_dir=BUILD, quiet=True)
+        check(image_hash(os.path.join(out4, "moving.json")) == image_hash(tref),
+              "2 workers, 2 time windows: the farm's image differs from --tiles-t 2 in one process")
     finally:
         client.close()
         cluster.close()

@@ -139,11 +139,25 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
 /* One tile's reconstruction: the result is the tile's window (out_w x out_h = window[0] x
  * window[1] pixels at window origin x0, y0; frames t0 .. t0 + nframes - 1). Its image is, when
  * t is not split, the tile's image; when it is, the tile's share of the mean over t,
- * sum over its frames of w_t(t) frame(t) / grid.t. Frames (opt->frames) are the tile's own. */
+ * sum over its frames of w_t(t) frame(t) / grid.t. Frames (opt->frames) are the tile's own.
+ *
+ * A time window's image is corrected once over the whole shutter, after the blend, by the
+ * residuals of every sample against the blended volume (Alg. 2's per-pixel correction with a
+ * still basis, csi_aa_correct AUTO): each window's samples weighted by its blend weight there
+ * (w = w_x w_y w_t, summing to 1 over the tiles that hold a sample) give, per channel and
+ * window pixel, CSI_RESID_SUMS doubles in `resid` ([c][y][x][5]): the weight of the pixel's
+ * samples, their weighted mean residual against the window's volume, the weighted sum of
+ * squared deviations from it, and the smallest and largest value of the samples of weight > 0.
+ * Blended over the tiles they give each pixel's sample count and mean residual against the
+ * blended volume exactly, and a sum of squares no smaller than the blended volume's (a sample
+ * two windows share counts both windows' residuals). NULL when t is not split, and when the
+ * window's basis is sheared (then no tile's image is corrected). */
+#define CSI_RESID_SUMS 5
 typedef struct csi_tile_result {
     uint32_t index;
     uint32_t x0, y0, t0;
     csi_recon_result r;
+    double *resid;
 } csi_tile_result;
 void csi_tile_result_free(csi_tile_result *t);
 
@@ -163,11 +177,16 @@ typedef struct csi_blend {
     csi_tiling tl;
     uint32_t next;
     csi_recon_result *out;
+    double *resid;  /* time windows: the whole image's residual sums (csi_tile_result) */
+    bool resid_all; /* every tile so far had them: the image is corrected at the end */
 } csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
                            csi_blend *b, csi_recon_result *out);
 csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
+/* Time windows: corrects the image by the residual sums of all tiles (see csi_tile_result). */
 csi_status csi_tiles_end(csi_blend *b);
+/* Releases what the blend holds besides out (csi_tiles_end does it too): for a blend given up. */
+void csi_tiles_release(csi_blend *b);
 
 /* The whole tiled reconstruction in this process: layout tl (count >= 1), scope, every tile in
  * index order, blended. csi_recon calls it when its plan needs more than one tile. */
