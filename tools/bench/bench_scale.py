@@ -9,6 +9,7 @@ against image size and against Dask worker count, and single large targets.
   .venv/bin/python tools/bench/bench_scale.py sizes   --out bench-scale   # 256^2 .. 3840x2160 at 4 spp
   .venv/bin/python tools/bench/bench_scale.py workers --out bench-scale   # csi-farm, 1 and 2 workers
   .venv/bin/python tools/bench/bench_scale.py target  --out bench-scale --size 3840x2160 --spp 16
+  .venv/bin/python tools/bench/bench_scale.py long    --out bench-scale --spp 16 --variant "--mem-budget 16M --tiles-t 8"
   .venv/bin/python tools/bench/bench_scale.py plot    --out bench-scale   # the figures of docs/bench/scale.md
 
 Every input is rendered here by csi-render from a bundled scene (`bench_common.scene_variant` sets
@@ -402,6 +403,78 @@ def target(a, bins, env, work, logf):
     return [row]
 
 
+def long(a, bins, env, work, logf):
+    """A long volume (--time-steps, default 256 frames) against the whole: the whole on the
+    device's memory; each --variant (csi-reconstruct arguments, e.g. "--mem-budget 16M --tiles-t 8")
+    in one process, and the first variant again through csi-farm on a LocalCluster of --workers
+    processes. Time, peak RSS (csi-farm: the process tree's), device peak, MSE against the 256-spp
+    reference, frames written, and whether the farm's image is the one process's bits. The
+    planner's own layout at each variant's budget is logged from --tile-info."""
+    w, h = a.sizes[0]
+    path, dump = make_dump(bins, env, a.scene, (w, h), a.spp, work, logf, extra=["--time-steps", str(a.time_steps)])
+    ref = reference(bins, env, path, work, logf)
+    rows = []
+
+    def info_of(args):
+        return json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tile-info", "-q"] + args,
+                                         capture_output=True, env=env, check=True).stdout)
+
+    def row_of(label, args, wall, rss, st, exr, frames_dir, up):
+        img = bc.read_exr(exr)
+        frames = len([f for f in os.listdir(frames_dir) if f.endswith(".exr")])
+        inf = info_of(args)
+        r = dict(run=label, args=" ".join(args), tiles=st["tiles"],
+                 layout=f"{inf['tiles_x']}x{inf['tiles_y']}x{inf['tiles_t']}", window_t=inf["window_t"],
+                 margin_t=inf["margin_t"], wall_s=wall, peak_rss=rss, device_peak=st.get("device_peak_bytes", 0),
+                 cpu_work=st.get("cpu_work_s", 0), mse=mse(img, ref), frames_written=frames,
+                 image_hash=st["image_fnv1a64"], load=up)
+        bc.log(f"  {label}: {r['tiles']} tiles ({r['layout']}, windows of {r['window_t']} frames), {wall:.0f} s, "
+               f"peak RSS {rss / 2**20:.0f} MiB, device peak {r['device_peak'] / 2**20:.0f} MiB, MSE {r['mse']:.4e}, "
+               f"{frames} frames (load {up})")
+        return r
+
+    def one(label, args):
+        fd = os.path.join(work, f"frames_{len(rows)}")
+        os.makedirs(fd, exist_ok=True)
+        exr = os.path.join(work, f"long_{len(rows)}.exr")
+        up = load_avg()
+        wall, rss, st = recon(bins, env, dump, exr, args + ["--frames", fd], work)
+        rows.append(row_of(label, args, wall, rss, st, exr, fd, up))
+        write_csv(os.path.join(a.out, "long.csv"), rows)
+
+    whole = device_memory(bins, env, dump, work)
+    one("whole", ["--tiles", "1", "--mem-budget", str(whole)])
+    for v in a.variant:
+        args = v.split()
+        budget = args[args.index("--mem-budget") + 1] if "--mem-budget" in args else None
+        if budget:
+            pl = info_of(["--mem-budget", budget])
+            bc.log(f"  the planner at --mem-budget {budget}: {pl['tiles']} tiles ({pl['tiles_x']}x{pl['tiles_y']}x"
+                   f"{pl['tiles_t']}), windows {pl['window_x']}x{pl['window_y']}x{pl['window_t']}, "
+                   f"{pl['tile_bytes'] / 2**20:.1f} MiB each; the whole {pl['whole_bytes'] / 2**20:.1f} MiB")
+        one(v, args)
+    sys.path.insert(0, os.path.join(ROOT, "host", "python"))
+    from csi import farm
+    args = a.variant[0].split()
+    fd = os.path.join(work, "frames_farm")
+    os.makedirs(fd, exist_ok=True)
+    st = os.path.join(work, "farm.json")
+    exr = os.path.join(work, "long_farm.exr")
+    up = load_avg()
+    t0 = time.perf_counter()
+    with TreeRSS() as tr:
+        farm.reconstruct(dump, exr, stats=st, frames_dir=fd, tiles=rows[1]["tiles"], options=args, workers=a.workers[-1],
+                         bin_dir=os.path.dirname(bins["csi-reconstruct"]), quiet=True)
+    wall = time.perf_counter() - t0
+    with open(st) as f:
+        r = row_of(f"csi-farm, {a.workers[-1]} workers: " + a.variant[0], args, wall, tr.peak, json.load(f), exr, fd, up)
+    r["identical"] = r["image_hash"] == rows[1]["image_hash"]
+    bc.log(f"  csi-farm image bit-identical to the one process's: {r['identical']}")
+    rows.append(r)
+    write_csv(os.path.join(a.out, "long.csv"), rows)
+    return rows
+
+
 def write_csv(path, rows):
     keys = []
     for r in rows:
@@ -476,7 +549,8 @@ def plot(a):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["seams", "seams_t", "margins", "windows", "sizes", "workers", "target", "plot"])
+    ap.add_argument("what", choices=["seams", "seams_t", "margins", "windows", "sizes", "workers", "target", "long",
+                                     "plot"])
     ap.add_argument("--out", default="bench-scale")
     ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "bench", "scale"))
     ap.add_argument("--scene", default="garden")
@@ -485,12 +559,15 @@ def main():
     ap.add_argument("--tiles", type=int, default=0, help="workers: tiles (default: the budget's)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--keep", action="store_true", help="keep the dumps")
+    ap.add_argument("--time-steps", type=int, default=256, help="long: frames of the volume")
+    ap.add_argument("--variant", action="append", default=[],
+                    help="long: csi-reconstruct arguments of a tiled run (repeatable; the first also runs on csi-farm)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if a.what == "plot":
         return plot(a)
     default_sizes = {"sizes": ["256x256", "512x512", "1024x1024", "1920x1080", "3840x2160"],
-                     "workers": ["1920x1080"], "target": ["1920x1080"]}.get(a.what, [])
+                     "workers": ["1920x1080"], "target": ["1920x1080"], "long": ["64x64"]}.get(a.what, [])
     a.sizes = [tuple(int(v) for v in s.split("x")) for s in (a.size or default_sizes)]
     bins = binaries()
     env = bc.default_env()
