@@ -14,8 +14,10 @@
  * fuzz_dump). */
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "csi/dump.h"
 #include "csi/plan.h"
@@ -23,6 +25,22 @@
 #include "csi/runtime.h"
 
 static csi_ctx *ctx;
+
+/* An input whose csi_recon takes more than this many seconds of the process's CPU time is a hang
+ * (issue 14: none over 20 s). libFuzzer's own -timeout counts wall time, which on a shared
+ * machine at a low priority is mostly waiting for a core (a 0.6 s input was stopped after 29 s):
+ * the long runs give it a wide margin and leave the 20 s to this check, which does not depend on
+ * the load; the ASan + UBSan build is slower than a release one, so the limit is the stricter
+ * for it. The time spent building kernel programs (once per program and context, seconds when
+ * PoCL's cache is cold) is not the input's. */
+#define CPU_LIMIT_S 20.0
+
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
@@ -64,7 +82,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         const uint64_t live = csi_device_bytes_live();
         csi_device_bytes_reset_peak();
         csi_recon_result r;
+        const double t0 = cpu_seconds(), b0 = csi_ctx_build_seconds(ctx);
         csi_status st = csi_recon(ctx, &d.grid, d.channels, d.pos, d.values, d.count, &o, &r);
+        const double cpu = cpu_seconds() - t0 - (csi_ctx_build_seconds(ctx) - b0);
+        if (cpu > CPU_LIMIT_S) {
+            fprintf(stderr, "fuzz_recon: csi_recon took %.1f s of CPU (limit %.0f s)\n", cpu, CPU_LIMIT_S);
+            abort();
+        }
         /* a tiled plan is one tile's with its share of the samples: only the whole is bounded */
         if (p.tiles == 1 && csi_device_bytes_peak() - live > p.device_bytes)
             abort();
