@@ -50,3 +50,13 @@ __kernel void csi_complex_real(__global const float2 *in, __global float *out, c
     if (i < n)
         out[i] = in[i].x;
 }
+
+/* out[i] = in[i] * w[i % period]: a real gain per column of the half spectrum (Alg. 2's
+ * spatial filter, csi_half_fourier_set_filter); in place when in == out. */
+__kernel void csi_half_weight(__global const float2 *in, __global float2 *out, __global const float *w,
+                              const uint period, const uint n)
+{
+    const size_t i = get_global_id(0);
+    if (i < n)
+        out[i] = in[i] * w[i % period];
+}

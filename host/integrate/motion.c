@@ -4,10 +4,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/gaussian.h"
 #include "csi/integrate_ops.h"
 #include "csi/motion_filter.h"
 #include "csi/sampled_half_fourier.h"
 #include "csi/sampling.h"
+#include "csi/solve.h"
 #include "csi/spectral.h"
 #include "internal.h"
 
@@ -85,6 +87,30 @@ static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *val
     return csi_fourier_half_set_motion(H, dims, transform_of(res->options.motion_time), v[0], v[1]);
 }
 
+/* The width of Alg. 1's filter in the solve (csi_recon_options.motion_filter), -1 for none.
+ * auto: with a still basis and fewer than 2 samples per pixel over the shutter, Alg. 1's rule
+ * (at least the paper's width, and sigma_spacing times the samples' spacing) with the spacing of
+ * all the volume's samples seen on one frame, sqrt(w h / N), since a still background is seen
+ * by every frame's samples. Measured (docs/bench/animation.md): at about one sample per pixel or
+ * fewer the filter gains (procedural still photographs at 3%: 0.87x the image MSE; billiards at
+ * 1 spp: 0.86x; the Mitsuba still-camera scene), at 3-4 samples per pixel it loses (billiards at
+ * 4 spp: 1.14x; the still photographs at 10% 1.00-1.02x). With a sheared basis none: it lost on
+ * the Mitsuba camera slide at every width tried (1.01-1.25x). */
+static double filter_width(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                           const csi_recon_state *st, bool still)
+{
+    if (opt->motion_filter != 0)
+        return opt->motion_filter > 0 ? opt->motion_filter : -1;
+    /* the whole problem's cells and samples for a tile; its own frames (a time window's) */
+    const double cells_per_sample = csi_recon_scope_k(st, (size_t)g->w * g->h * g->t) / csi_recon_scope_n(st, n);
+    const double spacing2 = cells_per_sample / (double)g->t; /* pixels per sample over the shutter */
+    if (!still || spacing2 <= 0.5)
+        return -1;
+    double paper;
+    csi_gauss_sigmas(g->w, g->out_w, &paper, NULL);
+    return fmax(paper * opt->sigma_scale, opt->sigma_spacing * sqrt(spacing2));
+}
+
 csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
                             const csi_recon_options *opt, csi_recon_result *res,
@@ -145,6 +171,28 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                      st->x, &G);
     if (s == CSI_OK && moved)
         s = motion_basis(ctx, g, values, channels, n, opt, st, G, real_y, res);
+    /* Alg. 1's filter (csi_half_fourier_set_filter), after the velocity search, which judges
+     * velocities on the samples alone; its width reported in res->options (-1: none) */
+    if (s == CSI_OK) {
+        const bool still = !moved || (res->options.motion_vx == 0 && res->options.motion_vy == 0);
+        res->options.motion_filter = half ? filter_width(g, n, opt, st, still) : -1;
+        if (res->options.motion_filter > 0)
+            s = csi_half_fourier_set_filter(st->A, res->options.motion_filter, opt->lambda);
+    }
+    /* SpaRSA's stop, if left to auto: the solver's default (the duality gap) without the filter;
+     * with it the objective change. The filter's gains spread the operator's singular values,
+     * and the gap then falls slowly on directions the volume barely depends on: on the Mitsuba
+     * still-camera scene two channels of three ran to the 2000-step cap with images identical
+     * to 4 digits from step 300 on; the objective stop took 44-51 steps for the same image
+     * (+-0.2%) and 27 on a procedural still photograph (image MSE 1.007x; docs/bench/animation.md). */
+    csi_recon_options sopt = *opt;
+    if (sopt.stop == CSI_STOP_AUTO) {
+        csi_sparsa_options d;
+        csi_sparsa_defaults(&d);
+        sopt.stop = res->options.motion_filter > 0 || d.stop != CSI_SPARSA_STOP_GAP ? CSI_STOP_OBJECTIVE
+                                                                                     : CSI_STOP_GAP;
+    }
+    res->options.stop = sopt.stop;
     if (s == CSI_OK)
         s = csi_solver_create(st->A, &st->solver);
 
@@ -228,7 +276,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         const double tau_scale = st->scope && st->scope->has_scale
                                      ? (double)n * fabs(st->scope->scale[c]) / sqrt((double)k) : 0;
         if (s == CSI_OK)
-            s = csi_recon_run_solver(st, opt, tau_scale, &res->report[c]);
+            s = csi_recon_run_solver(st, &sopt, tau_scale, &res->report[c]);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = csi_recon_now();

@@ -150,6 +150,11 @@ static const row table[] = {
     {"motion-resid-sigma-t", K_DOUBLE, AT(motion_resid_sigma_t), 1e-3, 1e4, NULL, F_AUTO, "auto",
      "F", "volumes: width (frames) of the residual correction along the basis's motion (when it "
      "moves or has the DCT)", "the spatial width"},
+    {"motion-filter", K_DOUBLE, AT(motion_filter), -1e6, 1e4, NULL, F_AUTO | F_OFF, "auto", "S",
+     "volumes (half spectrum): solve for the volume blurred by a Gaussian of width S cells along x "
+     "and y, seen by the samples through its Wiener inverse (Alg. 1's model); off: the paper's",
+     "with a still basis and fewer than 2 samples per pixel over t, sigma-spacing x sqrt(w h / N), "
+     "at least the paper's width; else none"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -199,6 +199,8 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         ncoef = csi_fourier_half_count_for(dims);
         p->method = "Alg. 2 (half spectrum)";
         csi_half_fourier_sampling_buffers(dims, n, &m->dev);
+        if (opt->motion_filter >= 0) /* auto: the velocity decides (counted) */
+            csi_half_fourier_filter_buffers(dims, &m->dev);
     } else {
         CSI_TRY(csi_fft_check_size("Fourier basis", dims));
         ncoef = k;

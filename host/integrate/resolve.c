@@ -44,7 +44,8 @@ static void motion_sparsa(csi_recon_options *o, size_t n)
 {
     csi_sparsa_options d;
     csi_sparsa_defaults(&d);
-    if (o->stop == CSI_STOP_AUTO)
+    /* where Alg. 1's filter may be used, auto waits for it (motion.c) */
+    if (o->stop == CSI_STOP_AUTO && o->motion_filter < 0)
         o->stop = d.stop == CSI_SPARSA_STOP_GAP ? CSI_STOP_GAP : CSI_STOP_OBJECTIVE;
     if (o->tol == 0)
         o->tol = d.tol;
@@ -132,6 +133,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
             o->motion_time = CSI_MOTION_TIME_DFT;
         if (o->motion_resid_sigma_t == 0 && o->motion_resid_sigma > 0)
             o->motion_resid_sigma_t = o->motion_resid_sigma;
+        /* the paper's form (the full spectrum) has no filter; on the half spectrum auto waits for
+         * the velocity too (motion.c) */
+        if (o->motion_full_spectrum)
+            o->motion_filter = -1;
         if (o->solver == CSI_SOLVER_SPARSA)
             motion_sparsa(o, n);
         return CSI_OK;

@@ -1,8 +1,10 @@
 /* A = S H, the sampled half-spectrum Fourier synthesis of Alg. 2 (csi/sampled_half_fourier.h). */
 #include "csi/sampled_half_fourier.h"
 
+#include <math.h>
 #include <stdlib.h>
 
+#include "csi/gaussian.h"
 #include "csi/sampling.h"
 
 typedef struct {
@@ -10,13 +12,37 @@ typedef struct {
     csi_linop *S;   /* real sampling */
     cl_mem vol, yr; /* k and n floats */
     size_t k, n;
+    /* csi_half_fourier_set_filter: the gain per (u, v) column (hs x dims[1] floats) and the
+     * weighted coefficients (cols complex values); NULL without a filter */
+    cl_mem gain, zw;
+    size_t dims[3];
 } half_state;
 
+/* out = D in on the cols coefficients (in place when in == out). */
+static csi_status weight(const csi_linop *op, cl_mem in, cl_mem out)
+{
+    half_state *s = op->state;
+    cl_kernel k;
+    CSI_TRY(csi_kernel(op->ctx, "sampling", "csi_half_weight", &k));
+    const cl_uint period = (cl_uint)(csi_fourier_half_stride(s->H) * s->dims[1]), nn = (cl_uint)op->cols;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(s->gain), CSI_ARG(period), CSI_ARG(nn)));
+    return csi_run1d(op->ctx, k, op->cols);
+}
+
+/* f = H D z (H z without a filter). */
+static csi_status synthesize(const csi_linop *op, cl_mem z, cl_mem f)
+{
+    half_state *s = op->state;
+    if (!s->gain)
+        return csi_fourier_half_inverse(s->H, z, f);
+    CSI_TRY(weight(op, z, s->zw));
+    return csi_fourier_half_inverse(s->H, s->zw, f);
+}
 
 static csi_status half_apply(const csi_linop *op, cl_mem z, cl_mem y)
 {
     half_state *s = op->state;
-    CSI_TRY(csi_fourier_half_inverse(s->H, z, s->vol));
+    CSI_TRY(synthesize(op, z, s->vol));
     CSI_TRY(csi_linop_apply(s->S, s->vol, s->yr));
     cl_kernel r2c;
     CSI_TRY(csi_kernel(op->ctx, "sampling", "csi_real_to_complex", &r2c));
@@ -34,7 +60,8 @@ static csi_status half_adjoint(const csi_linop *op, cl_mem y, cl_mem z)
     CSI_TRY(CSI_ARGS(c2r, CSI_MEM(y), CSI_MEM(s->yr), CSI_ARG(nn)));
     CSI_TRY(csi_run1d(op->ctx, c2r, s->n));
     CSI_TRY(csi_linop_adjoint(s->S, s->yr, s->vol));
-    return csi_fourier_half_forward(s->H, s->vol, z);
+    CSI_TRY(csi_fourier_half_forward(s->H, s->vol, z));
+    return s->gain ? weight(op, z, z) : CSI_OK; /* D is real and diagonal: its own adjoint */
 }
 
 static void half_destroy(csi_linop *op)
@@ -46,6 +73,8 @@ static void half_destroy(csi_linop *op)
     csi_linop_free(s->S);
     csi_buffer_release(&s->vol);
     csi_buffer_release(&s->yr);
+    csi_buffer_release(&s->gain);
+    csi_buffer_release(&s->zw);
     free(s);
     op->state = NULL;
 }
@@ -78,6 +107,8 @@ csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], 
     op->state = s;
     s->k = dims[0] * dims[1] * dims[2];
     s->n = n;
+    for (int a = 0; a < 3; a++)
+        s->dims[a] = dims[a];
     csi_status st = csi_fourier_half_create(ctx, dims, &s->H);
     if (st == CSI_OK)
         st = csi_sampling_create(ctx, s->k, idx, n, false, &s->S);
@@ -97,8 +128,44 @@ csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], 
 
 csi_status csi_half_fourier_synthesize(const csi_linop *op, cl_mem z, cl_mem f)
 {
+    return synthesize(op, z, f);
+}
+
+void csi_half_fourier_filter_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    /* hs x dims[1] gains: the count is hs x dims[1] x dims[2] */
+    csi_mem_tally_add(t, csi_fourier_half_count_for(dims) / dims[2] * 4, "the motion filter's gains");
+    csi_mem_tally_add(t, csi_fourier_half_count_for(dims) * 8, "the filtered coefficients");
+}
+
+double csi_half_fourier_filter_gain(size_t w, size_t h, size_t u, size_t v, double sigma, double lambda)
+{
+    const double g = csi_gauss_gain_1d(w, u, sigma) * csi_gauss_gain_1d(h, v, sigma);
+    return (1.0 + lambda) * g / (g * g + lambda);
+}
+
+csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambda)
+{
     half_state *s = op->state;
-    return csi_fourier_half_inverse(s->H, z, f);
+    if (!(isfinite(sigma) && sigma > 0 && isfinite(lambda) && lambda > 0))
+        return csi_fail(CSI_ERR_ARG, "the motion filter needs a width > 0 and lambda > 0 (got %g, %g)",
+                        sigma, lambda);
+    const size_t hs = csi_fourier_half_stride(s->H), w = s->dims[0], h = s->dims[1], M = w / 2;
+    float *g = malloc(hs * h * sizeof *g);
+    if (!g)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the motion filter's %zu gains", hs * h);
+    for (size_t v = 0; v < h; v++)
+        for (size_t u = 0; u < hs; u++) /* the padding past u = M holds no coefficient */
+            g[v * hs + u] = u <= M ? (float)csi_half_fourier_filter_gain(w, h, u, v, sigma, lambda) : 0.0f;
+    csi_status st = CSI_OK;
+    if (!s->gain)
+        st = csi_buffer(op->ctx, hs * h * sizeof *g, CL_MEM_READ_WRITE, "the motion filter's gains", &s->gain);
+    if (st == CSI_OK && !s->zw)
+        st = csi_buffer(op->ctx, op->cols * 8, CL_MEM_READ_WRITE, "the filtered coefficients", &s->zw);
+    if (st == CSI_OK)
+        st = csi_write(op->ctx, s->gain, 0, hs * h * sizeof *g, g);
+    free(g);
+    return st;
 }
 
 cl_mem csi_half_fourier_scratch(const csi_linop *op)

@@ -29,7 +29,10 @@ Methods (names used in the CSVs and plots):
                                 and for the frames)
     cs3d-<solver>               the compressive 3-D method (Alg. 2)
     cs3d-paper                  the same with the paper's basis (--motion-time dft
-                                --motion-velocity none: csi's default before issue 12; on request)
+                                --motion-velocity none --motion-filter off: csi's default before
+                                issue 12; on request)
+    cs3d-unfiltered             csi's default without Alg. 1's filter in the motion solve
+                                (--motion-filter off; on request)
 The compressive runs trace once per (scene, spp, seed) with --dump and reconstruct the same
 samples with csi-reconstruct for each variant: render time comes from the render, reconstruction
 time from csi-reconstruct's stats (setup + solve + integrate), both per run.
@@ -60,7 +63,9 @@ STATIC_CS_SHARP = [m + "-sharp" for m in STATIC_CS]
 MOTION_METHODS = ["random", "stratified", "oidn", "gauss", "cs3d-sparsa"]
 # Alg. 2 variants run only when --methods names them: their csi-reconstruct options
 CS3D_ON_REQUEST = {"cs3d-romp": ["--solver", "romp"],
-                   "cs3d-paper": ["--solver", "sparsa", "--motion-time", "dft", "--motion-velocity", "none"]}
+                   "cs3d-paper": ["--solver", "sparsa", "--motion-time", "dft", "--motion-velocity", "none",
+                                  "--motion-filter", "off"],
+                   "cs3d-unfiltered": ["--solver", "sparsa", "--motion-filter", "off"]}
 GAUSS_FACTORS = [0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83]
 
 RESULT_FIELDS = ["scene", "kind", "width", "height", "grid_w", "grid_h", "grid_t", "k", "spp", "seed",

@@ -194,6 +194,9 @@ typedef struct csi_recon_options {
                                      options, the velocity the basis had */
     double motion_resid_sigma_t;  /* the residual correction's width along t (frames) when the
                                      basis moves or has the DCT; 0 auto */
+    double motion_filter;         /* Alg. 1's filter Phi in Alg. 2 (csi_half_fourier_set_filter):
+                                     its width along x and y in cells; -1 off (the paper's), 0
+                                     auto */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */

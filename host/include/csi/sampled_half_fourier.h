@@ -26,7 +26,18 @@ csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], 
 /* The device buffers csi_half_fourier_sampling_create allocates (csi/runtime.h's tally), for a
  * size csi_fourier_half_supported accepts. */
 void csi_half_fourier_sampling_buffers(const size_t dims[3], size_t n, csi_mem_tally *t);
-/* f = H z: the real volume (k floats) of half-spectrum coefficients z, without sampling. */
+/* Alg. 1's model in Alg. 2 (csi_recon_options.motion_filter): the operator becomes S H D, D the
+ * real diagonal gain of the Wiener inverse of a Gaussian of width sigma (cells) along x and y,
+ * (1 + lambda) G / (G^2 + lambda) per spatial frequency (u, v), the same for every temporal
+ * coefficient and velocity (the shear and the time stage act along t only). z is then the
+ * spectrum of the blurred volume Phi f, which is sparser than f's; H D z is the sharp estimate.
+ * D's DC gain is 1, so ||A^T y||_inf's DC term and the tau rule are unchanged. Allocates the
+ * gains and a coefficient-sized scratch (csi_half_fourier_filter_buffers). */
+csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambda);
+void csi_half_fourier_filter_buffers(const size_t dims[3], csi_mem_tally *t);
+/* D's gain at half-spectrum column u (0..w/2) and row v (0..h-1) of a w x h frame, in double. */
+double csi_half_fourier_filter_gain(size_t w, size_t h, size_t u, size_t v, double sigma, double lambda);
+/* f = H z (H D z with a filter): the real volume (k floats) of half-spectrum coefficients z, without sampling. */
 csi_status csi_half_fourier_synthesize(const csi_linop *op, cl_mem z, cl_mem f);
 /* The operator's own k-float volume buffer, which the caller may use as scratch between
  * applications (its contents are overwritten by the next apply or adjoint). */
