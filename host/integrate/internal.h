@@ -51,6 +51,11 @@ static inline double csi_recon_scope_n(const csi_recon_state *st, size_t n)
     return st->scope ? (double)st->scope->n : (double)n;
 }
 
+/* The width of Alg. 1's filter in Alg. 2's solve for a still basis (csi_recon_options.motion_filter
+ * given, or its auto rule; motion.c), -1 for none; with a sheared basis auto is none. */
+double csi_recon_motion_filter_width(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                                     const csi_tile_scope *scope);
+
 /* csi_recon_resolve for one problem: a tile's (scope non-NULL) follows the whole problem's
  * cells, samples and pixels where a default depends on them (csi/tiles.h), its own grid for the
  * wavelet levels and its own samples for Alg. 2's tau rule (its tau scale is rescaled to them). */

@@ -87,24 +87,24 @@ static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *val
     return csi_fourier_half_set_motion(H, dims, transform_of(res->options.motion_time), v[0], v[1]);
 }
 
-/* The width of Alg. 1's filter in the solve (csi_recon_options.motion_filter), -1 for none.
- * auto: with a still basis and fewer than 2 samples per pixel over the shutter, Alg. 1's rule
- * (at least the paper's width, and sigma_spacing times the samples' spacing) with the spacing of
- * all the volume's samples seen on one frame, sqrt(w h / N), since a still background is seen
- * by every frame's samples. Measured (docs/bench/animation.md): at about one sample per pixel or
- * fewer the filter gains (procedural still photographs at 3%: 0.87x the image MSE; billiards at
- * 1 spp: 0.86x; the Mitsuba still-camera scene), at 3-4 samples per pixel it loses (billiards at
- * 4 spp: 1.14x; the still photographs at 10% 1.00-1.02x). With a sheared basis none: it lost on
- * the Mitsuba camera slide at every width tried (1.01-1.25x). */
-static double filter_width(const csi_grid *g, size_t n, const csi_recon_options *opt,
-                           const csi_recon_state *st, bool still)
+/* csi_recon_motion_filter_width (internal.h): auto is, with a still basis and fewer than 2
+ * samples per pixel over the shutter, Alg. 1's rule (at least the paper's width, and
+ * sigma_spacing times the samples' spacing) with the spacing of all the volume's samples seen on
+ * one frame, sqrt(w h / N), since a still background is seen by every frame's samples. Measured
+ * (docs/bench/animation.md): at about one sample per pixel or fewer the filter gains (procedural
+ * still photographs at 3%: 0.84-0.86x the image MSE; billiards at 1 spp; the Mitsuba
+ * still-camera scene), at 3-4 samples per pixel it loses (billiards at 4 spp: 1.14x). With a
+ * sheared basis none (motion.c): it lost on the Mitsuba camera slide at every width tried
+ * (1.01-1.25x). */
+double csi_recon_motion_filter_width(const csi_grid *g, size_t n, const csi_recon_options *opt,
+                                     const csi_tile_scope *scope)
 {
-    if (opt->motion_filter != 0)
-        return opt->motion_filter > 0 ? opt->motion_filter : -1;
+    if (opt->motion_filter != 0 || opt->motion_full_spectrum)
+        return opt->motion_filter > 0 && !opt->motion_full_spectrum ? opt->motion_filter : -1;
     /* the whole problem's cells and samples for a tile; its own frames (a time window's) */
-    const double cells_per_sample = csi_recon_scope_k(st, (size_t)g->w * g->h * g->t) / csi_recon_scope_n(st, n);
-    const double spacing2 = cells_per_sample / (double)g->t; /* pixels per sample over the shutter */
-    if (!still || spacing2 <= 0.5)
+    const double k = scope ? (double)scope->k : (double)g->w * g->h * g->t;
+    const double spacing2 = k / (scope ? (double)scope->n : (double)n) / (double)g->t; /* pixels per sample */
+    if (spacing2 <= 0.5)
         return -1;
     double paper;
     csi_gauss_sigmas(g->w, g->out_w, &paper, NULL);
@@ -172,11 +172,16 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK && moved)
         s = motion_basis(ctx, g, values, channels, n, opt, st, G, real_y, res);
     /* Alg. 1's filter (csi_half_fourier_set_filter), after the velocity search, which judges
-     * velocities on the samples alone; its width reported in res->options (-1: none) */
+     * velocities on the samples alone; by default only with a still basis. Its buffers are
+     * reserved wherever it may be used, so that the plan (plan.c) need not know the velocity.
+     * Its width is reported in res->options (-1: none). */
     if (s == CSI_OK) {
+        const double width = half ? csi_recon_motion_filter_width(g, n, opt, st->scope) : -1;
         const bool still = !moved || (res->options.motion_vx == 0 && res->options.motion_vy == 0);
-        res->options.motion_filter = half ? filter_width(g, n, opt, st, still) : -1;
-        if (res->options.motion_filter > 0)
+        res->options.motion_filter = width > 0 && (still || opt->motion_filter > 0) ? width : -1;
+        if (width > 0)
+            s = csi_half_fourier_filter_reserve(st->A);
+        if (s == CSI_OK && res->options.motion_filter > 0)
             s = csi_half_fourier_set_filter(st->A, res->options.motion_filter, opt->lambda);
     }
     /* SpaRSA's stop, if left to auto: the solver's default (the duality gap) without the filter;

@@ -185,7 +185,7 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
 
 /* Alg. 2 (motion.c). */
 static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_solver_kind solver, csi_recon_plan *p, model *m)
+                              csi_solver_kind solver, const csi_tile_scope *scope, csi_recon_plan *p, model *m)
 {
     const size_t w = g->w, h = g->h, T = g->t, k = w * h * T, wh = w * h;
     const size_t np = (size_t)g->out_w * g->out_h;
@@ -199,7 +199,7 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         ncoef = csi_fourier_half_count_for(dims);
         p->method = "Alg. 2 (half spectrum)";
         csi_half_fourier_sampling_buffers(dims, n, &m->dev);
-        if (opt->motion_filter >= 0) /* auto: the velocity decides (counted) */
+        if (csi_recon_motion_filter_width(g, n, opt, scope) > 0) /* reserved before the velocity */
             csi_half_fourier_filter_buffers(dims, &m->dev);
     } else {
         CSI_TRY(csi_fft_check_size("Fourier basis", dims));
@@ -323,7 +323,7 @@ csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n,
         else if (g->t == 1)
             st = plan_antialias(g, n, opt, solver, scope, out, &m);
         else
-            st = plan_motion(g, n, opt, solver, out, &m);
+            st = plan_motion(g, n, opt, solver, scope, out, &m);
     }
     if (st != CSI_OK) {
         memset(out, 0, sizeof *out);

@@ -13,8 +13,9 @@ typedef struct {
     cl_mem vol, yr; /* k and n floats */
     size_t k, n;
     /* csi_half_fourier_set_filter: the gain per (u, v) column (hs x dims[1] floats) and the
-     * weighted coefficients (cols complex values); NULL without a filter */
+     * weighted coefficients (cols complex values), NULL until reserved; `filtered` once set */
     cl_mem gain, zw;
+    bool filtered;
     size_t dims[3];
 } half_state;
 
@@ -33,7 +34,7 @@ static csi_status weight(const csi_linop *op, cl_mem in, cl_mem out)
 static csi_status synthesize(const csi_linop *op, cl_mem z, cl_mem f)
 {
     half_state *s = op->state;
-    if (!s->gain)
+    if (!s->filtered)
         return csi_fourier_half_inverse(s->H, z, f);
     CSI_TRY(weight(op, z, s->zw));
     return csi_fourier_half_inverse(s->H, s->zw, f);
@@ -61,7 +62,7 @@ static csi_status half_adjoint(const csi_linop *op, cl_mem y, cl_mem z)
     CSI_TRY(csi_run1d(op->ctx, c2r, s->n));
     CSI_TRY(csi_linop_adjoint(s->S, s->yr, s->vol));
     CSI_TRY(csi_fourier_half_forward(s->H, s->vol, z));
-    return s->gain ? weight(op, z, z) : CSI_OK; /* D is real and diagonal: its own adjoint */
+    return s->filtered ? weight(op, z, z) : CSI_OK; /* D is real and diagonal: its own adjoint */
 }
 
 static void half_destroy(csi_linop *op)
@@ -144,6 +145,18 @@ double csi_half_fourier_filter_gain(size_t w, size_t h, size_t u, size_t v, doub
     return (1.0 + lambda) * g / (g * g + lambda);
 }
 
+csi_status csi_half_fourier_filter_reserve(csi_linop *op)
+{
+    half_state *s = op->state;
+    const size_t gains = csi_fourier_half_stride(s->H) * s->dims[1];
+    csi_status st = CSI_OK;
+    if (!s->gain)
+        st = csi_buffer(op->ctx, gains * 4, CL_MEM_READ_WRITE, "the motion filter's gains", &s->gain);
+    if (st == CSI_OK && !s->zw)
+        st = csi_buffer(op->ctx, op->cols * 8, CL_MEM_READ_WRITE, "the filtered coefficients", &s->zw);
+    return st;
+}
+
 csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambda)
 {
     half_state *s = op->state;
@@ -157,14 +170,11 @@ csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambd
     for (size_t v = 0; v < h; v++)
         for (size_t u = 0; u < hs; u++) /* the padding past u = M holds no coefficient */
             g[v * hs + u] = u <= M ? (float)csi_half_fourier_filter_gain(w, h, u, v, sigma, lambda) : 0.0f;
-    csi_status st = CSI_OK;
-    if (!s->gain)
-        st = csi_buffer(op->ctx, hs * h * sizeof *g, CL_MEM_READ_WRITE, "the motion filter's gains", &s->gain);
-    if (st == CSI_OK && !s->zw)
-        st = csi_buffer(op->ctx, op->cols * 8, CL_MEM_READ_WRITE, "the filtered coefficients", &s->zw);
+    csi_status st = csi_half_fourier_filter_reserve(op);
     if (st == CSI_OK)
         st = csi_write(op->ctx, s->gain, 0, hs * h * sizeof *g, g);
     free(g);
+    s->filtered = st == CSI_OK;
     return st;
 }
 

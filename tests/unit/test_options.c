@@ -178,10 +178,20 @@ int main(void)
     csi_grid vol = {32, 32, 8, 32, 32};
     CHECK_OK(csi_recon_resolve(&d, &vol, 800, &r));
     const double tau = fmin(3e-2, fmax(1e-4, 0.25 / sqrt(800.0)));
-    CHECK(r.tau_rel == tau && r.stop == CSI_STOP_GAP && r.tol == 1e-5 && r.max_iter == 2000 &&
-              r.debias == CSI_SWITCH_OFF && r.levels == 0 && r.correct == CSI_CORRECT_AUTO &&
+    /* Alg. 1's filter and with it the stop wait for the velocity (motion.c reports them) */
+    CHECK(r.tau_rel == tau && r.stop == CSI_STOP_AUTO && r.motion_filter == 0 && r.tol == 1e-5 &&
+              r.max_iter == 2000 && r.debias == CSI_SWITCH_OFF && r.levels == 0 && r.correct == CSI_CORRECT_AUTO &&
               fabs(r.motion_resid_sigma / (0.5 * cbrt(8192.0 / 800.0)) - 1) < 1e-14,
           "motion: tau %g resid %g", r.tau_rel, r.motion_resid_sigma);
+    o = d;
+    o.motion_full_spectrum = true;
+    CHECK_OK(csi_recon_resolve(&o, &vol, 800, &r));
+    CHECK(r.stop == CSI_STOP_GAP && r.motion_filter == -1, "the full spectrum (the paper's form): no filter, "
+          "the gap stop");
+    o.motion_full_spectrum = false;
+    o.motion_filter = -1;
+    CHECK_OK(csi_recon_resolve(&o, &vol, 800, &r));
+    CHECK(r.stop == CSI_STOP_GAP, "the filter off: the gap stop");
     /* Baselines: only their own options. */
     o = d;
     o.estimator = CSI_EST_GAUSS;

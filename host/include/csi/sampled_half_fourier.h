@@ -34,6 +34,9 @@ void csi_half_fourier_sampling_buffers(const size_t dims[3], size_t n, csi_mem_t
  * D's DC gain is 1, so ||A^T y||_inf's DC term and the tau rule are unchanged. Allocates the
  * gains and a coefficient-sized scratch (csi_half_fourier_filter_buffers). */
 csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambda);
+/* Allocates what csi_half_fourier_set_filter needs without setting a filter (for a caller that
+ * decides later whether to, with its device memory planned either way). */
+csi_status csi_half_fourier_filter_reserve(csi_linop *op);
 void csi_half_fourier_filter_buffers(const size_t dims[3], csi_mem_tally *t);
 /* D's gain at half-spectrum column u (0..w/2) and row v (0..h-1) of a w x h frame, in double. */
 double csi_half_fourier_filter_gain(size_t w, size_t h, size_t u, size_t v, double sigma, double lambda);
