@@ -90,12 +90,10 @@ static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *val
 /* csi_recon_motion_filter_width (internal.h): auto is, with a still basis and fewer than 2
  * samples per pixel over the shutter, Alg. 1's rule (at least the paper's width, and
  * sigma_spacing times the samples' spacing) with the spacing of all the volume's samples seen on
- * one frame, sqrt(w h / N), since a still background is seen by every frame's samples. Measured
- * (docs/bench/animation.md): at about one sample per pixel or fewer the filter gains (procedural
- * still photographs at 3%: 0.84-0.86x the image MSE; billiards at 1 spp; the Mitsuba
- * still-camera scene), at 3-4 samples per pixel it loses (billiards at 4 spp: 1.14x). With a
- * sheared basis none (motion.c): it lost on the Mitsuba camera slide at every width tried
- * (1.01-1.25x). */
+ * one frame, sqrt(w h / N), since a still background is seen by every frame's samples. Where a
+ * pixel sees about one sample or fewer the filter measured better, where it sees several worse;
+ * with a sheared basis it lost on a path-traced camera slide at every width tried, so auto leaves
+ * it out there (motion.c; docs/bench/animation.md, round 5). */
 double csi_recon_motion_filter_width(const csi_grid *g, size_t n, const csi_recon_options *opt,
                                      const csi_tile_scope *scope)
 {
@@ -186,10 +184,9 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     }
     /* SpaRSA's stop, if left to auto: the solver's default (the duality gap) without the filter;
      * with it the objective change. The filter's gains spread the operator's singular values,
-     * and the gap then falls slowly on directions the volume barely depends on: on the Mitsuba
-     * still-camera scene two channels of three ran to the 2000-step cap with images identical
-     * to 4 digits from step 300 on; the objective stop took 44-51 steps for the same image
-     * (+-0.2%) and 27 on a procedural still photograph (image MSE 1.007x; docs/bench/animation.md). */
+     * and the gap then falls slowly on directions the volume barely depends on: it ran to the
+     * step cap with the image already settled, where the objective stop ends with the same image
+     * in a few dozen steps (docs/bench/animation.md, round 5). */
     csi_recon_options sopt = *opt;
     if (sopt.stop == CSI_STOP_AUTO) {
         csi_sparsa_options d;
