@@ -95,6 +95,7 @@ csi_status csi_recon_run_solver(csi_recon_state *st, const csi_recon_options *op
     csi_sparsa_defaults(&o);
     o.stop = opt->stop == CSI_STOP_GAP ? CSI_SPARSA_STOP_GAP : CSI_SPARSA_STOP_OBJECTIVE;
     o.continuation = opt->continuation == CSI_SWITCH_ON;
+    o.cont_step = opt->cont_step > 0 ? opt->cont_step : 0;
     o.debias = opt->debias == CSI_SWITCH_ON;
     o.tol = opt->tol;
     o.max_iter = opt->max_iter;

@@ -55,6 +55,9 @@ static csi_status check_options(const csi_sparsa_options *o)
         return csi_fail(CSI_ERR_ARG, "SpaRSA: tolerances must be > 0 and iteration caps positive");
     if (o->continuation && !(o->cont_factor > 0 && o->cont_factor < 1))
         return csi_fail(CSI_ERR_ARG, "SpaRSA: continuation factor %g must be in (0, 1)", o->cont_factor);
+    if (!(o->cont_step >= 0 && o->cont_step < 1))
+        return csi_fail(CSI_ERR_ARG, "SpaRSA: continuation step %g must be 0 (adaptive) or in (0, 1)",
+                        o->cont_step);
     if (o->stop != CSI_SPARSA_STOP_GAP && o->stop != CSI_SPARSA_STOP_OBJECTIVE)
         return csi_fail(CSI_ERR_ARG, "SpaRSA: unknown stopping rule %d", (int)o->stop);
     return CSI_OK;
@@ -264,8 +267,10 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                              (gap <= gap_floor && since_best >= SPARSA_STALL_STEPS);
             }
             if (stage_done && !last) {
-                /* Adaptive continuation: the next tau from the current correlations. */
-                double nt = fmax(o.cont_factor * hr, tau);
+                /* Adaptive continuation: the next tau from the current correlations. A stage
+                 * stopped early leaves ||A^H r||_inf several times tau_k, so the adaptive rule can
+                 * lower tau by less than cont_factor a stage; the geometric one does not wait. */
+                double nt = o.cont_step > 0 ? fmax(o.cont_step * tau_k, tau) : fmax(o.cont_factor * hr, tau);
                 if (!(nt < tau_k))
                     nt = fmax(o.cont_factor * tau_k, tau);
                 tau_k = nt;

@@ -125,19 +125,40 @@ static void trace_free(trace_state *T)
     free(T->xprev);
 }
 
+/* ||A^H y||_inf in double; yd receives y in double (N w values). */
+static double adjoint_max(const problem *P, double *yd)
+{
+    const size_t w = P->w, k = P->k;
+    double *h = malloc(k * w * sizeof *h);
+    for (size_t i = 0; i < P->N * w; i++)
+        yd[i] = P->y[i];
+    ref_mat M = {P->N, k, w == 2, P->Ad};
+    ref_adjoint(&M, yd, h);
+    double hmax = 0;
+    for (size_t j = 0; j < k; j++)
+        hmax = fmax(hmax, w == 2 ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
+    free(h);
+    return hmax;
+}
+
+static double rel_diff(const float *x, const double *ref, size_t n)
+{
+    double num = 0, den = 0;
+    for (size_t j = 0; j < n; j++) {
+        num += (x[j] - ref[j]) * (x[j] - ref[j]);
+        den += ref[j] * ref[j];
+    }
+    return sqrt(num / den);
+}
+
 static void test_sequence(test_rng *r, size_t N, size_t k, size_t s, bool cplx)
 {
     problem P = problem_make(r, N, k, s, cplx, !cplx, false);
     size_t w = P.w, nk = k * w;
     /* tau from ||A^H y||_inf computed in double */
-    double *yd = malloc(N * w * sizeof *yd), *h = malloc(nk * sizeof *h), *xr = malloc(nk * sizeof *xr);
-    for (size_t i = 0; i < N * w; i++)
-        yd[i] = P.y[i];
+    double *yd = malloc(N * w * sizeof *yd), *xr = malloc(nk * sizeof *xr);
+    const double hmax = adjoint_max(&P, yd);
     ref_mat M = {N, k, cplx, P.Ad};
-    ref_adjoint(&M, yd, h);
-    double hmax = 0;
-    for (size_t j = 0; j < k; j++)
-        hmax = fmax(hmax, cplx ? hypot(h[2 * j], h[2 * j + 1]) : fabs(h[j]));
     /* tol 1e-4: a gap both float32 and double reach, so both stop by the same rule */
     const double tau = 0.02 * hmax, tol = 1e-4;
     const int cap = 400;
@@ -178,17 +199,76 @@ static void test_sequence(test_rng *r, size_t N, size_t k, size_t s, bool cplx)
     CHECK(T.accept_bad == 0, "acceptance test failed %d times (worst excess %g)", T.accept_bad, T.worst_excess);
     float *xo = malloc(nk * 4);
     test_download(P.dx, xo, nk * 4);
-    double num = 0, den = 0;
-    for (size_t j = 0; j < nk; j++) {
-        num += (xo[j] - xr[j]) * (xo[j] - xr[j]);
-        den += xr[j] * xr[j];
-    }
-    CHECK(sqrt(num / den) < 1e-3, "final x differs from the reference by %g", sqrt(num / den));
+    const double dx = rel_diff(xo, xr, nk);
+    CHECK(dx < 1e-3, "final x differs from the reference by %g", dx);
     free(xo);
     trace_free(&T);
     ref_sparsa_free(&R);
     free(yd);
-    free(h);
+    free(xr);
+    problem_free(&P);
+}
+
+typedef struct {
+    int n;
+    double tau[1024];
+} tau_trace;
+
+static void on_tau(void *user, const csi_sparsa_step *st)
+{
+    tau_trace *t = user;
+    if (t->n < 1024)
+        t->tau[t->n++] = st->tau;
+}
+
+/* Geometric continuation (cont_step): the stages' tau are 0.2 ||A^H y||_inf (cont_factor), then
+ * each cont_step times the one before (exactly: the same double expression) down to tau; the
+ * schedule changes the path, not the minimiser, so with a tight gap the solve ends at the fixed-tau
+ * double reference's x (no continuation, gap 1e-7). Tolerances: the first tau comes from the
+ * device's float32 ||A^H y||_inf (relative error ~1e-6, csi/vec.h); the final x as in
+ * test_sequence (float32 rounding of A and y, 1e-3). */
+static void test_cont_step(test_rng *r, bool cplx, double step)
+{
+    const size_t N = 100, k = 256;
+    problem P = problem_make(r, N, k, 8, cplx, !cplx, false);
+    const size_t nk = k * P.w;
+    double *yd = malloc(N * P.w * sizeof *yd), *xr = malloc(nk * sizeof *xr);
+    const double hmax = adjoint_max(&P, yd), tau = 2e-3 * hmax;
+    ref_mat M = {N, k, cplx, P.Ad};
+    ref_sparsa_result R = ref_sparsa(&M, yd, tau, 5, 0.01, 1e-7, 4000, xr);
+    csi_sparsa_options o;
+    csi_sparsa_defaults(&o);
+    o.tau = tau;
+    o.cont_step = step;
+    o.debias = false;
+    o.tol = 1e-4;
+    tau_trace T = {0};
+    o.trace = on_tau;
+    o.user = &T;
+    csi_solve_report rep;
+    CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+    double stages[64];
+    int ns = 0;
+    for (int i = 0; i < T.n && ns < 64; i++)
+        if (ns == 0 || T.tau[i] != stages[ns - 1])
+            stages[ns++] = T.tau[i];
+    CHECK(ns == rep.stages && ns >= 3, "%d stages seen, %d reported", ns, rep.stages);
+    CHECK(fabs(stages[0] / (0.2 * hmax) - 1) < 1e-5, "first stage tau %.9g, 0.2 ||A^H y|| = %.9g", stages[0],
+          0.2 * hmax);
+    int bad = 0;
+    for (int j = 1; j < ns; j++)
+        bad += stages[j] != fmax(step * stages[j - 1], tau);
+    CHECK(bad == 0 && stages[ns - 1] == tau, "%d stage taus off the schedule (last %g, tau %g)", bad,
+          stages[ns - 1], tau);
+    float *xo = malloc(nk * 4);
+    test_download(P.dx, xo, nk * 4);
+    const double dx = rel_diff(xo, xr, nk);
+    printf("SpaRSA cont_step %g %s: %d stages, %d steps (reference without continuation: %d); x rel diff "
+           "%.2g\n", step, cplx ? "complex" : "real", ns, rep.iterations, R.iterations, dx);
+    CHECK(rep.converged && dx < 1e-3, "final x differs from the reference by %g (%s)", dx, rep.message);
+    free(xo);
+    ref_sparsa_free(&R);
+    free(yd);
     free(xr);
     problem_free(&P);
 }
@@ -240,6 +320,9 @@ int main(void)
     test_sequence(&r, 100, 256, 8, false);
     test_sequence(&r, 200, 1024, 15, false);
     test_sequence(&r, 80, 256, 6, true);
+    test_cont_step(&r, false, 0.1);
+    test_cont_step(&r, true, 0.1);
+    test_cont_step(&r, false, 0.5);
 
     test_rng_seed(&r, 12);
     test_properties(&r, 0, false);
@@ -438,6 +521,10 @@ int main(void)
         csi_sparsa_defaults(&o);
         o.memory = 1000;
         CHECK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep) == CSI_ERR_ARG, "memory cap");
+        csi_sparsa_defaults(&o);
+        o.cont_step = 1.0;
+        CHECK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep) == CSI_ERR_ARG &&
+                  strstr(csi_last_error(), "continuation step"), "%s", csi_last_error());
         problem_free(&P);
     }
     return test_done();

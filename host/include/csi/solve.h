@@ -151,7 +151,8 @@ void csi_column_norms_buffers(size_t rows, size_t cols, bool complex_valued, csi
  * acceptance test holds: phi(x+) <= max_{i = max(k-M,0)..k} phi(x_i) - (sigma/2) alpha ||x+ - x||^2
  * (safeguarded non-monotone, M = 5, sigma = 0.01; M = 0 is the monotone variant).
  * Adaptive continuation (WNF09 Sec. II-E): tau_0 = max(cont_factor ||A^H y||_inf, tau), after
- * each stage tau_{j+1} = max(cont_factor ||A^H r||_inf, tau); intermediate stages stop at
+ * each stage tau_{j+1} = max(cont_factor ||A^H r||_inf, tau); with cont_step > 0 a geometric
+ * schedule instead, tau_{j+1} = max(cont_step tau_j, tau); intermediate stages stop at
  * cont_tol, the last at tol. Stopping: STOP_OBJECTIVE, |phi_k - phi_{k-1}| / phi_{k-1} <= tol;
  * STOP_GAP, the duality gap (with the feasible dual point w = r min(1, tau / ||A^H r||_inf))
  * divided by phi <= tol, or the gap below its float32 rounding level 32 u ||y||^2 (u = 2^-24)
@@ -185,6 +186,8 @@ typedef struct csi_sparsa_options {
     bool warm_start;         /* start from the x passed in (default false: from x = 0); the
                                 start costs one apply and one adjoint more */
     double cont_factor;      /* 0.2 */
+    double cont_step;        /* 0 (default): the adaptive rule; in (0, 1): each stage's tau is
+                                cont_step times the previous one's */
     double cont_tol;         /* tolerance of intermediate stages, default 1e-3 */
     bool debias;             /* default true */
     int debias_iter;         /* CG iterations, default 200 */
