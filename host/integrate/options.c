@@ -101,6 +101,9 @@ static const row table[] = {
     {"cont-step", K_DOUBLE, AT(cont_step), 1e-6, 0.99, NULL, F_AUTO | F_OFF, "auto", "F",
      "SpaRSA continuation: each stage's tau F times the previous one's; off: WNF09's adaptive "
      "rule (0.2 ||A^H r||_inf)", "0.1 for images, off for volumes"},
+    {"cont-tol", K_DOUBLE, AT(cont_tol), 1e-12, 1, NULL, F_AUTO, "auto", "T",
+     "SpaRSA continuation: tolerance of the stages before the last (the last stops at --tol)",
+     "3e-2 for images, the solver's 1e-3 for volumes"},
     {"debias", K_CHOICE, AT(debias), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "SpaRSA's final least squares on the support (images; volumes: --motion-debias)", "off"},
     {"tol", K_DOUBLE, AT(tol), 1e-12, 1, NULL, F_AUTO, "auto", "T", "solver tolerance (relative)",

@@ -96,6 +96,8 @@ csi_status csi_recon_run_solver(csi_recon_state *st, const csi_recon_options *op
     o.stop = opt->stop == CSI_STOP_GAP ? CSI_SPARSA_STOP_GAP : CSI_SPARSA_STOP_OBJECTIVE;
     o.continuation = opt->continuation == CSI_SWITCH_ON;
     o.cont_step = opt->cont_step > 0 ? opt->cont_step : 0;
+    if (opt->cont_tol > 0)
+        o.cont_tol = opt->cont_tol;
     o.debias = opt->debias == CSI_SWITCH_ON;
     o.tol = opt->tol;
     o.max_iter = opt->max_iter;

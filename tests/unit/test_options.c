@@ -38,7 +38,8 @@ int main(void)
               d.romp_s == 0 && d.romp_max_support == 0 && d.romp_normalize == CSI_SWITCH_AUTO &&
               d.romp_seed_levels == 0 && d.romp_lsq_iter == 0 && d.motion_resid_sigma == 0 &&
               d.model_grid == CSI_SWITCH_AUTO && d.mem_budget == 0 && d.tiles == 0 &&
-              d.tile_margin == 0 && d.tile_margin_t == 0 && d.cont_step == 0,
+              d.tile_margin == 0 && d.tile_margin_t == 0 && d.cont_step == 0 &&
+              d.cont_tol == 0,
           "autos");
 
     /* Every row: described, its default text is what get prints for the defaults, and get ->
@@ -136,6 +137,7 @@ int main(void)
     CHECK(r.solver == CSI_SOLVER_SPARSA && r.levels == (lv > 5 ? 5 : lv) && r.correct == CSI_CORRECT_BLEND &&
               r.stop == CSI_STOP_OBJECTIVE && r.tol == 3e-3 && r.max_iter == 300 &&
               r.debias == CSI_SWITCH_OFF && r.continuation == CSI_SWITCH_ON && r.cont_step == 0.1 &&
+              r.cont_tol == 3e-2 &&
               r.model_grid == CSI_SWITCH_ON && r.tau_rel == fmin(3e-3, fmax(1e-5, 3e-3 / spp)),
           "image SpaRSA: levels %d tau %g", r.levels, r.tau_rel);
     CHECK(r.romp_s == 0 && r.gauss_sigma == 0 && r.motion_resid_sigma == 0, "what does not apply stays auto");
@@ -186,7 +188,7 @@ int main(void)
     /* Alg. 1's filter and with it the stop wait for the velocity (motion.c reports them) */
     CHECK(r.tau_rel == tau && r.stop == CSI_STOP_AUTO && r.motion_filter == 0 && r.tol == 1e-5 &&
               r.max_iter == 2000 && r.debias == CSI_SWITCH_OFF && r.levels == 0 && r.correct == CSI_CORRECT_AUTO &&
-              r.cont_step == -1 &&
+              r.cont_step == -1 && r.cont_tol == 1e-3 &&
               fabs(r.motion_resid_sigma / (0.5 * cbrt(8192.0 / 800.0)) - 1) < 1e-14,
           "motion: tau %g resid %g", r.tau_rel, r.motion_resid_sigma);
     o = d;

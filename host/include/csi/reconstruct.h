@@ -170,6 +170,7 @@ typedef struct csi_recon_options {
     csi_switch continuation;      /* SpaRSA continuation on tau */
     double cont_step;             /* SpaRSA continuation: each stage's tau this times the previous
                                      one's; -1 off (WNF09's adaptive rule), 0 auto */
+    double cont_tol;              /* SpaRSA: tolerance of the stages before the last; 0 auto */
     csi_switch debias;            /* SpaRSA debiasing phase (images) */
     /* ROMP (Alg. 1 only; docs/bench/romp.md has the measurements behind the defaults) */
     csi_romp_preset romp_preset;
