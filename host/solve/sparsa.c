@@ -243,7 +243,9 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
             double hr;
             CSI_TRY(csi_vec_amax(S->ws, S->k, S->cplx, h, &hr, NULL));
             if (o.stop == CSI_SPARSA_STOP_OBJECTIVE) {
-                stage_done = fabs(phi - phi_prev) <= stage_tol * phi_prev;
+                /* Only a decrease ends a stage: a non-monotone step that raised phi by a little
+                 * (accepted against the max of the last M + 1) says nothing about convergence. */
+                stage_done = phi <= phi_prev && phi_prev - phi <= stage_tol * phi_prev;
             } else {
                 /* Dual of min 0.5||y - Ax||^2 + tau ||x||_1: max_w -0.5||w||^2 + Re<w, y>
                  * subject to ||A^H w||_inf <= tau; w = r * min(1, tau / ||A^H r||_inf) is

@@ -211,14 +211,57 @@ static void test_sequence(test_rng *r, size_t N, size_t k, size_t s, bool cplx)
 
 typedef struct {
     int n;
-    double tau[1024];
+    double tau[1024], phi[1024];
+    int stage[1024];
 } tau_trace;
 
 static void on_tau(void *user, const csi_sparsa_step *st)
 {
     tau_trace *t = user;
-    if (t->n < 1024)
-        t->tau[t->n++] = st->tau;
+    if (t->n < 1024) {
+        t->tau[t->n] = st->tau;
+        t->phi[t->n] = st->phi;
+        t->stage[t->n++] = st->stage;
+    }
+}
+
+/* The objective stop as Alg. 1 runs it (tol 3e-3, stages before the last at 3e-2, geometric
+ * continuation, non-monotone M = 5): every stage of two or more steps ends on a step that lowered
+ * phi by at most its tolerance; a step that raised phi (which the non-monotone acceptance allows)
+ * never ends one. phi is the solver's own value from the trace, so the comparison is exact. */
+static void test_objective_stop(test_rng *r)
+{
+    int stages = 0, rises = 0;
+    for (int seed = 0; seed < 8; seed++) {
+        problem P = problem_make(r, 120, 512, 10, seed & 1, false, false);
+        csi_sparsa_options o;
+        csi_sparsa_defaults(&o);
+        o.stop = CSI_SPARSA_STOP_OBJECTIVE;
+        o.tol = 3e-3;
+        o.cont_tol = 3e-2;
+        o.cont_step = 0.1;
+        o.tau_rel = 1e-3;
+        o.debias = false;
+        tau_trace T = {0};
+        o.trace = on_tau;
+        o.user = &T;
+        csi_solve_report rep;
+        CHECK_OK(csi_sparsa(P.op, P.dy, P.dx, &o, &rep));
+        for (int i = 1; i < T.n; i++) {
+            rises += T.stage[i] == T.stage[i - 1] && T.phi[i] > T.phi[i - 1];
+            const bool end = i == T.n - 1 || T.stage[i + 1] != T.stage[i];
+            if (!end || T.stage[i - 1] != T.stage[i])
+                continue;
+            const double tol = i == T.n - 1 ? o.tol : o.cont_tol;
+            stages++;
+            CHECK(T.phi[i] <= T.phi[i - 1] && T.phi[i - 1] - T.phi[i] <= tol * T.phi[i - 1],
+                  "seed %d: stage %d ended at step %d with phi %.9g after %.9g", seed, T.stage[i], i + 1,
+                  T.phi[i], T.phi[i - 1]);
+        }
+        problem_free(&P);
+    }
+    printf("SpaRSA objective stop: %d stages checked, %d non-monotone rises inside stages\n", stages, rises);
+    CHECK(stages >= 8, "stages checked: %d", stages);
 }
 
 /* Geometric continuation (cont_step): the stages' tau are 0.2 ||A^H y||_inf (cont_factor), then
@@ -323,6 +366,7 @@ int main(void)
     test_cont_step(&r, false, 0.1);
     test_cont_step(&r, true, 0.1);
     test_cont_step(&r, false, 0.5);
+    test_objective_stop(&r);
 
     test_rng_seed(&r, 12);
     test_properties(&r, 0, false);

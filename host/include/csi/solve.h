@@ -153,7 +153,8 @@ void csi_column_norms_buffers(size_t rows, size_t cols, bool complex_valued, csi
  * Adaptive continuation (WNF09 Sec. II-E): tau_0 = max(cont_factor ||A^H y||_inf, tau), after
  * each stage tau_{j+1} = max(cont_factor ||A^H r||_inf, tau); with cont_step > 0 a geometric
  * schedule instead, tau_{j+1} = max(cont_step tau_j, tau); intermediate stages stop at
- * cont_tol, the last at tol. Stopping: STOP_OBJECTIVE, |phi_k - phi_{k-1}| / phi_{k-1} <= tol;
+ * cont_tol, the last at tol. Stopping: STOP_OBJECTIVE, 0 <= (phi_{k-1} - phi_k) / phi_{k-1} <= tol
+ * (a step that raised phi, which the non-monotone acceptance allows, never stops a stage);
  * STOP_GAP, the duality gap (with the feasible dual point w = r min(1, tau / ||A^H r||_inf))
  * divided by phi <= tol, or the gap below its float32 rounding level 32 u ||y||^2 (u = 2^-24)
  * and not halved for 10 steps (float32 cannot resolve it further).
