@@ -470,7 +470,12 @@ static bool pd_accept(const pd_state *s, csi_sample_pos p)
     return true;
 }
 
-static csi_status poisson(const csi_grid *g, const csi_pos_opts *o, uint64_t *lin, size_t N, csi_pos_info *info)
+/* How often (candidate cells tried) the Poisson-disk dart throwing reports its progress: a
+ * fraction of a second of work, so that the call stays negligible. */
+#define PD_PROGRESS_EVERY (UINT64_C(1) << 20)
+
+static csi_status poisson(const csi_grid *g, const csi_pos_opts *o, uint64_t *lin, size_t N, csi_pos_info *info,
+                          csi_count_progress_fn progress, void *user)
 {
     const uint64_t k = (uint64_t)g->w * g->h * g->t;
     const int dims = g->t > 1 ? 3 : 2;
@@ -509,6 +514,10 @@ static csi_status poisson(const csi_grid *g, const csi_pos_opts *o, uint64_t *li
                 pd_prefetch(&s, ahead[j]);
         }
         for (uint64_t i = 0; i < k && s.n < N; i++) {
+            if (progress && i % PD_PROGRESS_EVERY == PD_PROGRESS_EVERY - 1 && !progress(user, s.n, N)) {
+                st = csi_fail(CSI_ERR_CANCELLED, "making the positions was cancelled");
+                goto done;
+            }
             const uint64_t lin = ahead[i % PD_LOOKAHEAD];
             if (i + PD_LOOKAHEAD < k) {
                 ahead[i % PD_LOOKAHEAD] = feistel_apply(&f, i + PD_LOOKAHEAD);
@@ -609,6 +618,12 @@ csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, ui
 csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out, size_t *n,
                          csi_pos_info *info)
 {
+    return csi_positions_with_progress(g, o, out, n, info, NULL, NULL);
+}
+
+csi_status csi_positions_with_progress(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out, size_t *n,
+                                       csi_pos_info *info, csi_count_progress_fn progress, void *user)
+{
     csi_pos_info local;
     if (!info)
         info = &local;
@@ -634,7 +649,7 @@ csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_po
         break;
     }
     default:
-        st = poisson(g, o, lin, N, info);
+        st = poisson(g, o, lin, N, info, progress, user);
         break;
     }
     if (st != CSI_OK) {
@@ -649,6 +664,10 @@ csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_po
     for (size_t i = 0; i < N; i++)
         p[i] = pos_of(g, lin[i]);
     free(lin);
+    if (progress && !progress(user, N, N)) {
+        free(p);
+        return csi_fail(CSI_ERR_CANCELLED, "making the positions was cancelled");
+    }
     info->count = N;
     *out = p;
     *n = N;

@@ -35,22 +35,47 @@ csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nfr
     return CSI_OK;
 }
 
+/* The writing's progress: image `index` of `count` (the image, then the frames), and within an
+ * EXR its scanlines. */
+typedef struct {
+    cli_progress *bar;
+    uint32_t index, count;
+    const char *name;
+} write_progress;
+
+static bool on_write(void *user, uint64_t done, uint64_t total)
+{
+    const write_progress *w = user;
+    const double within = total ? (double)done / (double)total : 0;
+    cli_progress_update(w->bar, "write", (w->index + within) / w->count, w->name);
+    return true;
+}
+
 static csi_status write_one(csi_outset *set, const char *exr, const char *png, const csi_image *img,
-                            const csi_attr *attrs, size_t nattrs)
+                            const csi_attr *attrs, size_t nattrs, write_progress *wp)
 {
     const char *exr_tmp = NULL, *png_tmp = NULL;
     if (exr)
         CSI_TRY(csi_outset_tmp(set, exr, &exr_tmp));
     if (png)
         CSI_TRY(csi_outset_tmp(set, png, &png_tmp));
-    if (exr_tmp)
-        CSI_TRY(cli_named(csi_exr_write(exr_tmp, img, attrs, nattrs), exr_tmp, exr));
-    if (png_tmp)
+    if (exr_tmp) {
+        wp->name = exr;
+        CSI_TRY(cli_named(csi_exr_write_with_progress(exr_tmp, img, attrs, nattrs, wp->bar ? on_write : NULL, wp),
+                          exr_tmp, exr));
+    }
+    if (png_tmp) {
+        wp->name = png;
+        if (wp->bar)
+            on_write(wp, 0, 1);
         CSI_TRY(cli_named(csi_png_write(png_tmp, img), png_tmp, png));
+    }
+    wp->index++;
     return CSI_OK;
 }
 
-csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_result *r, const char *method)
+csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_result *r, const char *method,
+                            cli_progress *bar)
 {
     const csi_attr *given;
     const size_t nattrs = csi_result_attributes(r, &given);
@@ -62,10 +87,11 @@ csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_res
         if (!strcmp(attrs[i].name, "csi:method"))
             attrs[i].s = method;
     csi_image img;
+    const uint32_t nframes = o->frames_dir ? csi_result_frame_count(r) : 0;
+    write_progress wp = {bar, 0, 1 + nframes, NULL};
     csi_status s = csi_result_image(r, &img);
     if (s == CSI_OK)
-        s = write_one(set, o->exr, o->png, &img, attrs, nattrs);
-    const uint32_t nframes = o->frames_dir ? csi_result_frame_count(r) : 0;
+        s = write_one(set, o->exr, o->png, &img, attrs, nattrs, &wp);
     for (uint32_t t = 0; t < nframes && s == CSI_OK; t++) {
         char exr[PATH_MAX], png[PATH_MAX], name[32];
         frame_name(name, sizeof name, t, "exr");
@@ -74,8 +100,10 @@ csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_res
         snprintf(png, sizeof png, "%s/%s", o->frames_dir, name);
         s = csi_result_frame(r, t, &img);
         if (s == CSI_OK)
-            s = write_one(set, exr, png, &img, attrs, nattrs);
+            s = write_one(set, exr, png, &img, attrs, nattrs, &wp);
     }
+    if (bar)
+        cli_progress_end(bar);
     free(attrs);
     return s;
 }

@@ -84,7 +84,7 @@ int main(int argc, char **argv)
         s = csi_partials_merge((const char *const *)argv + optind, (size_t)(argc - optind), frames, NULL, NULL, &r,
                                &info);
     if (s == CSI_OK)
-        s = cli_write_images(&outs, set, r, info.method);
+        s = cli_write_images(&outs, set, r, info.method, NULL);
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);

@@ -35,10 +35,18 @@ static void usage(FILE *f)
 "      --time-steps T      frames across the shutter (T >= 1), default 1 (static image)\n"
 "      --method M          poisson (default: the compressive method's), stratified or random\n"
 "      --seed S            seed of the positions, stored in the request, default 1\n"
-"  -q, --quiet             no summary line on stderr\n"
+"  -q, --quiet             no progress and no summary line on stderr\n"
 "  -h, --help              this text\n"
 "      --version           version\n"
 "exit status: 0 success, 2 bad input or usage, 1 other failure\n");
+}
+
+static bool on_positions(void *user, uint64_t done, uint64_t total)
+{
+    char detail[64];
+    snprintf(detail, sizeof detail, "%llu / %llu placed", (unsigned long long)done, (unsigned long long)total);
+    cli_progress_update(user, "positions", total ? (double)done / (double)total : -1, detail);
+    return true;
 }
 
 int main(int argc, char **argv)
@@ -142,7 +150,11 @@ int main(int argc, char **argv)
                          "than the %s available", output, n, grid.w, grid.h, grid.t, csi_bytes_text(need, a, sizeof a),
                          csi_bytes_text(avail, b, sizeof b));
     }
-    s = csi_positions(&grid, &popts, &pos, &n, NULL);
+    cli_progress bar;
+    if (!cli_progress_init(&bar, prog, quiet))
+        return cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
+    s = csi_positions_with_progress(&grid, &popts, &pos, &n, NULL, on_positions, &bar);
+    cli_progress_end(&bar);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s", cli_last_error());
     csi_dump req = {.grid = grid, .channels = 0, .seed = seed, .count = n, .pos = pos, .values = NULL};

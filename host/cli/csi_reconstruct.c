@@ -229,7 +229,7 @@ int main(int argc, char **argv)
         goto done;
     }
     tp = cli_now();
-    s = cli_write_images(&outs, set, res, NULL);
+    s = cli_write_images(&outs, set, res, NULL, &bar);
     phase[2] = cli_now() - tp;
     if (s == CSI_OK && outs.stats)
         s = write_stats(set, outs.stats, in, dev, &dump, &drep, res, phase, t0);

@@ -76,6 +76,15 @@ static void on_trace(uint64_t done, uint64_t total, void *user)
     cli_progress_update(ps->bar, "trace", total ? (double)done / (double)total : -1, detail);
 }
 
+static bool on_positions(void *user, uint64_t done, uint64_t total)
+{
+    prog_state *ps = user;
+    char detail[64];
+    snprintf(detail, sizeof detail, "%llu / %llu placed", (unsigned long long)done, (unsigned long long)total);
+    cli_progress_update(ps->bar, "positions", total ? (double)done / (double)total : -1, detail);
+    return true;
+}
+
 static bool on_solve(void *user, const csi_progress *p)
 {
     prog_state *ps = user;
@@ -375,16 +384,6 @@ int main(int argc, char **argv)
         rc = cli_error(prog, s, "%s", cli_last_error());
         goto done;
     }
-    s = csi_positions(&grid, &popts, &pos, &n, &pinfo);
-    if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
-        goto done;
-    }
-    s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
-    if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
-        goto done;
-    }
     cli_progress bar;
     if (!cli_progress_init(&bar, prog, quiet)) {
         rc = cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
@@ -392,6 +391,14 @@ int main(int argc, char **argv)
     }
     prog_state ps = {&bar, {0}};
     cli_recon_progress_init(&ps.recon, &bar);
+    s = csi_positions_with_progress(&grid, &popts, &pos, &n, &pinfo, on_positions, &ps);
+    if (s == CSI_OK)
+        s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
+    if (s != CSI_OK) {
+        cli_progress_end(&bar);
+        rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
+        goto done;
+    }
     if (tile.one || tile.info) {
         tile_eval te = {tr, &grid, seed};
         rc = cli_tile_run_render(prog, dev, set, scene_path, &grid, &popts, pos, n, flags, opt, &tile, &outs, quiet,
@@ -435,7 +442,7 @@ int main(int argc, char **argv)
     snprintf(mdesc, sizeof mdesc, "%s%s, %s positions", reference ? "reference " : "", info.method,
              csi_pos_method_name(popts.method));
     double tw = cli_now();
-    s = cli_write_images(&outs, set, res, mdesc);
+    s = cli_write_images(&outs, set, res, mdesc, &bar);
     tw = cli_now() - tw;
     if (s == CSI_OK && outs.stats) {
         const run_figures f = {scene_path, reference ? "reference" : method, &popts, seed, &grid, n,

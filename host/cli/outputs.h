@@ -16,8 +16,10 @@ csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nfr
 
 /* Writes the image (and frames) with the result's attributes (csi_result_attributes; "csi:method"
  * replaced by `method` when not NULL, which says more: "..., poisson positions") to their
- * temporary files in set; csi_outset_commit puts them in place. */
-csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_result *r, const char *method);
+ * temporary files in set; csi_outset_commit puts them in place. Progress ("write", by images and
+ * each EXR's scanlines) goes to bar unless it is NULL; the bar is ended after. */
+csi_status cli_write_images(const cli_outputs *o, csi_outset *set, const csi_result *r, const char *method,
+                            cli_progress *bar);
 
 /* The method as the programs name it: the result's (csi_result_info), with the estimator's name
  * in place of the solver's for the baselines. */

@@ -138,6 +138,12 @@ static exr_result_t zip_guard(exr_encode_pipeline_t *enc)
 
 csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr *attrs, size_t nattrs)
 {
+    return csi_exr_write_with_progress(path, img, attrs, nattrs, NULL, NULL);
+}
+
+csi_status csi_exr_write_with_progress(const char *path, const csi_image *img, const csi_attr *attrs, size_t nattrs,
+                                       csi_count_progress_fn progress, void *user)
+{
     CSI_TRY(check_image(path, img));
     for (size_t i = 0; i < nattrs; i++) {
         if (!attrs[i].name || !attrs[i].name[0])
@@ -234,6 +240,10 @@ csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr 
             enc.compress_fn = zip_guard;
         }
         EXR_STEP(exr_encoding_run(f, part, &enc), "encoding pixels");
+        if (progress && !progress(user, (uint64_t)(y + spc < h ? y + spc : h), (uint64_t)h)) {
+            st = csi_fail(CSI_ERR_CANCELLED, "%s: writing was cancelled", path);
+            goto fail;
+        }
     }
     if (enc_init)
         exr_encoding_destroy(f, &enc);

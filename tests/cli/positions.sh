@@ -49,6 +49,14 @@ check "[[ '$(hdr "$T/g.csid")' == '64 32 1 32 16 0 1024' ]]" "--grid 64 on 32x16
 "$P" --out 32x32 --fraction 0.25 --grid 64 -o "$T/f.csid" -q
 check "[[ '$(hdr "$T/f.csid")' == '64 64 1 32 32 0 1024' ]]" "--fraction 0.25: $(hdr "$T/f.csid")"
 
+# --- progress where stderr is a log: plain lines while the Poisson-disk passes run (4 M cells, more
+# candidates than one report interval), the same request as a quiet run's ---------------------------
+CSI_PROGRESS=0.001 "$P" --out 256x256 --spp 4 -o "$T/big.csid" 2> "$T/big.err"
+check "[[ $? == 0 ]] && [[ $(grep -c '^csi-positions: progress: positions [0-9]*%  [0-9]* / 262144 placed' "$T/big.err") -ge 2 ]]" \
+    "progress lines: $(head -3 "$T/big.err")"
+"$P" --out 256x256 --spp 4 -o "$T/bigq.csid" -q 2> "$T/bigq.err"
+check "[[ ! -s '$T/bigq.err' ]] && cmp -s '$T/big.csid' '$T/bigq.csid'" "quiet: $(head -2 "$T/bigq.err")"
+
 # --- bad input: exit 2, one line naming the problem, nothing written ---------------------------
 expect_fail "request is not samples" "positions request" "$B/csi-reconstruct" "$T/q4.csid" -o "$T/out.exr"
 expect_fail "no output" "-o" "$P" --out 32x32

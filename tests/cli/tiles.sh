@@ -62,6 +62,7 @@ prog=(--tile-margin 4 --max-iter 40)
 CSI_PROGRESS=0.001 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pg.exr" --stats "$T/pg.json" "${prog[@]}" 2> "$T/pg.err"
 check "[[ $? == 0 ]] && grep -q '^csi-reconstruct: progress: solve 1/3' '$T/pg.err'" "progress lines: $(head -3 "$T/pg.err")"
 check "! grep -q \$'[\r\e]' '$T/pg.err'" "a progress line holds a carriage return or an escape"
+check "grep -q '^csi-reconstruct: progress: write [0-9]*%  .*pg.exr' '$T/pg.err'" "no progress line of the writing: $(tail -2 "$T/pg.err")"
 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pq.exr" --stats "$T/pq.json" "${prog[@]}" -q 2> "$T/pq.err"
 check "[[ ! -s '$T/pq.err' && '$(json "$T/pq.json" image_fnv1a64)' == '$(json "$T/pg.json" image_fnv1a64)' ]]" \
     "quiet: nothing on stderr, the same pixels: $(cat "$T/pq.err")"

@@ -80,6 +80,16 @@ double test_rng_normal(test_rng *r)
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }
 
+bool test_count_progress(void *user, uint64_t done, uint64_t total)
+{
+    test_count_log *l = user;
+    l->backwards += l->calls && (done < l->last_done || total != l->last_total);
+    l->calls++;
+    l->last_done = done;
+    l->last_total = total;
+    return l->calls != l->stop_at;
+}
+
 static size_t dtype_size(const char *d)
 {
     if (!strcmp(d, "<f4") || !strcmp(d, "<i4") || !strcmp(d, "<u4")) return 4;

@@ -64,6 +64,16 @@ uint64_t test_rng_u64(test_rng *r);
 double test_rng_uniform(test_rng *r); /* [0, 1) */
 double test_rng_normal(test_rng *r);
 
+/* A log of a csi_count_progress_fn's reports (pass test_count_progress and the log as its user
+ * data): how many, the last (done, total), how many went backwards (done decreasing or total
+ * changing), and a cancel: the report numbered stop_at (from 1; 0: never) returns false. */
+typedef struct {
+    size_t calls, stop_at;
+    uint64_t last_done, last_total;
+    int backwards;
+} test_count_log;
+bool test_count_progress(void *user, uint64_t done, uint64_t total);
+
 /* A .npy array (format 1.0/2.0, C order, little-endian): dtype one of '<f4' '<f8' '<c8' '<c16'
  * '<i4' '<u4' '<i8' '<u8'. Data converted to the type asked for. */
 typedef struct {

@@ -282,6 +282,53 @@ static int test_png(void)
     return 0;
 }
 
+static int read_file(const char *path, unsigned char **out, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    fseek(f, 0, SEEK_END);
+    *n = (size_t)ftell(f);
+    rewind(f);
+    *out = malloc(*n ? *n : 1);
+    const int ok = fread(*out, 1, *n, f) == *n;
+    fclose(f);
+    return ok;
+}
+
+/* csi_exr_write_with_progress: the same bytes as csi_exr_write, one report per ZIP chunk of 16
+ * scanlines (ceil(h / 16)), counting up to (h, h); a cancel (mid-file and at the last chunk)
+ * returns CSI_ERR_CANCELLED and leaves no file, temporary or final. */
+static int test_exr_progress(void)
+{
+    csi_image img;
+    REQUIRE_OK(csi_image_alloc(&img, 19, 70, 3)); /* 70 lines: 5 chunks, the last of 6 lines */
+    for (size_t i = 0; i < (size_t)19 * 70 * 3; i++)
+        img.data[i] = (float)(i % 97) * 0.25f;
+    unsigned char *a = NULL, *b = NULL;
+    size_t na = 0, nb = 0;
+    REQUIRE_OK(csi_exr_write(pathof("plain.exr"), &img, NULL, 0));
+    test_count_log l = {0};
+    REQUIRE_OK(csi_exr_write_with_progress(pathof("prog.exr"), &img, NULL, 0, test_count_progress, &l));
+    CHECK(read_file(pathof("plain.exr"), &a, &na) && read_file(pathof("prog.exr"), &b, &nb) && na == nb &&
+              memcmp(a, b, na) == 0, "progress changed the file's bytes (%zu vs %zu)", na, nb);
+    CHECK(l.calls == 5 && !l.backwards && l.last_done == 70 && l.last_total == 70,
+          "%zu reports, last %llu of %llu, %d backwards", l.calls, (unsigned long long)l.last_done,
+          (unsigned long long)l.last_total, l.backwards);
+    const int before = count_files();
+    for (size_t stop = 2; stop <= 5; stop += 3) {
+        test_count_log c = {.stop_at = stop};
+        CHECK(csi_exr_write_with_progress(pathof("cancel.exr"), &img, NULL, 0, test_count_progress, &c) == CSI_ERR_CANCELLED &&
+                  strstr(csi_last_error(), "cancel.exr") && c.calls == stop,
+              "cancel at report %zu: %s", stop, csi_last_error());
+        CHECK(count_files() == before, "cancel at report %zu left a file", stop);
+    }
+    free(a);
+    free(b);
+    csi_image_free(&img);
+    return 0;
+}
+
 static int test_bad_paths(void)
 {
     csi_image img, back;
@@ -343,6 +390,7 @@ int main(void)
     test_exr_half();
     test_exr_attributes();
     test_png();
+    test_exr_progress();
     test_bad_paths();
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);

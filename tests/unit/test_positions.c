@@ -252,6 +252,42 @@ static int test_random_uniform(void)
     return 0;
 }
 
+/* csi_positions_with_progress: the same positions as csi_positions, reports that count up to
+ * (N, N) for every method, and a cancel (at the first report, inside the Poisson-disk passes,
+ * or at the last) that returns CSI_ERR_CANCELLED with nothing made. The Poisson case is large
+ * enough (4 M cells) that its passes try more candidates than one report interval. */
+static int test_progress(void)
+{
+    const csi_grid g = {2048, 2048, 1, 256, 256};
+    for (int m = 0; m <= CSI_POS_RANDOM; m++) {
+        csi_pos_opts o = {.method = (csi_pos_method)m, .spp = 4, .seed = 5};
+        csi_sample_pos *p, *q;
+        size_t n, n2;
+        REQUIRE_OK(csi_positions(&g, &o, &p, &n, NULL));
+        test_count_log l = {0};
+        REQUIRE_OK(csi_positions_with_progress(&g, &o, &q, &n2, NULL, test_count_progress, &l));
+        CHECK(n2 == n && memcmp(p, q, n * sizeof *p) == 0, "%s: progress changed the positions",
+              csi_pos_method_name(o.method));
+        CHECK(l.calls >= (o.method == CSI_POS_POISSON ? 2u : 1u) && !l.backwards, "%s: %zu reports, %d backwards",
+              csi_pos_method_name(o.method), l.calls, l.backwards);
+        CHECK(l.last_done == n && l.last_total == n, "%s: last report %llu of %llu, want %zu",
+              csi_pos_method_name(o.method), (unsigned long long)l.last_done, (unsigned long long)l.last_total, n);
+        const size_t stops[] = {1, l.calls};
+        for (size_t k = 0; k < 2; k++) {
+            test_count_log c = {.stop_at = stops[k]};
+            csi_sample_pos dummy, *r = &dummy; /* must come back NULL */
+            size_t nr = 7;
+            csi_status st = csi_positions_with_progress(&g, &o, &r, &nr, NULL, test_count_progress, &c);
+            CHECK(st == CSI_ERR_CANCELLED && r == NULL && nr == 0 && c.calls == stops[k],
+                  "%s: cancel at report %zu: status %d, %zu reports", csi_pos_method_name(o.method), stops[k],
+                  (int)st, c.calls);
+        }
+        free(p);
+        free(q);
+    }
+    return 0;
+}
+
 /* The default grid rule, spelled out independently: static F = 4 for 1-3 spp, 8 for 4-15, 16
  * from 16 (smallest power of two >= 4 with F^2 > 4 spp, at most 16); 1 when moving; halved
  * (not below 4) while a side would pass 65536 cells. */
@@ -277,5 +313,6 @@ int main(void)
     test_stratified_splits();
     test_poisson_cases();
     test_random_uniform();
+    test_progress();
     return test_done();
 }

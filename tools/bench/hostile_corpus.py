@@ -20,8 +20,13 @@ The corpus is rebuilt here (seeded), in classes:
 
 Every case runs with a 20 s limit (then SIGTERM, and SIGKILL 2 s later) in a fresh directory
 holding its inputs; afterwards the directory must hold only the inputs (unchanged) when the
-program failed or was stopped. A run stopped at 20 s counts as a hang; the report lists them with
-what they were doing, since an input that fits in memory may be legitimate work that takes longer.
+program failed or was stopped. The programs run with CSI_PROGRESS=PROGRESS_EVERY (a progress line
+on stderr at most every few seconds, as in a log). A run stopped at 20 s is "stopped"; it is a
+hang when its last progress line came more than PROGRESS_QUIET seconds before the stop (or never),
+i.e. it was not advancing: an input that fits may be legitimate work that takes longer, and the
+report lists every stopped run with what it was doing. A run stopped after its summary line (the
+work done and the outputs committed, the stop in its teardown) is "completed": its outputs are
+not counted as left behind.
 
   python3 tools/bench/hostile_corpus.py BUILD_DIR [--out report.json] [--only CLASS] [--quick]
 
@@ -32,6 +37,7 @@ import hashlib
 import json
 import os
 import random
+import re
 import shutil
 import signal
 import stat
@@ -43,6 +49,15 @@ import time
 
 SRC = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LIMIT = 20.0
+PROGRESS_EVERY = 2.0
+# a progress line is due every PROGRESS_EVERY seconds while a phase reports; allow a phase step
+# (a kernel, a tracing batch) several times that long between reports before calling it stuck
+PROGRESS_QUIET = 8.0
+PROGRESS_LINE = re.compile(r"^[\w.-]+: progress: .*\[(\d+) s\]$")
+# the summary line a program prints after it committed its outputs ("csi-reconstruct: 64x64 from
+# 4096 samples ...", "csi-render: 64x64 from ... samples (...) : render ..."); a run stopped after
+# it finished the work and committed (at the limit, in its teardown) left its outputs, not litter
+DONE_LINE = re.compile(r"^csi-[\w-]+: \d+x\d+.* from \d+ (samples|tiles)\b", re.M)
 
 
 def dump_bytes(grid, out, records, channels, seed=0, count=None):
@@ -102,7 +117,7 @@ def run(build, case):
             (os.link if kind == "hard" else os.symlink)(os.path.join(d, target), os.path.join(d, name))
         before = digest(d)
         args = [a.replace("@", d) for a in case.args]
-        env = dict(os.environ, **case.env)
+        env = dict(os.environ, CSI_PROGRESS="%g" % PROGRESS_EVERY, **case.env)
         t0 = time.monotonic()
         p = subprocess.Popen([os.path.join(build, case.prog)] + args, cwd=d, env=env, stdout=subprocess.DEVNULL,
                              stderr=subprocess.PIPE, start_new_session=True)
@@ -117,19 +132,24 @@ def run(build, case):
             except subprocess.TimeoutExpired:
                 os.killpg(p.pid, signal.SIGKILL)
                 _, err = p.communicate()
-            rc = "hang"
+            rc = "stopped"
         dt = time.monotonic() - t0
         after = digest(d)
         res = {"class": case.cls, "name": case.name, "rc": rc, "seconds": round(dt, 3)}
         text = err.decode("utf-8", "replace")
-        res["crash"] = rc != "hang" and (rc < 0 or rc >= 128 or "AddressSanitizer" in text or
+        progress = [int(m.group(1)) for m in map(PROGRESS_LINE.match, text.splitlines()) if m]
+        res["crash"] = rc != "stopped" and (rc < 0 or rc >= 128 or "AddressSanitizer" in text or
                                          "runtime error:" in text or "Assertion" in text)
-        res["hang"] = rc == "hang"
+        res["stopped"] = rc == "stopped"
+        res["completed"] = rc == "stopped" and bool(DONE_LINE.search(text))
+        res["last_progress_s"] = progress[-1] if progress else None
+        res["hang"] = (rc == "stopped" and not res["completed"] and
+                       (not progress or progress[-1] < LIMIT - PROGRESS_QUIET))
         changed = [k for k, v in before.items() if after.get(k) != v]
         res["inputs_changed"] = changed
-        if rc != 0:
+        if rc != 0 and not res["completed"]:
             res["left_behind"] = sorted(k for k in after if k not in before)
-            lines = [l for l in text.splitlines() if "warning" not in l]
+            lines = [l for l in text.splitlines() if "warning" not in l and not PROGRESS_LINE.match(l)]
             res["error_lines"] = len(lines)
         else:
             res["left_behind"] = []
@@ -326,22 +346,25 @@ def main():
         if (i + 1) % 50 == 0:
             print("%d/%d cases, %.0f s" % (i + 1, len(cases), time.monotonic() - t0), file=sys.stderr)
     summary = {"build": build, "cases": len(results), "by_class": {}}
-    keys = ("crash", "hang", "left_behind", "inputs_changed", "multi_line", "raw_control", "oversized_over_1s")
+    keys = ("crash", "stopped", "completed", "hang", "left_behind", "inputs_changed", "multi_line", "raw_control", "oversized_over_1s")
     for r in results:
         s = summary["by_class"].setdefault(r["class"], {k: 0 for k in ("cases", "failed") + keys})
         s["cases"] += 1
         s["failed"] += r["rc"] != 0
         s["crash"] += bool(r["crash"])
+        s["stopped"] += bool(r["stopped"])
+        s["completed"] += bool(r["completed"])
         s["hang"] += bool(r["hang"])
         s["left_behind"] += bool(r["left_behind"])
         s["inputs_changed"] += bool(r["inputs_changed"])
         s["multi_line"] += r["error_lines"] > 1
         s["raw_control"] += bool(r["raw_control"])
-        if r["class"] == "oversized" and r["rc"] != 0:
+        if r["class"] == "oversized" and r["rc"] not in (0, "stopped"):  # refusals only
             s["oversized_over_1s"] += r["seconds"] > 1.0
     total = {k: sum(s[k] for s in summary["by_class"].values()) for k in ("cases", "failed") + keys}
     summary["total"] = total
-    summary["oversized"] = [{"name": r["name"], "rc": r["rc"], "seconds": r["seconds"], "stderr": r["stderr"][-160:]}
+    summary["oversized"] = [{"name": r["name"], "rc": r["rc"], "seconds": r["seconds"],
+                             "last_progress_s": r["last_progress_s"], "stderr": r["stderr"][-160:]}
                             for r in results if r["class"] == "oversized"]
     summary["problems"] = [r for r in results if r["crash"] or r["hang"] or r["left_behind"] or r["inputs_changed"]
                            or r["error_lines"] > 1 or r["raw_control"]]

@@ -190,6 +190,15 @@ CSI_API uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_
  * are in csi/positions.h of the source tree. */
 CSI_API csi_status csi_positions(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out,
                                  size_t *n, csi_pos_info *info);
+/* Progress of work counted in units (csi_positions_with_progress: positions placed), called from
+ * the calling thread: `done` of `total` so far. Return true to go on, false to cancel. */
+typedef bool (*csi_count_progress_fn)(void *user, uint64_t done, uint64_t total);
+/* csi_positions, reporting its progress (the Poisson-disk method, the slow one at millions of
+ * positions, as it goes; the others once, at the end). progress may be NULL; when it
+ * returns false the call returns CSI_ERR_CANCELLED, having released what it made. */
+CSI_API csi_status csi_positions_with_progress(const csi_grid *g, const csi_pos_opts *o, csi_sample_pos **out,
+                                               size_t *n, csi_pos_info *info, csi_count_progress_fn progress,
+                                               void *user);
 /* The host bytes csi_positions holds at most while it makes them (its result included), to
  * check a run against the host's memory (csi_host_available_bytes) before making them. */
 CSI_API csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes);
@@ -537,6 +546,11 @@ CSI_API size_t csi_result_attributes(const csi_result *r, const csi_attr **attrs
  * (values clamped to [0, 1]). Both written to a temporary file and renamed when complete. */
 CSI_API csi_status csi_exr_write(const char *path, const csi_image *img, const csi_attr *attrs,
                                  size_t nattrs);
+/* csi_exr_write, reporting the scanlines written (of img->h) after each compressed chunk: a
+ * large image's compression takes seconds. progress may be NULL; when it returns false the
+ * call returns CSI_ERR_CANCELLED and leaves no file. */
+CSI_API csi_status csi_exr_write_with_progress(const char *path, const csi_image *img, const csi_attr *attrs,
+                                               size_t nattrs, csi_count_progress_fn progress, void *user);
 CSI_API csi_status csi_png_write(const char *path, const csi_image *img);
 
 /* ---- statistics (JSON) --------------------------------------------------------------------- */
