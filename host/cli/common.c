@@ -136,7 +136,7 @@ bool cli_progress_init(cli_progress *p, const char *prog, bool quiet)
     else if (env && !strcmp(env, "bar"))
         p->mode = CLI_PROGRESS_BAR;
     else if (env && *env && strcmp(env, "auto")) {
-        if (!cli_parse_double(env, 0.001, 1e9, &every)) {
+        if (!cli_parse_double(env, 0, 1e9, &every)) {
             cli_fail(CSI_ERR_ARG, "CSI_PROGRESS=%.40s is not off, bar, auto or a number of seconds", env);
             return false;
         }

@@ -65,7 +65,8 @@ bool cli_parse_size(const char *s, uint32_t *w, uint32_t *h);
  * output): plain lines "prog: progress: phase ... [elapsed]", at most one every CLI_PROGRESS_EVERY
  * seconds and the first only after as long, so that a short run, and a refusal, print nothing
  * but their own lines. The environment variable CSI_PROGRESS chooses instead: "off", "bar" (the
- * redrawn line wherever stderr goes), or a number of seconds between plain lines. */
+ * redrawn line wherever stderr goes), or a number of seconds between plain lines (0: a line for
+ * every report, for tests and debugging). */
 #define CLI_PROGRESS_EVERY 60.0
 typedef enum { CLI_PROGRESS_OFF, CLI_PROGRESS_BAR, CLI_PROGRESS_LINES } cli_progress_mode;
 typedef struct cli_progress {

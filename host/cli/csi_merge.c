@@ -25,10 +25,24 @@ static void usage(FILE *f)
 "      --png FILE.png        8-bit sRGB preview\n"
 "      --frames DIR          volumes: every frame (the partials must hold them: --partial-frames)\n"
 "      --stats FILE.json     the run's figures, summed over the tiles\n"
-"  -q, --quiet               no summary line\n"
+"  -q, --quiet               no progress and no summary line\n"
 "  -h, --help                this text\n"
 "      --version             version\n"
 "exit status: 0 success, 2 bad input or usage, 1 other failure\n", f);
+}
+
+typedef struct {
+    cli_progress *bar;
+    uint32_t tiles;
+} merge_progress;
+
+static bool on_merge(void *user, const csi_progress *p)
+{
+    const merge_progress *m = user;
+    char detail[48];
+    snprintf(detail, sizeof detail, "%d of %u tiles", p->iteration, m->tiles);
+    cli_progress_update(m->bar, p->phase, m->tiles ? (double)p->iteration / m->tiles : -1, detail);
+    return true;
 }
 
 int main(int argc, char **argv)
@@ -80,11 +94,17 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = cli_outputs_stage(&outs, set, frames ? info.grid.t : 0);
     csi_result *r = NULL;
-    if (s == CSI_OK)
-        s = csi_partials_merge((const char *const *)argv + optind, (size_t)(argc - optind), frames, NULL, NULL, &r,
+    cli_progress bar;
+    if (s == CSI_OK && !cli_progress_init(&bar, prog, quiet))
+        s = CSI_ERR_ARG;
+    merge_progress mp = {&bar, info.tile_count};
+    if (s == CSI_OK) {
+        s = csi_partials_merge((const char *const *)argv + optind, (size_t)(argc - optind), frames, on_merge, &mp, &r,
                                &info);
+        cli_progress_end(&bar);
+    }
     if (s == CSI_OK)
-        s = cli_write_images(&outs, set, r, info.method, NULL);
+        s = cli_write_images(&outs, set, r, info.method, &bar);
     if (s == CSI_OK && outs.stats) {
         csi_json *j = NULL;
         s = csi_json_new(&j);

@@ -73,6 +73,8 @@ check "[[ $? == 0 ]] && grep -q '^csi-reconstruct: progress: solve' '$T/pt.err' 
     "a --tile run's progress: $(head -3 "$T/pt.err")"
 CSI_PROGRESS=0.001 "$B/csi-render" "$static" -o "$T/pr.exr" "${prog[@]}" 2> "$T/pr.err"
 check "[[ $? == 0 ]] && grep -q '^csi-render: progress: ' '$T/pr.err'" "csi-render's progress: $(head -3 "$T/pr.err")"
+CSI_PROGRESS=0 "$B/csi-merge" "$T/p2.csip" "$T/p0.csip" "$T/p3.csip" "$T/p1.csip" -o "$T/pm.exr" 2> "$T/pm.err"
+check "[[ $? == 0 ]] && grep -q '^csi-merge: progress: merge [0-9]*%  [1-4] of 4 tiles' '$T/pm.err'" "csi-merge's progress: $(head -3 "$T/pm.err")"
 expect_fail "bad CSI_PROGRESS" "CSI_PROGRESS=often is not" env CSI_PROGRESS=often "$B/csi-reconstruct" "$T/m.csid" -o "$T/out.exr"
 
 # --- bad input: exit 2, one line naming the problem, no output ---------------------------------
