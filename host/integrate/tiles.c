@@ -215,12 +215,24 @@ static bool fits(const candidate *c, uint64_t budget, uint64_t max_alloc)
     return c->bytes <= budget && (!max_alloc || c->largest <= max_alloc);
 }
 
+/* The planner's price of a layout (CSI_TILE_T_LOSS, csi/tiles.h): the work, the cells its
+ * windows cover in all (every tile's solve steps over its window's cells, and the steps per
+ * tile measured about equal: billiards 64x64 x 256 frames, 96 tiles covering 25x the volume's
+ * cells took 18.5x the whole's CPU, 8 time windows covering 1.7x took 1.3x), times the error
+ * the split is expected to add: an MSE a factor E above the whole's needs about E times the
+ * samples for the same image, and the work grows with the samples. */
+static double price(const candidate *c)
+{
+    return (double)c->work * (1.0 + CSI_TILE_T_LOSS * (double)(c->n[2] - 1));
+}
+
 static bool better(const candidate *a, const candidate *best, bool have)
 {
     if (!have)
         return true;
+    const double pa = price(a), pb = price(best);
     uint32_t ca = a->n[0] * a->n[1] * a->n[2], cb = best->n[0] * best->n[1] * best->n[2];
-    return a->work < best->work || (a->work == best->work && ca < cb);
+    return pa < pb || (pa == pb && ca < cb);
 }
 
 csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
@@ -318,15 +330,15 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         return CSI_OK;
     }
     const uint32_t maxn[3] = {p.ax[0].length / p.ax[0].align, p.ax[1].length / p.ax[1].align, frames};
-    /* Time windows only when no split of x and y alone fits (or as asked): a window's Fourier
-     * model fits only its stretch of the motion, and the windows lose against the whole where
-     * the x/y tiles do not (docs/bench/scale.md). Among the layouts with the fewest windows that
-     * fit, the one covering the fewest cells. */
+    /* Among the layouts that fit, the lowest price (work times the expected loss, above): x/y
+     * tiles, time windows or both. Before, time windows came only when no split of x and y alone
+     * fitted: on billiards 64x64 x 256 frames at 16 MiB that gave 96 tiles at 18.5x the whole's
+     * CPU for 1.06x its MSE, where 8 windows took 1.3x for 1.14x (docs/bench/scale.md). */
     const uint32_t nt_lo = opt->tiles_t ? opt->tiles_t : 1, nt_hi = opt->tiles_t ? opt->tiles_t : maxn[2];
     if (opt->tiles > 1) {
         const uint32_t N = opt->tiles;
         bool any = false;
-        for (uint32_t nt = nt_lo; nt <= N && nt <= nt_hi && !have; nt++) {
+        for (uint32_t nt = nt_lo; nt <= N && nt <= nt_hi; nt++) {
             if (N % nt)
                 continue;
             for (uint32_t ny = 1; ny <= N / nt && ny <= maxn[1]; ny++) {
@@ -352,7 +364,22 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                             "for more tiles or a larger budget", N, (unsigned long long)budget);
     } else {
         bool laid = false;
-        for (uint32_t nt = nt_lo; nt <= nt_hi && !have; nt++) {
+        for (uint32_t nt = nt_lo; nt <= nt_hi; nt++) {
+            /* nt windows cover at least nt window lengths of whole frames, whatever the x/y
+             * split: past the best price so far, skip them; once even the volume's own cells
+             * (T frames) cost more at this loss, no more windows can be cheaper. */
+            if (have && (double)p.k * (1.0 + CSI_TILE_T_LOSS * (nt - 1)) >= price(&best))
+                break;
+            if (have && nt > 1) {
+                axis_req at = p.ax[2];
+                if (p.auto_margin_t)
+                    at.margin = margin_t_auto(at.length, nt);
+                const uint32_t wt = axis_window(&at, nt);
+                candidate lb = {.n = {1, 1, nt}, .work = p.k / at.length * wt * nt};
+                if (!wt || price(&lb) >= price(&best))
+                    continue;
+            }
+            bool alone = false;
             for (uint32_t ny = 1; ny <= maxn[1]; ny++) {
                 /* The fewest tiles along x that fit, by bisection (a tile's bytes fall as the
                  * tiles along x grow, up to the rounding of window lengths). */
@@ -379,9 +406,13 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                     best = c;
                     have = true;
                 }
-                if (lo == 1)
+                if (lo == 1) {
+                    alone = ny == 1;
                     break; /* more tiles along y only add overlap */
+                }
             }
+            if (alone)
+                break; /* the windows fit alone: more of them only add overlap and loss */
         }
         if (!laid && opt->tiles_t > 1)
             return csi_fail(CSI_ERR_ARG, "%u time windows cannot be laid out on %u frames with margins of %u "

@@ -26,6 +26,15 @@ static bool smooth7(uint64_t v)
     return v == 1;
 }
 
+/* The planner's price of a layout (csi/tiles.h), from its windows: the cells they cover in all
+ * times 1 + CSI_TILE_T_LOSS per interior time boundary. */
+static double layout_price(const csi_tiling *tl)
+{
+    const double cells = (double)tl->window[0] * (tl->grid.w / tl->grid.out_w) * tl->window[1] *
+                         (tl->grid.h / tl->grid.out_h) * tl->window[2] * tl->count;
+    return cells * (1.0 + CSI_TILE_T_LOSS * (tl->n[2] - 1));
+}
+
 static void check_layout(const csi_tiling *tl, const char *what)
 {
     const uint32_t cells[3] = {tl->grid.w / tl->grid.out_w, tl->grid.h / tl->grid.out_h, 1};
@@ -135,9 +144,18 @@ int main(void)
         o.tile_margin_t = 4;
         csi_tiling tl;
         REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl));
-        CHECK(tl.n[2] == 1 && tl.count == 4, "a 64x48x64 volume in 4 tiles with 16-pixel margins is split in "
-              "x and y only (n = %u %u %u)", tl.n[0], tl.n[1], tl.n[2]);
+        /* 16-pixel margins in x/y, 4 frames in t: 4 windows of 24 frames cover fewer cells than
+         * any x/y split, and their loss (3 boundaries) does not make up the difference */
+        CHECK(tl.n[2] == 4 && tl.count == 4, "a 64x48x64 volume in 4 tiles with 16-pixel margins and 4-frame "
+              "margins in t is split in t (n = %u %u %u)", tl.n[0], tl.n[1], tl.n[2]);
         check_layout(&tl, "volume 64x48x64, 4 tiles");
+        o.tiles_t = 1;
+        csi_tiling xy;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &xy));
+        CHECK(xy.n[2] == 1 && xy.count == 4 && layout_price(&tl) < layout_price(&xy),
+              "--tiles-t 1: x/y only (n = %u %u %u), priced above the windows (%.0f against %.0f)", xy.n[0], xy.n[1],
+              xy.n[2], layout_price(&xy), layout_price(&tl));
+        o.tiles_t = 0;
         o.tiles = 8;
         o.tiles_t = 2;
         REQUIRE_OK(csi_tiling_plan(NULL, &g, 1, 64 * 48 * 4, &o, &tl));
@@ -197,8 +215,11 @@ int main(void)
         o.tiles_t = 0;
     }
 
-    /* The budget's layouts of a volume split t only when no x/y layout fits it: over budgets from
-     * the whole's bytes down, a layout with time windows means that no count of x/y tiles fits. */
+    /* The budget's layouts of a volume: the lowest price (cells covered in all, times 1 +
+     * CSI_TILE_T_LOSS per interior time boundary) among every layout that fits. Over budgets
+     * from the whole's bytes down, the plan's layout is compared with each layout of 2-64 tiles
+     * asked for explicitly (--tiles N, every factorisation with its own windows in t), priced
+     * here from the layout's own windows. */
     {
         const csi_grid g = {96, 64, 48, 96, 64};
         const size_t n = (size_t)96 * 64 * 48 / 10;
@@ -212,21 +233,39 @@ int main(void)
             o.mem_budget = whole.whole_bytes * (uint64_t)(41 - b) / 41;
             if (csi_tiling_plan(NULL, &g, 1, n, &o, &tl) != CSI_OK)
                 continue;
-            if (tl.n[2] == 1) {
-                split_xy += tl.count > 1;
-                continue;
-            }
-            split_t++;
-            o.tiles_t = 1;
-            for (uint32_t N = 2; N <= 64; N++) {
-                o.tiles = N;
-                csi_tiling t2;
-                CHECK(csi_tiling_plan(NULL, &g, 1, n, &o, &t2) != CSI_OK, "budget %llu: %u time windows where "
-                      "%u x/y tiles fit", (unsigned long long)o.mem_budget, tl.n[2], N);
-            }
+            const double p0 = layout_price(&tl);
+            split_t += tl.n[2] > 1;
+            split_xy += tl.n[0] * tl.n[1] > 1;
+            for (uint32_t N = 2; N <= 64; N++)
+                for (uint32_t nt = 1; nt <= N && nt <= g.t; nt++) {
+                    if (N % nt)
+                        continue;
+                    o.tiles = N;
+                    o.tiles_t = nt;
+                    csi_tiling t2;
+                    if (csi_tiling_plan(NULL, &g, 1, n, &o, &t2) != CSI_OK)
+                        continue;
+                    CHECK(p0 <= layout_price(&t2), "budget %llu: the plan's %ux%ux%u (price %.0f) where %ux%ux%u fits "
+                          "at %.0f", (unsigned long long)o.mem_budget, tl.n[0], tl.n[1], tl.n[2], p0, t2.n[0], t2.n[1],
+                          t2.n[2], layout_price(&t2));
+                }
+            o.tiles = 0;
+            o.tiles_t = 0;
         }
-        CHECK(split_xy > 0 && split_t > 0, "the budgets gave x/y layouts (%d) and, below them, time windows (%d)",
-              split_xy, split_t);
+        CHECK(split_xy > 0 && split_t > 0, "the budgets gave layouts split in x/y (%d) and in t (%d)", split_xy,
+              split_t);
+    }
+    /* A long volume of small frames: time windows alone, not windows of x/y tiles (the planner
+     * before this rule gave billiards 64x64 x 256 at 16 MiB 96 tiles covering 25x the cells). */
+    {
+        const csi_grid g = {64, 64, 256, 64, 64};
+        csi_recon_defaults(&o);
+        o.mem_budget = UINT64_C(16) << 20;
+        csi_tiling tl;
+        REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 65536, &o, &tl));
+        CHECK(tl.n[0] == 1 && tl.n[1] == 1 && tl.n[2] > 1, "64x64x256 at 16 MiB: %ux%ux%u tiles", tl.n[0], tl.n[1],
+              tl.n[2]);
+        check_layout(&tl, "64x64x256 at 16 MiB");
     }
 
     /* The plan from a budget. */
