@@ -178,8 +178,8 @@ static const row table[] = {
      "the same in frames for a volume", "a third of a time window's core, at least 4, and windows of at least 32 frames where the "
      "volume is longer"},
     {"tiles-t", K_U32, AT(tiles_t), 1, 65536, NULL, F_AUTO, "auto", "N",
-     "volumes: exactly N time windows (1: never split t)", "1 unless no split of x and y alone "
-     "fits the budget"},
+     "volumes: exactly N time windows (1: never split t)", "as the budget's layout prices them: "
+     "cells covered x (1 + 0.02 per window boundary), x/y tiles or windows"},
     {"frames", K_BOOL, AT(frames), 0, 0, NULL, F_LIBRARY, "off", NULL,
      "volumes: also return every frame", NULL},
     {"seed", K_U64, AT(seed), 0, 18446744073709551615.0, NULL, F_LIBRARY, "1", "S",

@@ -209,7 +209,7 @@ typedef struct csi_recon_options {
     uint32_t tiles;               /* 0 auto: as few as fit the budget (1 when the whole fits) */
     uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0 auto */
     uint32_t tile_margin_t;       /* the same in frames for a volume; 0 auto */
-    uint32_t tiles_t;             /* time windows of a volume; 0 auto: only when no x/y split fits */
+    uint32_t tiles_t;             /* time windows of a volume; 0 auto: the planner's price (csi/tiles.h) */
     /* Not an option (no row in the table): what the samples are, CSI_SAMPLES_* of csi/csi.h,
      * which the library copies from csi_samples.flags; correct = auto follows it. */
     uint32_t sample_flags;
