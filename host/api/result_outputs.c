@@ -113,6 +113,8 @@ void csi_result_stats(const csi_result *r, csi_json *j)
     csi_json_num(j, "t_setup_s", res->t_setup);
     if (res->t_velocity > 0)
         csi_json_num(j, "t_velocity_s", res->t_velocity); /* of t_setup */
+    if (res->velocity_evals > 0)
+        csi_json_int(j, "velocity_evaluations", res->velocity_evals);
     csi_json_num(j, "t_solve_s", res->t_solve);
     csi_json_num(j, "t_integrate_s", res->t_integrate);
     csi_json_begin(j, "channels");

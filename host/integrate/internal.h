@@ -269,6 +269,8 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
                                         csi_linop *G, cl_mem z, cl_mem va, cl_mem vb,
                                         const csi_linop *S, cl_mem ydev, cl_mem gat, const float *y,
                                         const uint32_t *idx, size_t n, csi_motion_velocity *out);
+/* The device buffers it holds while it runs (two spectra, released before it returns). */
+void csi_motion_velocity_buffers(const size_t dims[3], csi_mem_tally *t);
 /* The host bytes it holds at most. */
 uint64_t csi_motion_velocity_host_bytes(const csi_grid *g, size_t n);
 

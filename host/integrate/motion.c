@@ -80,6 +80,7 @@ static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *val
         v[0] = mv.v[0];
         v[1] = mv.v[1];
         res->t_velocity = mv.seconds;
+        res->velocity_evals = (uint32_t)mv.evaluations;
     }
     res->options.motion_vx = v[0];
     res->options.motion_vy = v[1];

@@ -41,6 +41,7 @@ typedef struct {
     csi_linop *G; /* the motion filter (its widths set for each use) */
     const csi_linop *S;
     cl_mem va, vb, ydev, gat;
+    cl_mem z1, zy; /* the frames' spatial spectra of S^T 1 and S^T y: the same for every velocity */
     const float *y;
     size_t n, k;
     float *ones, *num, *den;
@@ -159,22 +160,34 @@ static void energy_search(const lowspec *s, double vmax_a, double vmax_b, cand *
 
 /* ---- step 2: leave-one-out ---------------------------------------------------------------- */
 
-/* out[i] = (G_v S^T in)[idx_i], in: n floats on the device (ydev or the ones). */
-static csi_status filtered_at_samples(vel_ctx *c, cl_mem in, float *out)
+/* out[i] = (G_v S^T in)[idx_i] from zs, the frames' spatial spectra of S^T in (in: ydev or the
+ * ones): G_v's spatial transform is done once for all the velocities (spatial_spectra). */
+static csi_status filtered_at_samples(vel_ctx *c, cl_mem zs, float *out)
 {
-    CSI_TRY(csi_linop_adjoint(c->S, in, c->va));
-    CSI_TRY(csi_linop_apply(c->G, c->va, c->va)); /* in place: csi/motion_filter.h */
+    CSI_TRY(csi_motion_filter_apply_spatial(c->G, zs, c->va));
     CSI_TRY(csi_linop_apply(c->S, c->va, c->gat));
     return csi_read(c->ctx, c->gat, 0, c->n * 4, out);
+}
+
+/* The frames' spatial spectra of S^T 1 and S^T y (c->z1, c->zy), for every evaluation. */
+static csi_status spatial_spectra(vel_ctx *c)
+{
+    const size_t bytes = csi_fourier_half_count(c->h) * 8;
+    CSI_TRY(csi_buffer(c->ctx, bytes, CL_MEM_READ_WRITE, "the velocity search's spectra", &c->z1));
+    CSI_TRY(csi_buffer(c->ctx, bytes, CL_MEM_READ_WRITE, "the velocity search's spectra", &c->zy));
+    CSI_TRY(csi_write(c->ctx, c->gat, 0, c->n * 4, c->ones));
+    CSI_TRY(csi_linop_adjoint(c->S, c->gat, c->va));
+    CSI_TRY(csi_fourier_half_forward_space(c->h, c->va, c->z1));
+    CSI_TRY(csi_linop_adjoint(c->S, c->ydev, c->va));
+    return csi_fourier_half_forward_space(c->h, c->va, c->zy);
 }
 
 static csi_status loo(vel_ctx *c, double vx, double vy, const uint32_t *tof, double *score)
 {
     const size_t dims[3] = {c->g->w, c->g->h, c->g->t};
     CSI_TRY(csi_fourier_half_set_motion(c->h, dims, CSI_TIME_DCT, vx, vy));
-    CSI_TRY(csi_write(c->ctx, c->gat, 0, c->n * 4, c->ones));
-    CSI_TRY(filtered_at_samples(c, c->gat, c->den));
-    CSI_TRY(filtered_at_samples(c, c->ydev, c->num));
+    CSI_TRY(filtered_at_samples(c, c->z1, c->den));
+    CSI_TRY(filtered_at_samples(c, c->zy, c->num));
     double e = 0;
     for (size_t i = 0; i < c->n; i++) {
         const double w0 = c->w0[tof[i]], d = c->den[i] - w0;
@@ -370,6 +383,8 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
         csi_motion_filter_self_weight(dims, CSI_TIME_DCT, sig_xy, sig_t, c.w0);
         st = csi_motion_filter_set(G, CSI_TIME_DCT, sig_xy, sig_t);
     }
+    if (st == CSI_OK)
+        st = spatial_spectra(&c);
     double best = 0, bx = 0, by = 0;
     if (st == CSI_OK)
         st = loo(&c, 0, 0, tof, &out->loo0);
@@ -429,6 +444,8 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     }
     out->evaluations = c.evals;
     out->seconds = csi_recon_now() - t0;
+    csi_buffer_release(&c.z1);
+    csi_buffer_release(&c.zy);
     free(tof);
     free(c.ones);
     free(c.num);
@@ -440,6 +457,13 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     free(s.re);
     free(s.im);
     return st;
+}
+
+void csi_motion_velocity_buffers(const size_t dims[3], csi_mem_tally *t)
+{
+    const uint64_t bytes = (uint64_t)csi_fourier_half_count_for(dims) * 8;
+    csi_mem_tally_add(t, bytes, "the velocity search's spectra");
+    csi_mem_tally_add(t, bytes, "the velocity search's spectra");
 }
 
 uint64_t csi_motion_velocity_host_bytes(const csi_grid *g, size_t n)

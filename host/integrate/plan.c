@@ -230,8 +230,19 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         csi_fourier_half_motion_buffers(dims, &m->dev);
         if (correct || opt->motion_velocity == CSI_VELOCITY_ESTIMATE)
             csi_motion_filter_buffers(dims, &m->dev);
-        if (opt->motion_velocity == CSI_VELOCITY_ESTIMATE)
+        if (opt->motion_velocity == CSI_VELOCITY_ESTIMATE) {
             transient_host(m, csi_motion_velocity_host_bytes(g, n));
+            /* its spectra are released before the solver's buffers are made: they raise the
+             * peak only by what they exceed those by */
+            csi_mem_tally vs = {0}, sol = {0};
+            csi_motion_velocity_buffers(dims, &vs);
+            csi_solver_buffers(n, ncoef, true, &sol);
+            if (vs.total > sol.total) {
+                csi_mem_tally ex = {0};
+                csi_mem_tally_add(&ex, vs.total - sol.total, "the velocity search's spectra");
+                transient_dev(m, &ex);
+            }
+        }
     }
     if (correct) {
         if (!moved)

@@ -1067,7 +1067,11 @@ static int time_passes(const csi_fft_half *h)
     return n;
 }
 
-csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
+/* The forward transform's passes: the spatial stage (the rows, the half spectrum's unpacking,
+ * and the columns of the spatial axis before t, if any) when `space`, else f holds its output;
+ * then the rest (the time stage, or the plain DFT along the last axis) when `rest`. The same
+ * kernels in the same order either way, so the parts chained give csi_fft_half_forward's bits. */
+static csi_status forward_passes(csi_fft_half *h, cl_mem f, cl_mem z, bool space, bool rest)
 {
     if (f == z || f == h->P || f == h->Q || z == h->P || z == h->Q)
         return csi_fail(CSI_ERR_ARG, "real FFT: input, output and scratch must be different buffers");
@@ -1076,48 +1080,49 @@ csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
     const bool timed = h->tkind != CSI_FFT_TIME_DFT || h->shear;
     const int taxis = h->nd - 1;
     cl_uint M = (cl_uint)h->M, hs = (cl_uint)h->hs, nrows = (cl_uint)h->rows;
-    half_chain ch = {h, f, z, ax->np + 1};
-    if (timed) {
-        ch.left += (h->nd == 3 ? h->ax[1].np : 0) + time_passes(h);
-    } else {
-        for (int a = 1; a < h->nd; a++)
-            ch.left += h->ax[a].np;
-    }
-    /* 1. rows as M complex values, scaled by `scale` in the first pass */
-    cl_uint p = 1;
-    for (int i = 0; i < ax->np; i++) {
-        cl_mem dst = chain_dst(&ch);
-        CSI_TRY(launch_row(ctx, ch.cur, dst, ax, i, p, -1.0f, h->rows, h->M, i == 0 ? h->scale : -1.0f));
-        ch.cur = dst;
-        p *= (cl_uint)ax->radix[i];
-    }
-    /* 2. unpack to the half spectrum, zero the padding */
-    {
-        cl_mem dst = chain_dst(&ch);
-        cl_kernel k;
-        CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", ch.cur, dst, h->wn, h->M, h->hs, h->rows));
-        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
-        CSI_TRY(csi_run1d(ctx, k, h->rows));
-        cl_uint npad = (cl_uint)(h->hs - h->M - 1);
-        if (npad > 0) {
-            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_zero_pad", &k));
-            CSI_TRY(CSI_ARGS(k, CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows), CSI_ARG(npad)));
-            size_t g2[2] = {npad, h->rows}, l2[2] = {16, 4};
-            CSI_TRY(csi_run(ctx, k, 2, g2, l2));
+    const int spatial_cols = h->nd == 3 ? h->ax[1].np : 0;
+    /* a single axis (nd = 1) is all space */
+    const int later = h->nd < 2 ? 0 : timed ? time_passes(h) : h->ax[taxis].np;
+    half_chain ch = {h, f, z, (space ? ax->np + 1 + spatial_cols : 0) + (rest ? later : 0)};
+    if (ch.left == 0)
+        return csi_fail(CSI_ERR_ARG, "real FFT: no pass to run");
+    if (space) {
+        /* 1. rows as M complex values, scaled by `scale` in the first pass */
+        cl_uint p = 1;
+        for (int i = 0; i < ax->np; i++) {
+            cl_mem dst = chain_dst(&ch);
+            CSI_TRY(launch_row(ctx, ch.cur, dst, ax, i, p, -1.0f, h->rows, h->M, i == 0 ? h->scale : -1.0f));
+            ch.cur = dst;
+            p *= (cl_uint)ax->radix[i];
         }
-        ch.cur = dst;
+        /* 2. unpack to the half spectrum, zero the padding */
+        {
+            cl_mem dst = chain_dst(&ch);
+            cl_kernel k;
+            CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", ch.cur, dst, h->wn, h->M, h->hs, h->rows));
+            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
+            CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+            CSI_TRY(csi_run1d(ctx, k, h->rows));
+            cl_uint npad = (cl_uint)(h->hs - h->M - 1);
+            if (npad > 0) {
+                CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_zero_pad", &k));
+                CSI_TRY(CSI_ARGS(k, CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows), CSI_ARG(npad)));
+                size_t g2[2] = {npad, h->rows}, l2[2] = {16, 4};
+                CSI_TRY(csi_run(ctx, k, 2, g2, l2));
+            }
+            ch.cur = dst;
+        }
+        /* 3. the spatial axis before t (y) */
+        if (h->nd == 3)
+            CSI_TRY(half_cols(&ch, 1, -1.0f));
     }
-    if (!timed) {
-        /* 3. forward along y, then z */
-        for (int a = 1; a < h->nd; a++)
-            CSI_TRY(half_cols(&ch, a, -1.0f));
+    if (!rest || h->nd < 2)
         return CSI_OK;
-    }
-    /* 3. the spatial axis before t, then the time stage: unshear (and reorder for the DCT),
-     * DFT along t, Makhoul's twiddles for the DCT */
-    if (h->nd == 3)
-        CSI_TRY(half_cols(&ch, 1, -1.0f));
+    if (!timed)
+        /* 4. forward along the last axis */
+        return half_cols(&ch, taxis, -1.0f);
+    /* 4. the time stage: unshear (and reorder for the DCT), DFT along t, Makhoul's twiddles for
+     * the DCT */
     const bool reorder = h->tkind == CSI_FFT_TIME_DCT;
     if (phase_pass(h)) {
         cl_mem dst = chain_dst(&ch);
@@ -1132,6 +1137,18 @@ csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z)
         ch.cur = dst;
     }
     return CSI_OK;
+}
+
+csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z) { return forward_passes(h, f, z, true, true); }
+
+csi_status csi_fft_half_forward_space(csi_fft_half *h, cl_mem f, cl_mem zs)
+{
+    return forward_passes(h, f, zs, true, false);
+}
+
+csi_status csi_fft_half_forward_rest(csi_fft_half *h, cl_mem zs, cl_mem z)
+{
+    return forward_passes(h, zs, z, false, true);
 }
 
 csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f)

@@ -73,6 +73,11 @@ enum { CSI_FFT_TIME_DFT = 0, CSI_FFT_TIME_DCT = 1, CSI_FFT_TIME_NONE = 2 };
 csi_status csi_fft_half_set_motion(csi_fft_half *h, int tkind, const double v[2]);
 void csi_fft_half_motion_buffers(const size_t c[3], int nd, csi_mem_tally *t); /* its tables */
 csi_status csi_fft_half_forward(csi_fft_half *h, cl_mem f, cl_mem z);
+/* The forward transform in two parts: the spatial stage (f to zs, csi_fft_half_count values),
+ * which does not depend on the time stage, then the rest (zs to z; zs is read only). Chained,
+ * they give csi_fft_half_forward's bits. */
+csi_status csi_fft_half_forward_space(csi_fft_half *h, cl_mem f, cl_mem zs);
+csi_status csi_fft_half_forward_rest(csi_fft_half *h, cl_mem zs, cl_mem z);
 csi_status csi_fft_half_inverse(csi_fft_half *h, cl_mem z, cl_mem f);
 void csi_fft_half_free(csi_fft_half *h);
 

@@ -26,10 +26,10 @@ static double tfreq(csi_time_transform t, size_t k, size_t T)
     return t == CSI_TIME_DCT ? (double)k / (2.0 * (double)T) : freq(k, T);
 }
 
-static csi_status mf_apply(const csi_linop *op, cl_mem x, cl_mem y)
+/* The gain on the spectrum in s->z, then the inverse into y. */
+static csi_status gain_inverse(const csi_linop *op, cl_mem y)
 {
     mf_state *s = op->state;
-    CSI_TRY(csi_fourier_half_forward(s->h, x, s->z));
     cl_kernel k;
     CSI_TRY(csi_kernel(op->ctx, "fft", "csi_motion_gain", &k));
     cl_uint hs = (cl_uint)s->hs, n1 = (cl_uint)s->n1;
@@ -38,6 +38,22 @@ static csi_status mf_apply(const csi_linop *op, cl_mem x, cl_mem y)
     size_t global[3] = {s->hs, s->n1, s->T}, local[3] = {16, 1, 1};
     CSI_TRY(csi_run(op->ctx, k, 3, global, local));
     return csi_fourier_half_inverse(s->h, s->z, y);
+}
+
+static csi_status mf_apply(const csi_linop *op, cl_mem x, cl_mem y)
+{
+    mf_state *s = op->state;
+    CSI_TRY(csi_fourier_half_forward(s->h, x, s->z));
+    return gain_inverse(op, y);
+}
+
+csi_status csi_motion_filter_apply_spatial(const csi_linop *G, cl_mem zs, cl_mem y)
+{
+    mf_state *s = G->state;
+    if (zs == s->z)
+        return csi_fail(CSI_ERR_ARG, "motion filter: the spatial spectra must not be the filter's scratch");
+    CSI_TRY(csi_fourier_half_forward_rest(s->h, zs, s->z));
+    return gain_inverse(G, y);
 }
 
 static void mf_destroy(csi_linop *op)

@@ -560,6 +560,16 @@ csi_status csi_fourier_half_forward(csi_fourier_half *h, cl_mem f, cl_mem z)
     return csi_fft_half_forward(h, f, z);
 }
 
+csi_status csi_fourier_half_forward_space(csi_fourier_half *h, cl_mem f, cl_mem zs)
+{
+    return csi_fft_half_forward_space(h, f, zs);
+}
+
+csi_status csi_fourier_half_forward_rest(csi_fourier_half *h, cl_mem zs, cl_mem z)
+{
+    return csi_fft_half_forward_rest(h, zs, z);
+}
+
 csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f)
 {
     return csi_fft_half_inverse(h, z, f);

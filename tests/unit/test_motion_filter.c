@@ -3,7 +3,9 @@
  * gain, scipy's DCT or numpy's FFT along t), symmetry <G a, b> = <a, G b>, the self weight
  * (csi_motion_filter_self_weight, closed form) against the filtered unit impulse in every frame,
  * the DFT at v = 0 against csi_filter_create's GAUSS (an independent implementation of the same
- * periodic filter), and bad widths.
+ * periodic filter), the filter from the frames' spatial spectra (csi_motion_filter_apply_spatial,
+ * the velocity search's path) against the same references and the whole apply's bits, and bad
+ * widths.
  *
  * Tolerances: a filter pass is two transforms (2e-5 each in test_motion_basis.c) and one product
  * per coefficient: 4e-5 relative L2 against float64 references rounded to float32; identities
@@ -90,6 +92,31 @@ static void check_case(csi_ctx *ctx, const struct fcase *c)
     run(f.G, x, y);
     double e = test_rel_l2(y, want, n);
     CHECK(e < 4e-5, "%s vs reference: rel L2 %.3g", c->name, e);
+
+    /* from the frames' spatial spectra, made while the basis was in another state (the still
+     * DFT, then another velocity): the spatial stage does not depend on it, so the reference
+     * again, and the same kernels in the same order as the whole apply, so its very bits */
+    {
+        cl_mem dx = test_upload(x, n * 4), dy = test_alloc(n * 4);
+        cl_mem zs = test_alloc(csi_fourier_half_count(f.h) * 8);
+        CHECK_OK(csi_fourier_half_set_motion(f.h, c->dims, CSI_TIME_DFT, 0, 0));
+        CHECK_OK(csi_fourier_half_forward_space(f.h, dx, zs));
+        CHECK_OK(csi_fourier_half_set_motion(f.h, c->dims, CSI_TIME_DCT, c->vx + 0.5, c->vy));
+        CHECK_OK(csi_motion_filter_apply_spatial(f.G, zs, dy)); /* another state: not checked */
+        CHECK_OK(csi_fourier_half_set_motion(f.h, c->dims, c->t, c->vx, c->vy));
+        CHECK_OK(csi_motion_filter_apply_spatial(f.G, zs, dy));
+        float *ys = malloc(n * 4);
+        test_download(dy, ys, n * 4);
+        double es = test_rel_l2(ys, want, n);
+        CHECK(es < 4e-5, "%s from spatial spectra vs reference: rel L2 %.3g", c->name, es);
+        CHECK(memcmp(ys, y, n * 4) == 0, "%s from spatial spectra: the whole apply's bits", c->name);
+        /* the filter's own scratch cannot hold them: the time stage writes it */
+        CHECK(csi_motion_filter_apply_spatial(f.G, f.z, dy) == CSI_ERR_ARG, "%s: scratch as spectra refused", c->name);
+        free(ys);
+        csi_buffer_release(&zs);
+        csi_buffer_release(&dx);
+        csi_buffer_release(&dy);
+    }
 
     /* symmetry */
     test_rng r;

@@ -33,6 +33,11 @@ csi_status csi_motion_filter_create(csi_ctx *ctx, csi_fourier_half *h, const siz
                                     csi_time_transform t, double sigma_xy, double sigma_t,
                                     cl_mem zscratch, csi_linop **out);
 
+/* y = G x from the frames' spatial spectra zs of x (csi_fourier_half_forward_space, not the
+ * filter's zscratch; read only), the same bits as csi_linop_apply(G, x, y): a caller filtering
+ * one volume along several velocities transforms its frames once. */
+csi_status csi_motion_filter_apply_spatial(const csi_linop *G, cl_mem zs, cl_mem y);
+
 /* Another time transform (that of the basis's next state) and widths for the same filter: its
  * gain tables rewritten in place. */
 csi_status csi_motion_filter_set(csi_linop *G, csi_time_transform t, double sigma_xy, double sigma_t);

@@ -264,6 +264,7 @@ typedef struct csi_recon_result {
     uint32_t tiles;         /* tiles it was solved in (1: the whole at once) */
     double t_velocity;      /* Alg. 2: of t_setup, the seconds spent estimating the basis's
                                velocity (options.motion_vx, motion_vy hold it) */
+    uint32_t velocity_evals; /* Alg. 2: the velocity search's leave-one-out evaluations */
 } csi_recon_result;
 void csi_recon_result_free(csi_recon_result *r);
 

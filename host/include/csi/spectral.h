@@ -112,6 +112,12 @@ size_t csi_fourier_half_count(const csi_fourier_half *h);
 size_t csi_fourier_half_stride(const csi_fourier_half *h);
 csi_status csi_fourier_half_forward(csi_fourier_half *h, cl_mem f, cl_mem z);
 csi_status csi_fourier_half_inverse(csi_fourier_half *h, cl_mem z, cl_mem f);
+/* csi_fourier_half_forward in two parts: the frames' spatial spectra (f to zs, which has
+ * csi_fourier_half_count values), which do not depend on the time stage or the velocity, then
+ * the rest (zs, read only, to z) in the state csi_fourier_half_set_motion last set. Chained, the
+ * same bits as the whole; a caller that transforms one volume in several states keeps zs. */
+csi_status csi_fourier_half_forward_space(csi_fourier_half *h, cl_mem f, cl_mem zs);
+csi_status csi_fourier_half_forward_rest(csi_fourier_half *h, cl_mem zs, cl_mem z);
 void csi_fourier_half_free(csi_fourier_half *h);
 /* Before creating one: whether this size has a half spectrum, its coefficient count, and the
  * device buffers csi_fourier_half_create allocates (added to a tally). */
