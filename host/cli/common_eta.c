@@ -40,6 +40,8 @@ void cli_recon_progress_update(cli_recon_progress *p, const char *phase, int ite
         snprintf(eta, sizeof eta, "  eta %.0fs", left + 0.5);
     if (res >= 0)
         snprintf(detail, sizeof detail, "step %d  residual %.2e%s", iter, res, eta);
+    else if (iter > 0)
+        snprintf(detail, sizeof detail, "step %d%s", iter, eta);
     else
         snprintf(detail, sizeof detail, "%s", eta[0] ? eta + 2 : "");
     cli_progress_update(p->bar, phase, -1, detail);

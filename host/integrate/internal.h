@@ -256,7 +256,8 @@ void csi_nc_free(csi_nc_op *r);
  * filter on it with the DCT (csi/motion_filter.h), both left in arbitrary states (the caller
  * sets what it wants next); z: the filter's coefficient scratch; va, vb: k floats and ydev, gat:
  * n floats of device scratch; S: the real sampling operator at idx; y: the n values (host) the
- * motion is judged on. Allocates nothing on the device (csi/plan.h counts the caller's). */
+ * motion is judged on; opt: its progress callback (phase "velocity search") hears of every step.
+ * Allocates nothing on the device (csi/plan.h counts the caller's). */
 typedef struct {
     double v[2];      /* cells per frame; 0, 0 when no velocity predicts the samples at least 3%
                          better (and the median sample 5% better) than the still basis */
@@ -268,7 +269,8 @@ typedef struct {
 csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fourier_half *h,
                                         csi_linop *G, cl_mem z, cl_mem va, cl_mem vb,
                                         const csi_linop *S, cl_mem ydev, cl_mem gat, const float *y,
-                                        const uint32_t *idx, size_t n, csi_motion_velocity *out);
+                                        const uint32_t *idx, size_t n, const csi_recon_options *opt,
+                                        csi_motion_velocity *out);
 /* The device buffers it holds while it runs (two spectra, released before it returns). */
 void csi_motion_velocity_buffers(const size_t dims[3], csi_mem_tally *t);
 /* The host bytes it holds at most. */

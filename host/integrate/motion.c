@@ -76,7 +76,7 @@ static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *val
         motion_values(values, channels, n, st->plane);
         CSI_TRY(csi_motion_velocity_estimate(ctx, g, H, G, st->x, csi_half_fourier_scratch(st->A),
                                              st->tmp, csi_half_fourier_sampler(st->A), ydev, st->y,
-                                             st->plane, st->idx, n, &mv));
+                                             st->plane, st->idx, n, opt, &mv));
         v[0] = mv.v[0];
         v[1] = mv.v[1];
         res->t_velocity = mv.seconds;

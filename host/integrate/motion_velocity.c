@@ -48,6 +48,8 @@ typedef struct {
     double *w0, ymean;
     float *err, *err0, *errb; /* per-sample squared errors: the last evaluation's, v = 0's, the best's */
     int evals;
+    const csi_recon_options *opt; /* its progress callback hears of every step */
+    int steps;                    /* the search's steps so far, for the progress */
     double seen[MAXSEEN][2]; /* the velocities evaluated so far (the first MAXSEEN) */
     int nseen;
 } vel_ctx;
@@ -117,9 +119,21 @@ static size_t cutoff(size_t n, double step, size_t T, size_t K)
     return L < 1 ? 1 : L > (double)K ? K : (size_t)L;
 }
 
+/* The search's progress: phase "velocity search", `done` its steps so far (rows of the energy's
+ * grid, then leave-one-out evaluations); CSI_ERR_CANCELLED when the callback asks to stop. On a
+ * volume of hundreds of frames the search is long work of its own (the energy's sums run over
+ * every frame), which a log should show advancing. */
+static csi_status report(const csi_recon_options *opt, int done)
+{
+    if (opt && opt->progress && !opt->progress(opt->user, "velocity search", done, -1.0))
+        return csi_fail(CSI_ERR_CANCELLED, "reconstruction cancelled by the caller (at the velocity search)");
+    return CSI_OK;
+}
+
 /* Coarse-to-fine search of E's peaks over |v| <= vmax along each axis: NCAND candidates (e < 0
  * where fewer were found). */
-static void energy_search(const lowspec *s, double vmax_a, double vmax_b, cand *out)
+static csi_status energy_search(const lowspec *s, double vmax_a, double vmax_b, const csi_recon_options *opt,
+                                int *done, cand *out)
 {
     const int steps = 16; /* grid points either side of 0 on the first level */
     double sa = vmax_a / steps, sb = vmax_b / steps;
@@ -128,9 +142,11 @@ static void energy_search(const lowspec *s, double vmax_a, double vmax_b, cand *
     for (int i = 0; i < NCAND; i++)
         best[i] = (cand){-1, 0, 0};
     size_t L0 = cutoff(s->na, sa, s->T, s->K0), L1 = s->nb > 1 ? cutoff(s->nb, sb, s->T, s->K1) : 0;
-    for (int ib = -nb; ib <= nb; ib++)
+    for (int ib = -nb; ib <= nb; ib++) {
         for (int ia = -steps; ia <= steps; ia++)
             keep_best(best, NCAND, (cand){energy(s, L0, L1, ia * sa, ib * sb), ia * sa, ib * sb});
+        CSI_TRY(report(opt, ++*done));
+    }
     /* refine each: halve the step and take the frequencies that match it */
     for (int level = 0; level < 6; level++) {
         sa *= 0.5;
@@ -152,10 +168,12 @@ static void energy_search(const lowspec *s, double vmax_a, double vmax_b, cand *
                         top = (cand){e, va, vb};
                 }
             keep_best(next, NCAND, top);
+            CSI_TRY(report(opt, ++*done));
         }
         memcpy(best, next, sizeof best);
     }
     memcpy(out, best, sizeof best);
+    return CSI_OK;
 }
 
 /* ---- step 2: leave-one-out ---------------------------------------------------------------- */
@@ -198,7 +216,7 @@ static csi_status loo(vel_ctx *c, double vx, double vy, const uint32_t *tof, dou
     }
     *score = e / (double)c->n;
     c->evals++;
-    return CSI_OK;
+    return report(c->opt, ++c->steps);
 }
 
 /* The leave-one-out error of (vx, vy); it becomes the best (*best, *bx, *by) when lower. */
@@ -325,7 +343,8 @@ static csi_status low_spectra(vel_ctx *c, double sigma, cl_mem z, lowspec *s)
 csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fourier_half *h,
                                         csi_linop *G, cl_mem z, cl_mem va, cl_mem vb,
                                         const csi_linop *S, cl_mem ydev, cl_mem gat, const float *y,
-                                        const uint32_t *idx, size_t n, csi_motion_velocity *out)
+                                        const uint32_t *idx, size_t n, const csi_recon_options *opt,
+                                        csi_motion_velocity *out)
 {
     memset(out, 0, sizeof *out);
     const double t0 = csi_recon_now();
@@ -334,6 +353,7 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     vel_ctx c;
     memset(&c, 0, sizeof c);
     c.ctx = ctx;
+    c.opt = opt;
     c.g = g;
     c.h = h;
     c.G = G;
@@ -372,7 +392,7 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     if (st == CSI_OK) {
         /* up to three quarters of the frame over the shutter */
         const double span = 0.75 / (double)(T - 1);
-        energy_search(&s, span * (double)s.na, span * (double)s.nb, cands);
+        st = energy_search(&s, span * (double)s.na, span * (double)s.nb, opt, &c.steps, cands);
     }
     /* the leave-one-out kernel: sigma_t = T / 8 frames (at most 8, at least 1), sigma_xy such
      * that about 4 samples fall within one sigma of a cell (at least 0.7 cells) */

@@ -1,5 +1,6 @@
 /* The phases a reconstruction reports (csi_recon_options.progress) and the channels it solves:
- * "setup", then per channel c of C "solve c/C" (with the solver's steps) and "integrate c/C";
+ * "setup", for a moving volume "velocity search" (with its steps counting up; a cancel there
+ * stops the run), then per channel c of C "solve c/C" (with the solver's steps) and "integrate c/C";
  * a channel whose samples repeat an earlier channel's bit for bit is not solved again and gets
  * that channel's result (the solve is deterministic, so the bits are the same as solving it).
  * Alg. 1 (static) and Alg. 2 (moving), small grids. */
@@ -17,7 +18,8 @@
 typedef struct {
     char phase[MAXP][32];
     int steps[MAXP];
-    int n;
+    int n, backwards;
+    const char *stop_at; /* a phase whose first report cancels */
 } log_t;
 
 static bool record(void *user, const char *phase, int iter, double res)
@@ -25,9 +27,12 @@ static bool record(void *user, const char *phase, int iter, double res)
     log_t *l = user;
     (void)res;
     if (l->n > 0 && strcmp(l->phase[l->n - 1], phase) == 0) { /* one entry per phase */
+        l->backwards += iter < l->steps[l->n - 1];
         l->steps[l->n - 1] = iter;
         return true;
     }
+    if (l->stop_at && !strcmp(phase, l->stop_at))
+        return false;
     if (l->n < MAXP) {
         snprintf(l->phase[l->n], sizeof l->phase[0], "%s", phase);
         l->steps[l->n++] = iter;
@@ -74,6 +79,14 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
         CHECK(l.n > 0 && !strcmp(l.phase[0], "setup"), "T = %u: the first phase is setup (%s)", T,
               l.n ? l.phase[0] : "none");
         int prev = 0;
+        const int vi = find(&l, "velocity search");
+        if (T > 1) {
+            CHECK(vi == 1 && l.steps[vi] > 1, "T = %u: the velocity search follows setup with its steps (at %d, %d)",
+                  T, vi, vi >= 0 ? l.steps[vi] : 0);
+            prev = vi;
+        } else
+            CHECK(vi < 0, "a still image reports a velocity search");
+        CHECK(!l.backwards, "T = %u: %d reports went backwards within a phase", T, l.backwards);
         for (int c = 1; c <= 3; c++) {
             char sname[32], iname[32];
             snprintf(sname, sizeof sname, "solve %d/3", c);
@@ -97,6 +110,13 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
             CHECK(r.report[2].iterations == r.report[0].iterations && r.report[2].t_total == 0,
                   "T = %u: the repeated channel reports the first one's solve, no time", T);
         csi_recon_result_free(&r);
+    }
+    if (T > 1) {
+        log_t c = {.n = 0, .stop_at = "velocity search"};
+        o.user = &c;
+        st = csi_recon(ctx, &g, 3, pos, val, n, &o, &r);
+        CHECK(st == CSI_ERR_CANCELLED && strstr(csi_last_error(), "velocity search"),
+              "T = %u: a cancel in the velocity search: %d %s", T, (int)st, csi_last_error());
     }
     free(pos);
     free(val);

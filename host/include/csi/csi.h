@@ -326,9 +326,10 @@ typedef struct csi_samples {
 
 /* What the reconstruction is doing, for a progress display. */
 typedef struct csi_progress {
-    const char *phase;   /* "setup", then for channel c of C "solve c/C" and "integrate c/C"
-                            (tiled: "tile i/N solve c/C" ...) */
-    int iteration;       /* the solver's steps in this channel so far; 0 outside a solve */
+    const char *phase;   /* "setup", for a moving volume "velocity search", then for channel c
+                            of C "solve c/C" and "integrate c/C" (tiled: "tile i/N solve c/C" ...) */
+    int iteration;       /* the solver's steps in this channel so far (the velocity search: its
+                            steps); 0 elsewhere */
     double residual;     /* relative residual ||y - A x|| / ||y||; < 0 when not known */
 } csi_progress;
 /* Called from the calling thread at each phase and after every solver iteration. Return true
