@@ -40,7 +40,7 @@ csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_optio
      * keep the fine grid). */
     const unsigned D = opt->model_grid != CSI_SWITCH_OFF && opt->output == CSI_AA_SHARP &&
                                opt->solver == CSI_SOLVER_SPARSA
-                           ? csi_model_grid_factor(w, h, sphi, levels) : 1;
+                           ? csi_model_grid_factor(w, h, sphi, levels, opt->model_sigma_min) : 1;
     out->D = D;
     out->mw = w / D;
     out->mh = h / D;

@@ -164,6 +164,10 @@ static const row table[] = {
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},
+    {"model-sigma-min", K_DOUBLE, AT(model_sigma_min), 0.25, 100, NULL, F_AUTO, "auto", "C",
+     "the model grid: the coarsest grid (D a power of two) on which the Gaussian is at least C "
+     "model cells wide (below 1.5 no longer the fine grid's operator: a band-limited model, "
+     "cheaper, with the MSE within a few %)", "1.5 (the fine grid's operator to ~1e-5)"},
     /* Tiles (csi/tiles.h): bounded memory. */
     {"mem-budget", K_BYTES, AT(mem_budget), 1048576.0, 18446744073709551615.0, NULL, F_AUTO, "auto",
      "SIZE", "device memory one reconstruction may use, e.g. 512M, 2G (bytes, or K/M/G = "

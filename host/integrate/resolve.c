@@ -2,6 +2,7 @@
  * uses, so that a caller (and the statistics) can see what ran. See csi/reconstruct.h. */
 #include <math.h>
 
+#include "csi/model_grid.h"
 #include "csi/solve.h"
 #include "csi/tiles.h"
 #include "csi/wavelet.h"
@@ -175,6 +176,8 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     if (o->model_grid == CSI_SWITCH_AUTO)
         o->model_grid = o->output == CSI_AA_SHARP && o->solver == CSI_SOLVER_SPARSA ? CSI_SWITCH_ON
                                                                                     : CSI_SWITCH_OFF;
+    if (o->model_sigma_min == 0)
+        o->model_sigma_min = CSI_MODEL_SIGMA_MIN;
     /* Warm-started channels (solver_setup.c) save 40-60% of the steps of channels 2 and 3, but
      * they stop at another point than the cold solves' continuation path: the MSE moved by
      * -3%..+4% on the same samples (garden and checkerboard at 1 spp: +2.5..3.8%;

@@ -11,14 +11,14 @@
 
 #define PI_ 3.14159265358979323846
 
-unsigned csi_model_grid_factor(size_t w, size_t h, const double sigma[2], int levels)
+unsigned csi_model_grid_factor(size_t w, size_t h, const double sigma[2], int levels, double sigma_min)
 {
     unsigned D = 1;
     for (;;) {
         unsigned next = 2 * D;
         if (levels - 1 < 1 || next > (1u << (levels - 1)))
             break;
-        if (!(sigma[0] / next >= CSI_MODEL_SIGMA_MIN && sigma[1] / next >= CSI_MODEL_SIGMA_MIN))
+        if (!(sigma[0] / next >= sigma_min && sigma[1] / next >= sigma_min))
             break;
         if (w % next || h % next || (w / next) % 2 || w / next < 4 || h / next < 2)
             break;

@@ -1,6 +1,8 @@
 /* Alg. 1 on the model grid (csi/model_grid.h) against Alg. 1 on the samples' own grid, end to end
  * (csi_recon, defaults otherwise) on the same samples of the analytic images: the model
- * grid must be taken where the filter allows it, and give the same image.
+ * grid must be taken where the filter allows it, and give the same image. With
+ * model_sigma_min = 0.75 (below the exact regime: a band-limited model) the grid 4x coarser must
+ * be taken and keep the MSE against the truth near the fine grid's.
  *
  * Cases: 512 x 512 -> 64 x 64 at 4 spp (8 x 8 cells per pixel, Gaussian width 3.2 cells: D = 2;
  * the demo's geometry at a smaller size) and 256 x 256 -> 64 x 64 at 1 spp (width 3.2: D = 2),
@@ -11,7 +13,9 @@
  * amplifies that only through its discrete decisions (accepted steps, the stage ends), so the
  * images agree to the solver's tolerance at worst: we allow 1e-3 relative L2 (measured: ~1e-5,
  * printed). The issue's quality criterion is the MSE against the truth within 2% on the same
- * samples; we assert 1%. */
+ * samples; we assert 1%. The coarser grid is not the same operator: on 54 dumps (bundled,
+ * analytic, Mitsuba; docs/bench/cost.md) its MSE was 0.944-1.034x the exact grid's, the spread
+ * of where SpaRSA's objective stop ends a stage; we assert 5% and print the ratio. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,13 +27,13 @@
 #include "testlib.h"
 
 typedef struct {
-    double mse, diff;
-    unsigned factor;
+    double mse, diff, mse_coarse;
+    unsigned factor, factor_coarse;
 } outcome;
 
 static outcome compare(csi_ctx *ctx, analytic_fn fn, uint32_t grid, uint32_t out, uint32_t spp, uint64_t seed)
 {
-    outcome o = {INFINITY, INFINITY, 0};
+    outcome o = {INFINITY, INFINITY, INFINITY, 0, 0};
     const csi_grid g = {grid, grid, 1, out, out};
     const csi_pos_opts po = {.method = CSI_POS_POISSON, .spp = spp, .seed = seed};
     csi_sample_pos *pos = NULL;
@@ -52,20 +56,23 @@ static outcome compare(csi_ctx *ctx, analytic_fn fn, uint32_t grid, uint32_t out
                     s += fn((px * b + (i + 0.5) / ss) / grid, (py * b + (j + 0.5) / ss) / grid);
             truth[py * out + px] = s / (double)(b * ss * b * ss);
         }
-    csi_recon_result r[2];
+    /* 0: the defaults (the exact model grid), 1: the fine grid, 2: model_sigma_min 0.75 */
+    csi_recon_result r[3];
     bool ok = true;
-    for (int k = 0; k < 2; k++) {
+    for (int k = 0; k < 3; k++) {
         csi_recon_options opt;
         csi_recon_defaults(&opt);
-        opt.model_grid = k == 0 ? CSI_SWITCH_AUTO : CSI_SWITCH_OFF;
+        opt.model_grid = k == 1 ? CSI_SWITCH_OFF : CSI_SWITCH_AUTO;
+        if (k == 2)
+            opt.model_sigma_min = 0.75;
         csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &opt, &r[k]);
         CHECK(st == CSI_OK, "reconstruct: %s", st == CSI_OK ? "" : csi_last_error());
         ok = ok && st == CSI_OK;
     }
     if (ok) {
-        double e[2] = {0, 0}, d = 0, nrm = 0;
+        double e[3] = {0, 0, 0}, d = 0, nrm = 0;
         for (size_t p = 0; p < np; p++) {
-            for (int k = 0; k < 2; k++)
+            for (int k = 0; k < 3; k++)
                 e[k] += (r[k].image[p] - truth[p]) * (r[k].image[p] - truth[p]) / np;
             d += (double)(r[0].image[p] - r[1].image[p]) * (r[0].image[p] - r[1].image[p]);
             nrm += (double)r[1].image[p] * r[1].image[p];
@@ -73,8 +80,10 @@ static outcome compare(csi_ctx *ctx, analytic_fn fn, uint32_t grid, uint32_t out
         o.mse = e[0] / e[1];
         o.diff = sqrt(d / nrm);
         o.factor = r[0].model_factor;
+        o.mse_coarse = e[2] / e[1];
+        o.factor_coarse = r[2].model_factor;
         CHECK(r[1].model_factor == 1, "model_grid off keeps the samples' grid");
-        for (int k = 0; k < 2; k++)
+        for (int k = 0; k < 3; k++)
             csi_recon_result_free(&r[k]);
     }
     free(pos);
@@ -98,12 +107,17 @@ int main(void)
             for (uint64_t seed = 1; seed <= 3; seed++) {
                 outcome o = compare(ctx, images[i].fn, geo[gi].grid, geo[gi].out, geo[gi].spp, seed);
                 printf("%-8s %u -> %u, %u spp, seed %llu: D = %u, MSE model / fine grid %.5f, image "
-                       "difference %.2e\n", images[i].name, geo[gi].grid, geo[gi].out, geo[gi].spp,
-                       (unsigned long long)seed, o.factor, o.mse, o.diff);
+                       "difference %.2e; sigma_min 0.75: D = %u, MSE / fine grid %.5f\n", images[i].name,
+                       geo[gi].grid, geo[gi].out, geo[gi].spp, (unsigned long long)seed, o.factor, o.mse,
+                       o.diff, o.factor_coarse, o.mse_coarse);
                 CHECK(o.factor == 2, "%s: the model grid is taken (D = %u)", images[i].name, o.factor);
                 CHECK(o.diff < 1e-3, "%s: images within 1e-3 (%.2e)", images[i].name, o.diff);
                 CHECK(fabs(o.mse - 1) < 0.01, "%s: MSE within 1%% of the fine grid's (ratio %.5f)",
                       images[i].name, o.mse);
+                CHECK(o.factor_coarse == 4, "%s: sigma_min 0.75 takes the grid 4x coarser (D = %u)",
+                      images[i].name, o.factor_coarse);
+                CHECK(fabs(o.mse_coarse - 1) < 0.05, "%s: sigma_min 0.75: MSE within 5%% of the fine "
+                      "grid's (ratio %.5f)", images[i].name, o.mse_coarse);
             }
     return test_done();
 }

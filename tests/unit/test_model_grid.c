@@ -211,14 +211,18 @@ static void test_unit_factor(csi_ctx *ctx)
 static void test_factor_rule(void)
 {
     const double s32[2] = {3.2, 3.2}, s22[2] = {2.2, 2.2}, s64[2] = {6.4, 6.4}, s13[2] = {3.2, 13.0};
-    CHECK(csi_model_grid_factor(2048, 2048, s32, 5) == 2, "4 spp on 8x: sigma 3.2 -> D = 2");
-    CHECK(csi_model_grid_factor(2048, 2048, s22, 5) == 1, "sigma 2.2 -> the fine grid");
-    CHECK(csi_model_grid_factor(2048, 2048, s64, 5) == 4, "sigma 6.4 -> D = 4");
-    CHECK(csi_model_grid_factor(2048, 2048, s64, 2) == 2, "two levels keep one on the model grid");
-    CHECK(csi_model_grid_factor(2048, 2048, s64, 1) == 1, "one level: the fine grid");
-    CHECK(csi_model_grid_factor(2048, 2048, s13, 5) == 2, "the narrower axis decides");
-    CHECK(csi_model_grid_factor(2050, 2048, s64, 5) == 1, "2050 / 2 is odd: no real FFT on it");
-    CHECK(csi_model_grid_factor(15360, 8640, s32, 5) == 2, "1920x1080 at 8x: D = 2");
+    CHECK(csi_model_grid_factor(2048, 2048, s32, 5, CSI_MODEL_SIGMA_MIN) == 2, "4 spp on 8x: sigma 3.2 -> D = 2");
+    CHECK(csi_model_grid_factor(2048, 2048, s22, 5, CSI_MODEL_SIGMA_MIN) == 1, "sigma 2.2 -> the fine grid");
+    CHECK(csi_model_grid_factor(2048, 2048, s64, 5, CSI_MODEL_SIGMA_MIN) == 4, "sigma 6.4 -> D = 4");
+    CHECK(csi_model_grid_factor(2048, 2048, s64, 2, CSI_MODEL_SIGMA_MIN) == 2, "two levels keep one on the model grid");
+    CHECK(csi_model_grid_factor(2048, 2048, s64, 1, CSI_MODEL_SIGMA_MIN) == 1, "one level: the fine grid");
+    CHECK(csi_model_grid_factor(2048, 2048, s13, 5, CSI_MODEL_SIGMA_MIN) == 2, "the narrower axis decides");
+    CHECK(csi_model_grid_factor(2050, 2048, s64, 5, CSI_MODEL_SIGMA_MIN) == 1, "2050 / 2 is odd: no real FFT on it");
+    CHECK(csi_model_grid_factor(15360, 8640, s32, 5, CSI_MODEL_SIGMA_MIN) == 2, "1920x1080 at 8x: D = 2");
+    /* --model-sigma-min 0.75 (a band-limited model below CSI_MODEL_SIGMA_MIN): 3.2 / 4 = 0.8 */
+    CHECK(csi_model_grid_factor(15360, 8640, s32, 5, 0.75) == 4, "1920x1080 at 8x, sigma_min 0.75: D = 4");
+    CHECK(csi_model_grid_factor(2048, 2048, s22, 5, 0.75) == 2, "sigma 2.2, sigma_min 0.75: D = 2 (1.1 cells)");
+    CHECK(csi_model_grid_factor(2048, 2048, s64, 5, 0.75) == 8, "sigma 6.4, sigma_min 0.75: D = 8");
 }
 
 int main(void)

@@ -154,12 +154,14 @@ def cases(args, bins):
 
 def cost_section(args, bins, report):
     builds = [("after", args.build)] + ([("before", args.base)] if args.base else [])
+    extra = {"after": args.build_args.split(), "before": []}
     rows, paths = [], []
     for label, dump in cases(args, bins):
         hdr, _, _ = bc.read_dump(dump)
-        for bname, build in builds:
+        for bname, build in builds if args.warmup else ():
             # warm-up: PoCL's and clFFT's caches, the dump in the page cache
-            reconstruct(build, dump, os.path.join(args.work, "warm.exr"), os.path.join(args.work, "warm.json"))
+            reconstruct(build, dump, os.path.join(args.work, "warm.exr"), os.path.join(args.work, "warm.json"),
+                        extra[bname])
         best, cpus = {}, {b: [] for b, _ in builds}
         nruns = {"after": args.runs, "before": args.base_runs}
         # the builds' runs alternate (after, before, before, after, ...) so that a change of the
@@ -170,7 +172,8 @@ def cost_section(args, bins, report):
                     continue
                 m = mitsuba_cost(args, 100 + len(paths))
                 paths.append(m)
-                wall, cpu, st = reconstruct(build, dump, os.path.join(args.work, "cost.exr"), os.path.join(args.work, "cost.json"))
+                wall, cpu, st = reconstruct(build, dump, os.path.join(args.work, "cost.exr"),
+                                            os.path.join(args.work, "cost.json"), extra[bname])
                 ph = phases(st)
                 n = st["n"] if "n" in st else hdr["count"]
                 per = 1e6 * (ph["solve"] + ph["integrate"]) / n
@@ -415,6 +418,10 @@ def main(argv=None):
     ap.add_argument("--cases", default="demo,hd,mitsuba")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--base-runs", type=int, default=1)
+    ap.add_argument("--build-args", default="", metavar="ARGS",
+                    help="extra csi-reconstruct arguments for --build's cost runs (e.g. an option under test)")
+    ap.add_argument("--warmup", type=int, default=1, choices=(0, 1),
+                    help="one untimed run of each build per case first [1]; 0 when the caches are known warm")
     ap.add_argument("--paths", type=int, default=1 << 20, help="paths per Mitsuba batch [2^20]")
     ap.add_argument("--batches", type=int, default=3, help="warm Mitsuba batches per measurement [3]")
     ap.add_argument("--mitsuba-data", default="/work/data/mitsuba")

@@ -39,9 +39,13 @@ extern "C" {
 
 /* The coarsening D (a power of two, >= 1) for a w x h fine grid with Gaussian widths sigma[0],
  * sigma[1] (fine cells) and a wavelet of `levels` levels: the largest D with sigma / D >=
- * CSI_MODEL_SIGMA_MIN on both axes, at most 2^(levels - 1) (the model grid keeps at least one
- * level), D dividing w and h, and w / D even (csi's real FFT). 1 means: use the fine grid. */
-unsigned csi_model_grid_factor(size_t w, size_t h, const double sigma[2], int levels);
+ * sigma_min on both axes, at most 2^(levels - 1) (the model grid keeps at least one level), D
+ * dividing w and h, and w / D even (csi's real FFT). 1 means: use the fine grid. sigma_min =
+ * CSI_MODEL_SIGMA_MIN gives the accuracy above (the default); below it the model grid is a
+ * band-limited model of the image rather than the fine grid's operator (0.75 at 4 spp on an 8x
+ * grid: D = 4 instead of 2, a third of the CPU, the MSE -5.6%..+3.4% of the exact grid's on 54
+ * dumps; docs/bench/cost.md). */
+unsigned csi_model_grid_factor(size_t w, size_t h, const double sigma[2], int levels, double sigma_min);
 
 /* The model grid's filter above for a model grid of mw x mh cells (fine grid mw D x mh D),
  * Gaussian widths sigma (fine cells), Wiener regularisation lambda, wavelet family f (whose low

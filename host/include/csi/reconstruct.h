@@ -166,6 +166,8 @@ typedef struct csi_recon_options {
                                      previous one's solution (see solver_setup.c); auto: off */
     csi_switch model_grid;        /* Alg. 1 on a grid coarser than the samples' where the filter
                                      allows it (csi/model_grid.h) */
+    double model_sigma_min;       /* the model grid's smallest Gaussian width in model cells; 0
+                                     auto: CSI_MODEL_SIGMA_MIN */
     csi_recon_stop stop;
     csi_switch continuation;      /* SpaRSA continuation on tau */
     double cont_step;             /* SpaRSA continuation: each stage's tau this times the previous
