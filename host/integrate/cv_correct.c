@@ -29,6 +29,8 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
                              const float *values, uint32_t channels, uint32_t c,
                              const csi_sample_pos *pos, size_t n, bool clamp, float *plane)
 {
+    /* a host pass over every pixel and sample: seconds on an image of tens of megapixels */
+    CSI_TRY(csi_recon_progress_channel(opt, "correct", c, channels));
     const size_t np = (size_t)g->out_w * g->out_h;
     float *gs = malloc(n * sizeof *gs);
     double *sum = calloc(np, sizeof *sum);

@@ -581,6 +581,8 @@ csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         csi_tile_result t;
         s = csi_recon_tile(ctx, g, channels, pos, values, n, &o, tl, &scope, i, &t);
         if (s == CSI_OK)
+            s = csi_recon_progress(&o, "blend"); /* "tile i/N blend": a host pass over the tile */
+        if (s == CSI_OK)
             s = csi_tiles_add(&b, &t);
         csi_tile_result_free(&t);
     }

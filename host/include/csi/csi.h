@@ -327,7 +327,8 @@ typedef struct csi_samples {
 /* What the reconstruction is doing, for a progress display. */
 typedef struct csi_progress {
     const char *phase;   /* "setup", for a moving volume "velocity search", then for channel c
-                            of C "solve c/C" and "integrate c/C" (tiled: "tile i/N solve c/C" ...) */
+                            of C "solve c/C", "integrate c/C" and "correct c/C" (tiled: "tile i/N
+                            solve c/C" ..., then "tile i/N blend") */
     int iteration;       /* the solver's steps in this channel so far (the velocity search: its
                             steps); 0 elsewhere */
     double residual;     /* relative residual ||y - A x|| / ||y||; < 0 when not known */
