@@ -55,12 +55,14 @@ csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels
 /* Baseline: the per-pixel sample mean (Monte Carlo). */
 csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                  const csi_sample_pos *pos, const float *values, size_t n,
-                                 csi_recon_result *res, csi_recon_state *st)
+                                 const csi_recon_options *opt, csi_recon_result *res, csi_recon_state *st)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     CSI_TRY(csi_buffer(ctx, np * channels * 4, CL_MEM_READ_WRITE, "the output image", &st->out));
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
+    /* one pass over every output pixel and its transfer back: seconds at tens of megapixels */
+    CSI_TRY(csi_recon_progress(opt, "integrate"));
     double t0 = csi_recon_now();
     size_t empty = 0;
     CSI_TRY(csi_splat_mean(ctx, g, channels, pos, values, n, st->out, &empty));

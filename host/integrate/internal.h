@@ -90,7 +90,7 @@ csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels
                               csi_recon_state *st);
 csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                  const csi_sample_pos *pos, const float *values, size_t n,
-                                 csi_recon_result *res, csi_recon_state *st);
+                                 const csi_recon_options *opt, csi_recon_result *res, csi_recon_state *st);
 
 /* The checks of csi_recon that need only the sizes (CSI_ERR_ARG): 1 to 4 channels, no
  * zero size, grid sides multiples of the output's, at most 2^32 cells, 1 <= n <= k. */

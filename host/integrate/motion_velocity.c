@@ -119,8 +119,9 @@ static size_t cutoff(size_t n, double step, size_t T, size_t K)
     return L < 1 ? 1 : L > (double)K ? K : (size_t)L;
 }
 
-/* The search's progress: phase "velocity search", `done` its steps so far (rows of the energy's
- * grid, then leave-one-out evaluations); CSI_ERR_CANCELLED when the callback asks to stop. On a
+/* The search's progress: phase "velocity search", `done` its steps so far (0 at its start, the
+ * rough estimate's two filters and its spectra, rows of the energy's grid, then leave-one-out
+ * evaluations); CSI_ERR_CANCELLED when the callback asks to stop. On a
  * volume of hundreds of frames the search is long work of its own (the energy's sums run over
  * every frame), which a log should show advancing. */
 static csi_status report(const csi_recon_options *opt, int done)
@@ -301,8 +302,10 @@ static csi_status low_spectra(vel_ctx *c, double sigma, cl_mem z, lowspec *s)
     CSI_TRY(csi_write(c->ctx, c->gat, 0, c->n * 4, c->ones));
     CSI_TRY(csi_linop_adjoint(c->S, c->gat, c->va));
     CSI_TRY(csi_linop_apply(c->G, c->va, c->va)); /* in place: csi/motion_filter.h */
+    CSI_TRY(report(c->opt, ++c->steps));
     CSI_TRY(csi_linop_adjoint(c->S, c->ydev, c->vb));
     CSI_TRY(csi_linop_apply(c->G, c->vb, c->vb));
+    CSI_TRY(report(c->opt, ++c->steps));
     cl_kernel div;
     CSI_TRY(csi_kernel(c->ctx, "recon", "csi_nc_divide", &div));
     cl_uint nk = (cl_uint)c->k;
@@ -312,6 +315,7 @@ static csi_status low_spectra(vel_ctx *c, double sigma, cl_mem z, lowspec *s)
     /* per-frame spectra of f0 */
     CSI_TRY(csi_fourier_half_set_motion(c->h, dims, CSI_TIME_NONE, 0, 0));
     CSI_TRY(csi_fourier_half_forward(c->h, c->vb, z));
+    CSI_TRY(report(c->opt, ++c->steps));
     csi_status st = CSI_OK;
     /* the block of low frequencies, one read per (t, u1) row */
     s->na = g->w > 1 ? g->w : g->h;
@@ -386,6 +390,8 @@ csi_status csi_motion_velocity_estimate(csi_ctx *ctx, const csi_grid *g, csi_fou
     if (st == CSI_OK)
         st = csi_write(ctx, ydev, 0, n * 4, y);
     const double k = (double)c.k, rate = (double)n / k;
+    if (st == CSI_OK)
+        st = report(opt, 0);
     if (st == CSI_OK)
         st = low_spectra(&c, csi_gauss_nc_default_sigma(c.k, n, 3), z, &s);
     cand cands[NCAND];

@@ -166,7 +166,7 @@ csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channel
     }
     if (s == CSI_OK) {
         if (opt.estimator == CSI_EST_MEAN)
-            s = csi_recon_sample_mean(ctx, grid, channels, pos, values, n, out, &st);
+            s = csi_recon_sample_mean(ctx, grid, channels, pos, values, n, &opt, out, &st);
         else if (opt.estimator == CSI_EST_GAUSS)
             s = csi_recon_gauss_nc(ctx, grid, channels, pos, values, n, &opt, out, &st);
         else if (grid->t == 1)

@@ -1,7 +1,7 @@
 /* The phases a reconstruction reports (csi_recon_options.progress) and the channels it solves:
  * "setup", for a moving volume "velocity search" (with its steps counting up; a cancel there
  * stops the run), then per channel c of C "solve c/C" (with the solver's steps) and "integrate c/C";
- * a channel whose samples repeat an earlier channel's bit for bit is not solved again and gets
+ * the per-pixel mean baseline "setup" then "integrate"; a channel whose samples repeat an earlier channel's bit for bit is not solved again and gets
  * that channel's result (the solve is deterministic, so the bits are the same as solving it).
  * Alg. 1 (static) and Alg. 2 (moving), small grids. */
 #include <math.h>
@@ -122,9 +122,53 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
     free(val);
 }
 
+/* The per-pixel mean (a baseline) reports "setup" then "integrate", its pass over every output
+ * pixel, and a cancel there stops it with no result. */
+static void run_mean(csi_ctx *ctx)
+{
+    /* every other cell of every other row: 4 samples in each pixel's 4x4 block, in grid order */
+    enum { N = 32 * 32 };
+    const csi_grid g = {64, 64, 1, 16, 16};
+    csi_sample_pos pos[N];
+    float val[N];
+    const size_t n = N;
+    for (size_t i = 0; i < n; i++) {
+        pos[i] = (csi_sample_pos){(uint32_t)(2 * (i % 32)), (uint32_t)(2 * (i / 32)), 0};
+        val[i] = (float)(pos[i].x % 7) / 7.0f;
+    }
+    for (int cancel = 0; cancel < 2; cancel++) {
+        log_t l = {.n = 0, .stop_at = cancel ? "integrate" : NULL};
+        csi_recon_options o;
+        csi_recon_defaults(&o);
+        o.estimator = CSI_EST_MEAN;
+        o.progress = record;
+        o.user = &l;
+        csi_recon_result r;
+        csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &o, &r);
+        if (cancel) {
+            CHECK(st == CSI_ERR_CANCELLED && strstr(csi_last_error(), "integrate"), "mean: a cancel at integrate: %d %s",
+                  (int)st, csi_last_error());
+            continue;
+        }
+        CHECK(st == CSI_OK && l.n == 2 && !strcmp(l.phase[0], "setup") && !strcmp(l.phase[1], "integrate"),
+              "mean: setup then integrate (%d phases, the last %s)", l.n, l.n ? l.phase[l.n - 1] : "none");
+        if (st != CSI_OK)
+            continue;
+        double worst = 0; /* pixel (px, py) holds columns 4 px and 4 px + 2 of two rows */
+        for (uint32_t p = 0; p < 16 * 16; p++) {
+            const uint32_t x0 = 4 * (p % 16);
+            const double want = ((x0 % 7) + ((x0 + 2) % 7)) / 14.0;
+            worst = fmax(worst, fabs(r.image[p] - want));
+        }
+        CHECK(worst < 1e-6, "mean: each pixel is the mean of its samples (off by %g)", worst);
+        csi_recon_result_free(&r);
+    }
+}
+
 int main(void)
 {
     csi_ctx *ctx = test_ctx();
+    run_mean(ctx);
     for (int copy = 0; copy < 2; copy++) {
         run(ctx, 1, copy == 1);
         run(ctx, 4, copy == 1);
