@@ -60,3 +60,14 @@ __kernel void csi_half_weight(__global const float2 *in, __global float2 *out, _
     if (i < n)
         out[i] = in[i] * w[i % period];
 }
+
+/* The same with the gain of the first plane (i < period: the coefficients constant along t in
+ * the basis's frame) times g0: a column scaling, so that an l1 penalty on the scaled
+ * coefficients weighs that plane by 1 / g0 (csi_half_fourier_set_still_gain). */
+__kernel void csi_half_weight_still(__global const float2 *in, __global float2 *out, __global const float *w,
+                                    const uint period, const uint n, const float g0)
+{
+    const size_t i = get_global_id(0);
+    if (i < n)
+        out[i] = in[i] * (i < period ? w[i] * g0 : w[i % period]);
+}

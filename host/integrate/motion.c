@@ -183,6 +183,18 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK && res->options.motion_filter > 0)
             s = csi_half_fourier_set_filter(st->A, res->options.motion_filter, opt->lambda);
     }
+    /* The time-constant layer's own l1 weight (csi_half_fourier_set_still_gain): a gain of
+     * 1 / weight on its plane (the still content, or with a velocity what moves at it), tau
+     * staying the unweighted problem's (the channel loop below). Reported in res->options (0,
+     * a caller's unset field, is 1). One weight by default: half of it gained on every
+     * procedural volume and on the train against its T time cells' mean, and lost on the
+     * path-traced animations and on the train against the shutter's continuous-time reference
+     * (docs/bench/animation.md, round 7). */
+    const double still_weight = half && opt->motion_still_weight > 0 ? opt->motion_still_weight : 1;
+    res->options.motion_still_weight = still_weight;
+    const bool still_weighted = still_weight != 1;
+    if (s == CSI_OK && still_weighted)
+        s = csi_half_fourier_set_still_gain(st->A, 1.0 / still_weight);
     /* SpaRSA's stop, if left to auto: the solver's default (the duality gap) without the filter;
      * with it the objective change. The filter's gains spread the operator's singular values,
      * and the gap then falls slowly on directions the volume barely depends on: it ran to the
@@ -276,8 +288,17 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         /* A tile scales tau by the whole volume's DC coefficient rescaled to its own cells and
          * samples (csi_tile_scope): n mean / sqrt(k), the tile's DC had its mean been the
          * whole's. */
-        const double tau_scale = st->scope && st->scope->has_scale
-                                     ? (double)n * fabs(st->scope->scale[c]) / sqrt((double)k) : 0;
+        double tau_scale = st->scope && st->scope->has_scale
+                               ? (double)n * fabs(st->scope->scale[c]) / sqrt((double)k) : 0;
+        /* With the still layer weighted, tau is relative to ||A^H y||_inf of the unweighted
+         * operator, so that the weight moves that layer's threshold and no other. */
+        if (s == CSI_OK && still_weighted && tau_scale == 0) {
+            s = csi_half_fourier_set_still_gain(st->A, 1.0);
+            if (s == CSI_OK)
+                s = csi_solver_adjoint_amax(st->solver, st->y, &tau_scale);
+            if (s == CSI_OK)
+                s = csi_half_fourier_set_still_gain(st->A, 1.0 / still_weight);
+        }
         if (s == CSI_OK)
             s = csi_recon_run_solver(st, &sopt, tau_scale, &res->report[c]);
         if (s == CSI_OK)

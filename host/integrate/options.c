@@ -161,6 +161,10 @@ static const row table[] = {
      "and y, seen by the samples through its Wiener inverse (Alg. 1's model); off: the paper's",
      "with a still basis and fewer than 2 samples per pixel over t, sigma-spacing x sqrt(w h / N), "
      "at least the paper's width; else none"},
+    {"motion-still-weight", K_DOUBLE, AT(motion_still_weight), 1e-6, 1e6, NULL, 0, "1", "W",
+     "volumes (half spectrum): the l1 weight of the coefficients constant along t in the basis's "
+     "frame (the still layer; with a velocity, what moves at it) relative to the others'; tau "
+     "is still set from the unweighted problem (0.5: docs/bench/animation.md, round 7)", NULL},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -199,7 +199,9 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         ncoef = csi_fourier_half_count_for(dims);
         p->method = "Alg. 2 (half spectrum)";
         csi_half_fourier_sampling_buffers(dims, n, &m->dev);
-        if (csi_recon_motion_filter_width(g, n, opt, scope) > 0) /* reserved before the velocity */
+        /* reserved before the velocity; the still plane's weight is a gain of the filter's
+         * buffers, made wherever it is not 1 (motion.c) */
+        if (csi_recon_motion_filter_width(g, n, opt, scope) > 0 || opt->motion_still_weight != 1)
             csi_half_fourier_filter_buffers(dims, &m->dev);
     } else {
         CSI_TRY(csi_fft_check_size("Fourier basis", dims));

@@ -153,6 +153,9 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
          * the velocity too (motion.c) */
         if (o->motion_full_spectrum)
             o->motion_filter = -1;
+        /* the still layer's weight is a gain of the half-spectrum operator */
+        if (o->motion_full_spectrum)
+            o->motion_still_weight = 1;
         if (o->solver == CSI_SOLVER_SPARSA)
             motion_sparsa(o, n);
         return CSI_OK;

@@ -16,6 +16,8 @@ typedef struct {
      * weighted coefficients (cols complex values), NULL until reserved; `filtered` once set */
     cl_mem gain, zw;
     bool filtered;
+    /* csi_half_fourier_set_still_gain: the first plane's extra gain (1: none) */
+    float still;
     size_t dims[3];
 } half_state;
 
@@ -24,9 +26,15 @@ static csi_status weight(const csi_linop *op, cl_mem in, cl_mem out)
 {
     half_state *s = op->state;
     cl_kernel k;
-    CSI_TRY(csi_kernel(op->ctx, "sampling", "csi_half_weight", &k));
     const cl_uint period = (cl_uint)(csi_fourier_half_stride(s->H) * s->dims[1]), nn = (cl_uint)op->cols;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(s->gain), CSI_ARG(period), CSI_ARG(nn)));
+    if (s->still != 1.0f) {
+        CSI_TRY(csi_kernel(op->ctx, "sampling", "csi_half_weight_still", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(s->gain), CSI_ARG(period), CSI_ARG(nn),
+                         CSI_ARG(s->still)));
+    } else {
+        CSI_TRY(csi_kernel(op->ctx, "sampling", "csi_half_weight", &k));
+        CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(s->gain), CSI_ARG(period), CSI_ARG(nn)));
+    }
     return csi_run1d(op->ctx, k, op->cols);
 }
 
@@ -108,6 +116,7 @@ csi_status csi_half_fourier_sampling_create(csi_ctx *ctx, const size_t dims[3], 
     op->state = s;
     s->k = dims[0] * dims[1] * dims[2];
     s->n = n;
+    s->still = 1.0f;
     for (int a = 0; a < 3; a++)
         s->dims[a] = dims[a];
     csi_status st = csi_fourier_half_create(ctx, dims, &s->H);
@@ -176,6 +185,31 @@ csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambd
     free(g);
     s->filtered = st == CSI_OK;
     return st;
+}
+
+csi_status csi_half_fourier_set_still_gain(csi_linop *op, double g0)
+{
+    half_state *s = op->state;
+    if (!(isfinite(g0) && g0 > 0 && g0 <= 1e6))
+        return csi_fail(CSI_ERR_ARG, "the still plane's gain must be in (0, 1e6] (got %g)", g0);
+    if (!s->filtered && g0 != 1.0) {
+        /* no filter: D = 1, so the gains are ones (zero on the padding past u = M) */
+        const size_t hs = csi_fourier_half_stride(s->H), h = s->dims[1], M = s->dims[0] / 2;
+        float *g = malloc(hs * h * sizeof *g);
+        if (!g)
+            return csi_fail(CSI_ERR_NOMEM, "out of host memory for the motion operator's %zu gains", hs * h);
+        for (size_t v = 0; v < h; v++)
+            for (size_t u = 0; u < hs; u++)
+                g[v * hs + u] = u <= M ? 1.0f : 0.0f;
+        csi_status st = csi_half_fourier_filter_reserve(op);
+        if (st == CSI_OK)
+            st = csi_write(op->ctx, s->gain, 0, hs * h * sizeof *g, g);
+        free(g);
+        CSI_TRY(st);
+        s->filtered = true;
+    }
+    s->still = (float)g0;
+    return CSI_OK;
 }
 
 cl_mem csi_half_fourier_scratch(const csi_linop *op)

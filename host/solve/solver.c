@@ -170,6 +170,16 @@ csi_status csi_solver_check_io(const csi_solver *S, cl_mem y, cl_mem x, const ch
     return check_buf(x, S->nfk * 4, who, "solution (x)", S->k);
 }
 
+csi_status csi_solver_adjoint_amax(csi_solver *S, cl_mem y, double *hmax)
+{
+    CSI_TRY(check_buf(y, S->nfN * 4, "the tau reference", "measurement (y)", S->N));
+    CSI_TRY(csi_linop_adjoint(S->A, y, S->g));
+    CSI_TRY(csi_vec_amax(S->ws, S->k, S->cplx, S->g, hmax, NULL));
+    if (!isfinite(*hmax))
+        return csi_fail(CSI_ERR_NUMERIC, "A^H y has NaN or Inf (max %g)", *hmax);
+    return CSI_OK;
+}
+
 csi_status csi_solver_romp_buffers(csi_solver *S)
 {
     if (S->sel)

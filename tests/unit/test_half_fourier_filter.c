@@ -8,7 +8,8 @@
  * so H D z against H (D z) checks the filtered synthesis against that chain: the gain, its
  * layout (per column u, row v, repeated over t), with a sheared DCT time stage and with the plain
  * DFT. Then the sampled operator (apply is S H D z, the adjoint identity with A^T = D H^T S^T)
- * and bad input.
+ * and bad input. The still plane's gain (check_still) the same way, against D W z from the closed
+ * form.
  *
  * Tolerances: one float32 synthesis has relative L2 error ~ 2e-5 against double (test_fourier.c's
  * bound); D z is one float product per coefficient (eps), and both sides round the gain to float:
@@ -49,24 +50,45 @@ static double both(csi_status (*op)(const csi_linop *, cl_mem, cl_mem), const cs
     return e;
 }
 
+/* Two operators on the same samples (every third cell) with the same basis (time stage t,
+ * velocity vx, vy): A to be given a gain, A0 the plain one. */
+typedef struct {
+    uint32_t *idx;
+    size_t n;
+    csi_linop *A, *A0;
+} op_pair;
+
+/* False (nothing left) on a failure. */
+static bool make_pair(csi_ctx *ctx, const size_t dims[3], csi_time_transform t, double vx, double vy, op_pair *p)
+{
+    const size_t k = dims[0] * dims[1] * dims[2];
+    p->n = 0;
+    p->A = p->A0 = NULL;
+    p->idx = malloc(k * sizeof *p->idx);
+    for (size_t i = 0; i < k; i += 3)
+        p->idx[p->n++] = (uint32_t)i;
+    CHECK_OK(csi_half_fourier_sampling_create(ctx, dims, p->idx, p->n, &p->A));
+    CHECK_OK(csi_half_fourier_sampling_create(ctx, dims, p->idx, p->n, &p->A0));
+    if (!p->A || !p->A0) {
+        csi_linop_free(p->A);
+        csi_linop_free(p->A0);
+        free(p->idx);
+        return false;
+    }
+    CHECK_OK(csi_fourier_half_set_motion(csi_half_fourier_basis(p->A), dims, t, vx, vy));
+    CHECK_OK(csi_fourier_half_set_motion(csi_half_fourier_basis(p->A0), dims, t, vx, vy));
+    return true;
+}
+
 static void check_case(csi_ctx *ctx, const size_t dims[3], csi_time_transform t, double vx, double vy,
                        double sigma, double lambda)
 {
-    const size_t w = dims[0], h = dims[1], T = dims[2], k = w * h * T, M = w / 2;
-    /* samples: every third cell */
-    size_t n = 0;
-    uint32_t *idx = malloc(k * sizeof *idx);
-    for (size_t i = 0; i < k; i += 3)
-        idx[n++] = (uint32_t)i;
-    csi_linop *A = NULL, *A0 = NULL;
-    CHECK_OK(csi_half_fourier_sampling_create(ctx, dims, idx, n, &A));
-    CHECK_OK(csi_half_fourier_sampling_create(ctx, dims, idx, n, &A0));
-    if (!A || !A0) {
-        free(idx);
+    op_pair p;
+    if (!make_pair(ctx, dims, t, vx, vy, &p))
         return;
-    }
-    CHECK_OK(csi_fourier_half_set_motion(csi_half_fourier_basis(A), dims, t, vx, vy));
-    CHECK_OK(csi_fourier_half_set_motion(csi_half_fourier_basis(A0), dims, t, vx, vy));
+    const size_t w = dims[0], h = dims[1], T = dims[2], k = w * h * T, M = w / 2, n = p.n;
+    uint32_t *idx = p.idx;
+    csi_linop *A = p.A, *A0 = p.A0;
     CHECK_OK(csi_half_fourier_set_filter(A, sigma, lambda));
     const size_t hs = csi_fourier_half_stride(csi_half_fourier_basis(A)), nz = A->cols;
     CHECK(nz == hs * h * T && A0->cols == nz, "%zux%zux%zu: %zu coefficients", w, h, T, nz);
@@ -146,6 +168,101 @@ static void check_case(csi_ctx *ctx, const size_t dims[3], csi_time_transform t,
     csi_linop_free(A0);
 }
 
+/* The still plane's gain (csi_half_fourier_set_still_gain): S H D W z against S H (D W z) with
+ * D W z from the closed form (W = g on the plane u2 = 0, 1 elsewhere), with the filter (sigma > 0)
+ * or without it (D = 1); the adjoint against W D H^T S^T y from the plain operator's adjoint,
+ * scaled here; g = 1 afterwards gives the operator its bits back; bad gains refused. Same
+ * tolerances as above (W is one more float product per coefficient). */
+static void check_still(csi_ctx *ctx, const size_t dims[3], csi_time_transform t, double vx, double vy,
+                        double sigma, double lambda, double g)
+{
+    op_pair p;
+    if (!make_pair(ctx, dims, t, vx, vy, &p))
+        return;
+    csi_linop *A = p.A, *A0 = p.A0;
+    const size_t n = p.n, w = dims[0], h = dims[1], T = dims[2], k = w * h * T, M = w / 2;
+    if (sigma > 0)
+        CHECK_OK(csi_half_fourier_set_filter(A, sigma, lambda));
+    const size_t hs = csi_fourier_half_stride(csi_half_fourier_basis(A)), nz = A->cols;
+    test_rng r;
+    test_rng_seed(&r, 77 + w + T);
+    float *z = calloc(2 * nz, sizeof *z), *dz = calloc(2 * nz, sizeof *dz);
+    for (size_t row = 0; row < h * T; row++)
+        for (size_t u = 0; u <= M; u++) {
+            const size_t i = row * hs + u;
+            const double d = (sigma > 0 ? gain_ref(w, h, u, row % h, sigma, lambda) : 1.0) * (row < h ? g : 1.0);
+            z[2 * i] = (float)test_rng_normal(&r);
+            z[2 * i + 1] = (float)test_rng_normal(&r);
+            dz[2 * i] = (float)(d * z[2 * i]);
+            dz[2 * i + 1] = (float)(d * z[2 * i + 1]);
+        }
+    cl_mem bz = test_upload(z, nz * 8), bdz = test_upload(dz, nz * 8);
+    /* the bits with g = 1 before the gain is set, to compare after it is set back */
+    float *y1 = malloc(n * 8), *y1b = malloc(n * 8);
+    cl_mem y = test_alloc(n * 8);
+    CHECK_OK(csi_linop_apply(A, bz, y));
+    test_download(y, y1, n * 8);
+
+    CHECK_OK(csi_half_fourier_set_still_gain(A, g));
+    const double es = both(csi_half_fourier_synthesize, A, A0, bz, bdz, k);
+    const double ea = both(csi_linop_apply, A, A0, bz, bdz, 2 * n);
+    CHECK(es < 2e-5 && ea < 2e-5, "%zux%zux%zu t=%d v=(%g,%g) sigma %g g %g: H D W z vs H (D W z) rel L2 %.3g, "
+          "S H D W z %.3g", w, h, T, (int)t, vx, vy, sigma, g, es, ea);
+
+    /* adjoint: A^T y = W D H^T S^T y; the plain operator's H^T S^T y scaled here */
+    float *hy = malloc(n * 8), *za = malloc(nz * 8), *z0 = malloc(nz * 8);
+    for (size_t i = 0; i < n; i++) {
+        hy[2 * i] = (float)test_rng_normal(&r);
+        hy[2 * i + 1] = 0.0f;
+    }
+    cl_mem yr = test_upload(hy, n * 8), zt = test_alloc(nz * 8), zt0 = test_alloc(nz * 8);
+    CHECK_OK(csi_linop_adjoint(A, yr, zt));
+    CHECK_OK(csi_linop_adjoint(A0, yr, zt0));
+    test_download(zt, za, nz * 8);
+    test_download(zt0, z0, nz * 8);
+    for (size_t row = 0; row < h * T; row++)
+        for (size_t u = 0; u < hs; u++) {
+            const size_t i = row * hs + u;
+            const double d = u > M ? 0.0 :
+                (sigma > 0 ? gain_ref(w, h, u, row % h, sigma, lambda) : 1.0) * (row < h ? g : 1.0);
+            z0[2 * i] = (float)(d * z0[2 * i]);
+            z0[2 * i + 1] = (float)(d * z0[2 * i + 1]);
+        }
+    const double ead = test_rel_l2(za, z0, 2 * nz);
+    CHECK(ead < 2e-5, "%zux%zux%zu g %g: A^T y vs W D (H^T S^T y) rel L2 %.3g", w, h, T, g, ead);
+    printf("%zux%zux%zu t=%d sigma %g still gain %g: synthesis %.2e apply %.2e adjoint %.2e\n", w, h, T, (int)t,
+           sigma, g, es, ea, ead);
+
+    /* g = 1 again: the operator's bits as before */
+    CHECK_OK(csi_half_fourier_set_still_gain(A, 1.0));
+    CHECK_OK(csi_linop_apply(A, bz, y));
+    test_download(y, y1b, n * 8);
+    size_t diff = 0;
+    for (size_t i = 0; i < 2 * n; i++)
+        diff += y1[i] != y1b[i];
+    CHECK(diff == 0, "gain 1 again: %zu of %zu sample values differ from before", diff, 2 * n);
+    CHECK(csi_half_fourier_set_still_gain(A, 0.0) == CSI_ERR_ARG, "gain 0 refused");
+    CHECK(csi_half_fourier_set_still_gain(A, -2.0) == CSI_ERR_ARG, "negative gain refused");
+    CHECK(csi_half_fourier_set_still_gain(A, NAN) == CSI_ERR_ARG, "NaN gain refused");
+
+    csi_buffer_release(&bz);
+    csi_buffer_release(&bdz);
+    csi_buffer_release(&y);
+    csi_buffer_release(&yr);
+    csi_buffer_release(&zt);
+    csi_buffer_release(&zt0);
+    free(z);
+    free(dz);
+    free(y1);
+    free(y1b);
+    free(hy);
+    free(za);
+    free(z0);
+    free(p.idx);
+    csi_linop_free(A);
+    csi_linop_free(A0);
+}
+
 int main(void)
 {
     csi_ctx *ctx = test_ctx();
@@ -153,5 +270,8 @@ int main(void)
     check_case(ctx, a, CSI_TIME_DFT, 0.0, 0.0, 1.1, 0.3);
     check_case(ctx, a, CSI_TIME_DCT, 0.7, -0.3, 0.8, 0.3);
     check_case(ctx, b, CSI_TIME_DCT, -1.2, 0.4, 1.5, 0.05);
+    check_still(ctx, a, CSI_TIME_DFT, 0.0, 0.0, 0.0, 0.3, 2.0);
+    check_still(ctx, a, CSI_TIME_DCT, 0.7, -0.3, 0.8, 0.3, 4.0);
+    check_still(ctx, b, CSI_TIME_DCT, -1.2, 0.4, 1.5, 0.05, 0.5);
     return test_done();
 }

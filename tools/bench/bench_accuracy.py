@@ -112,6 +112,9 @@ def parse_args(argv):
                     help="continue a run in --out: keep its finished (scene, spp) blocks and effort sweeps, "
                     "redo the rest (use the same options)")
     ap.add_argument("--no-plots", action="store_true")
+    ap.add_argument("--cs3d-variant", action="append", default=[], metavar="NAME=ARGS",
+                    help="another Alg. 2 method: csi-reconstruct --solver sparsa with these arguments, e.g. "
+                    "'cs3d-w05=--motion-still-weight 0.5' (repeatable; run when --methods names it)")
     a = ap.parse_args(argv)
     if a.quick:
         a.size = a.size or "64x64"
@@ -123,6 +126,11 @@ def parse_args(argv):
         a.iters = "10,30,100" if a.iters == ap.get_default("iters") else a.iters
         a.tols = "1e-2" if a.tols == ap.get_default("tols") else a.tols
         a.gauss_factors = "0.5,1.0,2.0" if a.gauss_factors == ap.get_default("gauss_factors") else a.gauss_factors
+    for v in a.cs3d_variant:
+        name, _, args = v.partition("=")
+        if not name.startswith("cs3d-") or name in CS3D_ON_REQUEST or name in MOTION_METHODS or not args:
+            ap.error(f"--cs3d-variant {v!r}: need a new cs3d-NAME=ARGS")
+        CS3D_ON_REQUEST[name] = ["--solver", "sparsa"] + args.split()
     a.scenes = [s for s in a.scenes.split(",") if s]
     a.spp = sorted({int(s) for s in (a.spp or "1,2,4,9,16").split(",") if s})
     a.iters = [int(x) for x in a.iters.split(",") if x]

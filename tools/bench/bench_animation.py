@@ -441,7 +441,21 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=256, help="Mitsuba reference samples per pixel per frame")
     ap.add_argument("--paths", type=int, default=16, help="Mitsuba paths per sample")
     ap.add_argument("--figures", default="0.03", help="rates whose first seed gets figures")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME=OPT:VALUE[,OPT:VALUE]",
+                    help="another csi method: csi's defaults with these options (csi.reconstruct's names), "
+                    "e.g. still4=motion_still_weight:0.25; then listed in --methods like any other")
     a = ap.parse_args()
+    for v in a.variant:
+        name, _, opts = v.partition("=")
+        if not name or name in ALL_METHODS or not opts:
+            sys.exit(f"bench_animation: --variant {v!r}: need a new NAME=OPT:VALUE[,OPT:VALUE]")
+        CSI_VARIANTS[name] = {}
+        for kv in opts.split(","):
+            key, _, val = kv.partition(":")
+            if not key or not val:
+                sys.exit(f"bench_animation: --variant {v!r}: {kv!r} is not OPT:VALUE")
+            CSI_VARIANTS[name][key] = val
+        ALL_METHODS.append(name)
     if a.quick:
         a.size = a.mitsuba_size = "64x64x16"
         a.rates, a.seeds = "0.03,0.1", "0"

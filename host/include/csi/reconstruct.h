@@ -202,6 +202,9 @@ typedef struct csi_recon_options {
     double motion_filter;         /* Alg. 1's filter Phi in Alg. 2 (csi_half_fourier_set_filter):
                                      its width along x and y in cells; -1 off (the paper's), 0
                                      auto */
+    double motion_still_weight;   /* the l1 weight of the coefficients constant along t in the
+                                     basis's frame (csi_half_fourier_set_still_gain), relative
+                                     to the others' (1: one weight, the paper's; 0 is 1) */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */

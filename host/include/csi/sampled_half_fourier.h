@@ -34,6 +34,14 @@ void csi_half_fourier_sampling_buffers(const size_t dims[3], size_t n, csi_mem_t
  * D's DC gain is 1, so ||A^T y||_inf's DC term and the tau rule are unchanged. Allocates the
  * gains and a coefficient-sized scratch (csi_half_fourier_filter_buffers). */
 csi_status csi_half_fourier_set_filter(csi_linop *op, double sigma, double lambda);
+/* The weighted l1 of a time-constant layer (csi_recon_options.motion_still_weight, which is
+ * 1 / g0): the operator becomes S H D G, G = g0 on the plane u2 = 0 (the coefficients constant
+ * along t in the basis's frame: the still content, or with a velocity what moves at it) and 1
+ * elsewhere. An l1 penalty on z' with z = G z' is the l1 of z weighted 1 / g0 on that plane (a
+ * column scaling), so g0 > 1 thresholds that layer less than the rest. Without a filter, D = 1
+ * is set (its buffers are the filter's, csi_half_fourier_filter_reserve). g0 = 1 leaves the
+ * operator as it was, to the bit. A filter set later keeps g0. */
+csi_status csi_half_fourier_set_still_gain(csi_linop *op, double g0);
 /* Allocates what csi_half_fourier_set_filter needs without setting a filter (for a caller that
  * decides later whether to, with its device memory planned either way). */
 csi_status csi_half_fourier_filter_reserve(csi_linop *op);

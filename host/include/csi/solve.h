@@ -78,6 +78,10 @@ void csi_solver_free(csi_solver *s);
 void csi_solver_buffers(size_t rows, size_t cols, bool complex_valued, csi_mem_tally *t);
 void csi_solver_romp_tally(size_t cols, csi_mem_tally *t);
 uint64_t csi_solver_host_bytes(size_t rows, size_t cols, bool complex_valued, bool romp);
+/* ||A^H y||_inf of the workspace's operator as it is now (SpaRSA's reference for tau_rel), into
+ * *hmax; the workspace's gradient buffer is its scratch. For a caller that takes tau from the
+ * operator before a change that keeps its sizes (a column scaling, csi/sampled_half_fourier.h). */
+csi_status csi_solver_adjoint_amax(csi_solver *s, cl_mem y, double *hmax);
 
 /* ---- ROMP ---------------------------------------------------------------------------------
  * Each iteration: u = A^H r; J = the s largest |u_i| among indices not yet in the support I
