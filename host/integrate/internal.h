@@ -37,6 +37,14 @@ typedef struct csi_recon_fit {
     bool kept;
 } csi_recon_fit;
 
+/* The cross-validated choice (csi/cv_select.h) on a still image's result `out` (reconstructed
+ * from all n samples with opt): the two folds' reconstructions, then the choice in out->image;
+ * their times and CPU are added to out's. Nothing changes where no pixel holds samples of both
+ * folds. */
+csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                               const float *values, size_t n, const csi_recon_options *opt,
+                               csi_recon_result *out);
+
 /* Releases everything in st (not st itself). */
 void csi_recon_state_free(csi_recon_state *st);
 

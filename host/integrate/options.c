@@ -91,6 +91,12 @@ static const row table[] = {
      "gauss baseline; volumes: "
      "the fine estimate kept within the samples' range and, with a still basis, the image "
      "corrected by each pixel's mean residual shrunk by its estimated risk"},
+    {"cv-select", K_CHOICE, AT(cv_select), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "images: per region of 8 x 8 or 16 x 16 pixels, the image or each pixel's mean of its samples, "
+     "whichever the two folds of the samples (each pixel's split in two) say is closer to the "
+     "held-out pixel means (two more reconstructions, each from half the samples)",
+     "on for noisy samples (not flagged exact) reconstructed whole, where it acts from 2 "
+     "samples per pixel on average; off for exact ones, tiled runs, volumes and the baselines"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

@@ -107,6 +107,17 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     free(scaled);
     CSI_TRY(s);
     csi_recon_unscale_result(out, e);
+    /* The cross-validated choice needs the folds' reconstructions of the whole image; a tile (a
+     * job of its own, csi/tiles.h) sees its window only, so a tiled run goes without it. */
+    if (tl.count > 1 && out->options.cv_select == CSI_SWITCH_ON)
+        out->options.cv_select = CSI_SWITCH_OFF;
+    if (grid->t == 1 && out->options.estimator == CSI_EST_CS && out->options.cv_select == CSI_SWITCH_ON) {
+        s = csi_recon_cv_select(ctx, grid, channels, pos, values, n, &opt, out);
+        if (s != CSI_OK) {
+            csi_recon_result_free(out);
+            return s;
+        }
+    }
     /* The tiling's autos, as planned. */
     csi_recon_options *r = &out->options;
     r->mem_budget = tl.budget;

@@ -159,6 +159,8 @@ typedef struct csi_recon_options {
     csi_aa_output output;
     csi_aa_correct correct;       /* grid.t = 1 (CS and GAUSS) */
     double cv_n0;                 /* CV shrinkage (see csi_aa_correct) */
+    csi_switch cv_select;         /* images: per region, the image or the per-pixel mean, chosen
+                                     by two-fold cross-validation (csi/cv_select.h) */
     double tol;                   /* solver tolerance; 0 auto */
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
@@ -257,6 +259,7 @@ typedef struct csi_recon_result {
     float *frames;          /* nframes * channels * out_w * out_h (frame-major, then planar) */
     csi_recon_options options; /* the options used: every auto that applies resolved */
     csi_solve_report report[4];
+    size_t cv_switched;     /* pixels the cross-validated choice gave their mean (cv_select) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
     double t_channel_integrate[4]; /* t_integrate per channel (the solves: report[c].t_total) */

@@ -1,0 +1,204 @@
+/* The per-region choice between the reconstruction and the per-pixel mean by two-fold
+ * cross-validation (csi/cv_select.h), and its place in a reconstruction: the two folds'
+ * reconstructions, then the choice. All on the host, in double, in sample order (deterministic). */
+#include "csi/cv_select.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+csi_status csi_cv_folds(const csi_grid *g, const csi_sample_pos *pos, size_t n, uint8_t *fold,
+                        size_t *pairs)
+{
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "cross-validated choice: a volume (%u frames) is not an image", g->t);
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    uint8_t *has = calloc(np, 1); /* bit f: the pixel holds a sample of fold f */
+    if (!cnt || !has) {
+        free(cnt);
+        free(has);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    for (size_t i = 0; i < n; i++)
+        cnt[csi_recon_pixel_of(pos[i], bw, bh, g->out_w)]++;
+    for (size_t i = 0; i < n; i++) {
+        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, g->out_w);
+        /* k = ceil(sqrt(cnt)), exactly in integers */
+        uint64_t k = (uint64_t)ceil(sqrt((double)cnt[p]));
+        while (k > 1 && (k - 1) * (k - 1) >= cnt[p])
+            k--;
+        while (k * k < cnt[p])
+            k++;
+        const uint64_t sx = (uint64_t)(pos[i].x % bw) * k / bw, sy = (uint64_t)(pos[i].y % bh) * k / bh;
+        fold[i] = (uint8_t)((sx + sy) & 1);
+        has[p] |= (uint8_t)(1u << fold[i]);
+    }
+    if (pairs) {
+        size_t c = 0;
+        for (size_t p = 0; p < np; p++)
+            c += has[p] == 3;
+        *pairs = c;
+    }
+    free(cnt);
+    free(has);
+    return CSI_OK;
+}
+
+/* Marks (in `lose`) the pixels of the regions of side r whose sums of d[.][0] and of d[.][1] are
+ * both above CSI_CV_Z times the root of their sums of squares. */
+static csi_status mark_regions(const csi_grid *g, const double *d, uint32_t r, uint8_t *lose)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const size_t rw = (g->out_w + r - 1) / r, rh = (g->out_h + r - 1) / r;
+    double *acc = calloc(rw * rh * 4, sizeof *acc); /* per region: sum and sum of squares, x2 */
+    if (!acc)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu regions", rw * rh);
+    for (size_t p = 0; p < np; p++) {
+        double *a = acc + ((p / g->out_w / r) * rw + (p % g->out_w) / r) * 4;
+        for (int k = 0; k < 2; k++) {
+            a[k * 2] += d[p * 2 + k];
+            a[k * 2 + 1] += d[p * 2 + k] * d[p * 2 + k];
+        }
+    }
+    for (size_t p = 0; p < np; p++) {
+        const double *a = acc + ((p / g->out_w / r) * rw + (p % g->out_w) / r) * 4;
+        if (a[0] > CSI_CV_Z * sqrt(a[1]) && a[2] > CSI_CV_Z * sqrt(a[3]))
+            lose[p] = 1;
+    }
+    free(acc);
+    return CSI_OK;
+}
+
+csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                         const float *values, size_t n, const uint8_t *fold, const float *cA,
+                         const float *cB, uint32_t region, float *image, size_t *switched)
+{
+    if (switched)
+        *switched = 0;
+    if (region < 1)
+        return csi_fail(CSI_ERR_ARG, "cross-validated choice: a region of %u pixels", region);
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    /* per pixel and fold: count, and the sums per channel */
+    double *sum = calloc(np * 2 * channels, sizeof *sum);
+    uint32_t *cnt = calloc(np * 2, sizeof *cnt);
+    double *d = calloc(np * 2, sizeof *d); /* per pixel: D in squared and in relative error */
+    uint8_t *lose = calloc(np, 1);
+    csi_status s = CSI_OK;
+    if (!sum || !cnt || !d || !lose)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    for (size_t i = 0; i < n && s == CSI_OK; i++) {
+        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, g->out_w), f = fold[i] & 1;
+        cnt[p * 2 + f]++;
+        for (uint32_t c = 0; c < channels; c++)
+            sum[(p * 2 + f) * channels + c] += values[i * channels + c];
+    }
+    for (size_t p = 0; p < np && s == CSI_OK; p++) {
+        const uint32_t na = cnt[p * 2], nb = cnt[p * 2 + 1];
+        if (!na || !nb)
+            continue;
+        for (uint32_t c = 0; c < channels; c++) {
+            const double sa = sum[(p * 2) * channels + c], sb = sum[(p * 2 + 1) * channels + c];
+            const double ma = sa / na, mb = sb / nb, m = (sa + sb) / (na + nb);
+            const double a = cA[(size_t)c * np + p], b = cB[(size_t)c * np + p];
+            const double e = (a - mb) * (a - mb) + (b - ma) * (b - ma) - 2 * (ma - mb) * (ma - mb);
+            d[p * 2] += e;
+            d[p * 2 + 1] += e / (m * m + CSI_CV_REL_FLOOR);
+        }
+    }
+    if (s == CSI_OK)
+        s = mark_regions(g, d, region, lose);
+    if (s == CSI_OK)
+        s = mark_regions(g, d, 2 * region, lose);
+    size_t sw = 0;
+    for (size_t p = 0; p < np && s == CSI_OK; p++) {
+        const uint32_t nt = cnt[p * 2] + cnt[p * 2 + 1];
+        if (!lose[p] || !nt)
+            continue;
+        for (uint32_t c = 0; c < channels; c++)
+            image[(size_t)c * np + p] = (float)((sum[(p * 2) * channels + c] + sum[(p * 2 + 1) * channels + c]) / nt);
+        sw++;
+    }
+    if (switched)
+        *switched = sw;
+    free(sum);
+    free(cnt);
+    free(d);
+    free(lose);
+    return s;
+}
+
+/* The reconstruction from the samples of one fold alone (the same options, the choice off). */
+static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, size_t n, const uint8_t *fold, uint8_t f,
+                             const csi_recon_options *opt, csi_recon_result *main, float **image)
+{
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        m += fold[i] == f;
+    csi_sample_pos *fp = malloc((m ? m : 1) * sizeof *fp);
+    float *fv = malloc((m ? m : 1) * channels * sizeof *fv);
+    if (!fp || !fv) {
+        free(fp);
+        free(fv);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", m);
+    }
+    size_t j = 0;
+    for (size_t i = 0; i < n; i++)
+        if (fold[i] == f) {
+            fp[j] = pos[i];
+            memcpy(fv + j * channels, values + i * channels, channels * sizeof *fv);
+            j++;
+        }
+    csi_recon_options o = *opt;
+    o.cv_select = CSI_SWITCH_OFF;
+    csi_recon_result r;
+    csi_status s = csi_recon_progress(opt, f ? "cross-validation 2/2" : "cross-validation 1/2");
+    if (s == CSI_OK)
+        s = csi_recon(ctx, g, channels, fp, fv, m, &o, &r);
+    free(fp);
+    free(fv);
+    CSI_TRY(s);
+    /* the run's cost is the reconstruction's too */
+    main->t_solve += r.t_solve;
+    main->t_integrate += r.t_integrate;
+    main->cpu_work += r.cpu_setup + r.cpu_work;
+    *image = r.image;
+    r.image = NULL;
+    csi_recon_result_free(&r);
+    return CSI_OK;
+}
+
+csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                               const float *values, size_t n, const csi_recon_options *opt,
+                               csi_recon_result *out)
+{
+    /* Below 2 samples per pixel on average each fold's reconstruction is made from under one
+     * sample per pixel, a regime so unlike the whole's that its loss against the mean says little
+     * about the whole's (docs/bench/mitsuba.md: Poisson-disk cells at 1 spp); nothing is done. */
+    if (n < 2 * (size_t)g->out_w * g->out_h)
+        return CSI_OK;
+    uint8_t *fold = malloc(n ? n : 1);
+    if (!fold)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+    size_t pairs = 0;
+    csi_status s = csi_cv_folds(g, pos, n, fold, &pairs);
+    float *a = NULL, *b = NULL;
+    /* no pixel with a held-out pair: nothing to decide on, the reconstruction stays */
+    if (s == CSI_OK && pairs) {
+        s = fold_image(ctx, g, channels, pos, values, n, fold, 0, opt, out, &a);
+        if (s == CSI_OK)
+            s = fold_image(ctx, g, channels, pos, values, n, fold, 1, opt, out, &b);
+        if (s == CSI_OK)
+            s = csi_cv_choose(g, channels, pos, values, n, fold, a, b, CSI_CV_REGION, out->image,
+                              &out->cv_switched);
+    }
+    free(a);
+    free(b);
+    free(fold);
+    return s;
+}
