@@ -46,13 +46,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bench_common import binaries, default_env, read_dump, read_exr  # noqa: E402
-
-SCENES = ["cornell", "envmap", "glossy_sun", "horizon", "thin_geometry"]
-
-
-def errors(img, ref):
-    d = (img.astype(np.float64) - ref) ** 2
-    return float(d.mean()), float((d / (ref ** 2 + 0.01)).mean())
+from bench_real_samples import SCENES, errors  # noqa: E402
 
 
 def reconstruct(exe, dump, out, args=()):
