@@ -36,6 +36,23 @@ def errors(img, ref):
     return float(d.mean()), float((d / (ref ** 2 + 0.01)).mean())
 
 
+def cells(data, scenes, spps, paths_list, positions, reference_spp, who):
+    """The cached dumps of DATA: (scene, spp, paths, positions, dump path, reference image) for
+    each scene with a reference (the others are named on stderr) and each dump present."""
+    for scene in scenes.split(","):
+        refp = os.path.join(data, scene, f"reference_{reference_spp}.npy")
+        if not os.path.exists(refp):
+            print(f"{who}: {refp} is missing: {scene} skipped", file=sys.stderr)
+            continue
+        ref = np.load(refp).astype(np.float64)
+        for spp in spps.split(","):
+            for paths in paths_list.split(","):
+                for pos in positions.split(","):
+                    dump = os.path.join(data, scene, f"s{spp}_p{paths}{'_poisson' if pos == 'poisson' else ''}.csid")
+                    if os.path.exists(dump):
+                        yield scene, spp, paths, pos, dump, ref
+
+
 def reconstruct(exe, dump, args, tmp):
     out = os.path.join(tmp, "r.exr")
     p = subprocess.run([exe, dump, "-o", out, "--quiet"] + args, capture_output=True, env=default_env())
@@ -65,34 +82,24 @@ def main():
         cfgs.append((name.strip(), args.split()))
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for scene in a.scenes.split(","):
-            refp = os.path.join(a.data, scene, f"reference_{a.reference_spp}.npy")
-            if not os.path.exists(refp):
-                print(f"bench_real_samples: {refp} is missing: {scene} skipped", file=sys.stderr)
-                continue
-            ref = np.load(refp).astype(np.float64)
-            for spp in a.spp.split(","):
-                for paths in a.paths.split(","):
-                    for pos in a.positions.split(","):
-                        dump = os.path.join(a.data, scene, f"s{spp}_p{paths}{'_poisson' if pos == 'poisson' else ''}.csid")
-                        if not os.path.exists(dump):
-                            continue
-                        hdr, _, _ = read_dump(dump)
-                        m0, r0 = errors(reconstruct(exe, dump, ["--estimator", "mean"], tmp), ref)
-                        row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=pos,
-                                   grid=f"{hdr['grid_w']}x{hdr['grid_h']}", mean_mse=m0, mean_relmse=r0)
-                        for name, args in cfgs:
-                            img = reconstruct(exe, dump, args, tmp)
-                            m, r = errors(img, ref)
-                            row[name] = dict(mse=m / m0, relmse=r / r0, negative=int((img < 0).sum()),
-                                             min=float(img.min()))
-                        rows.append(row)
-                        print(f"{scene:14s} {spp:>2s} spp {paths:>2s} paths {pos:10s} mean {m0:.3e} {r0:.3e} | "
-                              + " | ".join(f"{n} {row[n]['mse']:.3f} {row[n]['relmse']:.3f} neg {row[n]['negative']}"
-                                           for n, _ in cfgs), flush=True)
-                        if a.json:
-                            with open(a.json, "w") as f:
-                                json.dump(dict(configs=a.configs, rows=rows), f, indent=1)
+        for scene, spp, paths, pos, dump, ref in cells(a.data, a.scenes, a.spp, a.paths, a.positions,
+                                                         a.reference_spp, "bench_real_samples"):
+            hdr, _, _ = read_dump(dump)
+            m0, r0 = errors(reconstruct(exe, dump, ["--estimator", "mean"], tmp), ref)
+            row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=pos,
+                       grid=f"{hdr['grid_w']}x{hdr['grid_h']}", mean_mse=m0, mean_relmse=r0)
+            for name, args in cfgs:
+                img = reconstruct(exe, dump, args, tmp)
+                m, r = errors(img, ref)
+                row[name] = dict(mse=m / m0, relmse=r / r0, negative=int((img < 0).sum()),
+                                 min=float(img.min()))
+            rows.append(row)
+            print(f"{scene:14s} {spp:>2s} spp {paths:>2s} paths {pos:10s} mean {m0:.3e} {r0:.3e} | "
+                  + " | ".join(f"{n} {row[n]['mse']:.3f} {row[n]['relmse']:.3f} neg {row[n]['negative']}"
+                               for n, _ in cfgs), flush=True)
+            if a.json:
+                with open(a.json, "w") as f:
+                    json.dump(dict(configs=a.configs, rows=rows), f, indent=1)
     if a.md:
         names = [n for n, _ in cfgs]
         lines = ["| scene | spp | paths | positions | mean MSE | mean relMSE | "

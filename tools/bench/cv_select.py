@@ -46,7 +46,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bench_common import binaries, default_env, read_dump, read_exr  # noqa: E402
-from bench_real_samples import SCENES, errors  # noqa: E402
+from bench_real_samples import SCENES, cells, errors  # noqa: E402
 
 
 def reconstruct(exe, dump, out, args=()):
@@ -154,56 +154,46 @@ def main():
     os.makedirs(a.cache, exist_ok=True)
     regions = [tuple(int(x) for x in r.split("+")) if "+" in r else int(r) for r in a.regions.split(",")]
     rows = []
-    for scene in a.scenes.split(","):
-        refp = os.path.join(a.data, scene, "reference_4096.npy")
-        if not os.path.exists(refp):
-            print(f"cv_select: {refp} is missing: {scene} skipped", file=sys.stderr)
-            continue
-        ref = np.load(refp).astype(np.float64)
-        for spp in a.spp.split(","):
-            for paths in a.paths.split(","):
-                for posm in a.positions.split(","):
-                    name = f"s{spp}_p{paths}{'_poisson' if posm == 'poisson' else ''}"
-                    dump = os.path.join(a.data, scene, name + ".csid")
-                    if not os.path.exists(dump):
-                        continue
-                    hdr, pos, vals = read_dump(dump)
-                    H, W, C = hdr["out_h"], hdr["out_w"], hdr["channels"]
-                    f, pix, n = folds(hdr, pos)
-                    base = os.path.join(a.cache, f"{scene}_{name}")
-                    dA, dB = base + ".A.csid", base + ".B.csid"
-                    if not os.path.exists(dA):
-                        write_subset(dump, dA, f == 0)
-                        write_subset(dump, dB, f == 1)
-                    c = reconstruct(exe, dump, base + ".csi.exr")
-                    m = reconstruct(exe, dump, base + ".mean.exr", ["--estimator", "mean"])
-                    cA = reconstruct(exe, dA, base + ".A.exr")
-                    cB = reconstruct(exe, dB, base + ".B.exr")
-                    mA, nA = pixel_means(vals, pix, f == 0, W * H)
-                    mB, nB = pixel_means(vals, pix, f == 1, W * H)
-                    both = (nA > 0) & (nB > 0)
-                    mA = np.where(both[:, None], mA, 0).reshape(H, W, C)
-                    mB = np.where(both[:, None], mB, 0).reshape(H, W, C)
-                    b3 = both.reshape(H, W)[..., None]
-                    D = np.where(b3, (cA - mB) ** 2 - (mA - mB) ** 2 + (cB - mA) ** 2 - (mB - mA) ** 2, 0.0)
-                    e_m = errors(m, ref)
-                    e_c = errors(c, ref)
-                    row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=posm,
-                               mean=e_m, csi=[e_c[0] / e_m[0], e_c[1] / e_m[1]],
-                               half_csi=[(errors(cA, ref)[0] + errors(cB, ref)[0]) / 2 / e_m[0]],
-                               pairs=float(both.mean()), sel={})
-                    wrel = 1.0 / (m ** 2 + 0.01)
-                    for R in regions:
-                        for crit, w, w2 in (("mse", None, None), ("rel", wrel, None), ("both", None, wrel)):
-                            for z in [float(v) for v in a.z.split(",")]:
-                                out, frac = select(c, m, D, R, w, w2, both.reshape(H, W), z,
-                                                   (n > 0).reshape(H, W))
-                                e = errors(out, ref)
-                                key = f"{crit}{R if isinstance(R, int) else '+'.join(map(str, R))}" + (f"z{z:g}" if z else "")
-                                row["sel"][key] = [e[0] / e_m[0], e[1] / e_m[1], frac]
-                    rows.append(row)
-                    s = " ".join(f"{k}={v[0]:.3f}/{v[1]:.3f}({v[2]:.2f})" for k, v in row["sel"].items())
-                    print(f"{scene} {name}: csi {row['csi'][0]:.3f}/{row['csi'][1]:.3f} {s}", flush=True)
+    for scene, spp, paths, posm, dump, ref in cells(a.data, a.scenes, a.spp, a.paths, a.positions, 4096,
+                                                   "cv_select"):
+        name = os.path.basename(dump)[:-len(".csid")]
+        hdr, pos, vals = read_dump(dump)
+        H, W, C = hdr["out_h"], hdr["out_w"], hdr["channels"]
+        f, pix, n = folds(hdr, pos)
+        base = os.path.join(a.cache, f"{scene}_{name}")
+        dA, dB = base + ".A.csid", base + ".B.csid"
+        if not os.path.exists(dA):
+            write_subset(dump, dA, f == 0)
+            write_subset(dump, dB, f == 1)
+        c = reconstruct(exe, dump, base + ".csi.exr")
+        m = reconstruct(exe, dump, base + ".mean.exr", ["--estimator", "mean"])
+        cA = reconstruct(exe, dA, base + ".A.exr")
+        cB = reconstruct(exe, dB, base + ".B.exr")
+        mA, nA = pixel_means(vals, pix, f == 0, W * H)
+        mB, nB = pixel_means(vals, pix, f == 1, W * H)
+        both = (nA > 0) & (nB > 0)
+        mA = np.where(both[:, None], mA, 0).reshape(H, W, C)
+        mB = np.where(both[:, None], mB, 0).reshape(H, W, C)
+        b3 = both.reshape(H, W)[..., None]
+        D = np.where(b3, (cA - mB) ** 2 - (mA - mB) ** 2 + (cB - mA) ** 2 - (mB - mA) ** 2, 0.0)
+        e_m = errors(m, ref)
+        e_c = errors(c, ref)
+        row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=posm,
+                   mean=e_m, csi=[e_c[0] / e_m[0], e_c[1] / e_m[1]],
+                   half_csi=[(errors(cA, ref)[0] + errors(cB, ref)[0]) / 2 / e_m[0]],
+                   pairs=float(both.mean()), sel={})
+        wrel = 1.0 / (m ** 2 + 0.01)
+        for R in regions:
+            for crit, w, w2 in (("mse", None, None), ("rel", wrel, None), ("both", None, wrel)):
+                for z in [float(v) for v in a.z.split(",")]:
+                    out, frac = select(c, m, D, R, w, w2, both.reshape(H, W), z,
+                                       (n > 0).reshape(H, W))
+                    e = errors(out, ref)
+                    key = f"{crit}{R if isinstance(R, int) else '+'.join(map(str, R))}" + (f"z{z:g}" if z else "")
+                    row["sel"][key] = [e[0] / e_m[0], e[1] / e_m[1], frac]
+        rows.append(row)
+        s = " ".join(f"{k}={v[0]:.3f}/{v[1]:.3f}({v[2]:.2f})" for k, v in row["sel"].items())
+        print(f"{scene} {name}: csi {row['csi'][0]:.3f}/{row['csi'][1]:.3f} {s}", flush=True)
     if a.json:
         with open(a.json, "w") as fo:
             json.dump(rows, fo, indent=1)
