@@ -95,8 +95,9 @@ static const row table[] = {
      "images: per region of 8 x 8 or 16 x 16 pixels, the image or each pixel's mean of its samples, "
      "whichever the two folds of the samples (each pixel's split in two) say is closer to the "
      "held-out pixel means (two more reconstructions, each from half the samples)",
-     "on for noisy samples (not flagged exact) reconstructed whole, where it acts from 2 "
-     "samples per pixel on average; off for exact ones, tiled runs, volumes and the baselines"},
+     "on with the blend (noisy samples, not flagged exact) on an image reconstructed whole, "
+     "where it acts from 2 samples per pixel on average; off otherwise (another correction, "
+     "tiled runs, volumes, the baselines)"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

@@ -174,10 +174,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
      * better estimator and the blend gives part of its gain away (docs/bench/mitsuba.md). */
     if (o->correct == CSI_CORRECT_AUTO)
         o->correct = o->sample_flags & CSI_SAMPLES_EXACT ? CSI_CORRECT_CV : CSI_CORRECT_BLEND;
-    /* The cross-validated choice (csi/cv_select.h): where the blend applies, noisy samples, on
-     * the whole image (a tile cannot see the whole's folds: reconstruct.c). */
+    /* The cross-validated choice (csi/cv_select.h): with the blend, the correction for noisy
+     * samples, on the whole image (a tile cannot see the whole's folds: reconstruct.c). */
     if (o->cv_select == CSI_SWITCH_AUTO)
-        o->cv_select = o->sample_flags & CSI_SAMPLES_EXACT || scope ? CSI_SWITCH_OFF : CSI_SWITCH_ON;
+        o->cv_select = o->correct == CSI_CORRECT_BLEND && !scope ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)
