@@ -110,9 +110,17 @@ static double window_median(const double *a, const size_t *nb, int k)
     return m % 2 ? w[m / 2] : 0.5 * (w[m / 2 - 1] + w[m / 2]);
 }
 
-csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
-                           const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
-                           float *plane)
+/* After each pass over the image or the samples: the caller hears of it, and may stop here (a
+ * pass over an image of tens of megapixels takes a second). */
+#define BLEND_PASS_DONE()                                                                          \
+    do {                                                                                           \
+        if ((s = csi_recon_progress_channel_step(opt, "correct", c, channels, ++passes)) != CSI_OK) \
+            goto done;                                                                             \
+    } while (0)
+
+csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, const float *values,
+                           uint32_t channels, uint32_t c, const csi_sample_pos *pos,
+                           const float *fine_at, size_t n, bool clamp, float *plane)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
@@ -124,6 +132,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
     float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
     uint32_t *pix = malloc((n ? n : 1) * sizeof *pix); /* each sample's pixel, divided out once */
     csi_status s = CSI_OK;
+    int passes = 0;
     if (!cnt || !m || !ss || !gbar || !sc || !rel || !V || !q || !d || !lo || !hi || !pix) {
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel blend");
         goto done;
@@ -155,6 +164,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         }
         multi += cnt[p] >= 2;
     }
+    BLEND_PASS_DONE();
     /* b onto the samples' range. */
     size_t nb[9];
     for (size_t p = 0; p < np; p++) {
@@ -168,6 +178,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         hi[p] = l <= h ? (float)h : INFINITY;
         plane[p] = fminf(fmaxf(plane[p], lo[p]), hi[p]);
     }
+    BLEND_PASS_DONE();
     for (size_t i = 0; i < n; i++) {
         const size_t p = pix[i];
         gbar[p] += fminf(fmaxf(fine_at[i], lo[p]), hi[p]);
@@ -180,6 +191,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         double e = values[i * channels + c] - m[p];
         ss[p] += e * e;
     }
+    BLEND_PASS_DONE();
     const bool by_pixel = 2 * multi >= np;
     const double eps = fmax(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
     for (size_t p = 0; p < np; p++) {
@@ -208,6 +220,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         }
         rel[p] = s2 / sc[p];
     }
+    BLEND_PASS_DONE();
     /* V, relative to the pixel's magnitude: the window's median per-sample variance over n_p
      * (0 where no pixel around has a variance: m is then taken as it is), plus the error that
      * the positions explain. */
@@ -224,6 +237,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         double pe = gbar[p] - plane[p], mf = gbar[p] - m[p];
         V[p] = noise + fmin(fmax(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
     }
+    BLEND_PASS_DONE();
     /* The relative bias of b seen at each pixel: d signed, q squared less noise, clipped at 0. */
     for (size_t p = 0; p < np; p++) {
         double diff = cnt[p] ? m[p] - plane[p] : 0.0;
@@ -250,6 +264,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         double B2 = fmax(fmax(qs / k, q[p]), dbar * dbar - vs / kf / kf);
         rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
     }
+    BLEND_PASS_DONE();
     /* b onto the range of the 3 x 3 pixels' means (after the weights, which see b's distance
      * from m before it), then the blend. */
     for (size_t p = 0; p < np; p++) {
@@ -263,6 +278,7 @@ csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t chan
         if (ml <= mh)
             plane[p] = (float)fmin(fmax(plane[p], ml), mh);
     }
+    BLEND_PASS_DONE();
     for (size_t p = 0; p < np; p++) {
         double out = plane[p];
         if (cnt[p] && (double)cnt[p] >= cells) {
@@ -295,6 +311,7 @@ done:
     free(lo), free(hi), free(pix);
     return s;
 }
+#undef BLEND_PASS_DONE
 
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
                           const csi_sample_pos *pos, size_t n, float *plane)

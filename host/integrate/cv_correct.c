@@ -50,7 +50,7 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
         if (box)
             memcpy(box, plane, np * sizeof *box);
         if (s == CSI_OK)
-            s = csi_recon_blend(g, values, channels, c, pos, gs, n, clamp, plane);
+            s = csi_recon_blend(g, opt, values, channels, c, pos, gs, n, clamp, plane);
         /* a second host pass over every pixel and sample */
         if (s == CSI_OK && box)
             s = csi_recon_progress_channel(opt, "fit trust", c, channels);

@@ -149,12 +149,17 @@ void csi_recon_unscale_result(csi_recon_result *r, const int e[4]);
 double csi_recon_now(void);
 /* The process's CPU time in seconds (every thread, PoCL's workers included). */
 double csi_recon_cpu_now(void);
-/* Reports a phase to the caller's progress callback, if any: CSI_ERR_CANCELLED when it asks to
- * stop. */
+/* Reports a phase to the caller's progress callback (opt or its callback may be NULL: nothing
+ * to report): CSI_ERR_CANCELLED when it asks to stop. */
 csi_status csi_recon_progress(const csi_recon_options *opt, const char *phase);
+/* The same with the steps of the phase done so far (the velocity search's steps, a host pass's
+ * passes over the image), so that a long phase is heard from while it works. */
+csi_status csi_recon_progress_step(const csi_recon_options *opt, const char *phase, int done);
 /* The same for a phase of channel c of `channels`: "<phase> <c+1>/<channels>". */
 csi_status csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
                                       uint32_t channels);
+csi_status csi_recon_progress_channel_step(const csi_recon_options *opt, const char *phase, uint32_t c,
+                                           uint32_t channels, int done);
 /* CSI_ERR_NUMERIC naming `what` and the first non-finite element of a. */
 csi_status csi_recon_check_finite(const float *a, size_t n, const char *what);
 /* Integrates one channel's real volume `vol` (w x h x T) into the result: the image plane is the
@@ -180,10 +185,11 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
                              const float *values, uint32_t channels, uint32_t c,
                              const csi_sample_pos *pos, size_t n, bool clamp, float *plane);
 /* The blend of the fine estimate's box integral (plane, in and out) with each pixel's sample
- * mean (blend.c). fine_at: the fine estimate at the n samples. Pixels span all t. */
-csi_status csi_recon_blend(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,
-                           const csi_sample_pos *pos, const float *fine_at, size_t n, bool clamp,
-                           float *plane);
+ * mean (blend.c). fine_at: the fine estimate at the n samples. Pixels span all t. opt's progress
+ * hears "correct c/C" with the passes over the image done so far, after each of them. */
+csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, const float *values,
+                           uint32_t channels, uint32_t c, const csi_sample_pos *pos,
+                           const float *fine_at, size_t n, bool clamp, float *plane);
 /* The blend's last step on a still image (fit_trust.c): each pixel of plane (the blend's
  * output, in and out) that holds one sample moves towards the control variate made from box
  * (b, the fine estimate's box integral before the blend) by how far the fit can be trusted

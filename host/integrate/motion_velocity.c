@@ -126,9 +126,7 @@ static size_t cutoff(size_t n, double step, size_t T, size_t K)
  * every frame), which a log should show advancing. */
 static csi_status report(const csi_recon_options *opt, int done)
 {
-    if (opt && opt->progress && !opt->progress(opt->user, "velocity search", done, -1.0))
-        return csi_fail(CSI_ERR_CANCELLED, "reconstruction cancelled by the caller (at the velocity search)");
-    return CSI_OK;
+    return csi_recon_progress_step(opt, "velocity search", done);
 }
 
 /* Coarse-to-fine search of E's peaks over |v| <= vmax along each axis: NCAND candidates (e < 0

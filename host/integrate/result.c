@@ -123,19 +123,30 @@ double csi_recon_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-csi_status csi_recon_progress(const csi_recon_options *opt, const char *phase)
+csi_status csi_recon_progress_step(const csi_recon_options *opt, const char *phase, int done)
 {
-    if (opt->progress && !opt->progress(opt->user, phase, 0, -1.0))
+    if (opt && opt->progress && !opt->progress(opt->user, phase, done, -1.0))
         return csi_fail(CSI_ERR_CANCELLED, "reconstruction cancelled by the caller (at %s)", phase);
     return CSI_OK;
+}
+
+csi_status csi_recon_progress(const csi_recon_options *opt, const char *phase)
+{
+    return csi_recon_progress_step(opt, phase, 0);
+}
+
+csi_status csi_recon_progress_channel_step(const csi_recon_options *opt, const char *phase, uint32_t c,
+                                           uint32_t channels, int done)
+{
+    char name[48];
+    snprintf(name, sizeof name, "%s %u/%u", phase, c + 1, channels);
+    return csi_recon_progress_step(opt, name, done);
 }
 
 csi_status csi_recon_progress_channel(const csi_recon_options *opt, const char *phase, uint32_t c,
                                       uint32_t channels)
 {
-    char name[48];
-    snprintf(name, sizeof name, "%s %u/%u", phase, c + 1, channels);
-    return csi_recon_progress(opt, name);
+    return csi_recon_progress_channel_step(opt, phase, c, channels, 0);
 }
 
 csi_status csi_recon_check_finite(const float *a, size_t n, const char *what)

@@ -1,6 +1,8 @@
 /* The phases a reconstruction reports (csi_recon_options.progress) and the channels it solves:
  * "setup", for a moving volume "velocity search" (with its steps counting up; a cancel there
- * stops the run), then per channel c of C "solve c/C" (with the solver's steps) and "integrate c/C";
+ * stops the run), then per channel c of C "solve c/C" (with the solver's steps), "integrate c/C"
+ * and, on a still image whose samples are not known to be exact, "correct c/C" (the blend's
+ * passes over the image counting up; a cancel between two of them stops the run);
  * the per-pixel mean baseline "setup" then "integrate"; a channel whose samples repeat an earlier channel's bit for bit is not solved again and gets
  * that channel's result (the solve is deterministic, so the bits are the same as solving it).
  * Alg. 1 (static) and Alg. 2 (moving), small grids. */
@@ -19,20 +21,21 @@ typedef struct {
     char phase[MAXP][32];
     int steps[MAXP];
     int n, backwards;
-    const char *stop_at; /* a phase whose first report cancels */
+    const char *stop_at; /* a phase whose first report with at least stop_step steps cancels */
+    int stop_step;
 } log_t;
 
 static bool record(void *user, const char *phase, int iter, double res)
 {
     log_t *l = user;
     (void)res;
+    if (l->stop_at && !strcmp(phase, l->stop_at) && iter >= l->stop_step)
+        return false;
     if (l->n > 0 && strcmp(l->phase[l->n - 1], phase) == 0) { /* one entry per phase */
         l->backwards += iter < l->steps[l->n - 1];
         l->steps[l->n - 1] = iter;
         return true;
     }
-    if (l->stop_at && !strcmp(phase, l->stop_at))
-        return false;
     if (l->n < MAXP) {
         snprintf(l->phase[l->n], sizeof l->phase[0], "%s", phase);
         l->steps[l->n++] = iter;
@@ -88,16 +91,20 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
             CHECK(vi < 0, "a still image reports a velocity search");
         CHECK(!l.backwards, "T = %u: %d reports went backwards within a phase", T, l.backwards);
         for (int c = 1; c <= 3; c++) {
-            char sname[32], iname[32];
+            char sname[32], iname[32], cname[32];
             snprintf(sname, sizeof sname, "solve %d/3", c);
             snprintf(iname, sizeof iname, "integrate %d/3", c);
-            int si = find(&l, sname), ii = find(&l, iname);
+            snprintf(cname, sizeof cname, "correct %d/3", c);
+            int si = find(&l, sname), ii = find(&l, iname), ci = find(&l, cname);
             CHECK(si > prev, "T = %u: '%s' reported after the previous channel", T, sname);
             const bool solved = !(copy_equal && c == 3);
             if (solved) {
                 CHECK(ii > si, "T = %u: '%s' after '%s'", T, iname, sname);
                 CHECK(l.steps[si] > 0, "T = %u: '%s' carries the solver's steps (%d)", T, sname, l.steps[si]);
-                prev = ii;
+                /* still, and the samples are not flagged exact: the blend corrects, reporting its passes */
+                CHECK(T > 1 || (ci > ii && l.steps[ci] > 1), "T = %u: '%s' after '%s' with its passes (at %d, %d)", T,
+                      cname, iname, ci, ci >= 0 ? l.steps[ci] : 0);
+                prev = ci > ii ? ci : ii;
             } else {
                 CHECK(ii < 0, "T = %u: a repeated channel is not integrated again", T);
                 prev = si;
@@ -117,6 +124,13 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
         st = csi_recon(ctx, &g, 3, pos, val, n, &o, &r);
         CHECK(st == CSI_ERR_CANCELLED && strstr(csi_last_error(), "velocity search"),
               "T = %u: a cancel in the velocity search: %d %s", T, (int)st, csi_last_error());
+    }
+    if (T == 1) { /* a cancel between two of the blend's passes */
+        log_t cb = {.n = 0, .stop_at = "correct 2/3", .stop_step = 2};
+        o.user = &cb;
+        st = csi_recon(ctx, &g, 3, pos, val, n, &o, &r);
+        CHECK(st == CSI_ERR_CANCELLED && strstr(csi_last_error(), "correct 2/3"),
+              "a cancel inside the blend: %d %s", (int)st, csi_last_error());
     }
     free(pos);
     free(val);

@@ -330,7 +330,8 @@ typedef struct csi_progress {
                             of C "solve c/C", "integrate c/C" and "correct c/C" (tiled: "tile i/N
                             solve c/C" ..., then "tile i/N blend") */
     int iteration;       /* the solver's steps in this channel so far (the velocity search: its
-                            steps); 0 elsewhere */
+                            steps; "correct c/C" on a still image: the passes over the image
+                            done); 0 elsewhere */
     double residual;     /* relative residual ||y - A x|| / ||y||; < 0 when not known */
 } csi_progress;
 /* Called from the calling thread at each phase and after every solver iteration. Return true
