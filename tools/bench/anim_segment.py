@@ -1,0 +1,257 @@
+#!/usr/bin/env python3
+"""A still/moving segmentation of an x, y, t volume with a velocity per part (issue 12; a numpy
+prototype around csi's library, measured in docs/bench/animation.md, round 8).
+
+csi's motion solve (Alg. 2) shears its basis by one velocity for the whole volume, or by none
+(motion_velocity.c: a velocity must improve the samples' leave-one-out error on the mean and on
+the median, so a mover over a still background keeps v = 0, and the mover is blurred). Here:
+
+ 1. layers: per-sample squared leave-one-out errors E[v, i] of the Gaussian normalized
+    convolution along each candidate velocity v (sigma 1 cell in x, y and t in the frame moving
+    at v: the search's own predictor, motion_velocity.c), on a grid of velocities (step 1 cell per
+    frame, |v| <= 8) and the default's velocity (layer 0). Layers are added greedily, at most
+    two: every candidate is scored by the segmentation's error with it added (step 2's labels,
+    each sample scored by its own error in the layer it was given); the best is added when that
+    score drops by --gain (3%), then refined on a 0.25-cell grid around it. (Ranking by the sum
+    of each sample's smallest error instead chose velocities on noise: the minimum over a few
+    hundred candidates is optimistic.)
+ 2. labels: each sample takes the layer with the smallest sum of its neighbours' errors
+    (Gaussian weights of width 3 cells in x, y and 2 frames in t, itself left out; their
+    errors did use it, so the score is not a clean cross-validation).
+ 3. a solve per layer: the default (layer 0) and csi with each further layer's velocity given
+    (--motion-velocity given; Alg. 1's filter at the default's width when the default has one).
+ 4. composite: each cell's membership of a layer is the normalized convolution of the layer's
+    labels (width 3 cells, 1.5 frames); frames = sum of memberships x the layers' frames; image =
+    the default's image (with its per-pixel correction) + the mean over t of frames - its frames.
+
+    .venv/bin/python tools/bench/anim_segment.py --volumes static+disc,pan+disc --rates 0.01,0.03,0.1 \\
+        --seeds 0,1 --size 64x64x16 --out OUT
+    DRJIT_LIBLLVM_PATH=... .venv/bin/python tools/bench/anim_segment.py --scenes anim_ball,anim_pan \\
+        --mitsuba-size 64x64x16 --ref-spp 64 --paths 16 --rates 0.01,0.03,0.1 --seeds 0 --out OUT
+
+Writes OUT/results.csv: per case the default's and the composite's image MSE over the
+oracle-tuned 3-D Gaussian's (bench_animation.py's oracle), mean frame PSNR, temporal error (MSE
+of frame differences), the layers' velocities and the seconds of the layer search.
+"""
+import argparse
+import csv
+import os
+import sys
+import time
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "host", "python"))
+
+import bench_animation as ba  # noqa: E402
+
+import csi  # noqa: E402
+
+
+def loo_errors(pos, vals, T, vs, sig=1.0, sig_t=1.0):
+    """E[a, i]: sample i's squared leave-one-out error (summed over channels) of the Gaussian
+    normalized convolution in the frame moving at vs[a] (x - vx (t - tc), y - vy (t - tc), t),
+    truncated at 3.5 widths; a sample with no neighbour is predicted by the mean."""
+    p = pos.astype(np.float64)
+    y = vals.astype(np.float64)
+    tc = 0.5 * (T - 1)
+    E = np.empty((len(vs), len(p)))
+    for a, (vx, vy) in enumerate(vs):
+        q = np.stack([(p[:, 0] - vx * (p[:, 2] - tc)) / sig, (p[:, 1] - vy * (p[:, 2] - tc)) / sig,
+                      p[:, 2] / sig_t], 1)
+        pairs = cKDTree(q).query_pairs(3.5, output_type="ndarray")
+        w = np.exp(-0.5 * np.sum((q[pairs[:, 0]] - q[pairs[:, 1]]) ** 2, 1))
+        num = np.zeros_like(y)
+        den = np.zeros(len(p))
+        for i, j in ((0, 1), (1, 0)):
+            np.add.at(num, pairs[:, i], w[:, None] * y[pairs[:, j]])
+            np.add.at(den, pairs[:, i], w)
+        pred = np.where(den[:, None] > 1e-3, num / np.maximum(den, 1e-3)[:, None], y.mean(0))
+        E[a] = np.sum((pred - y) ** 2, 1)
+    return E
+
+
+def neighbour_weights(pos, sig_s=3.0, sig_t=2.0):
+    """The sparse symmetric matrix of Gaussian weights between samples (still frame, widths sig_s
+    cells and sig_t frames, truncated at 3 widths), zero on the diagonal: W @ e is each sample's
+    neighbours' sum of e, its own left out (their leave-one-out errors did use it: the score is
+    not a clean cross-validation, see docs/bench/animation.md, round 8)."""
+    from scipy import sparse
+    p = pos.astype(np.float64)
+    q = np.stack([p[:, 0] / sig_s, p[:, 1] / sig_s, p[:, 2] / sig_t], 1)
+    pairs = cKDTree(q).query_pairs(3.0, output_type="ndarray")
+    w = np.exp(-0.5 * np.sum((q[pairs[:, 0]] - q[pairs[:, 1]]) ** 2, 1))
+    n = len(p)
+    Wm = sparse.coo_matrix((np.concatenate([w, w]), (np.concatenate([pairs[:, 0], pairs[:, 1]]),
+                                                      np.concatenate([pairs[:, 1], pairs[:, 0]]))), shape=(n, n))
+    return Wm.tocsr()
+
+
+def choose_layers(Wm, E, gain, maxl=2):
+    """Greedy from layer 0 (the default's velocity): each candidate v is scored by the
+    segmentation's cross-validated error with it added: sample i takes the layer whose
+    neighbours' errors (W @ E, its own left out) are smallest and is scored by its own error
+    there. The best candidate is added when it lowers that error by the fraction gain."""
+    S = np.asarray(Wm @ E.T)  # (n, candidates)
+    chosen, scores = [0], [float(E[0].sum())]
+    lab_s, lab_e = S[:, 0].copy(), E[0].copy()
+    cur = scores[0]
+    for _ in range(maxl):
+        take = S < lab_s[:, None]
+        cv = np.where(take, E.T, lab_e[:, None]).sum(0)
+        cv[chosen] = np.inf
+        b = int(np.argmin(cv))
+        if cv[b] > (1 - gain) * cur:
+            break
+        chosen.append(b)
+        lab_e = np.where(take[:, b], E[b], lab_e)
+        lab_s = np.where(take[:, b], S[:, b], lab_s)
+        cur = float(cv[b])
+        scores.append(cur)
+    choose_layers.scores = scores  # the cross-validated error after each layer, for the report
+    return chosen
+
+
+def find_layers(pos, vals, T, v0, gain=0.03, maxl=2, step=1.0, vmax=8.0):
+    """The layers' velocities (v0, the default's, first) and their per-sample errors: a grid of
+    velocities, then each added layer refined on a 0.25-cell grid around it (the others kept)."""
+    grid = np.arange(-vmax, vmax + 1e-9, step)
+    vs = [tuple(v0)] + [(float(a), float(b)) for a in grid for b in grid]
+    E = loo_errors(pos, vals, T, vs)
+    Wm = neighbour_weights(pos)
+    chosen = choose_layers(Wm, E, gain, maxl)
+    find_layers.scores = choose_layers.scores
+    fine_steps = np.arange(-0.75, 0.76, 0.25)
+    for l in range(1, len(chosen)):
+        bx, by = vs[chosen[l]]
+        fine = [(bx + a, by + b) for a in fine_steps for b in fine_steps]
+        Ef = loo_errors(pos, vals, T, fine)
+        others = [k for m, k in enumerate(chosen) if m != l]
+        sub = np.vstack([E[others], Ef])
+        pick = choose_layers(Wm, sub, -np.inf, maxl=1)  # the best refinement, whatever its gain
+        if len(pick) > 1 and pick[1] >= len(others):
+            vs.append(fine[pick[1] - len(others)])
+            E = np.vstack([E, Ef[pick[1] - len(others)][None]])
+            chosen[l] = len(vs) - 1
+    return [vs[k] for k in chosen], E[chosen], Wm
+
+
+def layer_solves(pos, vals, grid, r0, layers):
+    """The default's result and csi's for each further layer's velocity."""
+    width = r0.options.get("motion_filter")
+    try:
+        width = float(width)
+    except (TypeError, ValueError):
+        width = -1.0
+    out = [r0]
+    for vx, vy in layers[1:]:
+        if vx == 0 and vy == 0:
+            vx = 1e-3  # a still layer beside a sheared default: given velocities must not both be 0
+        kw = {"motion_filter": width} if width > 0 else {}
+        out.append(csi.reconstruct(pos, vals, grid, frames="on", motion_velocity="given",
+                                   motion_vx=vx, motion_vy=vy, **kw))
+    return out
+
+
+def membership(pos, lab, nl, shape, sig_s=3.0, sig_t=1.5):
+    """(nl, T, H, W): each cell's share of each layer, the normalized convolution of the labels."""
+    d = np.zeros(shape)
+    d[pos[:, 2], pos[:, 1], pos[:, 0]] = 1
+    s = (sig_t, sig_s, sig_s)
+    d = ndimage.gaussian_filter(d, s, mode="nearest")
+    m = np.empty((nl,) + tuple(shape))
+    for l in range(nl):
+        a = np.zeros(shape)
+        a[pos[:, 2], pos[:, 1], pos[:, 0]] = lab == l
+        m[l] = ndimage.gaussian_filter(a, s, mode="nearest") / np.maximum(d, 1e-12)
+    return m / np.maximum(m.sum(0, keepdims=True), 1e-12)
+
+
+def composite(pos, El, Wm, results, shape, **kw):
+    if len(results) == 1:
+        return results[0].image, results[0].frames
+    m = membership(pos, np.argmin(np.asarray(Wm @ El.T), 1), len(results), shape, **kw)
+    frames = sum(m[l][..., None] * r.frames for l, r in enumerate(results))
+    return results[0].image + (frames - results[0].frames).mean(0), frames
+
+
+def segmented(pos, vals, grid, gain=0.03, r0=None):
+    """The whole method: (image, frames, layers) for samples at cells pos of grid (w, h, t, w, h)."""
+    if r0 is None:
+        r0 = csi.reconstruct(pos, vals, grid, frames="on")
+    v0 = (float(r0.options.get("motion_vx") or 0), float(r0.options.get("motion_vy") or 0))
+    layers, El, Wm = find_layers(pos, vals, grid[2], v0, gain)
+    img, frames = composite(pos, El, Wm, layer_solves(pos, vals, grid, r0, layers), (grid[2], grid[1], grid[0]))
+    return img, frames, layers
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--volumes", default="")
+    ap.add_argument("--scenes", default="")
+    ap.add_argument("--rates", default="0.01,0.03,0.1")
+    ap.add_argument("--seeds", default="0")
+    ap.add_argument("--size", default="64x64x16")
+    ap.add_argument("--mitsuba-size", default="64x64x16")
+    ap.add_argument("--data", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-anim"))
+    ap.add_argument("--ref-spp", type=int, default=64)
+    ap.add_argument("--paths", type=int, default=16)
+    ap.add_argument("--gain", type=float, default=0.03)
+    a = ap.parse_args()
+    cases = [("procedural", v) for v in a.volumes.split(",") if v] + [("mitsuba", s) for s in a.scenes.split(",") if s]
+    for src, name in cases:
+        known = ba.av.NAMES if src == "procedural" else tuple(ba.MITSUBA_SCENES)
+        if name not in known:
+            ap.error(f"unknown {'volume' if src == 'procedural' else 'scene'} {name!r} (one of {', '.join(known)})")
+    if not cases:
+        ap.error("nothing to run: give --volumes and/or --scenes")
+    try:
+        size = tuple(int(x) for x in a.size.split("x"))
+        msize = tuple(int(x) for x in a.mitsuba_size.split("x"))
+        rates = [float(x) for x in a.rates.split(",")]
+        seeds = [int(x) for x in a.seeds.split(",")]
+    except ValueError as e:
+        ap.error(f"bad --size, --mitsuba-size, --rates or --seeds: {e}")
+    if len(size) != 3 or len(msize) != 3 or min(size + msize) < 2 or not all(0 < r <= 1 for r in rates):
+        ap.error("sizes are WxHxT (each at least 2) and rates fractions in (0, 1]")
+    os.makedirs(a.out, exist_ok=True)
+    path = os.path.join(a.out, "results.csv")
+    new = not os.path.exists(path)
+    with open(path, "a", newline="") as fh:
+        wr = csv.writer(fh)
+        if new:
+            wr.writerow(["source", "volume", "rate", "seed", "gauss_img_mse", "csi_img", "seg_img", "seg_over_csi",
+                         "csi_psnr", "seg_psnr", "csi_temporal", "seg_temporal", "layers", "cv_scores", "t_layers_s"])
+        for src, name in cases:
+            for rate in rates:
+                for seed in seeds:
+                    if src == "procedural":
+                        c = ba.procedural_case(name, seed, rate, size, os.path.join(a.data, "procedural"))
+                    else:
+                        c = ba.mitsuba_case(name, seed, rate, msize, a.data, a.ref_spp, a.paths)
+                    ref = c.truth.mean(axis=0)
+                    g = min(float(np.mean((ba.gauss_nc(c.shape, c.pos, c.vals, s).mean(0) - ref) ** 2))
+                            for s in ba.GAUSS_SIGMAS)
+                    r0 = csi.reconstruct(c.pos, c.vals, c.grid, frames="on")
+                    m0 = ba.metrics(c, r0.image, r0.frames)
+                    t0 = time.perf_counter()
+                    img, frames, layers = segmented(c.pos, c.vals, c.grid, a.gain, r0)
+                    sec = time.perf_counter() - t0
+                    m1 = ba.metrics(c, img, frames)
+                    row = [src, name, rate, seed, f"{g:.6e}", f"{m0['img_mse'] / g:.4f}", f"{m1['img_mse'] / g:.4f}",
+                           f"{m1['img_mse'] / m0['img_mse']:.4f}", f"{m0['frames_psnr']:.3f}",
+                           f"{m1['frames_psnr']:.3f}", f"{m0['temporal_mse']:.4e}", f"{m1['temporal_mse']:.4e}",
+                           " ".join(f"{vx:.2f},{vy:.2f}" for vx, vy in layers),
+                           " ".join(f"{x:.4g}" for x in find_layers.scores), f"{sec:.1f}"]
+                    wr.writerow(row)
+                    fh.flush()
+                    print(" ".join(str(x) for x in row), flush=True)
+
+
+if __name__ == "__main__":
+    main()
