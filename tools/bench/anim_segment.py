@@ -140,8 +140,9 @@ def find_layers(pos, vals, T, v0, gain=0.03, maxl=2, step=1.0, vmax=8.0):
     return [vs[k] for k in chosen], E[chosen], Wm
 
 
-def layer_solves(pos, vals, grid, r0, layers):
-    """The default's result and csi's for each further layer's velocity."""
+def layer_solves(pos, vals, grid, r0, layers, still_weight=1.0):
+    """The default's result and csi's for each further layer's velocity (still_weight: round 7's
+    l1 weight of the layer's time-constant plane, what moves at its velocity)."""
     width = r0.options.get("motion_filter")
     try:
         width = float(width)
@@ -152,6 +153,8 @@ def layer_solves(pos, vals, grid, r0, layers):
         if vx == 0 and vy == 0:
             vx = 1e-3  # a still layer beside a sheared default: given velocities must not both be 0
         kw = {"motion_filter": width} if width > 0 else {}
+        if still_weight != 1.0:
+            kw["motion_still_weight"] = still_weight
         out.append(csi.reconstruct(pos, vals, grid, frames="on", motion_velocity="given",
                                    motion_vx=vx, motion_vy=vy, **kw))
     return out
@@ -171,21 +174,28 @@ def membership(pos, lab, nl, shape, sig_s=3.0, sig_t=1.5):
     return m / np.maximum(m.sum(0, keepdims=True), 1e-12)
 
 
-def composite(pos, El, Wm, results, shape, **kw):
+def composite(pos, El, Wm, results, shape, hard=False, **kw):
+    """Step 4; hard: the added layers' shares pushed to 0 or 1 away from the labels' boundary,
+    clip((share - 0.25) / 0.5), layer 0 taking the rest."""
     if len(results) == 1:
         return results[0].image, results[0].frames
     m = membership(pos, np.argmin(np.asarray(Wm @ El.T), 1), len(results), shape, **kw)
+    if hard:
+        m = np.clip((m - 0.25) / 0.5, 0, 1)
+        m[0] = 1 - m[1:].sum(0).clip(0, 1)
+        m /= m.sum(0, keepdims=True)
     frames = sum(m[l][..., None] * r.frames for l, r in enumerate(results))
     return results[0].image + (frames - results[0].frames).mean(0), frames
 
 
-def segmented(pos, vals, grid, gain=0.03, r0=None):
+def segmented(pos, vals, grid, gain=0.03, r0=None, still_weight=1.0, hard=False):
     """The whole method: (image, frames, layers) for samples at cells pos of grid (w, h, t, w, h)."""
     if r0 is None:
         r0 = csi.reconstruct(pos, vals, grid, frames="on")
     v0 = (float(r0.options.get("motion_vx") or 0), float(r0.options.get("motion_vy") or 0))
     layers, El, Wm = find_layers(pos, vals, grid[2], v0, gain)
-    img, frames = composite(pos, El, Wm, layer_solves(pos, vals, grid, r0, layers), (grid[2], grid[1], grid[0]))
+    img, frames = composite(pos, El, Wm, layer_solves(pos, vals, grid, r0, layers, still_weight),
+                            (grid[2], grid[1], grid[0]), hard)
     return img, frames, layers
 
 
@@ -202,6 +212,9 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=64)
     ap.add_argument("--paths", type=int, default=16)
     ap.add_argument("--gain", type=float, default=0.03)
+    ap.add_argument("--layer-still-weight", type=float, default=1.0,
+                    help="the added layers' solves with this --motion-still-weight (candidate)")
+    ap.add_argument("--shares", choices=("soft", "hard"), default="soft", help="step 4's shares (candidate: hard)")
     a = ap.parse_args()
     cases = [("procedural", v) for v in a.volumes.split(",") if v] + [("mitsuba", s) for s in a.scenes.split(",") if s]
     for src, name in cases:
@@ -219,6 +232,8 @@ def main():
         ap.error(f"bad --size, --mitsuba-size, --rates or --seeds: {e}")
     if len(size) != 3 or len(msize) != 3 or min(size + msize) < 2 or not all(0 < r <= 1 for r in rates):
         ap.error("sizes are WxHxT (each at least 2) and rates fractions in (0, 1]")
+    if not a.layer_still_weight > 0:
+        ap.error(f"--layer-still-weight {a.layer_still_weight}: must be > 0")
     os.makedirs(a.out, exist_ok=True)
     path = os.path.join(a.out, "results.csv")
     new = not os.path.exists(path)
@@ -240,7 +255,8 @@ def main():
                     r0 = csi.reconstruct(c.pos, c.vals, c.grid, frames="on")
                     m0 = ba.metrics(c, r0.image, r0.frames)
                     t0 = time.perf_counter()
-                    img, frames, layers = segmented(c.pos, c.vals, c.grid, a.gain, r0)
+                    img, frames, layers = segmented(c.pos, c.vals, c.grid, a.gain, r0, a.layer_still_weight,
+                                                    a.shares == "hard")
                     sec = time.perf_counter() - t0
                     m1 = ba.metrics(c, img, frames)
                     row = [src, name, rate, seed, f"{g:.6e}", f"{m0['img_mse'] / g:.4f}", f"{m1['img_mse'] / g:.4f}",
