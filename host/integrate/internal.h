@@ -229,6 +229,16 @@ typedef struct {
     float lo, hi;
 } csi_px_resid;
 void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, float *plane);
+
+/* The blurred image of time window `tile`'s x/y window over the whole shutter, binned in t to
+ * the layout's window length (binned.c, csi_recon_options.tile_image_binned): one solve of the
+ * samples of that x/y window at every t, those sharing a binned cell averaged, with the
+ * whole's figures (scope) carried to the binned grid. out: its image (window[0] x window[1]
+ * pixels), no frames. */
+csi_status csi_recon_binned_image(csi_ctx *ctx, const csi_tiling *tl, const csi_tile *tile, uint32_t channels,
+                                  const csi_sample_pos *pos, const float *values, size_t n,
+                                  const csi_recon_options *opt, const csi_tile_scope *scope,
+                                  csi_recon_result *out);
 /* Pixels of plane (channel c) whose every cell (all t) is sampled are set to the mean of their
  * samples: the exact box mean, which no fit improves on (blend.c; Alg. 2 without the blend). */
 void csi_recon_exact_full(const csi_grid *g, const float *values, uint32_t channels, uint32_t c,

@@ -195,6 +195,10 @@ static const row table[] = {
     {"tiles-t", K_U32, AT(tiles_t), 1, 65536, NULL, F_AUTO, "auto", "N",
      "volumes: exactly N time windows (1: never split t)", "as the budget's layout prices them: "
      "cells covered x (1 + 0.02 per window boundary), x/y tiles or windows"},
+    {"tile-image-binned", K_CHOICE, AT(tile_image_binned), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "volumes split in t: the blurred image from one solve of every frame's samples, binned in t "
+     "to a window's length (samples sharing a cell averaged); the windows then give only the "
+     "frames (off: the blend of the windows' frames)", "off"},
     {"frames", K_BOOL, AT(frames), 0, 0, NULL, F_LIBRARY, "off", NULL,
      "volumes: also return every frame", NULL},
     {"seed", K_U64, AT(seed), 0, 18446744073709551615.0, NULL, F_LIBRARY, "1", "S",

@@ -243,6 +243,44 @@ static csi_status resid_sums(const csi_tiling *tl, const csi_tile *tile, const t
     return CSI_OK;
 }
 
+/* Whether a layout's time windows take their image from the binned shutter (binned.c): the
+ * option's, auto off; the compressive estimator only. */
+static bool image_binned(const csi_tiling *tl, const csi_recon_options *opt)
+{
+    return tl->n[2] > 1 && opt->estimator == CSI_EST_CS && opt->tile_image_binned == CSI_SWITCH_ON;
+}
+
+/* The binned shutter's image of tile t's x/y window becomes the image of t's result r: the
+ * column's first window carries it whole (its weights over t sum to 1 there), the others none;
+ * the binned solve's work is added to r's figures. */
+static csi_status binned_into(csi_ctx *ctx, const csi_tiling *tl, const csi_tile *t, uint32_t channels,
+                              const csi_sample_pos *pos, const float *values, size_t n,
+                              const csi_recon_options *opt, const csi_tile_scope *scope, csi_recon_result *r)
+{
+    const size_t np = (size_t)r->out_w * r->out_h;
+    r->options.tile_image_binned = CSI_SWITCH_ON;
+    if (t->pos[2] != 0) {
+        memset(r->image, 0, np * channels * sizeof *r->image);
+        return CSI_OK;
+    }
+    csi_recon_result b;
+    CSI_TRY(csi_recon_binned_image(ctx, tl, t, channels, pos, values, n, opt, scope, &b));
+    memcpy(r->image, b.image, np * channels * sizeof *r->image);
+    for (uint32_t c = 0; c < channels; c++) {
+        r->report[c].iterations += b.report[c].iterations;
+        r->report[c].applies += b.report[c].applies;
+        r->report[c].adjoints += b.report[c].adjoints;
+        r->report[c].t_total += b.report[c].t_total;
+    }
+    r->t_setup += b.t_setup;
+    r->t_solve += b.t_solve;
+    r->t_integrate += b.t_integrate;
+    r->cpu_setup += b.cpu_setup;
+    r->cpu_work += b.cpu_work;
+    csi_recon_result_free(&b);
+    return CSI_OK;
+}
+
 static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                    const csi_sample_pos *pos, const float *values, size_t n,
                                    const csi_recon_options *opt, const csi_tiling *tl,
@@ -257,7 +295,9 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     out->x0 = p.tile.win0[0];
     out->y0 = p.tile.win0[1];
     out->t0 = p.tile.win0[2];
-    const bool split_t = tl->n[2] > 1;
+    /* With the binned shutter's image a window solves only for its frames (none asked: nothing). */
+    const bool binned = image_binned(tl, opt);
+    const bool split_t = tl->n[2] > 1 && !binned, solve = !binned || opt->frames;
     csi_recon_options o = *opt;
     o.levels = tl->levels > 0 ? tl->levels : opt->levels;
     o.frames = opt->frames || split_t; /* a time window's share of the mean needs its frames */
@@ -267,8 +307,9 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     csi_status s = CSI_OK;
     if (split_t && p.n > 0 && !(fit.at = malloc(p.n * channels * sizeof *fit.at)))
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the volume at the %zu samples of tile %u", p.n, index);
-    if (s == CSI_OK && p.n == 0) {
-        /* No sample reaches this window: the tile knows nothing, and says so. */
+    if (s == CSI_OK && (p.n == 0 || !solve)) {
+        /* No sample reaches this window, or nothing is asked of it: the tile knows nothing
+         * of its own, and says so. */
         csi_recon_result *r = &out->r;
         const size_t np = (size_t)p.g.out_w * p.g.out_h;
         r->out_w = p.g.out_w;
@@ -284,7 +325,9 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
         for (uint32_t c = 0; c < channels; c++) {
             r->report[c].converged = true;
             r->report[c].reason = CSI_SOLVE_ZERO;
-            snprintf(r->report[c].message, sizeof r->report[c].message, "tile %u has no sample", index);
+            snprintf(r->report[c].message, sizeof r->report[c].message,
+                     solve ? "tile %u has no sample" : "tile %u: no frames asked for (the image is the binned shutter's)",
+                     index);
         }
         if (s == CSI_OK && (!r->image || (r->nframes && !r->frames)))
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for tile %u", index);
@@ -293,6 +336,8 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     }
     if (s == CSI_OK && split_t && (p.n == 0 || fit.kept))
         s = resid_sums(tl, &p.tile, &p, channels, fit.kept ? fit.at : NULL, &out->resid);
+    if (s == CSI_OK && binned)
+        s = binned_into(ctx, tl, &p.tile, channels, pos, values, n, opt, scope, &out->r);
     free(fit.at);
     tile_problem_free(&p);
     if (s != CSI_OK) {
@@ -312,11 +357,11 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
                     acc += csi_tile_weight(tl, &tile, 2, out->t0 + t) * r->frames[((size_t)t * channels + c) * np + q];
                 r->image[(size_t)c * np + q] = (float)(acc / tl->grid.t);
             }
-        if (!opt->frames) {
-            free(r->frames);
-            r->frames = NULL;
-            r->nframes = 0;
-        }
+    }
+    if (split_t && r->nframes && !opt->frames) {
+        free(r->frames);
+        r->frames = NULL;
+        r->nframes = 0;
     }
     return CSI_OK;
 }

@@ -205,6 +205,31 @@ static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint
         return false;
     c->bytes = plan.device_bytes;
     c->largest = plan.largest_buffer;
+    if (n[2] > 1 && p->m == M_MOTION && opt->tile_image_binned == CSI_SWITCH_ON) {
+        /* The binned shutter (binned.c): the window's x/y cells over fewer frames, but with
+         * the samples of its whole x/y column, merged where they share a binned cell. */
+        csi_tiling b;
+        memset(&b, 0, sizeof b);
+        b.grid = (csi_grid){.t = (uint32_t)(p->k / ((uint64_t)p->ax[0].length * p->bw * p->ax[1].length * p->bh))};
+        b.n[2] = n[2];
+        b.window[2] = c->window[2];
+        const uint32_t bins = (b.grid.t + csi_tiling_bin_t(&b) - 1) / csi_tiling_bin_t(&b);
+        const csi_grid bg = {.w = tg.w, .h = tg.h, .t = bins, .out_w = tg.out_w, .out_h = tg.out_h};
+        const uint64_t bcells = (uint64_t)bg.w * bg.h * bg.t;
+        double col = ceil(TILE_SAMPLE_HEADROOM * (double)p->n * (double)cells / (double)p->k * p->ax[2].length /
+                          c->window[2]);
+        uint64_t bn = col < (double)bcells ? (uint64_t)col : bcells;
+        if (bn > p->n)
+            bn = p->n;
+        to.frames = false;
+        csi_recon_plan bplan;
+        if (csi_recon_plan_whole(&bg, p->channels, (size_t)bn, &to, &p->scope, &bplan) != CSI_OK)
+            return false;
+        if (bplan.device_bytes > c->bytes)
+            c->bytes = bplan.device_bytes;
+        if (bplan.largest_buffer > c->largest)
+            c->largest = bplan.largest_buffer;
+    }
     c->samples = ns;
     c->work = cells * count;
     return true;
@@ -442,6 +467,17 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         out->band[a] = band ? band : 1;
     }
     return CSI_OK;
+}
+
+uint32_t csi_tiling_bin_t(const csi_tiling *tl)
+{
+    const uint32_t T = tl->grid.t, L = tl->window[2];
+    if (tl->n[2] <= 1 || L == 0)
+        return 1;
+    uint32_t b = (T + L - 1) / L;
+    while (!smooth7((T + b - 1) / b))
+        b++;
+    return b;
 }
 
 void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *t)

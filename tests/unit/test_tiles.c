@@ -207,6 +207,32 @@ int main(void)
                   strstr(csi_last_error(), "cannot be laid out on 64 frames") != NULL,
               "2 windows of 64 frames with 16-frame margins are refused: %s", csi_last_error());
         o.tile_margin_t = 4;
+        /* The binned shutter (csi_tiling_bin_t): 256 frames in windows of 216, 108 and 54 frames
+         * are binned 2, 4 and 8 frames a bin (86, 52, 43 and 37 bins are not FFT lengths), and
+         * its plan counts the binned problem (a window's cells over fewer frames, the column's
+         * samples) besides the window's. */
+        {
+            const csi_grid gl = {64, 64, 256, 64, 64};
+            const uint32_t nts[] = {2, 4, 8}, wins[] = {216, 108, 54}, bins[] = {2, 4, 8};
+            csi_recon_options ob;
+            csi_recon_defaults(&ob);
+            for (int i = 0; i < 3; i++) {
+                ob.tiles_t = nts[i];
+                ob.tile_image_binned = CSI_SWITCH_OFF;
+                csi_tiling a, b;
+                REQUIRE_OK(csi_tiling_plan(NULL, &gl, 3, 65536, &ob, &a));
+                ob.tile_image_binned = CSI_SWITCH_ON;
+                REQUIRE_OK(csi_tiling_plan(NULL, &gl, 3, 65536, &ob, &b));
+                CHECK(a.window[2] == wins[i] && csi_tiling_bin_t(&a) == bins[i] && b.tile_bytes >= a.tile_bytes,
+                      "%u windows of 256 frames: window %u (want %u), %u frames a bin (want %u), %llu bytes a "
+                      "tile binned against %llu", nts[i], a.window[2], wins[i], csi_tiling_bin_t(&a), bins[i],
+                      (unsigned long long)b.tile_bytes, (unsigned long long)a.tile_bytes);
+            }
+            csi_tiling one;
+            ob.tiles_t = 1;
+            REQUIRE_OK(csi_tiling_plan(NULL, &gl, 3, 65536, &ob, &one));
+            CHECK(csi_tiling_bin_t(&one) == 1, "t not split: 1 frame a bin (%u)", csi_tiling_bin_t(&one));
+        }
         const csi_grid img = {256, 256, 1, 64, 64};
         o.tiles_t = 2;
         CHECK(csi_tiling_plan(NULL, &img, 1, 4096, &o, &tl) == CSI_ERR_ARG &&

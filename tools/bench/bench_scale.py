@@ -283,7 +283,8 @@ def windows(a, bins, env, work, logf):
         row = dict(case=label, frames=grid[2], samples=len(pos), v_whole=f"{v[0]:.2f},{v[1]:.2f}", mse_whole=e_w)
         variants = dict(t2=dict(tiles_t=2), t2_m4=dict(tiles_t=2, tile_margin_t=4),
                         t2_shared_v=dict(tiles_t=2, motion_velocity="given", motion_vx=v[0], motion_vy=v[1]),
-                        t4=dict(tiles_t=4))
+                        t4=dict(tiles_t=4), t2_binned=dict(tiles_t=2, tile_image_binned="on"),
+                        t4_binned=dict(tiles_t=4, tile_image_binned="on"))
         for name, kw in variants.items():
             r, e = run(**kw)
             row[f"ratio_{name}"] = e / e_w
@@ -303,34 +304,39 @@ def frames_of(d):
 
 def seams_t(a, bins, env, work, logf):
     """The seam table's rows for volumes split in t: the bundled moving scenes at 128^2, 4 spp,
-    untiled and in 2 time windows (--tiles-t 2) by csi-reconstruct with --frames; the band is the
-    frames within band_t of the interior core boundary, the difference is over the frames."""
+    untiled and in 2 time windows (--tiles-t 2) by csi-reconstruct with --frames, with the windows'
+    image and with the binned shutter's (--tile-image-binned on); the band is the frames within
+    band_t of the interior core boundary, the difference is over the frames."""
     rows = []
     for scene in ("train", "billiards"):
         path, dump = make_dump(bins, env, scene, (128, 128), 4, work, logf)
         ref = reference(bins, env, path, work, logf)
         whole_budget = device_memory(bins, env, dump, work)
         fu, ft = os.path.join(work, f"{scene}_fu"), os.path.join(work, f"{scene}_ft")
-        u_exr, t_exr = os.path.join(work, f"{scene}_u.exr"), os.path.join(work, f"{scene}_t.exr")
+        u_exr = os.path.join(work, f"{scene}_u.exr")
         _, _, st_u = recon(bins, env, dump, u_exr, ["--tiles", "1", "--mem-budget", str(whole_budget), "--frames", fu], work)
-        _, _, st_t = recon(bins, env, dump, t_exr, ["--tiles-t", "2", "--frames", ft], work)
-        info = json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tiles-t", "2", "--tile-info", "-q"],
-                                         capture_output=True, env=env, check=True).stdout)
-        u, t = bc.read_exr(u_exr), bc.read_exr(t_exr)
-        Fu, Ft = frames_of(fu), frames_of(ft)
-        T, band = Fu.shape[0], int(info["band_t"])
-        m = np.zeros(T, bool)
-        for b in [int(v) for v in info["cores_t"].split(",")][1:-1]:
-            m[max(0, b - band):b + band] = True
-        d2 = ((Ft.astype(np.float64) - Fu) ** 2).mean(axis=(1, 2, 3))
-        row = dict(scene=scene, size="128x128", spp=4, tiles=2, layout="1x1x2", frames=T, window_t=info["window_t"],
-                   margin_t=info["margin_t"], mse_untiled=mse(u, ref), mse_tiled=mse(t, ref),
-                   ratio=mse(t, ref) / mse(u, ref), rms_diff_band=float(np.sqrt(d2[m].mean())),
-                   rms_diff_rest=float(np.sqrt(d2[~m].mean())), dev_untiled=st_u.get("device_peak_bytes", 0),
-                   dev_tiled=st_t.get("device_peak_bytes", 0))
-        rows.append(row)
-        bc.log("  " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
-        write_csv(os.path.join(a.out, "seams_t.csv"), rows)
+        u, Fu = bc.read_exr(u_exr), frames_of(fu)
+        # the windows' own image (the default), and the image of the binned shutter (csi/tiles.h)
+        for label, extra in (("1x1x2", []), ("1x1x2 binned", ["--tile-image-binned", "on"])):
+            ft = os.path.join(work, f"{scene}_ft" + ("_b" if extra else ""))
+            t_exr = ft + ".exr"
+            _, _, st_t = recon(bins, env, dump, t_exr, ["--tiles-t", "2", "--frames", ft] + extra, work)
+            info = json.loads(subprocess.run([bins["csi-reconstruct"], dump, "--tiles-t", "2", "--tile-info", "-q"],
+                                             capture_output=True, env=env, check=True).stdout)
+            t, Ft = bc.read_exr(t_exr), frames_of(ft)
+            T, band = Fu.shape[0], int(info["band_t"])
+            m = np.zeros(T, bool)
+            for b in [int(v) for v in info["cores_t"].split(",")][1:-1]:
+                m[max(0, b - band):b + band] = True
+            d2 = ((Ft.astype(np.float64) - Fu) ** 2).mean(axis=(1, 2, 3))
+            row = dict(scene=scene, size="128x128", spp=4, tiles=2, layout=label, frames=T, window_t=info["window_t"],
+                       margin_t=info["margin_t"], mse_untiled=mse(u, ref), mse_tiled=mse(t, ref),
+                       ratio=mse(t, ref) / mse(u, ref), rms_diff_band=float(np.sqrt(d2[m].mean())),
+                       rms_diff_rest=float(np.sqrt(d2[~m].mean())), dev_untiled=st_u.get("device_peak_bytes", 0),
+                       dev_tiled=st_t.get("device_peak_bytes", 0))
+            rows.append(row)
+            bc.log("  " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
+            write_csv(os.path.join(a.out, "seams_t.csv"), rows)
     return rows
 
 

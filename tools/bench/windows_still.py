@@ -20,6 +20,8 @@ image compared with the reference. Variants of the windows:
   still     the still plane's weight L / T alone (the default tau)
   tau       the tau of rule alone (one weight; the rule measured in docs/bench/scale.md)
   rulesqrt  rule's tau with the still plane's weight sqrt(L / T) (its absolute weight the whole's)
+  binned    the image from one solve of the whole shutter binned in t to at most a window's
+            frames (tile_image_binned on: csi/tiles.h, host/integrate/binned.c)
   --extra NAME=OPT:VALUE[,...]   more variants, e.g. w05=motion_still_weight:0.5
 
     .venv/bin/python tools/bench/windows_still.py --scene billiards --out OUT
@@ -123,6 +125,8 @@ def main():
                 run(n, v, L, motion_still_weight=1)
             elif v == "tau":
                 run(n, v, L, tau=tau_whole * T / L)
+            elif v == "binned":
+                run(n, v, L, tile_image_binned="on")
             elif v == "rulesqrt":
                 run(n, v, L, tau=tau_whole * T / L, motion_still_weight=(L / T) ** 0.5)
             else:

@@ -217,6 +217,9 @@ typedef struct csi_recon_options {
     uint32_t tile_margin;         /* overlap beyond a tile's core, output pixels; 0 auto */
     uint32_t tile_margin_t;       /* the same in frames for a volume; 0 auto */
     uint32_t tiles_t;             /* time windows of a volume; 0 auto: the planner's price (csi/tiles.h) */
+    csi_switch tile_image_binned; /* a volume split in t: its blurred image from one solve of the
+                                     whole shutter binned in t to a window's length (csi/tiles.h);
+                                     the windows then give only the frames */
     /* Not an option (no row in the table): what the samples are, CSI_SAMPLES_* of csi/csi.h,
      * which the library copies from csi_samples.flags; correct = auto follows it. */
     uint32_t sample_flags;

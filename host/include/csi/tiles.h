@@ -98,6 +98,13 @@ typedef struct csi_tile {
 csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_tiling *out);
 
+/* The binned shutter of a layout split in t (csi_recon_options.tile_image_binned): the frames
+ * per bin b, the smallest with ceil(T / b) bins no more than a window's frames and a 7-smooth
+ * number of bins (an FFT length); frame t falls into bin t / b, so the bins are equal (the last
+ * holds what is left) and a motion at a constant velocity stays one in the bins. 1 when t is
+ * not split. */
+uint32_t csi_tiling_bin_t(const csi_tiling *tl);
+
 /* Tile `index` (< count) of a layout. */
 void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *out);
 
