@@ -98,6 +98,13 @@ csi_status csi_tile_window(csi_device *dev, const csi_samples *s, const csi_opti
         lo[a] = t.win0[a] * cell[a];
         hi[a] = lo[a] + tl.window[a] * cell[a];
     }
+    /* the first window of an x/y column solves the binned shutter: the column's every frame */
+    csi_recon_options o;
+    CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_tile_window", &o)));
+    if (t.pos[2] == 0 && csi_tiling_image_binned(&tl, &o)) {
+        lo[2] = 0;
+        hi[2] = s->grid.t;
+    }
     return CSI_OK;
 }
 

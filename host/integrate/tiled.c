@@ -243,13 +243,6 @@ static csi_status resid_sums(const csi_tiling *tl, const csi_tile *tile, const t
     return CSI_OK;
 }
 
-/* Whether a layout's time windows take their image from the binned shutter (binned.c): the
- * option's, auto off; the compressive estimator only. */
-static bool image_binned(const csi_tiling *tl, const csi_recon_options *opt)
-{
-    return tl->n[2] > 1 && opt->estimator == CSI_EST_CS && opt->tile_image_binned == CSI_SWITCH_ON;
-}
-
 /* The binned shutter's image of tile t's x/y window becomes the image of t's result r: the
  * column's first window carries it whole (its weights over t sum to 1 there), the others none;
  * the binned solve's work is added to r's figures. */
@@ -296,7 +289,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     out->y0 = p.tile.win0[1];
     out->t0 = p.tile.win0[2];
     /* With the binned shutter's image a window solves only for its frames (none asked: nothing). */
-    const bool binned = image_binned(tl, opt);
+    const bool binned = csi_tiling_image_binned(tl, opt);
     const bool split_t = tl->n[2] > 1 && !binned, solve = !binned || opt->frames;
     csi_recon_options o = *opt;
     o.levels = tl->levels > 0 ? tl->levels : opt->levels;

@@ -469,6 +469,11 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     return CSI_OK;
 }
 
+bool csi_tiling_image_binned(const csi_tiling *tl, const csi_recon_options *opt)
+{
+    return tl->n[2] > 1 && opt->estimator == CSI_EST_CS && opt->tile_image_binned == CSI_SWITCH_ON;
+}
+
 uint32_t csi_tiling_bin_t(const csi_tiling *tl)
 {
     const uint32_t T = tl->grid.t, L = tl->window[2];

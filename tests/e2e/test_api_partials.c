@@ -5,7 +5,8 @@
  * merge refuses, with one line naming the file and nothing returned, a missing tile, a tile given
  * twice, a partial of another input, other options or another layout, a truncated, damaged or
  * other-version partial, a file that is not a partial, and frames a static run does not have; a
- * progress callback cancels it. A one-channel 64 x 64 image (4x grid, 2 spp) in 4 tiles. */
+ * progress callback cancels it. A one-channel 64 x 64 image (4x grid, 2 spp) in 4 tiles; and a
+ * volume in time windows with the binned shutter's image (binned_windows). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -74,6 +75,60 @@ static bool stop_after_two(void *user, const csi_progress *p)
     int *calls = user;
     ++*calls;
     return !(strcmp(p->phase, "merge") == 0 && p->iteration >= 2);
+}
+
+/* A volume in 2 time windows with the binned shutter's image (tile-image-binned): the first
+ * window's cells span every frame of its x/y column, the second's its own frames, and each
+ * tile made from only its window's samples is the tile made from all of them. A 32 x 32 x 48
+ * volume (a square sliding over a ramp), 10% random cells. */
+static void binned_windows(csi_device *dev)
+{
+    const csi_grid g = {32, 32, 48, 32, 32};
+    csi_sample_pos *pos = NULL;
+    size_t n = 0;
+    const csi_pos_opts po = {.method = CSI_POS_RANDOM, .fraction = 0.1, .seed = 2};
+    csi_options *o = NULL;
+    if (csi_positions(&g, &po, &pos, &n, NULL) != CSI_OK || csi_options_new(&o) != CSI_OK) {
+        CHECK(false, "positions and options: %s", csi_last_error());
+        free(pos);
+        return;
+    }
+    float *val = malloc(n * sizeof *val), *wval = malloc(n * sizeof *wval);
+    csi_sample_pos *wpos = malloc(n * sizeof *wpos);
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t x0 = 4 + pos[i].t / 3;
+        val[i] = pos[i].x >= x0 && pos[i].x < x0 + 8 && pos[i].y >= 12 && pos[i].y < 20 ? 0.9f : 0.2f + pos[i].x / 64.0f;
+    }
+    CHECK_OK(csi_options_set(o, "tiles-t", "2"));
+    CHECK_OK(csi_options_set(o, "tile-image-binned", "on"));
+    CHECK_OK(csi_options_set(o, "max-iter", "30"));
+    const csi_samples s = {g, 1, n, pos, val, 0};
+    double scale[4];
+    CHECK_OK(csi_tile_scale(dev, &s, o, scale));
+    for (uint32_t i = 0; i < 2; i++) {
+        uint32_t lo[3], hi[3];
+        CHECK_OK(csi_tile_window(dev, &(csi_samples){g, 1, n, pos, NULL, 0}, o, i, lo, hi));
+        CHECK(i == 0 ? lo[2] == 0 && hi[2] == 48 : lo[2] > 0 && hi[2] == 48,
+              "binned image: window %u spans frames [%u, %u)", i, lo[2], hi[2]);
+        size_t m = 0;
+        for (size_t j = 0; j < n; j++)
+            if (pos[j].t >= lo[2] && pos[j].t < hi[2]) {
+                wpos[m] = pos[j];
+                wval[m++] = val[j];
+            }
+        csi_result *all = NULL, *own = NULL;
+        CHECK_OK(csi_reconstruct_tile(dev, &s, o, i, scale, NULL, NULL, &all));
+        CHECK_OK(csi_reconstruct_tile_window(dev, &(csi_samples){g, 1, m, wpos, wval, 0}, n, o, i, scale, NULL,
+                                             NULL, &own));
+        CHECK(all && own && same_image(all, own), "binned image: window %u from its cells' samples = from all", i);
+        csi_result_free(all);
+        csi_result_free(own);
+    }
+    csi_options_free(o);
+    free(wpos);
+    free(wval);
+    free(val);
+    free(pos);
 }
 
 int main(void)
@@ -256,6 +311,7 @@ int main(void)
     CHECK(rmdir(dir) == 0, "nothing else is left in %s", dir);
     csi_result_free(whole);
     csi_options_free(o);
+    binned_windows(dev);
     csi_device_release(dev);
     free(val);
     free(pos);

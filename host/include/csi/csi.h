@@ -452,7 +452,9 @@ typedef struct csi_json csi_json; /* the statistics' JSON builder (below) */
 CSI_API csi_status csi_tiling_stats(csi_device *dev, const csi_samples *samples, const csi_options *options,
                                     csi_json *j);
 /* Where tile `index` lies on the fine grid: cells [lo[a], hi[a]) along x, y and t. A renderer
- * that traces one tile alone evaluates only the positions inside (csi_reconstruct_tile_window). */
+ * that traces one tile alone evaluates only the positions inside (csi_reconstruct_tile_window).
+ * With the binned shutter's image ("tile-image-binned" on), the first time window of each x/y
+ * column spans every frame: its image is solved from all of them. */
 CSI_API csi_status csi_tile_window(csi_device *dev, const csi_samples *samples, const csi_options *options,
                                    uint32_t index, uint32_t lo[3], uint32_t hi[3]);
 /* csi_reconstruct_tile for a caller that holds only the samples inside tile index's window

@@ -104,6 +104,10 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
  * holds what is left) and a motion at a constant velocity stays one in the bins. 1 when t is
  * not split. */
 uint32_t csi_tiling_bin_t(const csi_tiling *tl);
+/* Whether the layout's time windows take their image from the binned shutter (binned.c): t
+ * split, the compressive estimator and the option on (auto is off). The first window of each x/y
+ * column then needs every sample of the column, over the whole shutter (csi_tile_window). */
+bool csi_tiling_image_binned(const csi_tiling *tl, const csi_recon_options *opt);
 
 /* Tile `index` (< count) of a layout. */
 void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *out);
