@@ -230,20 +230,29 @@ static float moving(size_t x, size_t y, size_t t)
     return (float)val;
 }
 
+/* The moving volume's values at 10% random cells (position seed `seed`); NULL on a failure. */
+static float *moving_samples(const csi_grid *g, uint64_t seed, csi_sample_pos **pos, size_t *n)
+{
+    const csi_pos_opts po = {.method = CSI_POS_RANDOM, .fraction = 0.1, .seed = seed};
+    if (csi_positions(g, &po, pos, n, NULL) != CSI_OK) {
+        CHECK(false, "positions: %s", csi_last_error());
+        return NULL;
+    }
+    float *val = malloc(*n * sizeof *val);
+    for (size_t i = 0; i < *n; i++)
+        val[i] = moving((*pos)[i].x, (*pos)[i].y, (*pos)[i].t);
+    return val;
+}
+
 static void alg2(csi_ctx *ctx)
 {
     const csi_grid g = {MW, MW, MT, MW, MW};
     const size_t wh = MW * MW, k = wh * MT;
-    const csi_pos_opts po = {.method = CSI_POS_RANDOM, .fraction = 0.1, .seed = 3};
     csi_sample_pos *pos = NULL;
     size_t n = 0;
-    if (csi_positions(&g, &po, &pos, &n, NULL) != CSI_OK) {
-        CHECK(false, "positions: %s", csi_last_error());
+    float *val = moving_samples(&g, 3, &pos, &n);
+    if (!val)
         return;
-    }
-    float *val = malloc(n * sizeof *val);
-    for (size_t i = 0; i < n; i++)
-        val[i] = moving(pos[i].x, pos[i].y, pos[i].t);
     double *mean = calloc(wh, sizeof *mean);
     for (size_t t = 0; t < MT; t++)
         for (size_t i = 0; i < wh; i++)
@@ -364,16 +373,11 @@ static void alg2_binned_order(csi_ctx *ctx, csi_ctx *ctx2)
 {
     const csi_grid g = {MW, MW, MT, MW, MW};
     const size_t wh = MW * MW;
-    const csi_pos_opts po = {.method = CSI_POS_RANDOM, .fraction = 0.1, .seed = 5};
     csi_sample_pos *pos = NULL;
     size_t n = 0;
-    if (csi_positions(&g, &po, &pos, &n, NULL) != CSI_OK) {
-        CHECK(false, "positions: %s", csi_last_error());
+    float *val = moving_samples(&g, 5, &pos, &n);
+    if (!val)
         return;
-    }
-    float *val = malloc(n * sizeof *val);
-    for (size_t i = 0; i < n; i++)
-        val[i] = moving(pos[i].x, pos[i].y, pos[i].t);
     csi_recon_options o;
     csi_recon_defaults(&o);
     o.tile_image_binned = CSI_SWITCH_ON;
