@@ -19,8 +19,18 @@ of D / (m^2 + 0.01) ("rel", m the pixel's mean), or both above their thresholds 
 regions of side R, or a pixel switched when either of its regions of sides R1+R2 loses; the
 threshold 0, z standard errors of the sum (z > 0), or |z| times the root of the sum of the
 pixels' squared D (z < 0, self-normalised). csi-reconstruct's --cv-select (host/integrate/
-cv_select.c) is "both", 8+16, z = -1.5; this script runs csi with --cv-select off and makes the
-choice itself, so every variant is measured on the same reconstructions.
+cv_select.c) is "both", 8+16, z = -1.5, without a pixel tier; this script runs csi with
+--cv-select off and makes the choice itself, so every variant is measured on the same
+reconstructions.
+
+A pixel tier, measured and not in csi (--step RATIO:N[:G], "off" for none, N "any" for no limit;
+docs/bench/mitsuba.md): on top of the regions' choice, a pixel where each fold's samples straddle
+an HDR step (in some channel the largest above RATIO times the smallest, each lifted by 0.1, the
+root of relMSE's floor), holding at most N samples, with both its sums of D positive, takes its
+mean: a bet on the sign of one pixel's D where the region rule cannot see one or two pixels (a
+small emitter's rim). RATIO written with a trailing 'a' (30a:4) asks the step of all the pixel's
+samples together instead of each fold's; with G, a pixel within G pixels of such a step is a
+candidate too.
 
 The folds: in a pixel with n >= 2 samples, the pixel is cut into k x k sub-squares
 (k = ceil(sqrt(n))) and a sample goes to fold A or B by the parity of its sub-square. On
@@ -33,7 +43,7 @@ no held-out pair and no term: a region without any keeps csi, so 1-spp dumps are
 The price: two more reconstructions (each with half the samples).
 
     .venv/bin/python tools/bench/cv_select.py --data /work/data/mitsuba --cache /tmp/cvsel \\
-        --regions 8,16,8+16 --z 0,-1.5 --json out.json
+        --regions 8,16,8+16 --z 0,-1.5 --step off,30:4 --json out.json
 """
 import argparse
 import json
@@ -123,7 +133,8 @@ def loses(d, pair, R, z):
 def select(c, m, D, R, weight=None, both=None, pair=None, z=0.0, has=True):
     """Per R x R region: the mean where the (weighted) cross-validated difference sums above
     z standard errors (and, with `both`, where the sum weighted by `both` does too), csi
-    elsewhere; a pixel without a sample (`has` false) keeps csi."""
+    elsewhere; a pixel without a sample (`has` false) keeps csi. Returns the image, the fraction of
+    pixels given the mean, and their mask."""
     H, W = D.shape[:2]
     use_m = np.zeros((H, W), bool)
     for r in (R if isinstance(R, tuple) else (R,)):
@@ -134,7 +145,44 @@ def select(c, m, D, R, weight=None, both=None, pair=None, z=0.0, has=True):
         use_m |= np.kron(s, np.ones((r, r)))[:H, :W].astype(bool)
     use_m &= has
     out = np.where(use_m[..., None], m, c)
-    return out, float(use_m.mean())
+    return out, float(use_m.mean()), use_m
+
+
+def pixel_range(vals, pix, sel, npix):
+    """Per pixel and channel: the smallest and the largest of the samples `sel` (inf / -inf where
+    none)."""
+    c = vals.shape[1]
+    lo = np.full((npix, c), np.inf)
+    hi = np.full((npix, c), -np.inf)
+    for ch in range(c):
+        np.minimum.at(lo[:, ch], pix[sel], vals[sel, ch].astype(np.float64))
+        np.maximum.at(hi[:, ch], pix[sel], vals[sel, ch].astype(np.float64))
+    return lo, hi
+
+
+def straddles(lo, hi, ratio):
+    return ((hi + 0.1) > ratio * (np.maximum(lo, 0) + 0.1)).any(axis=2)
+
+
+def step_tier(out, m, D, wrel, pair, n, ranges, ratio, nmax, grow=0, folds_each=True):
+    """The pixel tier on top of a choice `out`: the mean where each fold's samples in the pixel
+    straddle an HDR step (folds_each false: all its samples together do; with grow = g, a pixel
+    within g pixels of such a step is a candidate too), the pixel holds at most nmax samples (None:
+    any) and both its sums of D are positive. ranges: (lo, hi) of all samples, of fold A's, of B's."""
+    if folds_each:
+        step = straddles(*ranges[1], ratio) & straddles(*ranges[2], ratio)
+    else:
+        step = straddles(*ranges[0], ratio) & (n >= 2)
+    for _ in range(grow):
+        p = np.pad(step, 1)
+        step = np.zeros_like(step)
+        for dy in range(3):
+            for dx in range(3):
+                step |= p[dy:dy + step.shape[0], dx:dx + step.shape[1]]
+    sel = step & pair & (D.sum(axis=2) > 0) & ((D * wrel).sum(axis=2) > 0)
+    if nmax is not None:
+        sel &= n <= nmax
+    return np.where(sel[..., None], m, out), sel
 
 
 def main():
@@ -147,6 +195,7 @@ def main():
     ap.add_argument("--positions", default="stratified,poisson")
     ap.add_argument("--regions", default="8+16", help="region sides; 8+16: a pixel takes the mean when either of its regions says so")
     ap.add_argument("--z", default="-1.5", help="thresholds: 0; z > 0: z standard errors of the sum; z < 0: |z| times the root of the sum of squares")
+    ap.add_argument("--step", default="off", help="pixel tiers RATIO:N[:G] (N 'any': no limit; G: grown by G pixels) or 'off', ',' between")
     ap.add_argument("--build")
     ap.add_argument("--json")
     a = ap.parse_args()
@@ -176,6 +225,8 @@ def main():
         mB = np.where(both[:, None], mB, 0).reshape(H, W, C)
         b3 = both.reshape(H, W)[..., None]
         D = np.where(b3, (cA - mB) ** 2 - (mA - mB) ** 2 + (cB - mA) ** 2 - (mB - mA) ** 2, 0.0)
+        ranges = [tuple(x.reshape(H, W, C) for x in pixel_range(vals, pix, sel, W * H))
+                  for sel in (np.ones(len(f), bool), f == 0, f == 1)]
         e_m = errors(m, ref)
         e_c = errors(c, ref)
         row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=posm,
@@ -186,17 +237,42 @@ def main():
         for R in regions:
             for crit, w, w2 in (("mse", None, None), ("rel", wrel, None), ("both", None, wrel)):
                 for z in [float(v) for v in a.z.split(",")]:
-                    out, frac = select(c, m, D, R, w, w2, both.reshape(H, W), z,
-                                       (n > 0).reshape(H, W))
-                    e = errors(out, ref)
+                    out, frac, mask = select(c, m, D, R, w, w2, both.reshape(H, W), z,
+                                             (n > 0).reshape(H, W))
                     key = f"{crit}{R if isinstance(R, int) else '+'.join(map(str, R))}" + (f"z{z:g}" if z else "")
-                    row["sel"][key] = [e[0] / e_m[0], e[1] / e_m[1], frac]
+                    for st in a.step.split(","):
+                        o2, k2, f2 = out, key, frac
+                        if st != "off":
+                            ratio, nmax, grow = (st.split(":") + ["0"])[:3]
+                            o2, sel = step_tier(out, m, D, wrel, both.reshape(H, W), n.reshape(H, W), ranges,
+                                                float(ratio.rstrip("a")), None if nmax == "any" else int(nmax),
+                                                int(grow), not ratio.endswith("a"))
+                            k2, f2 = f"{key}s{st}", float((mask | sel).mean())
+                        e = errors(o2, ref)
+                        row["sel"][k2] = [e[0] / e_m[0], e[1] / e_m[1], f2, int((o2 < 0).sum())]
         rows.append(row)
         s = " ".join(f"{k}={v[0]:.3f}/{v[1]:.3f}({v[2]:.2f})" for k, v in row["sel"].items())
         print(f"{scene} {name}: csi {row['csi'][0]:.3f}/{row['csi'][1]:.3f} {s}", flush=True)
+    summary(rows)
     if a.json:
         with open(a.json, "w") as fo:
             json.dump(rows, fo, indent=1)
+
+
+def summary(rows):
+    """Per variant: the cells above the mean in either figure, and the worst change against the
+    same choice without a pixel tier (its key before the 's' of --step)."""
+    if not rows:
+        return
+    for key in rows[0]["sel"]:
+        above = [f"{r['scene']} {r['spp']}x{r['paths']} {r['positions']}" for r in rows if max(r["sel"][key][:2]) > 1.0]
+        base = key[:key.index("s", 4)] if "s" in key[4:] else key
+        worse = [(max(r["sel"][key][0] / r["sel"][base][0], r["sel"][key][1] / r["sel"][base][1]),
+                  f"{r['scene']} {r['spp']}x{r['paths']} {r['positions']}") for r in rows]
+        w = max(worse)
+        print(f"{key}: above the mean in {len(above)} of {len(rows)} cells {above}; worse than {base} by > 0.5% "
+              f"in {sum(x > 1.005 for x, _ in worse)} (worst {w[0]:.4f}, {w[1]}); negative values in "
+              f"{sum(r['sel'][key][3] > 0 for r in rows)}")
 
 
 if __name__ == "__main__":
