@@ -39,6 +39,8 @@ struct csi_fft_filter {
     axis_plan ax[3];          /* ax[0] has length M */
     cl_mem wn;                /* exp(-2 pi i k / n0), k <= M */
     cl_mem P, Q;              /* ping-pong volumes */
+    size_t blk;               /* rows per block of the row stages (row_block); rows: not blocked */
+    cl_mem A, B;              /* blocked: ping-pong rows of one block (blk rows of M values) */
     cl_mem gx, g1, g2, one;   /* gains along x (hs entries), y, z; {1} */
     cl_mem fc, fa;            /* optional complex factor along x (hs entries) and y (2-D) */
     cl_uint wiener;
@@ -195,6 +197,27 @@ static size_t spectrum_bytes(size_t M, size_t hs, size_t rows)
 
 static size_t half_stride(size_t M) { return (M + 1 + 15) / 16 * 16; }
 
+/* Rows per block of the filter's row stages. Each radix pass reads and writes the whole volume,
+ * so run over all rows a pass's output has left the caches by the time the next pass reads it.
+ * Blocked, every pass of a row stage runs on one block of rows (in two scratch volumes of that
+ * block only) before the next block, so the stage reads its input and writes its output once and
+ * the intermediate passes stay in the cache. ROW_BLOCK_BYTES is the two scratch volumes' size
+ * (the caches: L2 per core, the last level shared). A block is a multiple of 16 rows (as the
+ * 16-wide kernels' local sizes prefer) and M a multiple of 16, so every block starts on a multiple
+ * of 2048 bytes in each buffer, which its sub-buffers need (CL_DEVICE_MEM_BASE_ADDR_ALIGN: 128
+ * bytes on PoCL; build() does not block on a device that asks more). Returns `rows` when not
+ * blocked. The arithmetic per element is the same either way (same bits). */
+#define ROW_BLOCK_BYTES ((size_t)1 << 20)
+static size_t row_block(size_t M, size_t rows)
+{
+    if (M % 16)
+        return rows;
+    size_t b = ROW_BLOCK_BYTES / (2 * M * 8) / 16 * 16;
+    if (b < 16)
+        b = 16;
+    return b < rows ? b : rows;
+}
+
 void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
 {
     const size_t M = c[0] / 2, hs = half_stride(M), rows = c[1] * c[2];
@@ -204,6 +227,11 @@ void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
     csi_mem_tally_add(t, (M + 1) * 8, "FFT twiddles");
     csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum");
     csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum scratch");
+    const size_t blk = row_block(M, rows);
+    if (blk < rows) {
+        csi_mem_tally_add(t, (blk * M + 1) * 8, "the filter's row block");
+        csi_mem_tally_add(t, (blk * M + 1) * 8, "the filter's row block");
+    }
     csi_mem_tally_add(t, hs * 4, "filter gains");
     csi_mem_tally_add(t, c[1] * 4, "filter gains");
     csi_mem_tally_add(t, c[2] * 4, "filter gains");
@@ -254,6 +282,8 @@ void csi_fft_filter_free(csi_fft_filter *f)
     csi_buffer_release(&f->wn);
     csi_buffer_release(&f->P);
     csi_buffer_release(&f->Q);
+    csi_buffer_release(&f->A);
+    csi_buffer_release(&f->B);
     csi_buffer_release(&f->gx);
     csi_buffer_release(&f->g1);
     csi_buffer_release(&f->g2);
@@ -341,6 +371,20 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     const size_t bytes = spectrum_bytes(M, f->hs, f->rows);
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
+    f->blk = row_block(M, f->rows);
+    cl_uint align_bits = 0;
+    if (clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_MEM_BASE_ADDR_ALIGN, sizeof align_bits, &align_bits, NULL) !=
+            CL_SUCCESS ||
+        align_bits > 2048 * 8)
+        f->blk = f->rows;
+    if (f->blk < f->rows) {
+        /* zeroed: csi_fft_r2c_post reads the element past a block's last row (and discards it) */
+        const size_t bb = (f->blk * M + 1) * 8;
+        CSI_TRY(csi_buffer(ctx, bb, CL_MEM_READ_WRITE, "the filter's row block", &f->A));
+        CSI_TRY(csi_buffer(ctx, bb, CL_MEM_READ_WRITE, "the filter's row block", &f->B));
+        CSI_TRY(csi_fill_zero(ctx, f->A, bb));
+        CSI_TRY(csi_fill_zero(ctx, f->B, bb));
+    }
     CSI_TRY(gains(ctx, 2 * M, M + 1, f->hs, sigma[0], &f->gx));
     CSI_TRY(gains(ctx, f->c[1], f->c[1], f->c[1], f->nd > 1 ? sigma[1] : 0.0, &f->g1));
     CSI_TRY(gains(ctx, f->c[2], f->c[2], f->c[2], f->nd > 2 ? sigma[2] : 0.0, &f->g2));
@@ -618,6 +662,69 @@ static csi_status run_axis_cols(csi_fft_filter *f, cl_mem *cur, int axis, float 
     return CSI_OK;
 }
 
+/* The region [off, off + bytes) of buf as a buffer of its own. */
+static csi_status sub_buffer(cl_mem buf, size_t off, size_t bytes, cl_mem *out)
+{
+    cl_buffer_region r = {off, bytes};
+    cl_int err;
+    *out = clCreateSubBuffer(buf, 0, CL_BUFFER_CREATE_TYPE_REGION, &r, &err);
+    if (err != CL_SUCCESS) {
+        *out = NULL;
+        return csi_fail_context(CSI_CL(err), "FFT filter: a block of rows (%zu bytes at %zu): ", bytes, off);
+    }
+    return CSI_OK;
+}
+
+/* The passes along x of one block of n rows, from *cur through the block scratch A / B; the last
+ * pass writes `last` when given. *cur: the buffer holding the result. */
+static csi_status block_passes(csi_fft_filter *f, cl_mem *cur, cl_mem last, float sgn, size_t n)
+{
+    const axis_plan *ax = &f->ax[0];
+    cl_uint p = 1;
+    for (int i = 0; i < ax->np; i++) {
+        cl_mem dst = last && i == ax->np - 1 ? last : (*cur == f->A ? f->B : f->A);
+        CSI_TRY(launch_row(f->ctx, *cur, dst, ax, i, p, sgn, n, f->M, -1.0f));
+        *cur = dst;
+        p *= (cl_uint)ax->radix[i];
+    }
+    return CSI_OK;
+}
+
+/* One row stage on rows row0 .. row0 + n - 1 of the real rows `real` (M complex values a row)
+ * and the half spectrum `spec` (hs a row). Forward: the passes along x on real's rows, then the
+ * unpacking into spec's. Inverse: the packing of spec's rows, then the passes along x, the last
+ * writing real's rows. */
+static csi_status block_stage(csi_fft_filter *f, cl_mem real, cl_mem spec, size_t row0, size_t n, bool forward)
+{
+    cl_mem rv = NULL, sv = NULL;
+    csi_status st = sub_buffer(real, row0 * f->M * 8, n * f->M * 8, &rv);
+    if (st == CSI_OK)
+        st = sub_buffer(spec, row0 * f->hs * 8, n * f->hs * 8, &sv);
+    cl_mem cur = forward ? rv : f->A;
+    if (st == CSI_OK && forward)
+        st = block_passes(f, &cur, NULL, -1.0f, n);
+    if (st == CSI_OK)
+        st = forward ? run_unpack(f->ctx, "csi_fft_r2c_post", cur, sv, f->wn, f->M, f->hs, n)
+                     : run_unpack(f->ctx, "csi_fft_c2r_pre", sv, cur, f->wn, f->M, f->hs, n);
+    if (st == CSI_OK && forward) {
+        cl_kernel k;
+        cl_uint M = (cl_uint)f->M, hs = (cl_uint)f->hs, nrows = (cl_uint)n;
+        st = csi_kernel(f->ctx, "fft", "csi_fft_r2c_edges", &k);
+        if (st == CSI_OK)
+            st = CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(sv), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows));
+        if (st == CSI_OK)
+            st = csi_run1d(f->ctx, k, n);
+    }
+    if (st == CSI_OK && !forward)
+        st = block_passes(f, &cur, rv, 1.0f, n);
+    /* OpenCL keeps a released buffer until the commands that use it have finished */
+    if (rv)
+        clReleaseMemObject(rv);
+    if (sv)
+        clReleaseMemObject(sv);
+    return st;
+}
+
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
 {
     return csi_fft_filter_run_dir(f, x, y, false);
@@ -630,24 +737,31 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     cl_uint M = (cl_uint)f->M, hs = (cl_uint)f->hs, nrows = (cl_uint)f->rows;
     const size_t lx = 32;
 
-    /* 1. forward along x on the real rows read as M complex values */
     cl_mem cur = x;
-    cl_uint p = 1;
-    for (int i = 0; i < ax->np; i++) {
-        cl_mem dst = cur == f->P ? f->Q : f->P;
-        CSI_TRY(row_pass(f, cur, dst, ax, i, p, -1.0f));
-        cur = dst;
-        p *= (cl_uint)ax->radix[i];
-    }
-    /* 2. unpack to the half spectrum */
-    {
-        cl_mem dst = cur == f->P ? f->Q : f->P;
-        cl_kernel k;
-        CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", cur, dst, f->wn, f->M, f->hs, f->rows));
-        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
-        CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
-        CSI_TRY(csi_run1d(ctx, k, f->rows));
-        cur = dst;
+    if (f->blk < f->rows) {
+        /* 1, 2 block by block (row_block): the half spectrum in P */
+        for (size_t r0 = 0; r0 < f->rows; r0 += f->blk)
+            CSI_TRY(block_stage(f, x, f->P, r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, true));
+        cur = f->P;
+    } else {
+        /* 1. forward along x on the real rows read as M complex values */
+        cl_uint p = 1;
+        for (int i = 0; i < ax->np; i++) {
+            cl_mem dst = cur == f->P ? f->Q : f->P;
+            CSI_TRY(row_pass(f, cur, dst, ax, i, p, -1.0f));
+            cur = dst;
+            p *= (cl_uint)ax->radix[i];
+        }
+        /* 2. unpack to the half spectrum */
+        {
+            cl_mem dst = cur == f->P ? f->Q : f->P;
+            cl_kernel k;
+            CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", cur, dst, f->wn, f->M, f->hs, f->rows));
+            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
+            CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+            CSI_TRY(csi_run1d(ctx, k, f->rows));
+            cur = dst;
+        }
     }
     /* 3, 4: forward along y, z; inverse along z, y with the gain in the first inverse pass */
     if (f->nd >= 2)
@@ -667,13 +781,19 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
         size_t global[2] = {f->M + 1, f->rows}, local[2] = {lx, 1};
         CSI_TRY(csi_run(ctx, k, 2, global, local));
     }
+    if (f->blk < f->rows) {
+        /* 5 block by block */
+        for (size_t r0 = 0; r0 < f->rows; r0 += f->blk)
+            CSI_TRY(block_stage(f, y, cur, r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, false));
+        return CSI_OK;
+    }
     /* 5. pack, inverse along x; the last pass writes y */
     {
         cl_mem dst = ax->np == 0 ? y : (cur == f->P ? f->Q : f->P);
         CSI_TRY(run_unpack(ctx, "csi_fft_c2r_pre", cur, dst, f->wn, f->M, f->hs, f->rows));
         cur = dst;
     }
-    p = 1;
+    cl_uint p = 1;
     for (int i = 0; i < ax->np; i++) {
         cl_mem dst = i == ax->np - 1 ? y : (cur == f->P ? f->Q : f->P);
         CSI_TRY(row_pass(f, cur, dst, ax, i, p, 1.0f));

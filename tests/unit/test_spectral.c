@@ -181,6 +181,58 @@ static void test_squeezed_axis(csi_ctx *ctx)
     test_npy_free(&ag);
 }
 
+/* The filter's row stages run block by block once the rows outgrow a block (host/ops/
+ * fft_filter.c, row_block: 2048 rows at M = 32 complex values per row, so 64 x 8400 makes four
+ * whole blocks and a partial one). A plane wave cos(2 pi (a i / n0 + b j / n1) + phi) is one pair
+ * of DFT bins, so the Gaussian multiplies it by exp(-2 pi^2 sigma^2 f^2) per axis (f in cycles
+ * per cell), and a factor exp(-2 pi i (kx s / n0 + ky t / n1)) shifts it by (s, t) cells (apply;
+ * the adjoint by (-s, -t)); a row written to the wrong block or left out breaks both. Tolerance
+ * as for the references above: 2e-5 relative L2 (log2 n = 19 here, ~2.3e-6 before the
+ * constant). */
+static void test_row_blocks(csi_ctx *ctx)
+{
+    const size_t n0 = 64, n1 = 8400, n = n0 * n1, dims[3] = {n0, n1, 1};
+    const double sig[3] = {1.3, 0.9, 0.0}, a = 5, b = 37, phi = 0.3;
+    const long s = 3, t = -2;
+    float *x = malloc(n * sizeof *x), *y = malloc(n * sizeof *y), *want = malloc(n * sizeof *want);
+    double *fx = calloc(2 * (n0 / 2 + 1), sizeof *fx), *fy = calloc(2 * n1, sizeof *fy);
+    for (size_t k = 0; k <= n0 / 2; k++) {
+        fx[2 * k] = cos(-2 * PI * (double)k * (double)s / (double)n0);
+        fx[2 * k + 1] = sin(-2 * PI * (double)k * (double)s / (double)n0);
+    }
+    for (size_t k = 0; k < n1; k++) {
+        const double ky = k <= n1 / 2 ? (double)k : (double)k - (double)n1;
+        fy[2 * k] = cos(-2 * PI * ky * (double)t / (double)n1);
+        fy[2 * k + 1] = k == n1 / 2 ? 0.0 : sin(-2 * PI * ky * (double)t / (double)n1);
+    }
+    const double g = exp(-2 * PI * PI * (sig[0] * sig[0] * (a / n0) * (a / n0) + sig[1] * sig[1] * (b / n1) * (b / n1)));
+    for (size_t j = 0; j < n1; j++)
+        for (size_t i = 0; i < n0; i++)
+            x[i + n0 * j] = (float)cos(2 * PI * (a * (double)i / n0 + b * (double)j / n1) + phi);
+    csi_linop *G = NULL, *F = NULL;
+    CHECK_OK(csi_filter_create_backend(ctx, dims, sig, CSI_FILTER_GAUSS, 0.0f, CSI_FFT_NATIVE, &G));
+    CHECK_OK(csi_filter_create_factor(ctx, dims, sig, CSI_FILTER_GAUSS, 0.0f, fx, fy, &F));
+    /* shift 0: the plain filter; then the factor's shift by (s, t), and the adjoint's by (-s, -t) */
+    for (int c = 0; c < 3 && G && F; c++) {
+        const long ds = c == 0 ? 0 : c == 1 ? s : -s, dt = c == 0 ? 0 : c == 1 ? t : -t;
+        for (size_t j = 0; j < n1; j++)
+            for (size_t i = 0; i < n0; i++)
+                want[i + n0 * j] = (float)(g * cos(2 * PI * (a * ((double)i - ds) / n0 + b * ((double)j - dt) / n1) + phi));
+        run_op(c == 0 ? G : F, x, y, c == 2);
+        double e = test_rel_l2(y, want, n);
+        CHECK(e < 2e-5, "%zu x %zu in row blocks, %s: rel L2 %.3g against the plane wave", n0, n1,
+              c == 0 ? "Gaussian" : c == 1 ? "factor (apply)" : "factor (adjoint)", e);
+        printf("row blocks %s: rel L2 %.2e\n", c == 0 ? "gauss" : c == 1 ? "factor apply" : "factor adjoint", e);
+    }
+    csi_linop_free(G);
+    csi_linop_free(F);
+    free(x);
+    free(y);
+    free(want);
+    free(fx);
+    free(fy);
+}
+
 static void test_sigmas(void)
 {
     /* The paper's example (Sec. 4): k = 1024^2 reduced to p = 256^2 gives 2 sigma_Phi = 2.2. */
@@ -369,6 +421,7 @@ int main(void)
     test_sigmas();
     test_references(ctx);
     test_squeezed_axis(ctx);
+    test_row_blocks(ctx);
     test_dc(ctx);
     test_gauss_then_wiener(ctx);
     test_tiny_lambda(ctx);
