@@ -183,7 +183,7 @@ static const row table[] = {
     {"mem-budget", K_BYTES, AT(mem_budget), 1048576.0, 18446744073709551615.0, NULL, F_AUTO, "auto",
      "SIZE", "device memory one reconstruction may use, e.g. 512M, 2G (bytes, or K/M/G = "
      "KiB/MiB/GiB); the image is solved in overlapping tiles when the whole would need more",
-     "1G, at most half the device's"},
+     "1.5G, at most half the device's"},
     {"tiles", K_U32, AT(tiles), 1, 1048576, NULL, F_AUTO, "auto", "N|auto",
      "exactly N tiles (blended seamlessly)", "as few as fit the budget"},
     {"tile-margin", K_U32, AT(tile_margin), 1, 65536, NULL, F_AUTO, "auto", "P",

@@ -92,7 +92,8 @@ def mitsuba_cost(args, seed):
 
 # ---- csi runs -------------------------------------------------------------------------------------
 def run_timed(cmd, env=None):
-    """Runs cmd; returns (wall s, CPU s of the child: user + system, all threads)."""
+    """Runs cmd; returns (wall s, CPU s of the child: user + system, all threads, its peak resident
+    bytes)."""
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env or bc.default_env())
     _, status, ru = os.wait4(p.pid, 0)
@@ -101,12 +102,17 @@ def run_timed(cmd, env=None):
     p.stderr.close()
     if os.waitstatus_to_exitcode(status) != 0:
         raise bc.BenchError(f"exit {os.waitstatus_to_exitcode(status)}: {' '.join(cmd)}\n{err[-2000:]}")
-    return wall, ru.ru_utime + ru.ru_stime
+    # ru_maxrss is in KiB on Linux (getrusage(2)); wait4's is this child's alone
+    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss * 1024
 
 
-def reconstruct(build, dump, out_exr, stats, extra=()):
+def reconstruct(build, dump, out_exr, stats, extra=(), rss=None):
+    """Runs csi-reconstruct; returns (wall s, CPU s, its stats). rss: a list that gets the peak
+    resident bytes appended."""
     exe = os.path.join(build, "csi-reconstruct")
-    wall, cpu = run_timed([exe, dump, "-o", out_exr, "--stats", stats, "-q", *extra])
+    wall, cpu, peak = run_timed([exe, dump, "-o", out_exr, "--stats", stats, "-q", *extra])
+    if rss is not None:
+        rss.append(peak)
     with open(stats) as f:
         st = json.load(f)
     return wall, cpu, st
@@ -155,6 +161,13 @@ def cases(args, bins):
 def cost_section(args, bins, report):
     builds = [("after", args.build)] + ([("before", args.base)] if args.base else [])
     extra = {"after": args.build_args.split(), "before": []}
+    nruns = {"after": args.runs, "before": args.base_runs}
+    for v in args.cost_variant:
+        # the new build with other arguments, alternating with the builds like a third build
+        name, _, vargs = v.partition(":")
+        builds.append((name, args.build))
+        extra[name] = vargs.split()
+        nruns[name] = args.runs
     rows, paths = [], []
     for label, dump in cases(args, bins):
         hdr, _, _ = bc.read_dump(dump)
@@ -163,7 +176,6 @@ def cost_section(args, bins, report):
             reconstruct(build, dump, os.path.join(args.work, "warm.exr"), os.path.join(args.work, "warm.json"),
                         extra[bname])
         best, cpus = {}, {b: [] for b, _ in builds}
-        nruns = {"after": args.runs, "before": args.base_runs}
         # the builds' runs alternate (after, before, before, after, ...) so that a change of the
         # machine's load hits both alike
         for r in range(max(nruns[b] for b, _ in builds)):
@@ -172,8 +184,9 @@ def cost_section(args, bins, report):
                     continue
                 m = mitsuba_cost(args, 100 + len(paths))
                 paths.append(m)
+                rss = []
                 wall, cpu, st = reconstruct(build, dump, os.path.join(args.work, "cost.exr"),
-                                            os.path.join(args.work, "cost.json"), extra[bname])
+                                            os.path.join(args.work, "cost.json"), extra[bname], rss)
                 ph = phases(st)
                 n = st["n"] if "n" in st else hdr["count"]
                 per = 1e6 * (ph["solve"] + ph["integrate"]) / n
@@ -187,9 +200,10 @@ def cost_section(args, bins, report):
                            steps="/".join(str(c["iterations"]) for c in st["channels"].values()),
                            wall=wall, cpu=cpu, per_sample_us=per, cpu_per_sample_us=cpu_per,
                            cpu_is_work="cpu_per_sample_us" in st, path_wall_us=path_wall,
-                           path_cpu_us=path_cpu, **ph)
+                           path_cpu_us=path_cpu, peak_rss=rss[0], args=" ".join(extra[bname]), **ph)
                 bc.log(f"{label} [{bname}] run {r + 1}: wall {wall:.2f} s, {per:.2f} us/sample, "
-                       f"path {path_wall:.3f} us -> {per / path_wall:.1f} paths/sample; CPU {cpu_per:.2f} us/sample")
+                       f"path {path_wall:.3f} us -> {per / path_wall:.1f} paths/sample; CPU {cpu_per:.2f} us/sample; "
+                       f"peak RSS {rss[0] / 1e9:.2f} GB")
                 if bname not in best or wall < best[bname]["wall"]:
                     best[bname] = rec
         for bname, _ in builds:
@@ -210,18 +224,21 @@ def cost_markdown(rows, paths):
     allc = [b["cpu_us"] for m in paths for b in m]
     lines = [f"Mitsuba 3 Cornell box, depth 8, {len(allw)} warm batches: wall {min(allw):.3f}-{max(allw):.3f} us per "
              f"path (median {np.median(allw):.3f}); CPU {min(allc):.3f}-{max(allc):.3f} us per path.", "",
-             "| case | build | samples | grid | D | tiles | steps per channel | fixed s | programs s | solve s | integrate s | write s | wall s | reconstruction us/sample | Mitsuba us/path (same run) | paths per sample | CPU us/sample | CPU paths per sample | CPU us/sample, median of runs |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| case | build | samples | grid | D | tiles | steps per channel | fixed s | programs s | solve s | integrate s | write s | wall s | reconstruction us/sample | Mitsuba us/path (same run) | paths per sample | CPU us/sample | CPU paths per sample | CPU us/sample, median of runs | peak RSS GB |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     notes = ["", "Per sample: (solve + integrate) / samples, wall clock; CPU: process CPU time of the solves and "
              "integration (all threads; * = an old build's whole process, setup included, which its stats do not "
              "split). Paths per sample: that over Mitsuba's cost per path (wall over wall, CPU over CPU), the fastest "
-             "batch measured just before the case's run. The builds' runs alternate; the row is each build's fastest run (wall), the last column the median CPU cost over all its runs."]
+             "batch measured just before the case's run. The builds' runs alternate; the row is each build's fastest run (wall), "
+             "the median CPU cost over all its runs, and that run's peak resident memory (the process's ru_maxrss)."]
     for r in rows:
-        lines.append(f"| {r['case']} | {r['build']} | {r['samples']} | {r['grid']} | {r['D']} | {r['tiles']} | {r['steps']} | "
+        build = r["build"] + (f" ({r['args']})" if r.get("args") else "")
+        lines.append(f"| {r['case']} | {build} | {r['samples']} | {r['grid']} | {r['D']} | {r['tiles']} | {r['steps']} | "
                      f"{fmt(r['fixed'])} | {fmt(r['programs'])} | {fmt(r['solve'])} | {fmt(r['integrate'])} | {fmt(r['write'])} | "
                      f"{r['wall']:.2f} | {r['per_sample_us']:.2f} | {r['path_wall_us']:.3f} | "
                      f"{r['per_sample_us'] / r['path_wall_us']:.1f} | {r['cpu_per_sample_us']:.2f}{'' if r['cpu_is_work'] else '*'} | "
-                     f"{r['cpu_per_sample_us'] / r['path_cpu_us']:.1f} | {r['cpu_median_us']:.2f} ({r['runs']}) |")
+                     f"{r['cpu_per_sample_us'] / r['path_cpu_us']:.1f} | {r['cpu_median_us']:.2f} ({r['runs']}) | "
+                     f"{r['peak_rss'] / 1e9:.2f} |")
     return "\n".join(lines + notes)
 
 
@@ -420,6 +437,9 @@ def main(argv=None):
     ap.add_argument("--base-runs", type=int, default=1)
     ap.add_argument("--build-args", default="", metavar="ARGS",
                     help="extra csi-reconstruct arguments for --build's cost runs (e.g. an option under test)")
+    ap.add_argument("--cost-variant", action="append", default=[], metavar="NAME:ARGS",
+                    help="the cost runs: also --build with these csi-reconstruct arguments, its runs "
+                    "alternating with the builds' (repeatable), e.g. 'whole:--mem-budget 4G'")
     ap.add_argument("--warmup", type=int, default=1, choices=(0, 1),
                     help="one untimed run of each build per case first [1]; 0 when the caches are known warm")
     ap.add_argument("--paths", type=int, default=1 << 20, help="paths per Mitsuba batch [2^20]")

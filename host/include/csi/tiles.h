@@ -44,11 +44,15 @@
 extern "C" {
 #endif
 
-/* The default device budget of one reconstruction: 1 GiB, at most half of what the device
+/* The default device budget of one reconstruction: 1.5 GiB, at most half of what the device
  * reports as its global memory. PoCL's CPU device derives its limits from the memory free when
  * it starts (1 GiB per buffer and 3.5 GiB in all on one day, 4 GiB and 13 GiB on another), so
- * the default leaves room under the smallest seen and never exceeds the device. */
-#define CSI_TILE_DEFAULT_BUDGET (UINT64_C(1) << 30)
+ * the default leaves 2 GiB under the smallest total seen and never exceeds the device (a tile's
+ * largest buffer is far below 1 GiB, and the planner checks it against the device's own limit).
+ * Why 1.5: a 1920x1080 image at 4 spp is then 2 tiles instead of 3 (less CPU: the tiles' margins
+ * and steps) with its peak resident memory under 2 GB, which the untiled problem is not
+ * (docs/bench/cost.md). */
+#define CSI_TILE_DEFAULT_BUDGET (UINT64_C(3) << 29)
 uint64_t csi_tile_default_budget(const csi_ctx *ctx);
 
 /* The planner's expected loss of time windows: each interior boundary between windows adds
