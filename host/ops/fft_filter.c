@@ -467,6 +467,18 @@ static csi_status run_unpack(csi_ctx *ctx, const char *kernel, cl_mem in, cl_mem
     return csi_run(ctx, k, 2, global, local);
 }
 
+/* The forward unpacking of `rows` real rows (read as M complex values) into the half spectrum:
+ * csi_fft_r2c_post for the bins inside, then csi_fft_r2c_edges for bins 0 and M. */
+static csi_status run_r2c_unpack(csi_ctx *ctx, cl_mem in, cl_mem out, cl_mem wn, size_t M_, size_t hs_, size_t rows)
+{
+    CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", in, out, wn, M_, hs_, rows));
+    cl_kernel k;
+    cl_uint M = (cl_uint)M_, hs = (cl_uint)hs_, nrows = (cl_uint)rows;
+    CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
+    return csi_run1d(ctx, k, rows);
+}
+
 /* One pass along contiguous rows: `rows` rows of a->L complex values, row n at element n rs.
  * scale >= 0 selects the scaled variant of the p = 1 kernel (inputs multiplied by scale). */
 static csi_status launch_row(csi_ctx *ctx, cl_mem in, cl_mem out, const axis_plan *a, int pass,
@@ -711,17 +723,8 @@ static csi_status block_stage(csi_fft_filter *f, cl_mem real, cl_mem spec, size_
     if (st == CSI_OK && forward)
         st = block_passes(f, &cur, NULL, -1.0f, n);
     if (st == CSI_OK)
-        st = forward ? run_unpack(f->ctx, "csi_fft_r2c_post", cur, sv, f->wn, f->M, f->hs, n)
+        st = forward ? run_r2c_unpack(f->ctx, cur, sv, f->wn, f->M, f->hs, n)
                      : run_unpack(f->ctx, "csi_fft_c2r_pre", sv, cur, f->wn, f->M, f->hs, n);
-    if (st == CSI_OK && forward) {
-        cl_kernel k;
-        cl_uint M = (cl_uint)f->M, hs = (cl_uint)f->hs, nrows = (cl_uint)n;
-        st = csi_kernel(f->ctx, "fft", "csi_fft_r2c_edges", &k);
-        if (st == CSI_OK)
-            st = CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(sv), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows));
-        if (st == CSI_OK)
-            st = csi_run1d(f->ctx, k, n);
-    }
     if (st == CSI_OK && !forward)
         st = block_passes(f, &cur, rv, 1.0f, n);
     /* OpenCL keeps a released buffer until the commands that use it have finished */
@@ -762,11 +765,7 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
         /* 2. unpack to the half spectrum */
         {
             cl_mem dst = cur == f->P ? f->Q : f->P;
-            cl_kernel k;
-            CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", cur, dst, f->wn, f->M, f->hs, f->rows));
-            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
-            CSI_TRY(CSI_ARGS(k, CSI_MEM(cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
-            CSI_TRY(csi_run1d(ctx, k, f->rows));
+            CSI_TRY(run_r2c_unpack(ctx, cur, dst, f->wn, f->M, f->hs, f->rows));
             cur = dst;
         }
     }
@@ -1226,10 +1225,7 @@ static csi_status forward_passes(csi_fft_half *h, cl_mem f, cl_mem z, bool space
         {
             cl_mem dst = chain_dst(&ch);
             cl_kernel k;
-            CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", ch.cur, dst, h->wn, h->M, h->hs, h->rows));
-            CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
-            CSI_TRY(CSI_ARGS(k, CSI_MEM(ch.cur), CSI_MEM(dst), CSI_ARG(M), CSI_ARG(hs), CSI_ARG(nrows)));
-            CSI_TRY(csi_run1d(ctx, k, h->rows));
+            CSI_TRY(run_r2c_unpack(ctx, ch.cur, dst, h->wn, h->M, h->hs, h->rows));
             cl_uint npad = (cl_uint)(h->hs - h->M - 1);
             if (npad > 0) {
                 CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_zero_pad", &k));
