@@ -16,7 +16,7 @@ int main(int argc, char **argv)
     csi_status s = csi_device_new(NULL, &dev);
     if (s == CSI_OK)
         s = csi_dump_read(argv[1], NULL, &d, NULL);
-    csi_samples samples = {d.grid, d.channels, d.count, d.pos, d.values, d.flags};
+    csi_samples samples = {d.grid, d.channels, d.count, d.pos, d.values, d.flags, NULL};
     if (s == CSI_OK)
         s = csi_reconstruct(dev, &samples, NULL, NULL, NULL, &r);
     if (s == CSI_OK && (s = csi_result_image(r, &img)) == CSI_OK)

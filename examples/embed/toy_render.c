@@ -48,7 +48,7 @@ int main(int argc, char **argv)
         s = csi_options_new(&opt);
     if (s == CSI_OK)
         s = csi_options_set(opt, "frames", "on"); /* every frame of the shutter too */
-    const csi_samples samples = {g, 1, n, pos, rgb, CSI_SAMPLES_EXACT}; /* shade() is noise-free */
+    const csi_samples samples = {g, 1, n, pos, rgb, CSI_SAMPLES_EXACT, NULL}; /* shade() is noise-free */
     if (s == CSI_OK)
         s = csi_reconstruct(dev, &samples, opt, on_progress, NULL, &r);
     csi_image img;

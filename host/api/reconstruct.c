@@ -59,6 +59,7 @@ csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_opti
     csi_api_progress pr = {progress, user};
     o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;
+    o.sample_variance = s->variance; /* whole images only: the tiles' calls leave it NULL */
     csi_status st = csi_recon(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->r);
     if (st != CSI_OK) {
         free(r);

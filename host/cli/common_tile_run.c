@@ -188,7 +188,7 @@ int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, cons
     uint64_t id;
     double given[4];
     const double *scale = given_scale(tile, 3, given); /* none: each tile scales tau by its own samples */
-    const csi_samples whole = {*grid, 3, n, pos, NULL, sample_flags}; /* the run's sizes: no values yet */
+    const csi_samples whole = {*grid, 3, n, pos, NULL, sample_flags, NULL}; /* the run's sizes: no values yet */
     csi_status s = render_id(scene_path, grid, po, &id);
     if (s == CSI_OK)
         s = tile_layout(tile, opt);
@@ -219,7 +219,7 @@ int cli_tile_run_render(const char *prog, csi_device *dev, csi_outset *set, cons
     const double t_render = cli_now() - tstart;
     csi_result *res = NULL;
     if (s == CSI_OK)
-        s = csi_reconstruct_tile_window(dev, &(csi_samples){*grid, 3, m, sub, rgb, sample_flags}, n, opt,
+        s = csi_reconstruct_tile_window(dev, &(csi_samples){*grid, 3, m, sub, rgb, sample_flags, NULL}, n, opt,
                                         tile->index, scale, cli_recon_progress_fn, progress, &res);
     if (progress)
         cli_progress_end(progress->bar);

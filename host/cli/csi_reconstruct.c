@@ -33,6 +33,10 @@ static void usage(FILE *f)
     fputs(
 "input:\n"
 "      --drop-invalid        drop records with NaN/Inf values (with a warning) instead of failing\n"
+"      --variance FILE.csid  each sample's variance: a dump of the same grid, positions and\n"
+"                            channels whose values are the variances of the dump's (csi-mitsuba's\n"
+"                            X.variance.csid, docs/dump-format.md); an isolated bright sample its\n"
+"                            own noise explains is then taken as noise\n"
 "other:\n"
 "      --seed S              seed of the solver's randomised parts (ROMP's column-norm probes with\n"
 "                            --romp-normalize on); default: the dump's seed (csi-render's), else 1\n"
@@ -51,6 +55,34 @@ static bool option_is(const csi_options *o, const char *name, const char *value)
 {
     char buf[64];
     return csi_options_get(o, name, buf, sizeof buf) == CSI_OK && !strcmp(buf, value);
+}
+
+/* The variances of the dump `in`'s samples from the dump `path` (--variance): the same grid,
+ * channels and positions in the same order, values >= 0. A dump whose duplicates were averaged
+ * is refused: the variance of their mean is not the mean of their variances. */
+static csi_status read_variance(const char *path, const char *in, const csi_dump *d, const csi_dump_report *drep,
+                                const csi_dump_read_opts *ro, csi_dump *v, csi_dump_report *vrep)
+{
+    CSI_TRY(csi_dump_read(path, ro, v, vrep));
+    if (drep->duplicates || vrep->duplicates)
+        return cli_fail(CSI_ERR_FORMAT, "%s: --variance needs a dump without repeated positions (%s has %llu)", path,
+                        drep->duplicates ? in : path,
+                        (unsigned long long)(drep->duplicates ? drep->duplicates : vrep->duplicates));
+    if (memcmp(&v->grid, &d->grid, sizeof d->grid) || v->channels != d->channels || v->count != d->count)
+        return cli_fail(CSI_ERR_FORMAT, "%s: %zu records of %u channels on a %ux%ux%u grid, but %s has %zu of %u on "
+                        "%ux%ux%u: not its variances", path, v->count, v->channels, v->grid.w, v->grid.h, v->grid.t,
+                        in, d->count, d->channels, d->grid.w, d->grid.h, d->grid.t);
+    for (size_t i = 0; i < d->count; i++) {
+        if (memcmp(&v->pos[i], &d->pos[i], sizeof d->pos[i]))
+            return cli_fail(CSI_ERR_FORMAT, "%s: record %zu is at (%u, %u, %u), %s's at (%u, %u, %u): not its "
+                            "variances", path, i, v->pos[i].x, v->pos[i].y, v->pos[i].t, in, d->pos[i].x,
+                            d->pos[i].y, d->pos[i].t);
+        for (uint32_t c = 0; c < d->channels; c++)
+            if (!(v->values[i * d->channels + c] >= 0))
+                return cli_fail(CSI_ERR_FORMAT, "%s: record %zu channel %u: variance %g is negative", path, i, c,
+                                (double)v->values[i * d->channels + c]);
+    }
+    return CSI_OK;
 }
 
 /* The statistics of a whole run. */
@@ -78,11 +110,11 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
-        {"drop-invalid", no_argument, 0, O_DROP},
+        {"drop-invalid", no_argument, 0, O_DROP}, {"variance", required_argument, 0, O_VARIANCE},
         {"device", required_argument, 0, O_DEVICE},
         {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
@@ -93,7 +125,7 @@ int main(int argc, char **argv)
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
     bool quiet = false, drop = false, seed_given = false;
-    const char *device = NULL;
+    const char *device = NULL, *varfile = NULL;
     int c, rc = 0;
     opterr = 0;
     struct option *all_opts = cli_longopts_with_recon(longopts);
@@ -108,6 +140,7 @@ int main(int argc, char **argv)
         case O_FRAMES: outs.frames_dir = optarg; csi_options_set(opt, "frames", "on"); break;
         case O_STATS: outs.stats = optarg; break;
         case O_DROP: drop = true; break;
+        case O_VARIANCE: varfile = optarg; break;
         case O_SEED: {
             uint64_t v;
             if (!cli_parse_u64(optarg, 0, UINT64_MAX, &v))
@@ -148,6 +181,9 @@ int main(int argc, char **argv)
         rc = cli_tile_check(prog, &tile, outs.png != NULL, outs.frames_dir != NULL);
     if (!rc && tile.one && !outs.exr)
         rc = cli_error(prog, CSI_ERR_ARG, "--tile needs -o PARTIAL (the tile's partial result)");
+    if (!rc && varfile && drop)
+        rc = cli_error(prog, CSI_ERR_ARG, "--variance and --drop-invalid: a dropped record would leave its "
+                       "variance without a sample");
     if (!rc && !outs.exr && !outs.png && !tile.info)
         rc = cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
     if (rc) {
@@ -159,8 +195,8 @@ int main(int argc, char **argv)
     const bool frames = option_is(opt, "frames", "on"), mean = option_is(opt, "estimator", "mean");
 
     csi_status s;
-    csi_dump dump = {0};
-    csi_dump_report drep = {0};
+    csi_dump dump = {0}, var = {0};
+    csi_dump_report drep = {0}, vrep = {0};
     csi_dump_read_opts ropts = {.drop_invalid = drop};
     double phase[3] = {0}; /* reading the dump, making the device, writing the outputs (s) */
     double tp = cli_now();
@@ -178,6 +214,8 @@ int main(int argc, char **argv)
         s = cli_outset_new(&set);
     if (s == CSI_OK)
         s = csi_outset_input(set, in);
+    if (s == CSI_OK && varfile)
+        s = csi_outset_input(set, varfile);
     if (s == CSI_OK)
         s = cli_outputs_stage(&outs, set, frames && !mean && hdr.grid.t > 1 ? hdr.grid.t : 0);
     if (s == CSI_OK)
@@ -191,6 +229,8 @@ int main(int argc, char **argv)
     tp = cli_now();
     if (s == CSI_OK)
         s = csi_dump_read(in, &ropts, &dump, &drep);
+    if (s == CSI_OK && varfile)
+        s = read_variance(varfile, in, &dump, &drep, &ropts, &var, &vrep);
     phase[0] = cli_now() - tp;
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s", cli_last_error());
@@ -215,7 +255,8 @@ int main(int argc, char **argv)
     }
     cli_recon_progress ps;
     cli_recon_progress_init(&ps, &bar);
-    const csi_samples samples = {dump.grid, dump.channels, dump.count, dump.pos, dump.values, dump.flags};
+    const csi_samples samples = {dump.grid, dump.channels, dump.count, dump.pos, dump.values, dump.flags,
+                                 varfile ? var.values : NULL};
     if (tile.one || tile.info) {
         rc = cli_tile_run_samples(prog, dev, set, &samples, in, opt, &tile, &outs, quiet, &ps);
         cli_progress_end(&bar);
@@ -253,6 +294,7 @@ done:
     cli_outset_free(set); /* nothing new is left when the run failed */
     csi_device_release(dev);
     csi_dump_free(&dump);
+    csi_dump_free(&var);
     csi_options_free(opt);
     return rc;
 }

@@ -427,7 +427,7 @@ int main(int argc, char **argv)
             goto done;
         }
     }
-    const csi_samples samples = {grid, 3, n, pos, rgb, flags};
+    const csi_samples samples = {grid, 3, n, pos, rgb, flags, NULL};
     double t1 = cli_now();
     s = csi_reconstruct(dev, &samples, opt, on_solve, &ps, &res);
     double t_recon = cli_now() - t1;

@@ -156,6 +156,9 @@ static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
     csi_recon_options o = *opt;
     o.cv_select = CSI_SWITCH_OFF;
+    /* The folds measure the blend against the mean; the peaks' test (csi/peak_noise.h) comes
+     * after the choice, on the whole image only (and a fold's indexing is not the whole's). */
+    o.sample_variance = NULL;
     csi_recon_result r;
     csi_status s = csi_recon_progress(opt, f ? "cross-validation 2/2" : "cross-validation 1/2");
     if (s == CSI_OK)

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/peak_noise.h"
 #include "internal.h"
 
 void csi_recon_state_free(csi_recon_state *st)
@@ -87,6 +88,10 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         csi_recon_defaults(&opt);
     CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
+    for (size_t i = 0; opt.sample_variance && i < n * channels; i++)
+        if (!(opt.sample_variance[i] >= 0) || !isfinite(opt.sample_variance[i]))
+            return csi_fail(CSI_ERR_ARG, "sample %zu channel %zu: variance %g is not a finite number >= 0",
+                            i / channels, i % channels, (double)opt.sample_variance[i]);
     csi_tiling tl;
     CSI_TRY(csi_tiling_plan(ctx, grid, channels, n, &opt, &tl));
     /* Any finite float32 reconstructs: a channel whose largest magnitude is far from 1 is solved
@@ -118,6 +123,17 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
             return s;
         }
     }
+    /* Isolated peaks against their own noise (csi/peak_noise.h): where the blend made the image
+     * whole, after the choice, which leaves single-sample images as they are. */
+    if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
+        out->options.correct == CSI_CORRECT_BLEND) {
+        s = csi_peak_noise(grid, channels, pos, values, opt.sample_variance, n, out->image, NULL);
+        if (s != CSI_OK) {
+            csi_recon_result_free(out);
+            return s;
+        }
+    }
+    out->options.sample_variance = NULL; /* the caller's array: not the result's */
     /* The tiling's autos, as planned. */
     csi_recon_options *r = &out->options;
     r->mem_budget = tl.budget;

@@ -66,7 +66,7 @@ int main(void)
     make_samples(&g, &pos, &val, &n);
 
     /* Public API with every default against csi_recon: the same bits. */
-    csi_samples s = {g, 2, n, pos, val, 0};
+    csi_samples s = {g, 2, n, pos, val, 0, NULL};
     csi_result *r = NULL;
     prog_log log = {0};
     REQUIRE_OK(csi_reconstruct(dev, &s, NULL, on_progress, &log, &r));
@@ -170,7 +170,7 @@ int main(void)
     /* A volume with every frame. */
     const csi_grid gv = {16, 16, 4, 16, 16};
     make_samples(&gv, &pos, &val, &n);
-    csi_samples sv = {gv, 2, n, pos, val, 0};
+    csi_samples sv = {gv, 2, n, pos, val, 0, NULL};
     CHECK_OK(csi_options_set(opts, "solver", "auto"));
     CHECK_OK(csi_options_set(opts, "tau", "auto"));
     CHECK_OK(csi_options_set(opts, "frames", "on"));

@@ -102,12 +102,12 @@ static void binned_windows(csi_device *dev)
     CHECK_OK(csi_options_set(o, "tiles-t", "2"));
     CHECK_OK(csi_options_set(o, "tile-image-binned", "on"));
     CHECK_OK(csi_options_set(o, "max-iter", "30"));
-    const csi_samples s = {g, 1, n, pos, val, 0};
+    const csi_samples s = {g, 1, n, pos, val, 0, NULL};
     double scale[4];
     CHECK_OK(csi_tile_scale(dev, &s, o, scale));
     for (uint32_t i = 0; i < 2; i++) {
         uint32_t lo[3], hi[3];
-        CHECK_OK(csi_tile_window(dev, &(csi_samples){g, 1, n, pos, NULL, 0}, o, i, lo, hi));
+        CHECK_OK(csi_tile_window(dev, &(csi_samples){g, 1, n, pos, NULL, 0, NULL}, o, i, lo, hi));
         CHECK(i == 0 ? lo[2] == 0 && hi[2] == 48 : lo[2] > 0 && hi[2] == 48,
               "binned image: window %u spans frames [%u, %u)", i, lo[2], hi[2]);
         size_t m = 0;
@@ -118,7 +118,7 @@ static void binned_windows(csi_device *dev)
             }
         csi_result *all = NULL, *own = NULL;
         CHECK_OK(csi_reconstruct_tile(dev, &s, o, i, scale, NULL, NULL, &all));
-        CHECK_OK(csi_reconstruct_tile_window(dev, &(csi_samples){g, 1, m, wpos, wval, 0}, n, o, i, scale, NULL,
+        CHECK_OK(csi_reconstruct_tile_window(dev, &(csi_samples){g, 1, m, wpos, wval, 0, NULL}, n, o, i, scale, NULL,
                                              NULL, &own));
         CHECK(all && own && same_image(all, own), "binned image: window %u from its cells' samples = from all", i);
         csi_result_free(all);
@@ -149,7 +149,7 @@ int main(void)
         const double u = (pos[i].x + 0.5) / g.w, v = (pos[i].y + 0.5) / g.h;
         val[i] = (float)(0.3 + 0.5 * ((u - 0.4) * (u - 0.4) + (v - 0.6) * (v - 0.6) < 0.06) + 0.1 * u);
     }
-    const csi_samples s = {g, 1, n, pos, val, 0};
+    const csi_samples s = {g, 1, n, pos, val, 0, NULL};
     const uint64_t id = csi_samples_id(&s);
     csi_device *dev = NULL;
     REQUIRE_OK(csi_device_new(NULL, &dev));
@@ -223,7 +223,7 @@ int main(void)
 
     /* a tile from its window's samples only = the tile from all of them */
     uint32_t lo[3], hi[3];
-    CHECK_OK(csi_tile_window(dev, &(csi_samples){g, 1, n, pos, NULL, 0}, o, 1, lo, hi));
+    CHECK_OK(csi_tile_window(dev, &(csi_samples){g, 1, n, pos, NULL, 0, NULL}, o, 1, lo, hi));
     csi_sample_pos *wpos = malloc(n * sizeof *wpos);
     float *wval = malloc(n * sizeof *wval);
     size_t m = 0;
@@ -234,7 +234,7 @@ int main(void)
         }
     csi_result *wt = NULL;
     CHECK(m > 0 && m < n, "tile 1's window [%u,%u)x[%u,%u) holds %zu of %zu samples", lo[0], hi[0], lo[1], hi[1], m, n);
-    CHECK_OK(csi_reconstruct_tile_window(dev, &(csi_samples){g, 1, m, wpos, wval, 0}, n, o, 1, scale, NULL, NULL, &wt));
+    CHECK_OK(csi_reconstruct_tile_window(dev, &(csi_samples){g, 1, m, wpos, wval, 0, NULL}, n, o, 1, scale, NULL, NULL, &wt));
     CHECK(wt && same_image(wt, tile[1]), "tile 1 from its window's samples = tile 1 from all");
     csi_result_free(wt);
     free(wpos);

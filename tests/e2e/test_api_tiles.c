@@ -24,7 +24,7 @@ int main(void)
         val[2 * i] = (float)(0.5 + 0.4 * sin(9.0 * u) * cos(7.0 * v));
         val[2 * i + 1] = (float)((u - 0.5) * (u - 0.5) + (v - 0.4) * (v - 0.4) < 0.05 ? 0.9 : 0.1);
     }
-    const csi_samples s = {g, 2, n, pos, val, 0};
+    const csi_samples s = {g, 2, n, pos, val, 0, NULL};
     csi_device *dev = NULL, *dev2 = NULL;
     REQUIRE_OK(csi_device_new(NULL, &dev));
     REQUIRE_OK(csi_device_new(NULL, &dev2));

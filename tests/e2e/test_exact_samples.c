@@ -49,7 +49,7 @@ static bool run(const analytic_scene *s, csi_pos_method method, uint32_t spp, ui
         st = csi_options_set(o, "estimator", estimator);
     if (st == CSI_OK && correct)
         st = csi_options_set(o, "correct", correct);
-    const csi_samples smp = {g, 1, n, pos, val, flags};
+    const csi_samples smp = {g, 1, n, pos, val, flags, NULL};
     if (st == CSI_OK)
         st = csi_reconstruct(dev, &smp, o, NULL, NULL, &r);
     csi_image im;
@@ -120,7 +120,7 @@ int main(void)
     const csi_sample_pos pos[1] = {{0, 0, 0}};
     const float val[1] = {1};
     csi_result *r = NULL;
-    const csi_samples bad = {g, 1, 1, pos, val, CSI_SAMPLES_EXACT | 4u};
+    const csi_samples bad = {g, 1, 1, pos, val, CSI_SAMPLES_EXACT | 4u, NULL};
     CHECK(csi_reconstruct(dev, &bad, NULL, NULL, NULL, &r) == CSI_ERR_ARG && r == NULL &&
               strstr(csi_last_error(), "flags 0x00000005"),
           "an unknown flag bit: %s", csi_last_error());

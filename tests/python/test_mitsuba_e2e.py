@@ -107,9 +107,20 @@ def main():
         # reference's mean (the reference's variance), which any image of the scene beats
         # csi-mitsuba reconstructs in its own process through the library: the bits of
         # csi-reconstruct on the dump it wrote (the same samples, options and seed)
-        subprocess.run([programs.find("csi-reconstruct"), p("a.csid"), "-o", p("cs_c.exr"), "-q"], check=True)
+        # (with 16 paths per sample, the variances it wrote beside the dump)
+        subprocess.run([programs.find("csi-reconstruct"), p("a.csid"), "-o", p("cs_c.exr"), "-q",
+                        "--variance", p("a.variance.csid")], check=True)
         check(np.array_equal(exr.read(p("cs.exr")), exr.read(p("cs_c.exr"))),
               "csi-mitsuba's image differs from csi-reconstruct's on its dump")
+        # Each sample's variance (its 16 paths' sample variance / 16): the dump's positions,
+        # >= 0, and no larger on average than the within-pixel spread s2 above, whose
+        # expectation is the paths' variance plus the signal's spread over the pixel (both
+        # averages over 16384 samples: the check is far from their noise).
+        va = csid.read(p("a.variance.csid"))
+        check(np.array_equal(va.xyt, d.xyt) and va.values.shape == d.values.shape and (va.values >= 0).all(),
+              "the variances' positions or values")
+        check(va.values.astype(np.float64).mean() <= s.var(axis=1, ddof=1).mean() and va.values.mean() > 0,
+              f"mean sample variance {va.values.mean():.4g} vs within-pixel {s.var(axis=1, ddof=1).mean():.4g}")
         cs = exr.read(p("cs.exr")).astype(np.float64)
         mse_cs = ((cs - ref) ** 2).mean()
         check(mse_cs < 0.05 * ref.var(), f"csi: MSE {mse_cs:.4g} vs the reference's variance {ref.var():.4g}")

@@ -14,6 +14,9 @@ only csi-reconstruct on the cached dumps.
         --configs "csi=;cv=--correct cv" --json out.json --md out.md
 
 Configurations: NAME=csi-reconstruct arguments, separated by ';' (NAME= alone: the defaults).
+The argument `--variance=auto` becomes `--variance <dump>.variance.csid` where that file exists
+(each sample's path variance, mitsuba_data.py writes it for several paths per sample) and is
+dropped where it does not; the row says which (`variance`).
 """
 import argparse
 import json
@@ -88,7 +91,11 @@ def main():
             m0, r0 = errors(reconstruct(exe, dump, ["--estimator", "mean"], tmp), ref)
             row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=pos,
                        grid=f"{hdr['grid_w']}x{hdr['grid_h']}", mean_mse=m0, mean_relmse=r0)
+            side = dump[: -len(".csid")] + ".variance.csid"
+            row["variance"] = os.path.exists(side)
             for name, args in cfgs:
+                args = [x for v in args for x in (
+                    (["--variance", side] if row["variance"] else []) if v == "--variance=auto" else [v])]
                 img = reconstruct(exe, dump, args, tmp)
                 m, r = errors(img, ref)
                 row[name] = dict(mse=m / m0, relmse=r / r0, negative=int((img < 0).sum()),

@@ -10,6 +10,8 @@ Layout of DIR (README.txt, written here, says the same to a reader of the direct
     DIR/<scene>/s<spp>_p<paths>_poisson.*      the same with csi's Poisson-disk positions
     DIR/<scene>/s<spp>_p<paths>.albedo.csid    albedo and shading normal at the first hit of each
     DIR/<scene>/s<spp>_p<paths>.normal.csid    sample (Mitsuba's aov integrator; OIDN's guides)
+    DIR/<scene>/s<spp>_p<paths>.variance.csid  paths > 1: each sample's variance (its paths'
+                                               sample variance / paths; csi-reconstruct --variance)
     DIR/<scene>/s<spp>_p<paths>.json           how the dump was made: grid, seed, Mitsuba times
 A file is written only when missing (all writes go through a temporary name and a rename), so
 an interrupted run leaves nothing partial and a rerun continues where it stopped.
@@ -64,6 +66,10 @@ Per scene directory (<scene>/):
       the same positions: albedo and shading normal at the first hit (Mitsuba's aov integrator,
       one evaluation per sample; normal 0 where the ray leaves the scene). Per-pixel means of
       them are OIDN's albedo and normal guides.
+  s<spp>_p<paths>.variance.csid (64 paths; also _poisson)
+      the same positions: the variance of each record's value as an estimate of the radiance at
+      its point (the sample variance of its <paths> paths / <paths>), for csi-reconstruct
+      --variance. Added to an existing directory without touching its other files.
   s<spp>_p<paths>.json
       grid, seed, paths, Mitsuba's time (JIT apart, per sample and per path), non-finite paths.
 
@@ -136,8 +142,11 @@ def reference(data, scene, size, spp, log=print):
 
 def dump_paths(data, scene, spp, paths, method="stratified"):
     stem = os.path.join(scene_dir(data, scene), f"s{spp}_p{paths}" + ("" if method == "stratified" else f"_{method}"))
-    return {"dump": stem + ".csid", "albedo": stem + ".albedo.csid", "normal": stem + ".normal.csid",
-            "info": stem + ".json"}
+    p = {"dump": stem + ".csid", "albedo": stem + ".albedo.csid", "normal": stem + ".normal.csid",
+         "info": stem + ".json"}
+    if paths > 1:  # one path has no sample variance
+        p["variance"] = stem + ".variance.csid"
+    return p
 
 
 def samples(data, scene, size, spp, paths, seed=1, method="stratified", log=print):
@@ -146,13 +155,19 @@ def samples(data, scene, size, spp, paths, seed=1, method="stratified", log=prin
     if all(os.path.exists(f) for f in p.values()):
         with open(p["info"]) as f:
             return p, json.load(f)
+    # Only the missing files are written (a directory made before the variances were kept gets
+    # them added): the render is deterministic, so the others would be the same bytes.
+    new = lambda k: not os.path.exists(p[k])
     log(f"  {scene}: {spp} spp x {paths} paths, {method} positions ...")
     req = mb.positions_request(size, spp=spp, seed=seed, method=method)
     sc = mb.load_scene(SCENES[scene], size=size)
-    s = mb.render_request(sc, req, paths=paths, seed=seed, aov=True)
-    csid.write(p["albedo"], req.with_values(s.albedo))
-    csid.write(p["normal"], req.with_values(s.normal))
-    csid.write(p["dump"], req.with_values(s.values))
+    s = mb.render_request(sc, req, paths=paths, seed=seed, aov=new("albedo") or new("normal"))
+    for k, v in (("albedo", s.albedo), ("normal", s.normal), ("variance", s.variance), ("dump", s.values)):
+        if k in p and new(k):
+            csid.write(p[k], req.with_values(v))
+    if not new("info"):
+        with open(p["info"]) as f:
+            return p, json.load(f)
     info = {"scene": scene, "spp": spp, "paths": paths, "seed": seed, "grid": list(req.grid), "out": list(req.out),
             "samples": len(req.xyt), "nonfinite_paths": s.nonfinite, "mitsuba": s.timing,
             "positions": f"csi-positions --method {method}, default grid"}

@@ -9,7 +9,7 @@
  *     csi_device *dev;   csi_dump d;   csi_result *r;   csi_image img;
  *     csi_device_new(NULL, &dev);                       // PoCL's CPU device, or $CSI_DEVICE
  *     csi_dump_read("samples.csid", NULL, &d, NULL);    // or fill a csi_samples from arrays
- *     csi_samples s = {d.grid, d.channels, d.count, d.pos, d.values, d.flags};
+ *     csi_samples s = {d.grid, d.channels, d.count, d.pos, d.values, d.flags, NULL};
  *     csi_reconstruct(dev, &s, NULL, NULL, NULL, &r);   // NULL options: every default
  *     csi_result_image(r, &img);                        // planar float32, out_w x out_h
  *     csi_exr_write("out.exr", &img, NULL, 0);
@@ -320,8 +320,15 @@ typedef struct csi_samples {
     size_t count;               /* N */
     const csi_sample_pos *pos;  /* N positions */
     const float *values;        /* N x channels, sample-major: values[i * channels + c] */
-    uint32_t flags;             /* CSI_SAMPLES_* (0: unknown or noisy); last, so that an
-                                   initialiser without it means 0 */
+    uint32_t flags;             /* CSI_SAMPLES_* (0: unknown or noisy); after the arrays, so
+                                   that an initialiser without it means 0 */
+    const float *variance;      /* NULL (unknown), or N x channels like values: each value's
+                                   variance as an estimate of the signal at its cell's centre
+                                   (a renderer's paths' sample variance / paths), >= 0. Where
+                                   most pixels hold one sample, an isolated peak its own noise
+                                   explains is then taken as noise (csi/peak_noise.h in the
+                                   source tree); whole images only (a tile ignores it). Last,
+                                   so that an initialiser without it means NULL */
 } csi_samples;
 
 /* What the reconstruction is doing, for a progress display. */

@@ -223,6 +223,9 @@ typedef struct csi_recon_options {
     /* Not an option (no row in the table): what the samples are, CSI_SAMPLES_* of csi/csi.h,
      * which the library copies from csi_samples.flags; correct = auto follows it. */
     uint32_t sample_flags;
+    /* Not an option either: csi_samples.variance (NULL: unknown), read by csi_recon on a whole
+     * still image reconstructed by csi with the blend (csi/peak_noise.h); tiles ignore it. */
+    const float *sample_variance;
     csi_solve_progress_fn progress; /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
                                      "integrate c/C"; returning false cancels

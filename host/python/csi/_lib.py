@@ -37,7 +37,8 @@ SAMPLES_EXACT = 1
 
 class _Samples(ctypes.Structure):
     _fields_ = [("grid", Grid), ("channels", u32), ("count", c_size),
-                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float)), ("flags", u32)]
+                ("pos", ctypes.POINTER(u32)), ("values", ctypes.POINTER(ctypes.c_float)), ("flags", u32),
+                ("variance", ctypes.POINTER(ctypes.c_float))]
 
 
 class _Dump(ctypes.Structure):
@@ -364,7 +365,7 @@ class _Call:
     """The arguments of a reconstruction call: samples from numpy arrays (kept alive with it),
     options, device, and the progress relay that passes on what the callback raised."""
 
-    def __init__(self, positions, values, grid, device, progress, options, kwargs, exact):
+    def __init__(self, positions, values, grid, device, progress, options, kwargs, exact, variance=None):
         global _default_device
         pos = np.ascontiguousarray(positions, dtype=np.uint32)
         val = np.asarray(values, dtype=np.float32)
@@ -373,6 +374,11 @@ class _Call:
         val = np.ascontiguousarray(val)
         if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
             raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+        var = None
+        if variance is not None:
+            var = np.ascontiguousarray(np.asarray(variance, dtype=np.float32).reshape(val.shape[0], -1))
+            if var.shape != val.shape:
+                raise CsiError("CSI_ERR_ARG", f"variance {var.shape}: expected the values' shape {val.shape}")
         if options is None:
             options = Options(**kwargs)
         else:
@@ -382,10 +388,11 @@ class _Call:
             if _default_device is None:
                 _default_device = Device()
             device = _default_device
-        self.arrays, self.options, self.device, self.raised = (pos, val), options, device, []
+        self.arrays, self.options, self.device, self.raised = (pos, val, var), options, device, []
         self.samples = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0],
                                 pos.ctypes.data_as(ctypes.POINTER(u32)),
-                                val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), SAMPLES_EXACT if exact else 0)
+                                val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), SAMPLES_EXACT if exact else 0,
+                                var.ctypes.data_as(ctypes.POINTER(ctypes.c_float)) if var is not None else None)
 
         def relay(_user, p):
             try:
@@ -410,16 +417,18 @@ class _Call:
 
 def reconstruct(positions, values, grid, device: Optional[Device] = None,
                 progress: Optional[Callable[[str, int, float], Optional[bool]]] = None,
-                options: Optional[Options] = None, exact: bool = False, **kwargs) -> Result:
+                options: Optional[Options] = None, exact: bool = False, variance=None, **kwargs) -> Result:
     """Reconstructs samples: positions (N, 3) integers (x, y, t cells of the fine grid), values
     (N, C) or (N,) float32, grid (w, h, t, out_w, out_h). Options as keywords (or an Options).
     exact: every value is the noise-free signal at its cell's centre (a deterministic point
     evaluation, not a Monte Carlo estimate; CSI_SAMPLES_EXACT), which makes correct="auto" take
-    the control-variate correction instead of the blend.
+    the control-variate correction instead of the blend. variance: None, or each value's
+    variance, the values' shape (csi_samples.variance: an isolated bright sample its own noise
+    explains is then taken as noise where most pixels hold one sample).
     progress(phase, iteration, residual) may return False to cancel (CsiError CSI_ERR_CANCELLED);
     an exception it raises cancels and is raised again."""
     L = lib()
-    c = _Call(positions, values, grid, device, progress, options, kwargs, exact)
+    c = _Call(positions, values, grid, device, progress, options, kwargs, exact, variance)
     r = ctypes.c_void_p()
     st = L.csi_reconstruct(c.device._h, ctypes.byref(c.samples), c.options._h, c.fn, None, ctypes.byref(r))
     return c.result(L, st, r)
@@ -513,10 +522,17 @@ def read_dump(path: str) -> Dump:
         L.csi_dump_free(ctypes.byref(d))
 
 
-def reconstruct_dump(path: str, **kwargs) -> Result:
+def reconstruct_dump(path: str, variance_path: Optional[str] = None, **kwargs) -> Result:
     """Reconstructs a dump as csi-reconstruct does (its seed is the solver's unless given, its
-    exact flag the samples')."""
+    exact flag the samples'); variance_path: csi-reconstruct's --variance, a dump of the same
+    positions whose values are the samples' variances."""
     d = read_dump(path)
+    if variance_path is not None:
+        v = read_dump(variance_path)
+        if v.grid != d.grid or not np.array_equal(v.positions, d.positions) or v.values.shape != d.values.shape:
+            raise CsiError("CSI_ERR_FORMAT", f"{variance_path}: not the variances of {path}'s samples "
+                           "(grid, positions or channels differ)")
+        kwargs["variance"] = v.values
     if d.seed and "seed" not in kwargs:
         kwargs["seed"] = d.seed
     kwargs.setdefault("exact", d.exact)

@@ -260,6 +260,8 @@ def positions_request(out, spp=4, grid=None, method="poisson", seed=1, time_step
 @dataclasses.dataclass
 class Samples:
     values: np.ndarray  # (n, 3) float32: mean radiance over the paths of each sample
+    variance: np.ndarray | None  # (n, 3) float32: the variance of each value as an estimate of the
+    #   radiance at its point (the paths' sample variance / paths), or None with one path per sample
     albedo: np.ndarray | None  # (n, 3) float32 at the first hit (aov), or None
     normal: np.ndarray | None  # (n, 3) float32 shading normal at the first hit (0 on a miss), or None
     paths: int
@@ -328,6 +330,7 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
 
     per = max(1, BATCH_LANES // paths)  # samples per launch
     values = np.empty((n, 3), np.float32)
+    variance = np.empty((n, 3), np.float32) if paths > 1 else None
     nonfinite = 0
     t0 = time.perf_counter()
     for b, i0 in enumerate(range(0, n, per)):
@@ -339,6 +342,8 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
             nonfinite += int(bad.sum())
             L[bad] = 0.0
         values[i0:i1] = L.reshape(i1 - i0, paths, 3).mean(axis=1)
+        if variance is not None:
+            variance[i0:i1] = L.reshape(i1 - i0, paths, 3).var(axis=1, ddof=1) / paths
         if progress:
             progress(i1, n)
     render_s = time.perf_counter() - t0
@@ -358,7 +363,8 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
         albedo, normal = a[:, :3].copy(), a[:, 3:].copy()
     timing = {"jit_s": jit_s, "render_s": render_s, "samples": n, "paths": n * paths,
               "per_sample_us": 1e6 * render_s / n, "per_path_us": 1e6 * render_s / (n * paths), "aov_s": aov_s}
-    return Samples(values=values, albedo=albedo, normal=normal, paths=paths, nonfinite=nonfinite, timing=timing)
+    return Samples(values=values, variance=variance, albedo=albedo, normal=normal, paths=paths,
+                   nonfinite=nonfinite, timing=timing)
 
 
 def _render_frames(scene: Scene, req: csid.Dump, paths, seed, progress) -> Samples:
@@ -385,6 +391,7 @@ def _render_frames(scene: Scene, req: csid.Dump, paths, seed, progress) -> Sampl
     jit_s = time.perf_counter() - t0
 
     values = np.empty((n, 3), np.float32)
+    variance = np.empty((n, 3), np.float32) if paths > 1 else None
     nonfinite = 0
     t0 = time.perf_counter()
     for t in range(T):
@@ -403,13 +410,16 @@ def _render_frames(scene: Scene, req: csid.Dump, paths, seed, progress) -> Sampl
                 nonfinite += int(bad.sum())
                 L[bad] = 0.0
             values[chunk] = L.reshape(len(chunk), paths, 3).mean(axis=1)
+            if variance is not None:
+                variance[chunk] = L.reshape(len(chunk), paths, 3).var(axis=1, ddof=1) / paths
         if progress:
             progress(int(starts[t + 1]), n)
     render_s = time.perf_counter() - t0
     pose(scene, 0.5)
     timing = {"jit_s": jit_s, "render_s": render_s, "samples": n, "paths": n * paths,
               "per_sample_us": 1e6 * render_s / n, "per_path_us": 1e6 * render_s / (n * paths), "aov_s": 0.0}
-    return Samples(values=values, albedo=None, normal=None, paths=paths, nonfinite=nonfinite, timing=timing)
+    return Samples(values=values, variance=variance, albedo=None, normal=None, paths=paths,
+                   nonfinite=nonfinite, timing=timing)
 
 
 def render(spec, size=None, spp=4, paths=1, seed=1, method="poisson", grid=None, aov=False):

@@ -77,7 +77,8 @@ def parser():
     o = p.add_argument_group("outputs")
     o.add_argument("-o", "--output", metavar="OUT.exr", help="the reconstructed image (float32 EXR; with --reference: Mitsuba's reference)")
     o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction")
-    o.add_argument("--dump", metavar="FILE.csid", help="the samples as a csi dump (docs/dump-format.md)")
+    o.add_argument("--dump", metavar="FILE.csid", help="the samples as a csi dump (docs/dump-format.md); with --paths above 1 "
+                   "also their variances, FILE.variance.csid (csi-reconstruct --variance)")
     o.add_argument("--aov", action="store_true", help="with --dump: also per-sample albedo and normal at the first hit, "
                    "FILE.albedo.csid and FILE.normal.csid (OIDN's guides)")
     o.add_argument("--npy", metavar="FILE.npy", help="with --reference: the reference as an (h, w, 3) float32 numpy array too")
@@ -158,12 +159,13 @@ def reconstruction_options(args):
     return kw, device
 
 
-def reconstruct(d: csid.Dump, output, png=None, extra=()):
+def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None):
     """Reconstructs the samples d with csi's library in this process (the same bits as
-    csi-reconstruct on their dump), writes output (EXR) and png; returns the statistics.
-    Positions in csi's order (sorted by cell, each once: csi-positions' requests) go straight
-    in; any others through the library's dump reader, which sorts them and averages repeats as
-    csi-reconstruct does."""
+    csi-reconstruct on their dump, with --variance when `variance`, the samples' variances, is
+    given), writes output (EXR) and png; returns the statistics. Positions in csi's order (sorted
+    by cell, each once: csi-positions' requests) go straight in; any others through the library's
+    dump reader, which sorts them and averages repeats as csi-reconstruct does, without the
+    variances (the variance of an averaged repeat is not their mean)."""
     import numpy as np
 
     import csi
@@ -178,7 +180,8 @@ def reconstruct(d: csid.Dump, output, png=None, extra=()):
         if len(idx) > 0 and (np.diff(idx) > 0).all():
             if d.seed and "seed" not in kw:
                 kw["seed"] = d.seed  # csi-reconstruct's rule: the dump's seed unless given
-            res = csi.reconstruct(d.xyt, d.values, (w, h, t, *d.out), device=dev, exact=d.exact, **kw)
+            res = csi.reconstruct(d.xyt, d.values, (w, h, t, *d.out), device=dev, exact=d.exact,
+                                  variance=variance, **kw)
         else:
             with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
                 path = os.path.join(tmp, "samples.csid")
@@ -229,10 +232,14 @@ def run(a, extra):
     for path, what in outs:
         if path:
             _check_writable(path, what)
-    aov_paths = None
-    if a.aov:
+    aov_paths = var_path = None
+    if a.dump:
         stem = a.dump[:-5] if a.dump.endswith(".csid") else a.dump
-        aov_paths = (stem + ".albedo.csid", stem + ".normal.csid")
+        if a.paths > 1:  # each sample's variance beside its value (csi-reconstruct --variance)
+            var_path = stem + ".variance.csid"
+            _check_writable(var_path, "variances")
+        if a.aov:
+            aov_paths = (stem + ".albedo.csid", stem + ".normal.csid")
 
     req = None
     if a.request:
@@ -281,7 +288,7 @@ def run(a, extra):
     t_recon = None
     if a.output or a.png:
         t0 = time.perf_counter()
-        stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra)
+        stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra, variance=s.variance)
         t_recon = time.perf_counter() - t0
     # The samples last: a failed reconstruction leaves no dump behind either.
     if a.dump:
@@ -289,6 +296,8 @@ def run(a, extra):
         if aov_paths:
             csid.write(aov_paths[0], req.with_values(s.albedo))
             csid.write(aov_paths[1], req.with_values(s.normal))
+        if var_path and s.variance is not None:
+            csid.write(var_path, req.with_values(s.variance))
     if a.stats:
         _write_json(a.stats, stats)
     if not a.quiet:

@@ -1,0 +1,104 @@
+/* Isolated peaks judged against their own Monte Carlo noise (csi/peak_noise.h). On the host, in
+ * double, in sample order (deterministic). */
+#include "csi/peak_noise.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+#include "internal.h"
+
+/* The floor that keeps the peak ratio finite at 0, as a fraction of the samples' mean absolute
+ * value: blend.c's and fit_trust.c's 1%. */
+#define PEAK_EPS_REL 1e-2
+
+csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                          const float *values, const float *variance, size_t n, float *image,
+                          size_t *changed)
+{
+    if (changed)
+        *changed = 0;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "peaks against their noise: a volume (%u frames) is not an image", g->t);
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    if ((uint64_t)bw * bh <= 1)
+        return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    size_t *first = malloc(np * sizeof *first); /* the pixel's sample, where it holds one */
+    double *m = malloc(np * sizeof *m), *hi = malloc(np * sizeof *hi);
+    if (!cnt || !first || !m || !hi) {
+        free(cnt), free(first), free(m), free(hi);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    size_t multi = 0;
+    for (size_t i = 0; i < n; i++) {
+        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
+        if (!cnt[p]++)
+            first[p] = i;
+    }
+    for (size_t p = 0; p < np; p++)
+        multi += cnt[p] >= 2;
+    size_t set = 0;
+    /* Where most pixels hold two samples or more the blend measures each pixel's noise within
+     * it, paths and all: nothing to add. */
+    for (uint32_t c = 0; c < channels && 2 * multi < np; c++) {
+        double sabs = 0;
+        for (size_t p = 0; p < np; p++)
+            m[p] = 0, hi[p] = -INFINITY;
+        for (size_t i = 0; i < n; i++) {
+            const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
+            const double v = values[i * channels + c];
+            m[p] += v;
+            hi[p] = fmax(hi[p], v);
+            sabs += fabs(v);
+        }
+        for (size_t p = 0; p < np; p++)
+            if (cnt[p])
+                m[p] /= cnt[p];
+        const double e = PEAK_EPS_REL * (n ? sabs / (double)n : 0.0);
+        float *plane = image + (size_t)c * np;
+        for (size_t p = 0; p < np; p++) {
+            if (cnt[p] != 1)
+                continue;
+            const long px = (long)(p % ow), py = (long)(p / ow);
+            double h = -INFINITY, w[8];
+            int k = 0;
+            for (long dy = -1; dy <= 1; dy++)
+                for (long dx = -1; dx <= 1; dx++) {
+                    const long x = px + dx, y = py + dy;
+                    if ((!dx && !dy) || x < 0 || y < 0 || x >= (long)ow || y >= (long)oh)
+                        continue;
+                    const size_t q = (size_t)y * ow + (size_t)x;
+                    if (!cnt[q])
+                        continue;
+                    h = fmax(h, hi[q]);
+                    w[k++] = m[q];
+                }
+            if (!k)
+                continue; /* no neighbour sampled: nothing to call the sample a peak against */
+            const double y = m[p], hp = fmax(h, 0.0);
+            if (y + e < CSI_PEAK_RATIO * (hp + e))
+                continue;
+            const double sd = sqrt((double)variance[first[p] * channels + c]);
+            double out;
+            if (y - hp >= CSI_PEAK_Z * sd) {
+                out = y;
+            } else {
+                for (int i = 1; i < k; i++) { /* the neighbours' median (insertion sort: k <= 8) */
+                    const double v = w[i];
+                    int j = i;
+                    for (; j > 0 && w[j - 1] > v; j--)
+                        w[j] = w[j - 1];
+                    w[j] = v;
+                }
+                out = k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]);
+            }
+            plane[p] = (float)out;
+            set++;
+        }
+    }
+    if (changed)
+        *changed = set;
+    free(cnt), free(first), free(m), free(hi);
+    return CSI_OK;
+}

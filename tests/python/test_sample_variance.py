@@ -1,0 +1,90 @@
+"""Each sample's variance (csi_samples.variance; csi-reconstruct --variance, a dump of the same
+positions whose values are the variances; csi.reconstruct(variance=...)), end to end through the
+library, the program and the binding, on samples whose outcome csi/peak_noise.h states exactly:
+
+- 1 sample per pixel on csi's stratified positions (32 x 32 pixels, 4x grid), values 1 + 0.05 u
+  (u uniform in [-1, 1]) with variance 1e-4, and two isolated peaks of 20: one with variance 1
+  (excess 19 > 3 sd: the image's, kept, so the pixel is its sample exactly) and one with variance
+  400 (one path carrying the whole value: noise, so the pixel is the median of its 8 neighbours'
+  samples, computed here in double and rounded to float as the library does);
+- without the variances both pixels differ from those values (the rule is what set them);
+- csi-reconstruct --variance writes the same image as csi.reconstruct(variance=...) (the stats'
+  FNV-1a hash), and a variance dump of other positions is refused: exit 2, one line naming it;
+- at 2 samples per pixel the variances change nothing (the same bits), though one sample is such
+  a peak."""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BUILD = os.environ.get("CSI_BUILD_DIR") or os.path.join(SOURCE, "build")
+sys.path.insert(0, os.path.join(SOURCE, "host", "python"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import csi  # noqa: E402
+from csi import dump as csid  # noqa: E402
+from checks import check, done  # noqa: E402
+
+OW, F = 32, 4
+GRID = (OW * F, OW * F, 1, OW, OW)
+
+
+def samples(spp, seed):
+    pos = csi.positions(GRID, spp=spp, method="stratified", seed=seed)
+    rng = np.random.default_rng(seed)
+    val = (1 + 0.05 * rng.uniform(-1, 1, len(pos))).astype(np.float32)[:, None]
+    var = np.full_like(val, 1e-4)
+    return pos, val, var
+
+
+pos, val, var = samples(1, 3)
+pix = (pos[:, 1] // F) * OW + pos[:, 0] // F
+keep, noise = 10 * OW + 8, 20 * OW + 22  # two pixels well apart, neither at the border
+for p, v in ((keep, 1.0), (noise, 400.0)):
+    i = int(np.flatnonzero(pix == p)[0])
+    val[i], var[i] = 20.0, v
+img_of = np.zeros(OW * OW)
+img_of[pix] = val[:, 0]
+ny, nx = divmod(noise, OW)
+nbrs = [img_of[(ny + dy) * OW + nx + dx] for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+want_noise = np.float32(np.median(np.array(nbrs, np.float64)))
+
+with_v = csi.reconstruct(pos, val, GRID, variance=var).image[:, :, 0].ravel()
+without = csi.reconstruct(pos, val, GRID).image[:, :, 0].ravel()
+check(with_v[keep] == np.float32(20.0), f"the precise peak: {with_v[keep]}, want its sample 20")
+check(with_v[noise] == want_noise, f"the noisy peak: {with_v[noise]}, want the neighbours' median {want_noise}")
+check(without[keep] != np.float32(20.0) and without[noise] != want_noise,
+      f"without the variances the peaks are the blend's: {without[keep]}, {without[noise]}")
+changed = np.flatnonzero(with_v != without)
+check(set(changed.tolist()) <= {keep, noise}, f"pixels changed beyond the two peaks: {changed.tolist()}")
+
+with tempfile.TemporaryDirectory() as T:
+    req = csi.positions(GRID, spp=1, method="stratified", seed=3)
+    d = csid.Dump(grid=GRID[:3], out=GRID[3:], xyt=req, values=val, seed=1)
+    csid.write(os.path.join(T, "s.csid"), d)
+    csid.write(os.path.join(T, "s.variance.csid"), csid.Dump(grid=GRID[:3], out=GRID[3:], xyt=req, values=var, seed=1))
+    other = csi.positions(GRID, spp=1, method="stratified", seed=4)
+    csid.write(os.path.join(T, "o.variance.csid"), csid.Dump(grid=GRID[:3], out=GRID[3:], xyt=other, values=var, seed=1))
+    r = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "s.csid"), "-o", os.path.join(T, "c.exr"),
+                        "--variance", os.path.join(T, "s.variance.csid"), "--stats", os.path.join(T, "c.json"), "-q"])
+    py = csi.reconstruct_dump(os.path.join(T, "s.csid"), variance_path=os.path.join(T, "s.variance.csid"))
+    check(r.returncode == 0 and json.load(open(os.path.join(T, "c.json")))["image_fnv1a64"] == py.stats["image_fnv1a64"],
+          "csi-reconstruct --variance and csi.reconstruct_dump(variance_path=...): the same bits")
+    check(py.image[keep // OW, keep % OW, 0] == np.float32(20.0), "the dump's precise peak kept as well")
+    r = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "s.csid"), "-o", os.path.join(T, "x.exr"),
+                        "--variance", os.path.join(T, "o.variance.csid")], capture_output=True, text=True)
+    lines = r.stderr.strip().splitlines()
+    check(r.returncode == 2 and len(lines) == 1 and "o.variance.csid" in lines[0] and "not its variances" in lines[0]
+          and not os.path.exists(os.path.join(T, "x.exr")), f"other positions refused: {r.returncode} {r.stderr!r}")
+
+pos, val, var = samples(2, 5)
+i = int(np.argmax(val))
+val[i], var[i] = 20.0, 400.0  # a peak its own noise would explain, were it alone in its pixel
+a = csi.reconstruct(pos, val, GRID, variance=var).image
+b = csi.reconstruct(pos, val, GRID).image
+check(np.array_equal(a, b), "2 samples per pixel: the variances change nothing")
+
+sys.exit(done())

@@ -1,0 +1,122 @@
+/* Isolated peaks judged against their own noise (csi/peak_noise.h), on hand-made samples whose
+ * outcome the rule states exactly.
+ *
+ *   1. One sample per pixel, 16 x 16 pixels on a 4x grid, every sample 1 except a few peaks; the
+ *      "reconstruction" is 0.5 everywhere, so every pixel the rule sets shows. Channel 1 is
+ *      channel 0 times 2 with 4x the variance: the rule is scale-free, so the same pixels are set
+ *      to twice the values.
+ *      - (5, 5) = 20, variance 1: a peak (20 > 4 x 1) with an excess of 19 >= 3 sd = 3, kept:
+ *        20 exactly.
+ *      - (10, 10) = 40, variance 1600 (sd 40: one path of 64 carrying the whole value has
+ *        v = y^2), its 8 neighbours 1..8: a peak (40 > 4 x 8) that its noise explains (32 < 120):
+ *        the median of the neighbours, 4.5 exactly.
+ *      - (2, 13) = 10, variance 9: excess 9 = 3 sd exactly, kept (the bound is inclusive): 10.
+ *      - (13, 2) = 10, variance 9.0001: just below, noise: the neighbours' median, 1.
+ *      - (5, 10) = 3.5, variance 0: not a peak (3.5 < 4 x 1 with the floor e = 1% of the mean
+ *        absolute sample), untouched: 0.5. Every other pixel untouched too (next to a peak no
+ *        sample is one).
+ *   2. Two samples per pixel (the same image, each sample doubled at a second cell): the blend
+ *      sees the paths' noise within each pixel, nothing is set.
+ *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/csi.h"
+#include "csi/peak_noise.h"
+#include "testlib.h"
+
+enum { OW = 16, F = 4, NP = OW * OW };
+
+typedef struct {
+    int x, y;
+    float v, var;
+} peak;
+
+static const peak peaks[] = {{5, 5, 20, 1}, {10, 10, 40, 1600}, {2, 13, 10, 9}, {13, 2, 10, 9.0001f}, {5, 10, 3.5f, 0}};
+
+/* The samples of property 1 (spp = 1) or 2 (spp = 2: each value at cells (1, 1) and (2, 2) of
+ * its pixel), 2 channels; the neighbours of (10, 10) are 1..8 in raster order. */
+static size_t make(uint32_t spp, csi_sample_pos *pos, float *val, float *var)
+{
+    float img[NP], iv[NP];
+    for (int p = 0; p < NP; p++)
+        img[p] = 1, iv[p] = 0.01f;
+    int k = 1;
+    for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++)
+            if (dx || dy)
+                img[(10 + dy) * OW + 10 + dx] = (float)k++;
+    for (size_t i = 0; i < sizeof peaks / sizeof *peaks; i++)
+        img[peaks[i].y * OW + peaks[i].x] = peaks[i].v, iv[peaks[i].y * OW + peaks[i].x] = peaks[i].var;
+    size_t n = 0;
+    for (int p = 0; p < NP; p++)
+        for (uint32_t s = 0; s < spp; s++) {
+            pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1 + s), (uint32_t)(p / OW * F + 1 + s), 0};
+            val[n * 2] = img[p], val[n * 2 + 1] = 2 * img[p];
+            var[n * 2] = iv[p], var[n * 2 + 1] = 4 * iv[p];
+            n++;
+        }
+    return n;
+}
+
+static float *half_image(void)
+{
+    float *im = malloc(2 * NP * sizeof *im);
+    for (int i = 0; i < 2 * NP; i++)
+        im[i] = 0.5f;
+    return im;
+}
+
+int main(void)
+{
+    csi_sample_pos pos[2 * NP];
+    float val[4 * NP], var[4 * NP];
+    const csi_grid g = {OW * F, OW * F, 1, OW, OW};
+
+    /* 1 */
+    size_t n = make(1, pos, val, var), changed = 0;
+    float *im = half_image();
+    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
+    const float want[][3] = {{5, 5, 20}, {10, 10, 4.5f}, {2, 13, 10}, {13, 2, 1}};
+    size_t other = 0;
+    for (int c = 0; c < 2; c++)
+        for (int p = 0; p < NP; p++) {
+            float expect = 0.5f;
+            for (size_t i = 0; i < sizeof want / sizeof *want; i++)
+                if (p == (int)want[i][1] * OW + (int)want[i][0])
+                    expect = (c + 1) * want[i][2];
+            if (expect != 0.5f)
+                CHECK(im[c * NP + p] == expect, "channel %d pixel (%d, %d): %.9g, want %.9g", c, p % OW, p / OW,
+                      im[c * NP + p], expect);
+            else
+                other += im[c * NP + p] != 0.5f;
+        }
+    CHECK(other == 0, "%zu pixel-channels set that are no peak", other);
+    CHECK(changed == 8, "%zu pixel-channels set, want 4 peaks x 2 channels", changed);
+    free(im);
+
+    /* 2 */
+    n = make(2, pos, val, var);
+    im = half_image();
+    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
+    other = 0;
+    for (int i = 0; i < 2 * NP; i++)
+        other += im[i] != 0.5f;
+    CHECK(other == 0 && changed == 0, "two samples per pixel: %zu pixel-channels set (%zu reported)", other, changed);
+    free(im);
+
+    /* 3 */
+    n = make(1, pos, val, var);
+    for (size_t i = 0; i < n; i++)
+        pos[i].x /= F, pos[i].y /= F;
+    const csi_grid g1 = {OW, OW, 1, OW, OW};
+    im = half_image();
+    CHECK_OK(csi_peak_noise(&g1, 2, pos, val, var, n, im, &changed));
+    other = 0;
+    for (int i = 0; i < 2 * NP; i++)
+        other += im[i] != 0.5f;
+    CHECK(other == 0 && changed == 0, "one cell per pixel: %zu pixel-channels set", other);
+    free(im);
+    return test_done();
+}
