@@ -9,7 +9,12 @@
    (three seeds). The texture has no direction along which it is constant: a single grating
    does (the aperture problem), and every velocity along its lines predicts it as well as none;
    there the search found such a velocity instead of the disc's (docs/bench/animation.md,
-   round 8)."""
+   round 8);
+ - its cross-validated acceptance (heldout_error) and refinement (refine_layer) against a
+   direct loop over folds, candidates and samples (each sample's label from its neighbours'
+   error sums, each fold's candidate chosen on the other folds; float64 sums in another order,
+   so equal to 1e-9 relative), and the disc's layer found with it too (five folds, the same
+   three seeds)."""
 import os
 import sys
 
@@ -45,6 +50,30 @@ def loo_direct(pos, vals, T, v):
     return out
 
 
+def heldout_direct(Wd, E, chosen, folds):
+    """heldout_error's definition, one sample and candidate at a time: the layers so far label
+    sample i by the smallest sum of its neighbours' errors (dense weights Wd, zero diagonal);
+    candidate c takes it when its own sum is smaller still (then i's error is E[c, i]); fold k's
+    candidate is the one with the smallest total over the other folds' samples."""
+    n, nc = len(folds), len(E)
+    per = np.empty((n, nc))
+    for i in range(n):
+        sums = [float(np.dot(Wd[i], E[c])) for c in range(nc)]
+        cur = min(chosen, key=lambda c: (sums[c], chosen.index(c)))
+        for c in range(nc):
+            per[i, c] = E[c, i] if sums[c] < sums[cur] else E[cur, i]
+    total, picks = 0.0, []
+    for k in range(int(folds.max()) + 1):
+        best, best_fit = None, np.inf
+        for c in range(nc):
+            fit = sum(per[i, c] for i in range(n) if folds[i] != k)
+            if c not in chosen and fit < best_fit:
+                best, best_fit = c, fit
+        total += sum(per[i, best] for i in range(n) if folds[i] == k)
+        picks.append(best)
+    return total, picks
+
+
 def volume(W, H, T):
     t, y, x = np.meshgrid(np.arange(T), np.arange(H), np.arange(W), indexing="ij")
     f = 0.45 + 0.15 * np.sin(2 * np.pi * x / 11.0) + 0.15 * np.sin(2 * np.pi * y / 8.0)
@@ -64,6 +93,35 @@ def main():
         err = float(np.max(np.abs(got - ref)))
         check(err < 1e-9 * max(1.0, float(ref.max())), f"leave-one-out errors at v = {v}: max |diff| {err:.2e}")
 
+    # the cross-validated acceptance, with layer 0 alone and with layer 2 added (its labels as
+    # choose_layers keeps them: a sample moves to the added layer where its sum is smaller), on
+    # candidates of nearly equal errors, so that the folds pick different ones (the in-sample
+    # choice and the held-out one then differ: what the acceptance is there to see)
+    E = (1 + 0.3 * rng.standard_normal((12, 150))) ** 2
+    Wm = seg.neighbour_weights(pos)
+    Wd = Wm.toarray()
+    S = np.asarray(Wm @ E.T)
+    folds = seg.sample_folds(150, 5)
+    check(sorted(np.bincount(folds).tolist()) == [30] * 5, f"five folds of 30 samples: {np.bincount(folds)}")
+    take = S[:, 2] < S[:, 0]
+    for chosen, lab_s, lab_e in [([0], S[:, 0], E[0]),
+                                 ([0, 2], np.where(take, S[:, 2], S[:, 0]), np.where(take, E[2], E[0]))]:
+        got = seg.heldout_error(seg.candidate_errors(S, E, lab_s, lab_e), chosen, folds)
+        ref, picks = heldout_direct(Wd, E, chosen, folds)
+        check(len(set(picks)) > 1, f"layers {chosen}: the folds chose different candidates ({picks})")
+        check(abs(got - ref) <= 1e-9 * ref, f"held-out error with layers {chosen}: {got:.12g} against {ref:.12g}")
+    # the cross-validated refinement (an option): layers 0 and 1 kept, fine candidates 2-11 of
+    # which 2 + coarse is the grid's velocity; the best of them on all samples replaces it only
+    # when the folds' choice has a lower held-out error than the grid velocity's own error
+    for coarse in range(10):
+        got = seg.refine_layer(Wm, E[:2], E[2:], coarse, folds)
+        ref, _ = heldout_direct(Wd, E, [0, 1], folds)
+        own = [float(np.sum(np.where(S[:, c] < S[:, :2].min(1), E[c], E[np.argmin(S[:, :2], 1), np.arange(150)])))
+               for c in range(2, 12)]
+        best = int(np.argmin(own))
+        want = None if best == coarse or ref >= own[coarse] else best
+        check(got == want, f"refinement from fine candidate {coarse}: {got} (the definition: {want})")
+
     W, H, T = 48, 32, 16
     f = volume(W, H, T)
     ref_img = f.mean(0)
@@ -76,12 +134,13 @@ def main():
         v = f.reshape(-1)[idx][:, None]
         grid = (W, H, T, W, H)
         r0 = csi.reconstruct(p, v, grid, frames="on", exact=True)
-        img, frames, layers = seg.segmented(p, v, grid, r0=r0)
-        check(len(layers) >= 2 and any(abs(lx - 3.0) <= 0.5 and abs(ly) <= 0.5 for lx, ly in layers[1:]),
-              f"seed {seed}: layers {layers} include the disc's (3, 0)")
-        e0 = float(np.mean((r0.image[..., 0] - ref_img) ** 2))
-        e1 = float(np.mean((img[..., 0] - ref_img) ** 2))
-        check(e1 < e0, f"seed {seed}: composite image MSE {e1:.3e} < the default's {e0:.3e}")
+        for nf in (0, 5):
+            img, frames, layers = seg.segmented(p, v, grid, r0=r0, folds=nf)
+            check(len(layers) >= 2 and any(abs(lx - 3.0) <= 0.5 and abs(ly) <= 0.5 for lx, ly in layers[1:]),
+                  f"seed {seed}, folds {nf}: layers {layers} include the disc's (3, 0)")
+            e0 = float(np.mean((r0.image[..., 0] - ref_img) ** 2))
+            e1 = float(np.mean((img[..., 0] - ref_img) ** 2))
+            check(e1 < e0, f"seed {seed}, folds {nf}: composite image MSE {e1:.3e} < the default's {e0:.3e}")
     sys.exit(done())
 
 
