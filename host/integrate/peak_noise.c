@@ -79,21 +79,16 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
             const double y = m[p], hp = fmax(h, 0.0);
             if (y + e < CSI_PEAK_RATIO * (hp + e))
                 continue;
-            const double sd = sqrt((double)variance[first[p] * channels + c]);
-            double out;
-            if (y - hp >= CSI_PEAK_Z * sd) {
-                out = y;
-            } else {
-                for (int i = 1; i < k; i++) { /* the neighbours' median (insertion sort: k <= 8) */
-                    const double v = w[i];
-                    int j = i;
-                    for (; j > 0 && w[j - 1] > v; j--)
-                        w[j] = w[j - 1];
-                    w[j] = v;
-                }
-                out = k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]);
+            if (y - hp >= CSI_PEAK_Z * sqrt((double)variance[first[p] * channels + c]))
+                continue; /* the image's peak: the reconstruction's value stays */
+            for (int i = 1; i < k; i++) { /* the neighbours' median (insertion sort: k <= 8) */
+                const double v = w[i];
+                int j = i;
+                for (; j > 0 && w[j - 1] > v; j--)
+                    w[j] = w[j - 1];
+                w[j] = v;
             }
-            plane[p] = (float)out;
+            plane[p] = (float)(k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]));
             set++;
         }
     }

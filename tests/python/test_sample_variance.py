@@ -4,10 +4,11 @@ library, the program and the binding, on samples whose outcome csi/peak_noise.h 
 
 - 1 sample per pixel on csi's stratified positions (32 x 32 pixels, 4x grid), values 1 + 0.05 u
   (u uniform in [-1, 1]) with variance 1e-4, and two isolated peaks of 20: one with variance 1
-  (excess 19 > 3 sd: the image's, kept, so the pixel is its sample exactly) and one with variance
-  400 (one path carrying the whole value: noise, so the pixel is the median of its 8 neighbours'
-  samples, computed here in double and rounded to float as the library does);
-- without the variances both pixels differ from those values (the rule is what set them);
+  (excess 19 > 3 sd: the image's, so its pixel keeps the value it has without the variances) and
+  one with variance 400 (one path carrying the whole value: noise, so the pixel is the median of
+  its 8 neighbours' samples, computed here in double and rounded to float as the library does);
+- without the variances that pixel differs from the median (the rule is what set it), and no
+  other pixel moves;
 - csi-reconstruct --variance writes the same image as csi.reconstruct(variance=...) (the stats'
   FNV-1a hash), and a variance dump of other positions is refused: exit 2, one line naming it;
 - at 2 samples per pixel the variances change nothing (the same bits), though one sample is such
@@ -54,12 +55,11 @@ want_noise = np.float32(np.median(np.array(nbrs, np.float64)))
 
 with_v = csi.reconstruct(pos, val, GRID, variance=var).image[:, :, 0].ravel()
 without = csi.reconstruct(pos, val, GRID).image[:, :, 0].ravel()
-check(with_v[keep] == np.float32(20.0), f"the precise peak: {with_v[keep]}, want its sample 20")
 check(with_v[noise] == want_noise, f"the noisy peak: {with_v[noise]}, want the neighbours' median {want_noise}")
-check(without[keep] != np.float32(20.0) and without[noise] != want_noise,
-      f"without the variances the peaks are the blend's: {without[keep]}, {without[noise]}")
+check(without[noise] != want_noise and without[noise] > 2 * want_noise,
+      f"without the variances the noisy peak is the blend's, near its sample: {without[noise]}")
 changed = np.flatnonzero(with_v != without)
-check(set(changed.tolist()) <= {keep, noise}, f"pixels changed beyond the two peaks: {changed.tolist()}")
+check(changed.tolist() == [noise], f"pixels changed: {changed.tolist()}, want the noisy peak's only")
 
 with tempfile.TemporaryDirectory() as T:
     req = csi.positions(GRID, spp=1, method="stratified", seed=3)
@@ -73,7 +73,7 @@ with tempfile.TemporaryDirectory() as T:
     py = csi.reconstruct_dump(os.path.join(T, "s.csid"), variance_path=os.path.join(T, "s.variance.csid"))
     check(r.returncode == 0 and json.load(open(os.path.join(T, "c.json")))["image_fnv1a64"] == py.stats["image_fnv1a64"],
           "csi-reconstruct --variance and csi.reconstruct_dump(variance_path=...): the same bits")
-    check(py.image[keep // OW, keep % OW, 0] == np.float32(20.0), "the dump's precise peak kept as well")
+    check(py.image[noise // OW, noise % OW, 0] == want_noise, "the dump's noisy peak taken as noise as well")
     r = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "s.csid"), "-o", os.path.join(T, "x.exr"),
                         "--variance", os.path.join(T, "o.variance.csid")], capture_output=True, text=True)
     lines = r.stderr.strip().splitlines()

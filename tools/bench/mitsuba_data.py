@@ -39,6 +39,7 @@ SCENES = {
     "thin_geometry": os.path.join(ROOT, "data", "mitsuba", "thin_geometry.py"),
     "horizon": os.path.join(ROOT, "data", "mitsuba", "horizon.py"),
     "envmap": os.path.join(ROOT, "data", "mitsuba", "envmap.py"),
+    "glints": os.path.join(ROOT, "data", "mitsuba", "glints.py"),
 }
 
 README = """Mitsuba 3 sample dumps and references for csi (issue 9), made by

@@ -5,29 +5,29 @@
  * Why. Where most pixels hold one sample, the blend (host/integrate/blend.c) estimates the noise
  * of a pixel's mean from its neighbours' means, which cannot see one sample's own noise, and the
  * fit (fit_trust.c) cannot tell a sample far brighter than every neighbour's (an isolated peak)
- * that is noise, one rare bright path, from one that is the image: a glint. So it spreads every
- * such peak a little and keeps most of it (on the Mitsuba benchmark's 1-spp x 64-path images a
- * single path of a sun reached through a diffuse bounce, 45 where the pixel's truth is 0.7, kept
- * at 44; a sun's glint read at 47 where the truth is 80, lowered to 42: docs/bench/mitsuba.md).
- * The sample's variance separates the two: a peak that its own noise explains is noise.
+ * that is noise, one rare bright path, from one that is the image. So it keeps most of every
+ * such peak: on the Mitsuba benchmark's 1-spp x 64-path images a single path of a sun reached
+ * through a diffuse bounce, 45 where the pixel's truth is 0.7, stays at 44 (docs/bench/mitsuba.md).
+ * The sample's variance tells the two apart: a peak that its own noise explains is noise.
  *
  * The rule, per channel, at each pixel holding exactly one sample y of variance v (of more than
  * one cell, in an image where at most half the pixels hold two samples or more): the pixel is a
  * peak when (y + e) >= CSI_PEAK_RATIO (h + e), h the largest sample of its 8 neighbours (0 if
- * negative), e 1% of the samples' mean absolute value (blend.c's floor). A peak is significant
- * when y - h >= CSI_PEAK_Z sqrt(v): by Chebyshev's inequality a value whose expectation is at
- * most h exceeds it by z standard deviations with probability at most 1 / z^2, whatever the
- * paths' distribution (one path in 64 carrying all of a sample's value gives v = y^2 and z <= 1).
- * A significant peak takes its sample: the fit's lower value is its basis's spread of one point,
- * and one sample says nothing of the feature's extent, which the sample itself estimates without
- * bias (it is uniform over its pixel). A peak that is not significant is taken as noise and the
- * pixel as one without a sample: the median of its neighbours' means. That drops the energy of
- * rare bright paths, a bias towards dark, in exchange for their variance (the firefly trade every
- * renderer's clamp makes); with the variance a caller opts into it.
+ * negative), e 1% of the samples' mean absolute value (blend.c's floor). A peak is explained by
+ * its noise when y - h < CSI_PEAK_Z sqrt(v): a value whose expectation is at most h exceeds it by
+ * z standard deviations with probability at most 1 / z^2 (Chebyshev's inequality, whatever the
+ * paths' distribution; one path in 64 carrying all of a sample's value gives v = y^2, z <= 1).
+ * Such a peak is taken as noise and the pixel as one without a sample: the median of its
+ * neighbours' means. That drops the energy of rare bright paths, a bias towards dark, in
+ * exchange for their variance (the firefly trade every renderer's clamp makes); with the
+ * variances a caller opts into it. A peak its noise does not explain keeps the reconstruction's
+ * value: it is the image, but its one sample is no better an estimate of the pixel (a peak is
+ * selected for being bright, and over-reads more often than not: keeping those samples was
+ * measured and not kept, docs/bench/mitsuba.md).
  *
  * Pixels with two samples or more keep their value: their within-pixel variance already holds
- * their paths' noise (the blend sees it). Nothing here can make a value negative: both outcomes
- * are sample means of the pixel or its neighbours. */
+ * their paths' noise (the blend sees it). Nothing here can make a value negative: the neighbours'
+ * median is a mean of samples. */
 #ifndef CSI_PEAK_NOISE_H
 #define CSI_PEAK_NOISE_H
 
