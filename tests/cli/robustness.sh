@@ -172,6 +172,36 @@ same "device scene" "/dev/zero: cannot open scene: a character device" "$B/csi-r
 same "directory dump" "cannot open sample dump: a directory" "$B/csi-reconstruct" "$T" -o "$T/o.exr"
 same "device image" "cannot open image: a character device" "$B/csi-mkdump" /dev/zero -o "$T/o.csid" --out 4x4
 
+# --- a variance dump that is not the dump's (csi-reconstruct --variance) --------------------------
+# s4.csid: a 4x4 image on a 16x16 grid, one sample per pixel; its variances v.csid; then variance
+# dumps at other positions, of other channels, with a negative value. Each is refused before the
+# work with one line naming it; the matching one reconstructs.
+python3 - "$T" <<'EOF2'
+import struct, sys
+T = sys.argv[1]
+def dump(name, pos, vals, c=3):
+    hdr = b"CSID" + struct.pack("<7I", 1, 16, 16, 1, 4, 4, c) + struct.pack("<QQ", len(pos), 0) + bytes(16)
+    body = b"".join(struct.pack("<3I", x, y, 0) + struct.pack("<%df" % c, *v) for (x, y), v in zip(pos, vals))
+    open(f"{T}/{name}", "wb").write(hdr + body)
+pos = [(4 * i + 1, 4 * j + 1) for j in range(4) for i in range(4)]
+dump("s4.csid", pos, [(1 + k % 3, 2.0, 0.5) for k in range(16)])
+dump("v.csid", pos, [(0.01, 0.01, 0.01)] * 16)
+dump("vo.csid", [(x + 1, y) for x, y in pos], [(0.01, 0.01, 0.01)] * 16)
+dump("vc.csid", pos, [(0.01,)] * 16, c=1)
+dump("vn.csid", pos, [(0.01, -1.0, 0.01) if k == 3 else (0.01, 0.01, 0.01) for k in range(16)])
+EOF2
+"$B/csi-reconstruct" "$T/s4.csid" -o "$T/v.exr" --variance "$T/v.csid" "${fast[@]}" && [[ -s "$T/v.exr" ]] && ok ||
+    bad "--variance with the dump's own variances failed"
+refused "variances at other positions" "vo.csid: record 0 is at (2, 1, 0)" \
+    "$B/csi-reconstruct" "$T/s4.csid" -o "$T/o.exr" --variance "$T/vo.csid"
+refused "variances of other channels" "vc.csid: 16 records of 1 channels" \
+    "$B/csi-reconstruct" "$T/s4.csid" -o "$T/o.exr" --variance "$T/vc.csid"
+refused "a negative variance" "vn.csid: record 3 channel 1: variance -1 is negative" \
+    "$B/csi-reconstruct" "$T/s4.csid" -o "$T/o.exr" --variance "$T/vn.csid"
+refused "variances with --drop-invalid" "--variance and --drop-invalid" \
+    "$B/csi-reconstruct" "$T/s4.csid" -o "$T/o.exr" --variance "$T/v.csid" --drop-invalid
+[[ ! -e "$T/o.exr" ]] && ok || bad "a refused --variance run wrote its output"
+
 # --- messages: control characters escaped ---------------------------------------------------------
 esc=$'\e[31mred\e[0m.csid'
 "$B/csi-reconstruct" "$T/$esc" -o "$T/o.exr" 2> "$T/e"
