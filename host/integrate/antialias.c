@@ -206,10 +206,13 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         }
         CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), res->image + (size_t)c * np));
         /* The correction reads the estimate at the samples: S src, which on the model grid is
-         * A x (the same for the sharp estimate on the fine grid, where A x = S Phi^-1 Psi x). */
+         * A x (the same for the sharp estimate on the fine grid, where A x = S Phi^-1 Psi x).
+         * SpaRSA left A x of its result in its workspace (csi_solver_result_Ax): read there, not
+         * applied again (one operator run per channel, the same bits). */
+        cl_mem Ax = D > 1 ? csi_solver_result_Ax(st->solver) : NULL;
         if (how != CSI_CORRECT_NONE)
-            CSI_TRY(csi_recon_correct(ctx, g, opt, how, D > 1 ? st->A : st->S, D > 1 ? st->x : src,
-                                      st->y, values, channels, c, pos, n,
+            CSI_TRY(csi_recon_correct(ctx, g, opt, how, Ax ? NULL : D > 1 ? st->A : st->S,
+                                      Ax ? Ax : D > 1 ? st->x : src, st->y, values, channels, c, pos, n,
                                       how == CSI_CORRECT_BLEND && csi_recon_nonneg(values, channels, c, n),
                                       res->image + (size_t)c * np));
         res->t_channel_integrate[c] = csi_recon_now() - t1;

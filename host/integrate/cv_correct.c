@@ -38,10 +38,10 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
     csi_status s = CSI_OK;
     if (!gs || !sum || !cnt)
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction");
-    if (s == CSI_OK)
+    if (s == CSI_OK && S)
         s = csi_linop_apply(S, fine, gathered);
     if (s == CSI_OK)
-        s = csi_read(ctx, gathered, 0, n * sizeof(float), gs);
+        s = csi_read(ctx, S ? gathered : fine, 0, n * sizeof(float), gs);
     if (s == CSI_OK && how == CSI_CORRECT_BLEND) {
         /* b, before the blend, for the fit's trust on a still image (fit_trust.c) */
         float *box = g->t == 1 ? malloc(np * sizeof *box) : NULL;

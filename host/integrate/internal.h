@@ -177,7 +177,8 @@ static inline size_t csi_recon_pixel_of(csi_sample_pos p, uint32_t bw, uint32_t 
 
 /* The per-pixel correction of one channel (csi_aa_correct in csi/reconstruct.h; `how` is CV or
  * BLEND) of plane, which holds the box integral of the fine estimate `fine`: gathers `fine` at
- * the samples through S (into `gathered`, n floats on the device), then all on the host, in
+ * the samples through S (into `gathered`, n floats on the device; S NULL: `fine` already holds
+ * the estimate at the samples, and is read as it is), then all on the host, in
  * double, in sample order (deterministic). values: sample-major, `channels` per sample; this is
  * channel c. clamp: the result is clamped at 0 (BLEND; see csi_recon_nonneg). */
 csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,

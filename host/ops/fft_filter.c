@@ -41,6 +41,8 @@ struct csi_fft_filter {
     cl_mem P, Q;              /* ping-pong volumes */
     size_t blk;               /* rows per block of the row stages (row_block); rows: not blocked */
     cl_mem A, B;              /* blocked: ping-pong rows of one block (blk rows of M values) */
+    size_t nblk;              /* blocked: the number of blocks; 0 when not blocked */
+    cl_mem *Pblk, *Qblk;      /* blocked: each block's rows of P and Q as sub-buffers, made once */
     cl_mem gx, g1, g2, one;   /* gains along x (hs entries), y, z; {1} */
     cl_mem fc, fa;            /* optional complex factor along x (hs entries) and y (2-D) */
     cl_uint wiener;
@@ -281,6 +283,16 @@ void csi_fft_filter_free(csi_fft_filter *f)
         csi_buffer_release(&f->ax[a].twp);
     }
     csi_buffer_release(&f->wn);
+    /* the blocks before their parents, and not through csi_buffer_release: a sub-buffer holds
+     * no device bytes of its own, so it must not leave the device's live count */
+    for (size_t b = 0; b < f->nblk; b++) {
+        if (f->Pblk && f->Pblk[b])
+            clReleaseMemObject(f->Pblk[b]);
+        if (f->Qblk && f->Qblk[b])
+            clReleaseMemObject(f->Qblk[b]);
+    }
+    free(f->Pblk);
+    free(f->Qblk);
     csi_buffer_release(&f->P);
     csi_buffer_release(&f->Q);
     csi_buffer_release(&f->A);
@@ -359,6 +371,37 @@ static csi_status prepare_axis(csi_ctx *ctx, axis_plan *ax, bool x_axis, size_t 
     return CSI_OK;
 }
 
+/* The region [off, off + bytes) of buf as a buffer of its own. */
+static csi_status sub_buffer(cl_mem buf, size_t off, size_t bytes, cl_mem *out)
+{
+    cl_buffer_region r = {off, bytes};
+    cl_int err;
+    *out = clCreateSubBuffer(buf, 0, CL_BUFFER_CREATE_TYPE_REGION, &r, &err);
+    if (err != CL_SUCCESS) {
+        *out = NULL;
+        return csi_fail_context(CSI_CL(err), "FFT filter: a block of rows (%zu bytes at %zu): ", bytes, off);
+    }
+    return CSI_OK;
+}
+
+/* Each block's rows of P and Q (hs values a row) as sub-buffers, made once here: the spectrum's
+ * buffers are the filter's own. The caller's real rows come with each run, so block_stage makes
+ * those per run. */
+static csi_status spectrum_blocks(csi_fft_filter *f)
+{
+    f->nblk = (f->rows + f->blk - 1) / f->blk;
+    f->Pblk = calloc(f->nblk, sizeof *f->Pblk);
+    f->Qblk = calloc(f->nblk, sizeof *f->Qblk);
+    if (!f->Pblk || !f->Qblk)
+        return csi_fail(CSI_ERR_NOMEM, "FFT filter: out of host memory");
+    for (size_t b = 0; b < f->nblk; b++) {
+        const size_t r0 = b * f->blk, n = f->rows - r0 < f->blk ? f->rows - r0 : f->blk;
+        CSI_TRY(sub_buffer(f->P, r0 * f->hs * 8, n * f->hs * 8, &f->Pblk[b]));
+        CSI_TRY(sub_buffer(f->Q, r0 * f->hs * 8, n * f->hs * 8, &f->Qblk[b]));
+    }
+    return CSI_OK;
+}
+
 static csi_status build(csi_fft_filter *f, const double sigma[3])
 {
     csi_ctx *ctx = f->ctx;
@@ -391,6 +434,7 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
         CSI_TRY(csi_buffer(ctx, bb, CL_MEM_READ_WRITE, "the filter's row block", &f->B));
         CSI_TRY(csi_fill_zero(ctx, f->A, bb));
         CSI_TRY(csi_fill_zero(ctx, f->B, bb));
+        CSI_TRY(spectrum_blocks(f));
     }
     CSI_TRY(gains(ctx, 2 * M, M + 1, f->hs, sigma[0], &f->gx));
     CSI_TRY(gains(ctx, f->c[1], f->c[1], f->c[1], f->nd > 1 ? sigma[1] : 0.0, &f->g1));
@@ -681,19 +725,6 @@ static csi_status run_axis_cols(csi_fft_filter *f, cl_mem *cur, int axis, float 
     return CSI_OK;
 }
 
-/* The region [off, off + bytes) of buf as a buffer of its own. */
-static csi_status sub_buffer(cl_mem buf, size_t off, size_t bytes, cl_mem *out)
-{
-    cl_buffer_region r = {off, bytes};
-    cl_int err;
-    *out = clCreateSubBuffer(buf, 0, CL_BUFFER_CREATE_TYPE_REGION, &r, &err);
-    if (err != CL_SUCCESS) {
-        *out = NULL;
-        return csi_fail_context(CSI_CL(err), "FFT filter: a block of rows (%zu bytes at %zu): ", bytes, off);
-    }
-    return CSI_OK;
-}
-
 /* The passes along x of one block of n rows, from *cur through the block scratch A / B; the last
  * pass writes `last` when given. *cur: the buffer holding the result. */
 static csi_status block_passes(csi_fft_filter *f, cl_mem *cur, cl_mem last, float sgn, size_t n)
@@ -710,15 +741,13 @@ static csi_status block_passes(csi_fft_filter *f, cl_mem *cur, cl_mem last, floa
 }
 
 /* One row stage on rows row0 .. row0 + n - 1 of the real rows `real` (M complex values a row)
- * and the half spectrum `spec` (hs a row). Forward: the passes along x on real's rows, then the
- * unpacking into spec's. Inverse: the packing of spec's rows, then the passes along x, the last
- * writing real's rows. */
-static csi_status block_stage(csi_fft_filter *f, cl_mem real, cl_mem spec, size_t row0, size_t n, bool forward)
+ * and the half spectrum's block sv (those rows, hs values a row). Forward: the passes along x on
+ * real's rows, then the unpacking into sv. Inverse: the packing of sv, then the passes along x,
+ * the last writing real's rows. */
+static csi_status block_stage(csi_fft_filter *f, cl_mem real, cl_mem sv, size_t row0, size_t n, bool forward)
 {
-    cl_mem rv = NULL, sv = NULL;
+    cl_mem rv = NULL;
     csi_status st = sub_buffer(real, row0 * f->M * 8, n * f->M * 8, &rv);
-    if (st == CSI_OK)
-        st = sub_buffer(spec, row0 * f->hs * 8, n * f->hs * 8, &sv);
     cl_mem cur = forward ? rv : f->A;
     if (st == CSI_OK && forward)
         st = block_passes(f, &cur, NULL, -1.0f, n);
@@ -730,8 +759,6 @@ static csi_status block_stage(csi_fft_filter *f, cl_mem real, cl_mem spec, size_
     /* OpenCL keeps a released buffer until the commands that use it have finished */
     if (rv)
         clReleaseMemObject(rv);
-    if (sv)
-        clReleaseMemObject(sv);
     return st;
 }
 
@@ -750,8 +777,8 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     cl_mem cur = x;
     if (f->blk < f->rows) {
         /* 1, 2 block by block (row_block): the half spectrum in P */
-        for (size_t r0 = 0; r0 < f->rows; r0 += f->blk)
-            CSI_TRY(block_stage(f, x, f->P, r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, true));
+        for (size_t b = 0, r0 = 0; b < f->nblk; b++, r0 += f->blk)
+            CSI_TRY(block_stage(f, x, f->Pblk[b], r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, true));
         cur = f->P;
     } else {
         /* 1. forward along x on the real rows read as M complex values */
@@ -789,8 +816,9 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     }
     if (f->blk < f->rows) {
         /* 5 block by block */
-        for (size_t r0 = 0; r0 < f->rows; r0 += f->blk)
-            CSI_TRY(block_stage(f, y, cur, r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, false));
+        cl_mem *spec = cur == f->P ? f->Pblk : f->Qblk;
+        for (size_t b = 0, r0 = 0; b < f->nblk; b++, r0 += f->blk)
+            CSI_TRY(block_stage(f, y, spec[b], r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, false));
         return CSI_OK;
     }
     /* 5. pack, inverse along x; the last pass writes y */

@@ -16,6 +16,7 @@ struct csi_solver {
     bool cplx;
     /* measurement side (N) */
     cl_mem r, q, Ax, Axn;
+    cl_mem result_Ax;   /* Ax or Axn when it holds A x of the x the last run returned, or NULL */
     /* coefficient side (k) */
     cl_mem g, p, s, xn;
     cl_mem mask;        /* k bytes: support (ROMP) / non-zero set (debiasing) */

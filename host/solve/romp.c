@@ -163,6 +163,7 @@ csi_status csi_romp_run(csi_solver *S, cl_mem y, cl_mem x, const csi_romp_option
                         csi_solve_report *rep)
 {
     csi_report_init(rep);
+    S->result_Ax = NULL;
     const double t0 = csi_solve_now();
     csi_romp_options o;
     if (opt)

@@ -180,6 +180,8 @@ csi_status csi_solver_adjoint_amax(csi_solver *S, cl_mem y, double *hmax)
     return CSI_OK;
 }
 
+cl_mem csi_solver_result_Ax(const csi_solver *S) { return S->result_Ax; }
+
 csi_status csi_solver_romp_buffers(csi_solver *S)
 {
     if (S->sel)

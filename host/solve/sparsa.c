@@ -78,6 +78,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                           csi_solve_report *rep)
 {
     csi_report_init(rep);
+    S->result_Ax = NULL;
     const double t0 = csi_solve_now();
     csi_sparsa_options o;
     if (opt)
@@ -208,9 +209,17 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
             t = rcur;
             rcur = rnxt;
             rnxt = t;
-            rep->adjoints++;
-            CSI_TRY(csi_linop_adjoint(S->A, rcur, h));
             const double phi_prev = phi;
+            /* The objective stop: only a decrease ends a stage (a non-monotone step that raised
+             * phi by a little, accepted against the max of the last M + 1, says nothing about
+             * convergence). It needs no gradient, so the last stage's last step skips the
+             * adjoint, which only a next step would use. */
+            const bool obj_done = o.stop == CSI_SPARSA_STOP_OBJECTIVE && phin <= phi_prev &&
+                                  phi_prev - phin <= stage_tol * phi_prev;
+            if (!(obj_done && last)) {
+                rep->adjoints++;
+                CSI_TRY(csi_linop_adjoint(S->A, rcur, h));
+            }
             phi = phin;
             rn2 = rn2n;
             l1 = l1n;
@@ -240,12 +249,14 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
             if (o.progress && !o.progress(o.user, "sparsa", it, sqrt(rn2) / ynorm))
                 return csi_fail(CSI_ERR_CANCELLED, "SpaRSA cancelled by the caller after %d iterations", it);
             /* Stopping rules. */
+            if (obj_done && last) {
+                done = true;
+                break;
+            }
             double hr;
             CSI_TRY(csi_vec_amax(S->ws, S->k, S->cplx, h, &hr, NULL));
             if (o.stop == CSI_SPARSA_STOP_OBJECTIVE) {
-                /* Only a decrease ends a stage: a non-monotone step that raised phi by a little
-                 * (accepted against the max of the last M + 1) says nothing about convergence. */
-                stage_done = phi <= phi_prev && phi_prev - phi <= stage_tol * phi_prev;
+                stage_done = obj_done;
             } else {
                 /* Dual of min 0.5||y - Ax||^2 + tau ||x||_1: max_w -0.5||w||^2 + Re<w, y>
                  * subject to ||A^H w||_inf <= tau; w = r * min(1, tau / ||A^H r||_inf) is
@@ -287,6 +298,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     rep->rel_gap = gap_rel;
     if (cur != x)
         CSI_TRY(csi_vec_copy(ctx, x, cur, nfk));
+    S->result_Ax = Acur; /* until the debiasing below changes x */
     double rn = sqrt(rn2);
     switch (reason) {
     case CSI_SOLVE_CONVERGED:
@@ -316,6 +328,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                            nnz, S->N);
     } else if (o.debias && nnz > 0) {
         /* Debiasing (WNF09 Sec. II-F): least squares on the non-zero set, warm-started. */
+        S->result_Ax = NULL;
         int cg;
         CSI_TRY(csi_cgls(S, y, x, S->mask, o.debias_iter, o.debias_tol, 0.0, &cg, &rn, rep));
         rep->inner_iterations += cg;

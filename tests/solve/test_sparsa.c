@@ -225,6 +225,21 @@ static void on_tau(void *user, const csi_sparsa_step *st)
     }
 }
 
+/* SpaRSA as Alg. 1 runs it (host/integrate/resolve.c): the objective stop at 3e-3, stages before
+ * the last at 3e-2, geometric continuation by 0.1, no debiasing; tau_rel 1e-3 here. */
+static csi_sparsa_options image_options(void)
+{
+    csi_sparsa_options o;
+    csi_sparsa_defaults(&o);
+    o.stop = CSI_SPARSA_STOP_OBJECTIVE;
+    o.tol = 3e-3;
+    o.cont_tol = 3e-2;
+    o.cont_step = 0.1;
+    o.tau_rel = 1e-3;
+    o.debias = false;
+    return o;
+}
+
 /* The objective stop as Alg. 1 runs it (tol 3e-3, stages before the last at 3e-2, geometric
  * continuation, non-monotone M = 5): every stage of two or more steps ends on a step that lowered
  * phi by at most its tolerance; a step that raised phi (which the non-monotone acceptance allows)
@@ -234,14 +249,7 @@ static void test_objective_stop(test_rng *r)
     int stages = 0, rises = 0;
     for (int seed = 0; seed < 8; seed++) {
         problem P = problem_make(r, 120, 512, 10, seed & 1, false, false);
-        csi_sparsa_options o;
-        csi_sparsa_defaults(&o);
-        o.stop = CSI_SPARSA_STOP_OBJECTIVE;
-        o.tol = 3e-3;
-        o.cont_tol = 3e-2;
-        o.cont_step = 0.1;
-        o.tau_rel = 1e-3;
-        o.debias = false;
+        csi_sparsa_options o = image_options();
         tau_trace T = {0};
         o.trace = on_tau;
         o.user = &T;
@@ -338,6 +346,91 @@ static void test_properties(test_rng *r, int memory, bool cplx)
     problem_free(&P);
 }
 
+/* The workspace's A x of the result (csi_solver_result_Ax), which Alg. 1's correction reads
+ * instead of applying A again: after an l1 solve it holds A x of the returned x, checked against
+ * A x in double from the returned float x (the dense matrix's double entries: float32 rounding
+ * of k-term sums, ~1e-7 relative; 1e-5 allowed) and bit for bit against a fresh apply of the same
+ * operator (the same kernels on the same x). It is NULL where x is not the l1 iterate: after the
+ * debiasing, at tau >= ||A^H y||_inf (x = 0 at once), after ROMP. With the objective stop the
+ * last step skips its adjoint (no later step reads the gradient): one adjoint at the start and
+ * one per step but the last, so as many adjoints as steps; the gap stop reads the gradient at
+ * every step (one more). Real and complex, 4 seeds each. */
+static void test_result_Ax(test_rng *r)
+{
+    for (int seed = 0; seed < 8; seed++) {
+        const bool cplx = seed & 1;
+        const size_t N = 120, k = 512;
+        problem P = problem_make(r, N, k, 10, cplx, false, false);
+        const size_t nN = N * P.w, nk = k * P.w;
+        csi_solver *S;
+        CHECK_OK(csi_solver_create(P.op, &S));
+        csi_sparsa_options o = image_options();
+        csi_solve_report rep;
+        CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &o, &rep));
+        cl_mem Ax = csi_solver_result_Ax(S);
+        CHECK(Ax != NULL && rep.iterations > 0, "seed %d: no A x after %d steps", seed, rep.iterations);
+        CHECK(rep.adjoints == rep.iterations, "seed %d objective stop: %d adjoints for %d steps", seed,
+              rep.adjoints, rep.iterations);
+        float *x = malloc(nk * 4), *ax = malloc(nN * 4), *again = malloc(nN * 4);
+        test_download(P.dx, x, nk * 4);
+        if (Ax)
+            test_download(Ax, ax, nN * 4);
+        double e2 = 0, r2 = 0;
+        for (size_t i = 0; i < N; i++) {
+            double sr = 0, si = 0;
+            for (size_t j = 0; j < k; j++) {
+                if (cplx) {
+                    double ar = P.Ad[2 * (i * k + j)], ai = P.Ad[2 * (i * k + j) + 1];
+                    sr += ar * x[2 * j] - ai * x[2 * j + 1];
+                    si += ar * x[2 * j + 1] + ai * x[2 * j];
+                } else {
+                    sr += P.Ad[i * k + j] * x[j];
+                }
+            }
+            e2 += (ax[i * P.w] - sr) * (ax[i * P.w] - sr);
+            r2 += sr * sr;
+            if (cplx) {
+                e2 += (ax[2 * i + 1] - si) * (ax[2 * i + 1] - si);
+                r2 += si * si;
+            }
+        }
+        CHECK(r2 > 0 && sqrt(e2 / r2) < 1e-5, "seed %d: result A x off the double A x by %.3g", seed,
+              sqrt(e2 / r2));
+        cl_mem fresh = test_alloc(nN * 4);
+        CHECK_OK(csi_linop_apply(P.op, P.dx, fresh));
+        test_download(fresh, again, nN * 4);
+        CHECK(memcmp(ax, again, nN * 4) == 0, "seed %d: result A x is not a fresh apply's bits", seed);
+        csi_buffer_release(&fresh);
+
+        o.stop = CSI_SPARSA_STOP_GAP;
+        CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &o, &rep));
+        CHECK(csi_solver_result_Ax(S) && rep.adjoints == rep.iterations + 1,
+              "seed %d gap stop: %d adjoints for %d steps", seed, rep.adjoints, rep.iterations);
+        o.debias = true;
+        CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &o, &rep));
+        CHECK(csi_solver_result_Ax(S) == NULL, "seed %d: A x reported after debiasing", seed);
+        o.debias = false;
+        o.tau = 1e6;
+        CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &o, &rep));
+        CHECK(rep.reason == CSI_SOLVE_ZERO && csi_solver_result_Ax(S) == NULL, "seed %d: A x reported for x = 0",
+              seed);
+        if (!cplx) {
+            o.tau = 0;
+            CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &o, &rep));
+            csi_romp_options ro;
+            csi_romp_defaults(&ro);
+            CHECK_OK(csi_romp_run(S, P.dy, P.dx, &ro, &rep));
+            CHECK(csi_solver_result_Ax(S) == NULL, "seed %d: A x reported after ROMP", seed);
+        }
+        free(x);
+        free(ax);
+        free(again);
+        csi_solver_free(S);
+        problem_free(&P);
+    }
+    printf("SpaRSA result A x: 8 solves, A x of the result as a fresh apply; adjoints one per step\n");
+}
+
 static bool progress_cb(void *user, const char *phase, int iter, double rel)
 {
     struct {
@@ -367,6 +460,7 @@ int main(void)
     test_cont_step(&r, true, 0.1);
     test_cont_step(&r, false, 0.5);
     test_objective_stop(&r);
+    test_result_Ax(&r);
 
     test_rng_seed(&r, 12);
     test_properties(&r, 0, false);

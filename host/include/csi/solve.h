@@ -82,6 +82,12 @@ uint64_t csi_solver_host_bytes(size_t rows, size_t cols, bool complex_valued, bo
  * *hmax; the workspace's gradient buffer is its scratch. For a caller that takes tau from the
  * operator before a change that keeps its sizes (a column scaling, csi/sampled_half_fourier.h). */
 csi_status csi_solver_adjoint_amax(csi_solver *s, cl_mem y, double *hmax);
+/* The workspace's buffer that holds A x for the x its last run returned (rows floats, complex
+ * interleaved), or NULL where the run did not leave it (ROMP, SpaRSA's debiasing or x = 0
+ * shortcuts). SpaRSA computes A x of every accepted iterate, so a caller that needs A x of the
+ * result (the image correction's estimate at the samples) reads it here instead of applying A
+ * again: the same operator on the same x, so the same bits. Valid until the next run. */
+cl_mem csi_solver_result_Ax(const csi_solver *s);
 
 /* ---- ROMP ---------------------------------------------------------------------------------
  * Each iteration: u = A^H r; J = the s largest |u_i| among indices not yet in the support I
