@@ -193,9 +193,8 @@ static const row table[] = {
      "the same in frames for a volume", "a third of a time window's core, at least 4, and windows of at least 32 frames where the "
      "volume is longer"},
     {"tiles-t", K_U32, AT(tiles_t), 1, 65536, NULL, F_AUTO, "auto", "N",
-     "volumes: exactly N time windows (1: never split t)", "none when x/y tiles with cores of at least "
-     "the margin fit the budget; else as the budget's layout prices them: cells covered x (1 + 0.02 per "
-     "window boundary), x/y tiles or windows"},
+     "volumes: exactly N time windows (1: never split t)", "as the budget's layout prices them: "
+     "cells covered x (1 + 0.02 per window boundary), x/y tiles or windows"},
     {"tile-image-binned", K_CHOICE, AT(tile_image_binned), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "volumes split in t: the blurred image from one solve of every frame's samples, binned in t "
      "to a window's length (samples sharing a cell averaged); the windows then give only the "

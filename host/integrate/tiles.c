@@ -260,52 +260,6 @@ static bool better(const candidate *a, const candidate *best, bool have)
     return pa < pb || (pa == pb && ca < cb);
 }
 
-/* For nt windows in t: along each number of tiles in y up to lim[1], the fewest along x (up to
- * lim[0]) that fit, by bisection (a tile's bytes fall as the tiles along x grow, up to the
- * rounding of window lengths); the better of them and *best into *best. true when one tile
- * along x and y fits (the windows alone). */
-static bool fewest_x(const plan_ctx *p, const csi_recon_options *opt, uint32_t nt, const uint32_t lim[2],
-                     uint64_t budget, uint64_t max_alloc, candidate *best, bool *have, bool *laid)
-{
-    for (uint32_t ny = 1; ny <= lim[1]; ny++) {
-        uint32_t lo = 1, hi = lim[0];
-        candidate c;
-        const uint32_t first[3] = {1, ny, nt}, top[3] = {hi, ny, nt};
-        const bool made = evaluate(p, opt, first, &c);
-        *laid |= made;
-        if (made && fits(&c, budget, max_alloc))
-            hi = 1; /* one along x (2 may not be laid out at all: the bisection would skip 1) */
-        else if (!evaluate(p, opt, top, &c) || (*laid = true, !fits(&c, budget, max_alloc)))
-            continue;
-        while (lo < hi) {
-            uint32_t mid = lo + (hi - lo) / 2;
-            const uint32_t nn[3] = {mid, ny, nt};
-            if (evaluate(p, opt, nn, &c) && fits(&c, budget, max_alloc))
-                hi = mid;
-            else
-                lo = mid + 1;
-        }
-        const uint32_t nn[3] = {lo, ny, nt};
-        evaluate(p, opt, nn, &c);
-        if (better(&c, best, *have)) {
-            *best = c;
-            *have = true;
-        }
-        if (lo == 1)
-            return ny == 1; /* more tiles along y only add overlap */
-    }
-    return false;
-}
-
-/* The most tiles along an axis whose cores are all at least its margin (at least 1). */
-static uint32_t most_with_core(const axis_req *a)
-{
-    uint32_t n = 1;
-    while (n < a->length / a->align && min_core(a->length, n + 1, a->align) >= a->margin)
-        n++;
-    return n;
-}
-
 csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_tiling *out)
 {
@@ -401,17 +355,6 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         return CSI_OK;
     }
     const uint32_t maxn[3] = {p.ax[0].length / p.ax[0].align, p.ax[1].length / p.ax[1].align, frames};
-    /* Volumes: x/y tiles over the whole shutter before time windows, unless windows are asked
-     * for. A tile holding every frame is the untiled problem's local copy, where a time window's
-     * model sees only its own stretch of the motion and loses more the more windows there are:
-     * on billiards 64x64 x 256 frames the x/y layouts of budgets 0.95-0.55x the whole's bytes
-     * had 1.02-1.04x its MSE where the priced windows had 1.01-1.07x (docs/bench/scale.md, "X/y
-     * tiles before time windows"). The cores at least the margin: a window then covers at most
-     * 3 cores along an axis. Windows come only when no such layout fits, and then the lowest
-     * price decides (x/y tiles of any size among the candidates). */
-    const bool xy_first = p.m == M_MOTION && !opt->tiles_t;
-    const uint32_t xy_max[2] = {most_with_core(&p.ax[0]), most_with_core(&p.ax[1])};
-    bool best_xy = false; /* best is such an x/y layout */
     /* Among the layouts that fit, the lowest price (work times the expected loss, above): x/y
      * tiles, time windows or both. Before, time windows came only when no split of x and y alone
      * fitted: on billiards 64x64 x 256 frames at 16 MiB that gave 96 tiles at 18.5x the whole's
@@ -431,11 +374,9 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                 if (nn[0] > maxn[0] || !evaluate(&p, opt, nn, &c))
                     continue;
                 any = true;
-                const bool xy = xy_first && nt == 1 && nn[0] <= xy_max[0] && nn[1] <= xy_max[1];
-                if (fits(&c, budget, max_alloc) && (xy || !best_xy) && (better(&c, &best, have) || (xy && !best_xy))) {
+                if (fits(&c, budget, max_alloc) && better(&c, &best, have)) {
                     best = c;
                     have = true;
-                    best_xy = xy;
                 }
             }
         }
@@ -448,10 +389,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                             "for more tiles or a larger budget", N, (unsigned long long)budget);
     } else {
         bool laid = false;
-        if (xy_first)
-            fewest_x(&p, opt, 1, xy_max, budget, max_alloc, &best, &have, &laid);
-        const bool xy_found = have;
-        for (uint32_t nt = nt_lo; !xy_found && nt <= nt_hi; nt++) {
+        for (uint32_t nt = nt_lo; nt <= nt_hi; nt++) {
             /* nt windows cover at least nt window lengths of whole frames, whatever the x/y
              * split: past the best price so far, skip them; once even the volume's own cells
              * (T frames) cost more at this loss, no more windows can be cheaper. */
@@ -466,7 +404,39 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                 if (!wt || price(&lb) >= price(&best))
                     continue;
             }
-            if (fewest_x(&p, opt, nt, maxn, budget, max_alloc, &best, &have, &laid))
+            bool alone = false;
+            for (uint32_t ny = 1; ny <= maxn[1]; ny++) {
+                /* The fewest tiles along x that fit, by bisection (a tile's bytes fall as the
+                 * tiles along x grow, up to the rounding of window lengths). */
+                uint32_t lo = 1, hi = maxn[0];
+                candidate c;
+                const uint32_t first[3] = {1, ny, nt}, top[3] = {hi, ny, nt};
+                const bool made = evaluate(&p, opt, first, &c);
+                laid |= made;
+                if (made && fits(&c, budget, max_alloc))
+                    hi = 1; /* one along x (2 may not be laid out at all: the bisection would skip 1) */
+                else if (!evaluate(&p, opt, top, &c) || (laid = true, !fits(&c, budget, max_alloc)))
+                    continue;
+                while (lo < hi) {
+                    uint32_t mid = lo + (hi - lo) / 2;
+                    const uint32_t nn[3] = {mid, ny, nt};
+                    if (evaluate(&p, opt, nn, &c) && fits(&c, budget, max_alloc))
+                        hi = mid;
+                    else
+                        lo = mid + 1;
+                }
+                const uint32_t nn[3] = {lo, ny, nt};
+                evaluate(&p, opt, nn, &c);
+                if (better(&c, &best, have)) {
+                    best = c;
+                    have = true;
+                }
+                if (lo == 1) {
+                    alone = ny == 1;
+                    break; /* more tiles along y only add overlap */
+                }
+            }
+            if (alone)
                 break; /* the windows fit alone: more of them only add overlap and loss */
         }
         if (!laid && opt->tiles_t > 1)

@@ -48,22 +48,37 @@ def volume(kind, W=64, T=192):
         f = bg * (0.7 + 0.3 * np.cos(2 * np.pi * 2 * s))
     return f.astype(np.float32)
 
-rate = 0.06
-for kind in (sys.argv[1] if len(sys.argv) > 1 else "bounce,bar,mixed,flicker").split(","):
-    for seed in (1, 2):
-        f = volume(kind)
-        T, H, W = f.shape
-        grid = (W, H, T, W, H)
-        pos = csi.positions(grid, method="random", fraction=rate, seed=seed)
-        vals = f[pos[:, 2], pos[:, 1], pos[:, 0]][:, None]
-        truth = f.astype(np.float64).mean(axis=0)[..., None]
-        t0 = time.time()
-        w = csi.reconstruct(pos, vals, grid, seed=1)
-        ew = mse(w.image, truth)
-        out = [f"{kind} s{seed} ({W}x{H}x{T}, {len(pos)} samples, v {float(w.options['motion_vx']):.2f}): whole {ew:.4e} ({time.time()-t0:.0f}s)"]
-        for N in (2, 4, 8):
-            e = mse(csi.reconstruct(pos, vals, grid, seed=1, tiles_t=N).image, truth)
-            t1 = time.time()
-            eb = mse(csi.reconstruct(pos, vals, grid, seed=1, tiles_t=N, tile_image_binned="on").image, truth)
-            out.append(f"{N}w windows {e/ew:.4f}x, binned {eb/ew:.4f}x ({time.time()-t1:.0f}s)")
-        print("; ".join(out), flush=True)
+RATE = 0.06
+
+
+def case(kind, seed):
+    """The volume `kind` at RATE of its cells (position seed `seed`): grid, positions, values and
+    the exact mean over t."""
+    f = volume(kind)
+    T, H, W = f.shape
+    grid = (W, H, T, W, H)
+    pos = csi.positions(grid, method="random", fraction=RATE, seed=seed)
+    vals = f[pos[:, 2], pos[:, 1], pos[:, 0]][:, None]
+    return grid, pos, vals, f.astype(np.float64).mean(axis=0)[..., None]
+
+
+def main():
+    for kind in (sys.argv[1] if len(sys.argv) > 1 else "bounce,bar,mixed,flicker").split(","):
+        for seed in (1, 2):
+            grid, pos, vals, truth = case(kind, seed)
+            W, H, T = grid[:3]
+            t0 = time.time()
+            w = csi.reconstruct(pos, vals, grid, seed=1)
+            ew = mse(w.image, truth)
+            out = [f"{kind} s{seed} ({W}x{H}x{T}, {len(pos)} samples, v {float(w.options['motion_vx']):.2f}): "
+                   f"whole {ew:.4e} ({time.time()-t0:.0f}s)"]
+            for N in (2, 4, 8):
+                e = mse(csi.reconstruct(pos, vals, grid, seed=1, tiles_t=N).image, truth)
+                t1 = time.time()
+                eb = mse(csi.reconstruct(pos, vals, grid, seed=1, tiles_t=N, tile_image_binned="on").image, truth)
+                out.append(f"{N}w windows {e/ew:.4f}x, binned {eb/ew:.4f}x ({time.time()-t1:.0f}s)")
+            print("; ".join(out), flush=True)
+
+
+if __name__ == "__main__":
+    main()

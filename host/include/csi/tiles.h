@@ -57,11 +57,9 @@ uint64_t csi_tile_default_budget(const csi_ctx *ctx);
 
 /* The planner's expected loss of time windows: each interior boundary between windows adds
  * this fraction to the MSE (billiards 64x64 x 256 frames: 2 windows +1.8%, 4 +6.7%, 8 +14.2%
- * of the whole's, docs/bench/scale.md); x/y tiles count none. For a volume, csi_tiling_plan
- * first takes x/y tiles over the whole shutter whose cores are at least the margin (the fewest
- * cells covered) when one fits; only when none does it prices every layout as the cells its
- * windows cover in all times 1 + CSI_TILE_T_LOSS (windows - 1) and takes the cheapest that
- * fits. */
+ * of the whole's, docs/bench/scale.md); x/y tiles were measured within 2% of untiled either
+ * way and count none. csi_tiling_plan prices a layout as the cells its windows cover in all
+ * times 1 + CSI_TILE_T_LOSS (windows - 1) and takes the cheapest that fits. */
 #define CSI_TILE_T_LOSS 0.02
 
 /* A layout of tiles over one problem (see the top of this file). Axis 0 = x and 1 = y in output
@@ -93,12 +91,10 @@ typedef struct csi_tile {
 
 /* Chooses the layout of a problem of n samples for opt (csi_recon_options.mem_budget, .tiles,
  * .tiles_t, .tile_margin, .tile_margin_t; ctx gives the device's limits and may be NULL, then
- * only the budget counts). opt->tiles == 0: count 1 when the whole problem fits; else, for a
- * volume without opt->tiles_t, the x/y layout over every frame whose cores along x and y are
- * at least the margin that fits and covers the fewest cells; otherwise among the layouts that
- * fit (x/y tiles, time windows or both; only opt->tiles_t windows when given) the lowest price
- * (CSI_TILE_T_LOSS), the fewest tiles on a tie; N > 0: exactly N tiles (the factorisation
- * n[0] n[1] n[2] = N that fits, by the same rules). CSI_ERR_ARG when no
+ * only the budget counts). opt->tiles == 0: count 1 when the whole problem fits, else among the
+ * layouts that fit (x/y tiles, time windows or both; only opt->tiles_t windows when given) the
+ * lowest price (CSI_TILE_T_LOSS), the fewest tiles on a tie; N > 0: exactly N tiles (the
+ * factorisation n[0] n[1] n[2] = N that fits at the lowest price). CSI_ERR_ARG when no
  * layout fits (the message names the budget and the smallest tile's bytes) or when N tiles
  * cannot be laid out on the image (fewer pixels than tiles along every factorisation). A tile's
  * bytes are its resource plan (csi/plan.h) with tile_samples samples: samples clustered in one
