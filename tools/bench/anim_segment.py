@@ -158,8 +158,9 @@ def find_layers(pos, vals, T, v0, gain=0.03, maxl=2, step=1.0, vmax=8.0, folds=5
     velocities, then each added layer refined on a 0.25-cell grid around it (the others kept).
     folds > 1: a layer is accepted by its cross-validated error over that many folds (choose_layers);
     0: by the in-sample error (round 8's rule). refine "cv" (with folds > 1): a refined velocity
-    replaces the grid's only when refine_layer's cross-validation says so (a candidate: measured,
-    not the default); "insample": the refinement best on all samples."""
+    replaces the grid's only when refine_layer's cross-validation says so; "still": a layer at
+    the grid's v = 0 is not refined (both candidates: measured, not the default); "insample": the
+    refinement best on all samples."""
     grid = np.arange(-vmax, vmax + 1e-9, step)
     vs = [tuple(v0)] + [(float(a), float(b)) for a in grid for b in grid]
     E = loo_errors(pos, vals, T, vs)
@@ -171,10 +172,12 @@ def find_layers(pos, vals, T, v0, gain=0.03, maxl=2, step=1.0, vmax=8.0, folds=5
     fine_steps = np.arange(-0.75, 0.76, 0.25)
     for l in range(1, len(chosen)):
         bx, by = vs[chosen[l]]
+        if refine == "still" and bx == 0 and by == 0:
+            continue  # a still layer stays still (csi's still solve, layer_solves)
         fine = [(bx + a, by + b) for a in fine_steps for b in fine_steps]
         Ef = loo_errors(pos, vals, T, fine)
         others = [k for m, k in enumerate(chosen) if m != l]
-        if refine == "insample" or fold is None:
+        if refine != "cv" or fold is None:
             sub = np.vstack([E[others], Ef])
             pick = choose_layers(Wm, sub, -np.inf, maxl=1)  # the best refinement, whatever its gain
             best = pick[1] - len(others) if len(pick) > 1 and pick[1] >= len(others) else None
@@ -285,9 +288,10 @@ def main():
     ap.add_argument("--shares", choices=("soft", "hard"), default="soft", help="step 4's shares (candidate: hard)")
     ap.add_argument("--folds", type=int, default=5,
                     help="accept a layer by its error cross-validated over this many folds (0: in-sample, round 8)")
-    ap.add_argument("--refine", choices=("insample", "cv"), default="insample",
-                    help="an added layer's 0.25-cell refinement: the best on all samples, or only when "
-                         "cross-validated over --folds (candidate: cv)")
+    ap.add_argument("--refine", choices=("insample", "cv", "still"), default="insample",
+                    help="an added layer's 0.25-cell refinement: the best on all samples, only when "
+                         "cross-validated over --folds, or the best on all samples but none for a layer "
+                         "at the grid's v = 0 (candidates: cv, still)")
     a = ap.parse_args()
     cases = [("procedural", v) for v in a.volumes.split(",") if v] + [("mitsuba", s) for s in a.scenes.split(",") if s]
     for src, name in cases:
