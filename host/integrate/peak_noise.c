@@ -24,24 +24,26 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
     if ((uint64_t)bw * bh <= 1)
         return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
     uint32_t *cnt = calloc(np, sizeof *cnt);
-    size_t *first = malloc(np * sizeof *first); /* the pixel's sample, where it holds one */
+    size_t *start = malloc((np + 1) * sizeof *start), *idx = malloc((n ? n : 1) * sizeof *idx);
     double *m = malloc(np * sizeof *m), *hi = malloc(np * sizeof *hi);
-    if (!cnt || !first || !m || !hi) {
-        free(cnt), free(first), free(m), free(hi);
+    if (!cnt || !start || !idx || !m || !hi) {
+        free(cnt), free(start), free(idx), free(m), free(hi);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    size_t multi = 0;
+    /* Each pixel's samples, in sample order (a counting sort: deterministic). */
+    for (size_t i = 0; i < n; i++)
+        cnt[csi_recon_pixel_of(pos[i], bw, bh, ow)]++;
+    start[0] = 0;
+    for (size_t p = 0; p < np; p++)
+        start[p + 1] = start[p] + cnt[p];
+    for (size_t p = 0; p < np; p++)
+        cnt[p] = 0;
     for (size_t i = 0; i < n; i++) {
         const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
-        if (!cnt[p]++)
-            first[p] = i;
+        idx[start[p] + cnt[p]++] = i;
     }
-    for (size_t p = 0; p < np; p++)
-        multi += cnt[p] >= 2;
     size_t set = 0;
-    /* Where most pixels hold two samples or more the blend measures each pixel's noise within
-     * it, paths and all: nothing to add. */
-    for (uint32_t c = 0; c < channels && 2 * multi < np; c++) {
+    for (uint32_t c = 0; c < channels; c++) {
         double sabs = 0;
         for (size_t p = 0; p < np; p++)
             m[p] = 0, hi[p] = -INFINITY;
@@ -58,6 +60,27 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
         const double e = PEAK_EPS_REL * (n ? sabs / (double)n : 0.0);
         float *plane = image + (size_t)c * np;
         for (size_t p = 0; p < np; p++) {
+            if (cnt[p] >= 2) {
+                /* The pixel's brightest sample against the others of the pixel. */
+                size_t top = idx[start[p]];
+                double h = -INFINITY, sum = 0;
+                for (size_t k = start[p]; k < start[p + 1]; k++) {
+                    const double v = values[idx[k] * channels + c];
+                    sum += v;
+                    if (v > values[top * channels + c])
+                        top = idx[k];
+                }
+                for (size_t k = start[p]; k < start[p + 1]; k++)
+                    if (idx[k] != top)
+                        h = fmax(h, values[idx[k] * channels + c]);
+                const double y = values[top * channels + c], hp = fmax(h, 0.0);
+                if (y + e < CSI_PEAK_RATIO * (hp + e) ||
+                    y - hp >= CSI_PEAK_Z * sqrt((double)variance[top * channels + c]))
+                    continue;
+                plane[p] = (float)((sum - y) / (double)(cnt[p] - 1)); /* the mean of the others */
+                set++;
+                continue;
+            }
             if (cnt[p] != 1)
                 continue;
             const long px = (long)(p % ow), py = (long)(p / ow);
@@ -79,7 +102,7 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
             const double y = m[p], hp = fmax(h, 0.0);
             if (y + e < CSI_PEAK_RATIO * (hp + e))
                 continue;
-            if (y - hp >= CSI_PEAK_Z * sqrt((double)variance[first[p] * channels + c]))
+            if (y - hp >= CSI_PEAK_Z * sqrt((double)variance[idx[start[p]] * channels + c]))
                 continue; /* the image's peak: the reconstruction's value stays */
             for (int i = 1; i < k; i++) { /* the neighbours' median (insertion sort: k <= 8) */
                 const double v = w[i];
@@ -94,6 +117,6 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
     }
     if (changed)
         *changed = set;
-    free(cnt), free(first), free(m), free(hi);
+    free(cnt), free(start), free(idx), free(m), free(hi);
     return CSI_OK;
 }

@@ -124,7 +124,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         }
     }
     /* Isolated peaks against their own noise (csi/peak_noise.h): where the blend made the image
-     * whole, after the choice, which leaves single-sample images as they are. */
+     * whole, last, so that a region the choice gave its means loses its noisy peaks too. */
     if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
         out->options.correct == CSI_CORRECT_BLEND) {
         s = csi_peak_noise(grid, channels, pos, values, opt.sample_variance, n, out->image, NULL);

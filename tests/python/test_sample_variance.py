@@ -11,8 +11,8 @@ library, the program and the binding, on samples whose outcome csi/peak_noise.h 
   other pixel moves;
 - csi-reconstruct --variance writes the same image as csi.reconstruct(variance=...) (the stats'
   FNV-1a hash), and a variance dump of other positions is refused: exit 2, one line naming it;
-- at 2 samples per pixel the variances change nothing (the same bits), though one sample is such
-  a peak."""
+- at 2 samples per pixel, a sample of 20 with variance 400 beside one near 1 is noise against its
+  pixel's other sample: the pixel is that sample's value exactly, and no other pixel moves."""
 import json
 import os
 import subprocess
@@ -81,10 +81,13 @@ with tempfile.TemporaryDirectory() as T:
           and not os.path.exists(os.path.join(T, "x.exr")), f"other positions refused: {r.returncode} {r.stderr!r}")
 
 pos, val, var = samples(2, 5)
-i = int(np.argmax(val))
-val[i], var[i] = 20.0, 400.0  # a peak its own noise would explain, were it alone in its pixel
-a = csi.reconstruct(pos, val, GRID, variance=var).image
-b = csi.reconstruct(pos, val, GRID).image
-check(np.array_equal(a, b), "2 samples per pixel: the variances change nothing")
+pix = (pos[:, 1] // F) * OW + pos[:, 0] // F
+p2 = 12 * OW + 17
+i, j = np.flatnonzero(pix == p2)[:2]
+val[i], var[i] = 20.0, 400.0  # a peak its own noise explains, against the pixel's other sample
+a = csi.reconstruct(pos, val, GRID, variance=var).image[:, :, 0].ravel()
+b = csi.reconstruct(pos, val, GRID).image[:, :, 0].ravel()
+check(a[p2] == val[j, 0], f"2 samples per pixel: the noisy sample's pixel {a[p2]}, want the other sample {val[j, 0]}")
+check(np.flatnonzero(a != b).tolist() == [p2], f"2 samples per pixel: pixels changed {np.flatnonzero(a != b).tolist()}")
 
 sys.exit(done())

@@ -16,8 +16,12 @@
  *      - (5, 10) = 3.5, variance 0: not a peak (3.5 < 4 x 1 with the floor e = 1% of the mean
  *        absolute sample), untouched: 0.5. Every other pixel untouched too (next to a peak no
  *        sample is one).
- *   2. Two samples per pixel (the same image, each sample doubled at a second cell): the blend
- *      sees the paths' noise within each pixel, nothing is set.
+ *   2. Three samples per pixel, every sample 1 (variance 0.01) except in three pixels, the
+ *      brightest sample judged against the pixel's others (channel 1 again twice channel 0):
+ *      - (3, 3) holds 1, 2, 20 of variance 400: 20 > 4 x 2 and 18 < 3 sd = 60, noise: the mean
+ *        of the other two, 1.5 exactly;
+ *      - (8, 8) holds 1, 1, 20 of variance 1: 19 >= 3, the image's: untouched, 0.5;
+ *      - (12, 4) holds 2, 3, 7 of variance 0: 7 < 4 x 3, no peak: untouched.
  *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set. */
 #include <math.h>
 #include <stdlib.h>
@@ -36,9 +40,9 @@ typedef struct {
 
 static const peak peaks[] = {{5, 5, 20, 1}, {10, 10, 40, 1600}, {2, 13, 10, 9}, {13, 2, 10, 9.0001f}, {5, 10, 3.5f, 0}};
 
-/* The samples of property 1 (spp = 1) or 2 (spp = 2: each value at cells (1, 1) and (2, 2) of
- * its pixel), 2 channels; the neighbours of (10, 10) are 1..8 in raster order. */
-static size_t make(uint32_t spp, csi_sample_pos *pos, float *val, float *var)
+/* The samples of property 1: one per pixel, at cell (1, 1) of its block, 2 channels; the
+ * neighbours of (10, 10) are 1..8 in raster order. */
+static size_t make(csi_sample_pos *pos, float *val, float *var)
 {
     float img[NP], iv[NP];
     for (int p = 0; p < NP; p++)
@@ -51,11 +55,31 @@ static size_t make(uint32_t spp, csi_sample_pos *pos, float *val, float *var)
     for (size_t i = 0; i < sizeof peaks / sizeof *peaks; i++)
         img[peaks[i].y * OW + peaks[i].x] = peaks[i].v, iv[peaks[i].y * OW + peaks[i].x] = peaks[i].var;
     size_t n = 0;
+    for (int p = 0; p < NP; p++) {
+        pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1), (uint32_t)(p / OW * F + 1), 0};
+        val[n * 2] = img[p], val[n * 2 + 1] = 2 * img[p];
+        var[n * 2] = iv[p], var[n * 2 + 1] = 4 * iv[p];
+        n++;
+    }
+    return n;
+}
+
+/* Property 2's samples: three per pixel, at cells (1, 1), (2, 2), (3, 3) of its block. */
+static size_t make3(csi_sample_pos *pos, float *val, float *var)
+{
+    size_t n = 0;
     for (int p = 0; p < NP; p++)
-        for (uint32_t s = 0; s < spp; s++) {
+        for (int s = 0; s < 3; s++) {
+            float v = 1, vv = 0.01f;
+            if (p == 3 * OW + 3)
+                v = s == 0 ? 1 : s == 1 ? 2 : 20, vv = s == 2 ? 400 : 0.01f;
+            if (p == 8 * OW + 8)
+                v = s == 2 ? 20 : 1, vv = s == 2 ? 1 : 0.01f;
+            if (p == 4 * OW + 12)
+                v = s == 0 ? 2 : s == 1 ? 3 : 7, vv = 0;
             pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1 + s), (uint32_t)(p / OW * F + 1 + s), 0};
-            val[n * 2] = img[p], val[n * 2 + 1] = 2 * img[p];
-            var[n * 2] = iv[p], var[n * 2 + 1] = 4 * iv[p];
+            val[n * 2] = v, val[n * 2 + 1] = 2 * v;
+            var[n * 2] = vv, var[n * 2 + 1] = 4 * vv;
             n++;
         }
     return n;
@@ -71,12 +95,12 @@ static float *half_image(void)
 
 int main(void)
 {
-    csi_sample_pos pos[2 * NP];
-    float val[4 * NP], var[4 * NP];
+    csi_sample_pos pos[3 * NP];
+    float val[6 * NP], var[6 * NP];
     const csi_grid g = {OW * F, OW * F, 1, OW, OW};
 
     /* 1 */
-    size_t n = make(1, pos, val, var), changed = 0;
+    size_t n = make(pos, val, var), changed = 0;
     float *im = half_image();
     CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
     const float want[][3] = {{10, 10, 4.5f}, {13, 2, 1}};
@@ -98,17 +122,24 @@ int main(void)
     free(im);
 
     /* 2 */
-    n = make(2, pos, val, var);
+    n = make3(pos, val, var);
     im = half_image();
     CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
     other = 0;
-    for (int i = 0; i < 2 * NP; i++)
-        other += im[i] != 0.5f;
-    CHECK(other == 0 && changed == 0, "two samples per pixel: %zu pixel-channels set (%zu reported)", other, changed);
+    for (int c = 0; c < 2; c++)
+        for (int p = 0; p < NP; p++) {
+            if (p == 3 * OW + 3)
+                CHECK(im[c * NP + p] == 1.5f * (c + 1), "channel %d: the noisy sample's pixel %.9g, want %.9g", c,
+                      im[c * NP + p], 1.5 * (c + 1));
+            else
+                other += im[c * NP + p] != 0.5f;
+        }
+    CHECK(other == 0 && changed == 2, "three samples per pixel: %zu other pixel-channels set (%zu reported, want 2)",
+          other, changed);
     free(im);
 
     /* 3 */
-    n = make(1, pos, val, var);
+    n = make(pos, val, var);
     for (size_t i = 0; i < n; i++)
         pos[i].x /= F, pos[i].y /= F;
     const csi_grid g1 = {OW, OW, 1, OW, OW};

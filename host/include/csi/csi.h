@@ -324,11 +324,11 @@ typedef struct csi_samples {
                                    that an initialiser without it means 0 */
     const float *variance;      /* NULL (unknown), or N x channels like values: each value's
                                    variance as an estimate of the signal at its cell's centre
-                                   (a renderer's paths' sample variance / paths), >= 0. Where
-                                   most pixels hold one sample, an isolated peak its own noise
-                                   explains is then taken as noise (csi/peak_noise.h in the
-                                   source tree); whole images only (a tile ignores it). Last,
-                                   so that an initialiser without it means NULL */
+                                   (a renderer's paths' sample variance / paths), >= 0. An
+                                   isolated bright sample its own noise explains is then taken
+                                   as noise (csi/peak_noise.h in the source tree); whole images
+                                   only (a tile ignores it). Last, so that an initialiser
+                                   without it means NULL */
 } csi_samples;
 
 /* What the reconstruction is doing, for a progress display. */

@@ -2,32 +2,33 @@
  * reconstruction when the samples come with their variances (csi_samples.variance; a renderer
  * that averages several paths per sample knows each value's noise, csi-mitsuba writes it).
  *
- * Why. Where most pixels hold one sample, the blend (host/integrate/blend.c) estimates the noise
- * of a pixel's mean from its neighbours' means, which cannot see one sample's own noise, and the
- * fit (fit_trust.c) cannot tell a sample far brighter than every neighbour's (an isolated peak)
- * that is noise, one rare bright path, from one that is the image. So it keeps most of every
- * such peak: on the Mitsuba benchmark's 1-spp x 64-path images a single path of a sun reached
- * through a diffuse bounce, 45 where the pixel's truth is 0.7, stays at 44 (docs/bench/mitsuba.md).
- * The sample's variance tells the two apart: a peak that its own noise explains is noise.
+ * Why. Neither the blend (host/integrate/blend.c) nor the fit (fit_trust.c) can tell a sample
+ * far brighter than every sample around it (an isolated peak) that is noise, one rare bright
+ * path, from one that is the image: the blend's noise estimate comes from the neighbours' means
+ * (one sample per pixel) or from the pixel's spread, which such a sample inflates as much as an
+ * edge does. So csi keeps most of every such peak, and the per-pixel mean keeps all of it: on
+ * the Mitsuba benchmark a single path of a sun reached through a diffuse bounce, 45 where the
+ * pixel's truth is 0.7, stays at 44, and at 4 spp x 64 paths a dozen such samples carry 90-98% of
+ * an image's relMSE (docs/bench/mitsuba.md). The sample's variance tells the two apart: a peak
+ * that its own noise explains is noise.
  *
- * The rule, per channel, at each pixel holding exactly one sample y of variance v (of more than
- * one cell, in an image where at most half the pixels hold two samples or more): the pixel is a
- * peak when (y + e) >= CSI_PEAK_RATIO (h + e), h the largest sample of its 8 neighbours (0 if
- * negative), e 1% of the samples' mean absolute value (blend.c's floor). A peak is explained by
- * its noise when y - h < CSI_PEAK_Z sqrt(v): a value whose expectation is at most h exceeds it by
- * z standard deviations with probability at most 1 / z^2 (Chebyshev's inequality, whatever the
- * paths' distribution; one path in 64 carrying all of a sample's value gives v = y^2, z <= 1).
- * Such a peak is taken as noise and the pixel as one without a sample: the median of its
- * neighbours' means. That drops the energy of rare bright paths, a bias towards dark, in
- * exchange for their variance (the firefly trade every renderer's clamp makes); with the
+ * The rule, per channel, in pixels of more than one cell. A sample y of variance v is a peak when
+ * (y + e) >= CSI_PEAK_RATIO (h + e), where h is the largest of the other samples of its pixel,
+ * or, for a pixel's only sample, of its 8 neighbours' samples (h 0 if negative), and e 1% of the
+ * samples' mean absolute value (blend.c's floor); a pixel's brightest sample is the only one that
+ * can be a peak. A peak is explained by its noise when y - h < CSI_PEAK_Z sqrt(v): a value whose
+ * expectation is at most h exceeds it by z standard deviations with probability at most 1 / z^2
+ * (Chebyshev's inequality, whatever the paths' distribution; one path in 64 carrying all of a
+ * sample's value gives v = y^2, z <= 1). Such a peak is taken as noise and dropped: the pixel is
+ * the mean of its other samples, or, for a pixel's only sample, the median of its neighbours'
+ * means (a pixel without a sample). That drops the energy of rare bright paths, a bias towards
+ * dark, in exchange for their variance (the firefly trade every renderer's clamp makes); with the
  * variances a caller opts into it. A peak its noise does not explain keeps the reconstruction's
- * value: it is the image, but its one sample is no better an estimate of the pixel (a peak is
- * selected for being bright, and over-reads more often than not: keeping those samples was
- * measured and not kept, docs/bench/mitsuba.md).
+ * value: it is the image, but its sample is no better an estimate of the pixel (a peak is
+ * selected for being bright and over-reads more often than not: keeping single samples' values
+ * was measured and not kept, docs/bench/mitsuba.md).
  *
- * Pixels with two samples or more keep their value: their within-pixel variance already holds
- * their paths' noise (the blend sees it). Nothing here can make a value negative: the neighbours'
- * median is a mean of samples. */
+ * Nothing here can make a value negative: both outcomes are means of samples. */
 #ifndef CSI_PEAK_NOISE_H
 #define CSI_PEAK_NOISE_H
 
