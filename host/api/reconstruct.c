@@ -37,7 +37,9 @@ csi_status csi_api_options_for(const csi_options *options, const csi_samples *s,
         return csi_fail(CSI_ERR_ARG, "%s: the samples' flags 0x%08x have reserved bits set (known: 0x%08x)", fn,
                         (unsigned)s->flags, CSI_SAMPLES_KNOWN_FLAGS);
     o->sample_flags = s->flags;
-    return CSI_OK;
+    o->sample_variance = s->variance;
+    const csi_status st = csi_recon_check_variance(s->variance, s->count, s->channels);
+    return st == CSI_OK ? CSI_OK : csi_fail_context(st, "%s: ", fn);
 }
 
 csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_options *options,
@@ -59,7 +61,6 @@ csi_status csi_reconstruct(csi_device *dev, const csi_samples *s, const csi_opti
     csi_api_progress pr = {progress, user};
     o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;
-    o.sample_variance = s->variance; /* whole images only: the tiles' calls leave it NULL */
     csi_status st = csi_recon(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->r);
     if (st != CSI_OK) {
         free(r);

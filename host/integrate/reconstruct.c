@@ -76,6 +76,15 @@ static csi_status check_options(const csi_recon_options *opt)
     return CSI_OK;
 }
 
+csi_status csi_recon_check_variance(const float *variance, size_t n, uint32_t channels)
+{
+    for (size_t i = 0; variance && i < n * channels; i++)
+        if (!(variance[i] >= 0) || !isfinite(variance[i]))
+            return csi_fail(CSI_ERR_ARG, "sample %zu channel %zu: variance %g is not a finite number >= 0",
+                            i / channels, i % channels, (double)variance[i]);
+    return CSI_OK;
+}
+
 csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
                      const float *values, size_t n, const csi_recon_options *opt_in,
                      csi_recon_result *out)
@@ -88,10 +97,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         csi_recon_defaults(&opt);
     CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
-    for (size_t i = 0; opt.sample_variance && i < n * channels; i++)
-        if (!(opt.sample_variance[i] >= 0) || !isfinite(opt.sample_variance[i]))
-            return csi_fail(CSI_ERR_ARG, "sample %zu channel %zu: variance %g is not a finite number >= 0",
-                            i / channels, i % channels, (double)opt.sample_variance[i]);
+    CSI_TRY(csi_recon_check_variance(opt.sample_variance, n, channels));
     csi_tiling tl;
     CSI_TRY(csi_tiling_plan(ctx, grid, channels, n, &opt, &tl));
     /* Any finite float32 reconstructs: a channel whose largest magnitude is far from 1 is solved
@@ -123,8 +129,9 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
             return s;
         }
     }
-    /* Isolated peaks against their own noise (csi/peak_noise.h): where the blend made the image
-     * whole, last, so that a region the choice gave its means loses its noisy peaks too. */
+    /* Isolated peaks against their own noise (csi/peak_noise.h): last, so that a region the choice
+     * gave its means loses its noisy peaks too. A tiled run's tiles did it in their windows
+     * (tiled.c), before the blend, as a tile run alone does. */
     if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
         out->options.correct == CSI_CORRECT_BLEND) {
         s = csi_peak_noise(grid, channels, pos, values, opt.sample_variance, n, out->image, NULL);

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/peak_noise.h"
 #include "csi/tiles.h"
 #include "internal.h"
 
@@ -17,12 +18,14 @@ void csi_tile_result_free(csi_tile_result *t)
     }
 }
 
-/* The tile's own problem: its grid and the samples inside its window, shifted to its origin. */
+/* The tile's own problem: its grid and the samples inside its window, shifted to its origin
+ * (and their variances, when the caller has them). */
 typedef struct {
     csi_grid g;
     csi_tile tile;
     csi_sample_pos *pos;
     float *values;
+    float *variance;
     size_t n;
 } tile_problem;
 
@@ -30,13 +33,16 @@ static void tile_problem_free(tile_problem *p)
 {
     free(p->pos);
     free(p->values);
+    free(p->variance);
     p->pos = NULL;
     p->values = NULL;
+    p->variance = NULL;
 }
 
+/* variance: NULL, or one per value like values. */
 static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32_t channels,
-                                    const csi_sample_pos *pos, const float *values, size_t n,
-                                    tile_problem *p)
+                                    const csi_sample_pos *pos, const float *values, const float *variance,
+                                    size_t n, tile_problem *p)
 {
     memset(p, 0, sizeof *p);
     if (index >= tl->count)
@@ -53,7 +59,8 @@ static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32
         m += pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1;
     p->pos = malloc((m ? m : 1) * sizeof *p->pos);
     p->values = malloc((m ? m : 1) * channels * sizeof *p->values);
-    if (!p->pos || !p->values) {
+    p->variance = variance ? malloc((m ? m : 1) * channels * sizeof *p->variance) : NULL;
+    if (!p->pos || !p->values || (variance && !p->variance)) {
         tile_problem_free(p);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the %zu samples of tile %u", m, index);
     }
@@ -62,6 +69,8 @@ static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32
         if (q.x >= x0 && q.x < x1 && q.y >= y0 && q.y < y1 && q.t >= t0 && q.t < t1) {
             p->pos[p->n] = (csi_sample_pos){q.x - x0, q.y - y0, q.t - t0};
             memcpy(p->values + p->n * channels, values + i * channels, channels * sizeof(float));
+            if (variance)
+                memcpy(p->variance + p->n * channels, variance + i * channels, channels * sizeof(float));
             p->n++;
         }
     }
@@ -121,7 +130,7 @@ static csi_status scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     o.levels = tl->levels;
     for (uint32_t i = 0; i < tl->count; i++) {
         tile_problem p;
-        CSI_TRY(tile_problem_make(tl, i, channels, pos, values, n, &p));
+        CSI_TRY(tile_problem_make(tl, i, channels, pos, values, NULL, n, &p));
         double sc[4] = {0, 0, 0, 0};
         csi_status s = CSI_OK;
         if (p.n > 0) {
@@ -156,6 +165,23 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
                                    const csi_recon_options *opt, const csi_tiling *tl,
                                    const csi_tile_scope *scope, uint32_t index, csi_tile_result *out);
 
+/* Isolated peaks against their own noise (csi/peak_noise.h) in a tile's window, on the samples as
+ * given (unscaled, like the tile's result by now). The rule looks one pixel around a pixel, and a
+ * tile's core lies margin pixels inside its window, so every pixel a tile's core contributes is
+ * judged as the whole image's would be; tiles run alone (--tile I/N) and merged give the same
+ * bits as csi_recon's own tiles. */
+static csi_status tile_peaks(const csi_tiling *tl, uint32_t index, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, const float *variance, size_t n, csi_recon_result *r)
+{
+    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.correct != CSI_CORRECT_BLEND)
+        return CSI_OK;
+    tile_problem p;
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, variance, n, &p));
+    const csi_status s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, r->image, NULL);
+    tile_problem_free(&p);
+    return s;
+}
+
 csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
                                 const csi_recon_options *opt, const csi_tiling *tl,
@@ -169,6 +195,9 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
+    if (s == CSI_OK && opt->sample_variance && (s = tile_peaks(tl, index, channels, pos, values,
+                                                               opt->sample_variance, n, &out->r)) != CSI_OK)
+        csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)
         for (size_t q = 0; e[c] && q < np; q++) {
@@ -283,7 +312,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     if (memcmp(g, &tl->grid, sizeof *g))
         return csi_fail(CSI_ERR_ARG, "the tile layout was made for another grid");
     tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, n, &p));
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
     out->index = index;
     out->x0 = p.tile.win0[0];
     out->y0 = p.tile.win0[1];

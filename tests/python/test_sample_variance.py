@@ -12,7 +12,12 @@ library, the program and the binding, on samples whose outcome csi/peak_noise.h 
 - csi-reconstruct --variance writes the same image as csi.reconstruct(variance=...) (the stats'
   FNV-1a hash), and a variance dump of other positions is refused: exit 2, one line naming it;
 - at 2 samples per pixel, a sample of 20 with variance 400 beside one near 1 is noise against its
-  pixel's other sample: the pixel is that sample's value exactly, and no other pixel moves."""
+  pixel's other sample: the pixel is that sample's value exactly, and no other pixel moves;
+- in 4 tiles the rule acts in each tile's window: the noisy peak is the neighbours' median again
+  (to float rounding: a pixel two tiles' windows share is their weighted blend of it), no other
+  pixel than it moves against the tiles without the variances, and tiles made one at a time
+  (csi-reconstruct --tile I/N --variance, csi.reconstruct_tile(variance=...)) and merged give the
+  in-process tiled image bit for bit."""
 import json
 import os
 import subprocess
@@ -79,6 +84,26 @@ with tempfile.TemporaryDirectory() as T:
     lines = r.stderr.strip().splitlines()
     check(r.returncode == 2 and len(lines) == 1 and "o.variance.csid" in lines[0] and "not its variances" in lines[0]
           and not os.path.exists(os.path.join(T, "x.exr")), f"other positions refused: {r.returncode} {r.stderr!r}")
+
+    topts = dict(tiles=4, tile_margin=4)
+    tiled = csi.reconstruct(pos, val, GRID, variance=var, **topts)
+    plain = csi.reconstruct(pos, val, GRID, **topts).image[:, :, 0].ravel()
+    tv = tiled.image[:, :, 0].ravel()
+    check(tiled.info["tiles"] == 4, f"tiles: {tiled.info['tiles']}")
+    check(abs(float(tv[noise]) - float(want_noise)) <= 1e-6 * float(want_noise),
+          f"tiled: the noisy peak {tv[noise]}, want the neighbours' median {want_noise}")
+    check(np.flatnonzero(tv != plain).tolist() == [noise], f"tiled: pixels changed {np.flatnonzero(tv != plain).tolist()}")
+    parts = []
+    for i in (2, 0, 3):
+        t = csi.reconstruct_tile(pos, val, GRID, i, variance=var, **topts)
+        parts.append(os.path.join(T, f"t{i}.csip"))
+        t.write_partial(parts[-1], "s.csid")
+    parts.append(os.path.join(T, "t1.csip"))
+    r = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "s.csid"), "--tile", "1/4",
+                        "--tile-margin", "4", "--variance", os.path.join(T, "s.variance.csid"), "-o", parts[-1], "-q"])
+    m = csi.merge_partials(parts)
+    check(r.returncode == 0 and m.stats["image_fnv1a64"] == tiled.stats["image_fnv1a64"],
+          f"merged tiles {m.stats['image_fnv1a64']} vs in-process tiles {tiled.stats['image_fnv1a64']}")
 
 pos, val, var = samples(2, 5)
 pix = (pos[:, 1] // F) * OW + pos[:, 0] // F

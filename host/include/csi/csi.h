@@ -326,9 +326,9 @@ typedef struct csi_samples {
                                    variance as an estimate of the signal at its cell's centre
                                    (a renderer's paths' sample variance / paths), >= 0. An
                                    isolated bright sample its own noise explains is then taken
-                                   as noise (csi/peak_noise.h in the source tree); whole images
-                                   only (a tile ignores it). Last, so that an initialiser
-                                   without it means NULL */
+                                   as noise (csi/peak_noise.h in the source tree), in a
+                                   whole image and in every tile alike. Last, so that an
+                                   initialiser without it means NULL */
 } csi_samples;
 
 /* What the reconstruction is doing, for a progress display. */

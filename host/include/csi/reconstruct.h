@@ -223,8 +223,9 @@ typedef struct csi_recon_options {
     /* Not an option (no row in the table): what the samples are, CSI_SAMPLES_* of csi/csi.h,
      * which the library copies from csi_samples.flags; correct = auto follows it. */
     uint32_t sample_flags;
-    /* Not an option either: csi_samples.variance (NULL: unknown), read by csi_recon on a whole
-     * still image reconstructed by csi with the blend (csi/peak_noise.h); tiles ignore it. */
+    /* Not an option either: csi_samples.variance (NULL: unknown), read on a still image
+     * reconstructed by csi with the blend (csi/peak_noise.h): by csi_recon on the whole image,
+     * by each tile in its window (csi_recon_tile). */
     const float *sample_variance;
     csi_solve_progress_fn progress; /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
@@ -287,6 +288,9 @@ void csi_recon_result_free(csi_recon_result *r);
 csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
                      const float *values, size_t n, const csi_recon_options *opt,
                      csi_recon_result *out);
+/* CSI_OK when variance is NULL or holds n * channels finite values >= 0; else names the first
+ * that is not. */
+csi_status csi_recon_check_variance(const float *variance, size_t n, uint32_t channels);
 
 #ifdef __cplusplus
 }

@@ -436,14 +436,15 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
 
 def reconstruct_tile(positions, values, grid, index: int, scale=None, device: Optional[Device] = None,
                      progress: Optional[Callable[[str, int, float], Optional[bool]]] = None,
-                     options: Optional[Options] = None, exact: bool = False, **kwargs) -> Result:
+                     options: Optional[Options] = None, exact: bool = False, variance=None,
+                     **kwargs) -> Result:
     """Tile `index` of the layout the options give (tiles=N asks for N; docs/tiles.md) from all
-    the samples, as reconstruct takes them (exact too): a Result holding the tile's window
-    (info["tile"], info["tile_origin"]), which write_partial writes for merge_partials or
+    the samples, as reconstruct takes them (exact and variance too): a Result holding the tile's
+    window (info["tile"], info["tile_origin"]), which write_partial writes for merge_partials or
     csi-merge on another machine. scale: the whole problem's tau scale per channel (None:
     computed here)."""
     L = lib()
-    c = _Call(positions, values, grid, device, progress, options, kwargs, exact)
+    c = _Call(positions, values, grid, device, progress, options, kwargs, exact, variance)
     sc = (ctypes.c_double * 4)(*[float(x) for x in list(scale)[:4]]) if scale is not None else None
     r = ctypes.c_void_p()
     st = L.csi_reconstruct_tile(c.device._h, ctypes.byref(c.samples), c.options._h, int(index), sc, c.fn, None,
