@@ -43,9 +43,10 @@ extern "C" {
 
 /* ---- version ------------------------------------------------------------------------------- */
 /* The build reads these lines for its own version (CMakeLists.txt), so they are the only place
- * it is written. */
+ * it is written. While MAJOR is 0 a MINOR step may change the ABI (0.2: csi_samples.variance), so
+ * the shared library's soname is libcsi.so.0.MINOR and find_package(csi) takes the same minor. */
 #define CSI_VERSION_MAJOR 0
-#define CSI_VERSION_MINOR 1
+#define CSI_VERSION_MINOR 2
 #define CSI_VERSION_PATCH 0
 /* "MAJOR.MINOR.PATCH" of the library that is running (which may be newer than this header). */
 CSI_API const char *csi_version(void);

@@ -10,7 +10,7 @@ Importing the package needs only numpy; the C library (libcsi.so, found as csi._
 loaded on first use, and the renderer bridges import their renderer only when they run.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 _API = ("CsiError", "Device", "Dump", "Options", "Result", "default_grid_factor", "merge_partials", "options",
         "positions", "read_dump", "reconstruct", "reconstruct_dump", "reconstruct_tile", "version")

@@ -8,14 +8,15 @@ The shared library is found, in order, at:
      ../../../build/sdk/libcsi.so), which is what tools/setup and the tests use;
   4. an installed SDK: the libdir pkg-config gives for csi (set PKG_CONFIG_PATH to
      PREFIX/lib/pkgconfig after `cmake --install build --prefix PREFIX`), then the system's
-     loader path (libcsi.so.0).
+     loader path (the soname of this package's ABI, libcsi.so.0.MINOR while the major is 0).
+A library of another ABI (csi_version's major, and minor while the major is 0, differ from this
+package's) is refused: the structures passed to it would be read wrongly.
 It is loaded on first use, so `import csi` needs only numpy.
 """
 
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import json
 import os
 import subprocess
@@ -117,6 +118,23 @@ def _candidates():
 _lib = None
 
 
+def _abi(version: str) -> str:
+    """The part of a version that names the ABI (csi/csi.h): "0.2" for 0.2.x, "1" for 1.x.y."""
+    major, minor = version.split(".")[:2]
+    return f"{major}.{minor}" if major == "0" else major
+
+
+def _load(path):
+    from . import __version__
+
+    L = _bind(ctypes.CDLL(path))
+    have = L.csi_version().decode()
+    if _abi(have) != _abi(__version__):
+        raise CsiError("CSI_ERR_ARG", f"{path}: libcsi {have} has another ABI than this package's "
+                       f"{__version__}: load a libcsi {_abi(__version__)}.x (CSI_LIBRARY)")
+    return L
+
+
 def lib():
     """The loaded libcsi (loaded on the first call); CsiError naming where it looked if none."""
     global _lib
@@ -126,12 +144,14 @@ def lib():
     for path in _candidates():
         tried.append(path)
         if os.path.isfile(path):
-            _lib = _bind(ctypes.CDLL(path))
+            _lib = _load(path)
             return _lib
-    name = ctypes.util.find_library("csi")
-    tried.append(name or "libcsi.so.0")
+    from . import __version__
+
+    name = "libcsi.so." + _abi(__version__)
+    tried.append(name)
     try:
-        _lib = _bind(ctypes.CDLL(name or "libcsi.so.0"))
+        _lib = _load(name)
         return _lib
     except OSError:
         raise CsiError("CSI_ERR_IO", "libcsi.so not found (looked at " + ", ".join(tried) + "): build csi "
