@@ -57,6 +57,7 @@ def main():
         common = ["cornell", "--out", "64x64", "--spp", 4, "--paths", 16, "--seed", 2, "-q"]
         ok(cli(*common, "--dump", p("a.csid"), "--aov", "-o", p("cs.exr"), "--stats", p("a.json")), "render + csi")
         ok(cli(*common, "--dump", p("b.csid"), "-o", p("mean.exr"), "--", "--estimator", "mean"), "render + mean")
+        ok(cli(*common, "--dump", p("b.csid"), "--variance-peaks", "-o", p("csv.exr")), "render + csi with the variances")
         ok(cli("cornell", "--out", "64x64", "--reference", 256, "--npy", p("ref.npy"), "-o", p("ref.exr"), "-q"),
            "reference")
         d = csid.read(p("a.csid"), want="samples")
@@ -107,11 +108,17 @@ def main():
         # reference's mean (the reference's variance), which any image of the scene beats
         # csi-mitsuba reconstructs in its own process through the library: the bits of
         # csi-reconstruct on the dump it wrote (the same samples, options and seed)
-        # (with 16 paths per sample, the variances it wrote beside the dump)
-        subprocess.run([programs.find("csi-reconstruct"), p("a.csid"), "-o", p("cs_c.exr"), "-q",
-                        "--variance", p("a.variance.csid")], check=True)
+        # (the variances it wrote beside the dump only with --variance-peaks: the image of the
+        # b run, same samples, is csi-reconstruct's with --variance on them)
+        subprocess.run([programs.find("csi-reconstruct"), p("a.csid"), "-o", p("cs_c.exr"), "-q"], check=True)
         check(np.array_equal(exr.read(p("cs.exr")), exr.read(p("cs_c.exr"))),
               "csi-mitsuba's image differs from csi-reconstruct's on its dump")
+        subprocess.run([programs.find("csi-reconstruct"), p("b.csid"), "-o", p("csv_c.exr"), "-q",
+                        "--variance", p("b.variance.csid")], check=True)
+        check(np.array_equal(exr.read(p("csv.exr")), exr.read(p("csv_c.exr"))),
+              "csi-mitsuba --variance-peaks differs from csi-reconstruct --variance on its dump")
+        check(not np.array_equal(exr.read(p("csv.exr")), exr.read(p("cs.exr"))),
+              "--variance-peaks changed nothing (this seed's samples hold peaks their noise explains)")
         # Each sample's variance (its 16 paths' sample variance / 16): the dump's positions,
         # >= 0, and no larger on average than the within-pixel spread s2 above, whose
         # expectation is the paths' variance plus the signal's spread over the pixel (both
@@ -168,6 +175,7 @@ def main():
             ("zero paths", "--paths", ["cornell", "--paths", "0", "-o", p("o.exr")]),
             ("no output", "no output", ["cornell"]),
             ("aov without dump", "--aov", ["cornell", "--aov", "-o", p("o.exr")]),
+            ("variance peaks of one path", "--variance-peaks", ["cornell", "--variance-peaks", "-o", p("o.exr")]),
             ("unwritable", "no-such-dir", ["cornell", "--out", "8x8", "-o", p("no-such-dir/o.exr")]),
             ("request size", "differs", [p("s.xml"), "--request", p("req.csid"), "--out", "8x8", "--dump", p("o.csid")]),
             ("samples as request", "not a positions request", [p("s.xml"), "--request", p("x.csid"), "--dump", p("o.csid")]),

@@ -88,6 +88,10 @@ def parser():
     s.add_argument("--out", type=_size, metavar="WxH", help="output image size (default: the scene film's)")
     s.add_argument("--spp", type=_int_range(1, 65536), default=4, help="samples per pixel (default 4)")
     s.add_argument("--paths", type=_int_range(1, 1 << 20), default=1, help="Mitsuba paths per sample, averaged (default 1)")
+    s.add_argument("--variance-peaks", action="store_true",
+                   help="with --paths above 1: reconstruct with each sample's variance (csi-reconstruct --variance): "
+                        "an isolated bright sample its own noise explains is taken as noise. Off by default: it drops "
+                        "the energy of rare bright paths (darker caustics), docs/bench/mitsuba.md")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
@@ -226,6 +230,8 @@ def run(a, extra):
         if a.aov and not a.dump:
             raise UsageError("--aov needs --dump FILE.csid (the albedo and normal go beside it)")
         reconstruction_options(extra)  # bad options refused before any rendering
+    if a.variance_peaks and a.paths < 2:
+        raise UsageError("--variance-peaks needs --paths above 1 (one path has no sample variance)")
     if not (a.output or a.png or a.dump or a.npy):
         raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
     outs = [(a.output, "image"), (a.png, "preview"), (a.dump, "dump"), (a.npy, "array"), (a.stats, "statistics")]
@@ -288,7 +294,8 @@ def run(a, extra):
     t_recon = None
     if a.output or a.png:
         t0 = time.perf_counter()
-        stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra, variance=s.variance)
+        stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra,
+                                                variance=s.variance if a.variance_peaks else None)
         t_recon = time.perf_counter() - t0
     # The samples last: a failed reconstruction leaves no dump behind either.
     if a.dump:
