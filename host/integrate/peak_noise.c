@@ -11,6 +11,16 @@
  * value: blend.c's and fit_trust.c's 1%. */
 #define PEAK_EPS_REL 1e-2
 
+/* A peak its noise explains, shrunk towards r, the value without it: r + w (x - r), x the
+ * reconstruction's value, w = max(0, 1 - v / d^2) for the peak's excess d over the others and its
+ * variance v (the positive-part James-Stein / Wiener weight: d^2 - v estimates the excess's signal
+ * power, d^2 its total). One path carrying the whole sample has v ~ y^2 >= d^2, w 0: dropped. */
+static float peak_shrink(double r, double x, double d, double v)
+{
+    const double w = d > 0 ? fmax(0.0, 1.0 - v / (d * d)) : 0.0;
+    return (float)(r + w * (x - r));
+}
+
 csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                           const float *values, const float *variance, size_t n, float *image,
                           size_t *changed)
@@ -77,7 +87,9 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
                 if (y + e < CSI_PEAK_RATIO * (hp + e) ||
                     y - hp >= CSI_PEAK_Z * sqrt((double)variance[top * channels + c]))
                     continue;
-                plane[p] = (float)((sum - y) / (double)(cnt[p] - 1)); /* the mean of the others */
+                /* Shrunk towards the mean of the others. */
+                plane[p] = peak_shrink((sum - y) / (double)(cnt[p] - 1), plane[p], y - hp,
+                                       variance[top * channels + c]);
                 set++;
                 continue;
             }
@@ -111,7 +123,8 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
                     w[j] = w[j - 1];
                 w[j] = v;
             }
-            plane[p] = (float)(k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]));
+            plane[p] = peak_shrink(k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]), plane[p], y - hp,
+                                   variance[idx[start[p]] * channels + c]); /* towards the neighbours' median */
             set++;
         }
     }

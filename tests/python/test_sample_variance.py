@@ -5,8 +5,9 @@ library, the program and the binding, on samples whose outcome csi/peak_noise.h 
 - 1 sample per pixel on csi's stratified positions (32 x 32 pixels, 4x grid), values 1 + 0.05 u
   (u uniform in [-1, 1]) with variance 1e-4, and two isolated peaks of 20: one with variance 1
   (excess 19 > 3 sd: the image's, so its pixel keeps the value it has without the variances) and
-  one with variance 400 (one path carrying the whole value: noise, so the pixel is the median of
-  its 8 neighbours' samples, computed here in double and rounded to float as the library does);
+  one with variance 400 (one path carrying the whole value: noise, with v above its excess
+  squared, so the shrink keeps none of it and the pixel is the median of its 8 neighbours'
+  samples, computed here in double and rounded to float as the library does);
 - without the variances that pixel differs from the median (the rule is what set it), and no
   other pixel moves;
 - csi-reconstruct --variance writes the same image as csi.reconstruct(variance=...) (the stats'

@@ -1,25 +1,31 @@
 /* Isolated peaks judged against their own noise (csi/peak_noise.h), on hand-made samples whose
- * outcome the rule states exactly.
+ * outcome the rule states exactly. A peak its noise explains becomes r + w (x - r), r the value
+ * without it, x the reconstruction's, w = max(0, 1 - v / d^2) for its excess d and variance v;
+ * the expected values are computed here in double from that formula (want_shrunk).
  *
  *   1. One sample per pixel, 16 x 16 pixels on a 4x grid, every sample 1 except a few peaks; the
- *      "reconstruction" is 0.5 everywhere, so every pixel the rule sets shows. Channel 1 is
- *      channel 0 times 2 with 4x the variance: the rule is scale-free, so the same pixels are set
- *      to twice the values.
+ *      "reconstruction" x is 0.5 everywhere, so every pixel the rule sets shows. Channel 1 is
+ *      channel 0 times 2 with 4x the variance: the test and the weight w are scale-free, so the
+ *      same pixels are set, with the same w (r doubles, x does not).
  *      - (5, 5) = 20, variance 1: a peak (20 > 4 x 1) with an excess of 19 >= 3 sd = 3, the
  *        image's: untouched, 0.5.
  *      - (10, 10) = 40, variance 1600 (sd 40: one path of 64 carrying the whole value has
- *        v = y^2), its 8 neighbours 1..8: a peak (40 > 4 x 8) that its noise explains (32 < 120):
- *        the median of the neighbours, 4.5 exactly.
+ *        v = y^2), its 8 neighbours 1..8: a peak (40 > 4 x 8) that its noise explains (32 < 120)
+ *        with v > d^2 = 1024, so w = 0: the median of the neighbours, 4.5 exactly.
  *      - (2, 13) = 10, variance 9: excess 9 = 3 sd exactly, the image's (the bound is
  *        inclusive): untouched, 0.5.
- *      - (13, 2) = 10, variance 9.0001: just below, noise: the neighbours' median, 1.
+ *      - (13, 2) = 10, variance 9.0001: just below, noise, but most of it signal by its noise
+ *        (w = 1 - 9.0001 / 81, just under 8/9): 1 + w (0.5 - 1), shrunk towards the neighbours'
+ *        median 1, not dropped.
  *      - (5, 10) = 3.5, variance 0: not a peak (3.5 < 4 x 1 with the floor e = 1% of the mean
  *        absolute sample), untouched: 0.5. Every other pixel untouched too (next to a peak no
  *        sample is one).
  *   2. Three samples per pixel, every sample 1 (variance 0.01) except in three pixels, the
  *      brightest sample judged against the pixel's others (channel 1 again twice channel 0):
- *      - (3, 3) holds 1, 2, 20 of variance 400: 20 > 4 x 2 and 18 < 3 sd = 60, noise: the mean
- *        of the other two, 1.5 exactly;
+ *      - (3, 3) holds 1, 2, 20 of variance 400: 20 > 4 x 2 and 18 < 3 sd = 60, noise with
+ *        v > 18^2 (w = 0): the mean of the other two, 1.5 exactly;
+ *      - (12, 12) holds 1, 1, 9 of variance 32: 8 < 3 sd = 17, noise, with w = 1 - 32 / 64 = 1/2:
+ *        halfway between the others' mean 1 and x, 0.75 (1.25 in channel 1) exactly;
  *      - (8, 8) holds 1, 1, 20 of variance 1: 19 >= 3, the image's: untouched, 0.5;
  *      - (12, 4) holds 2, 3, 7 of variance 0: 7 < 4 x 3, no peak: untouched.
  *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set. */
@@ -77,12 +83,29 @@ static size_t make3(csi_sample_pos *pos, float *val, float *var)
                 v = s == 2 ? 20 : 1, vv = s == 2 ? 1 : 0.01f;
             if (p == 4 * OW + 12)
                 v = s == 0 ? 2 : s == 1 ? 3 : 7, vv = 0;
+            if (p == 12 * OW + 12)
+                v = s == 2 ? 9 : 1, vv = s == 2 ? 32 : 0.01f;
             pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1 + s), (uint32_t)(p / OW * F + 1 + s), 0};
             val[n * 2] = v, val[n * 2 + 1] = 2 * v;
             var[n * 2] = vv, var[n * 2 + 1] = 4 * vv;
             n++;
         }
     return n;
+}
+
+/* The rule's value for a peak its noise explains, in double: the reference the library's float
+ * output is checked against. */
+static double want_shrunk(double r, double x, double d, double v)
+{
+    const double w = fmax(0.0, 1.0 - v / (d * d));
+    return r + w * (x - r);
+}
+
+/* The library rounds its double result to float once: half an ulp, with room for a different
+ * order of the same double operations. */
+static int near(float got, double want)
+{
+    return fabs((double)got - want) <= 0x1p-23 * fabs(want);
 }
 
 static float *half_image(void)
@@ -103,18 +126,18 @@ int main(void)
     size_t n = make(pos, val, var), changed = 0;
     float *im = half_image();
     CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
-    const float want[][3] = {{10, 10, 4.5f}, {13, 2, 1}};
     size_t other = 0;
     for (int c = 0; c < 2; c++)
         for (int p = 0; p < NP; p++) {
-            float expect = 0.5f;
-            for (size_t i = 0; i < sizeof want / sizeof *want; i++)
-                if (p == (int)want[i][1] * OW + (int)want[i][0])
-                    expect = (c + 1) * want[i][2];
-            if (expect != 0.5f)
-                CHECK(im[c * NP + p] == expect, "channel %d pixel (%d, %d): %.9g, want %.9g", c, p % OW, p / OW,
-                      im[c * NP + p], expect);
-            else
+            const double s = c + 1; /* channel 1 is channel 0 scaled by 2, its variance by 4 */
+            if (p == 10 * OW + 10) /* w = 0: the neighbours' median exactly */
+                CHECK(im[c * NP + p] == (float)(4.5 * s), "channel %d: the one-path peak %.9g, want %.9g", c,
+                      im[c * NP + p], 4.5 * s);
+            else if (p == 2 * OW + 13) {
+                const double want = want_shrunk(s, 0.5, 9 * s, (double)9.0001f * s * s);
+                CHECK(near(im[c * NP + p], want) && want > 0.5 && want < s,
+                      "channel %d: the peak just inside 3 sd %.9g, want %.9g", c, im[c * NP + p], want);
+            } else
                 other += im[c * NP + p] != 0.5f;
         }
     CHECK(other == 0, "%zu pixel-channels set that are no peak", other);
@@ -128,13 +151,18 @@ int main(void)
     other = 0;
     for (int c = 0; c < 2; c++)
         for (int p = 0; p < NP; p++) {
+            const double s = c + 1;
             if (p == 3 * OW + 3)
-                CHECK(im[c * NP + p] == 1.5f * (c + 1), "channel %d: the noisy sample's pixel %.9g, want %.9g", c,
-                      im[c * NP + p], 1.5 * (c + 1));
-            else
+                CHECK(im[c * NP + p] == (float)(1.5 * s), "channel %d: the noisy sample's pixel %.9g, want %.9g", c,
+                      im[c * NP + p], 1.5 * s);
+            else if (p == 12 * OW + 12) {
+                const double want = want_shrunk(s, 0.5, 8 * s, 32 * s * s);
+                CHECK(near(im[c * NP + p], want), "channel %d: the half-signal peak %.9g, want %.9g", c,
+                      im[c * NP + p], want);
+            } else
                 other += im[c * NP + p] != 0.5f;
         }
-    CHECK(other == 0 && changed == 2, "three samples per pixel: %zu other pixel-channels set (%zu reported, want 2)",
+    CHECK(other == 0 && changed == 4, "three samples per pixel: %zu other pixel-channels set (%zu reported, want 4)",
           other, changed);
     free(im);
 

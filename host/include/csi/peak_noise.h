@@ -19,16 +19,22 @@
  * can be a peak. A peak is explained by its noise when y - h < CSI_PEAK_Z sqrt(v): a value whose
  * expectation is at most h exceeds it by z standard deviations with probability at most 1 / z^2
  * (Chebyshev's inequality, whatever the paths' distribution; one path in 64 carrying all of a
- * sample's value gives v = y^2, z <= 1). Such a peak is taken as noise and dropped: the pixel is
- * the mean of its other samples, or, for a pixel's only sample, the median of its neighbours'
- * means (a pixel without a sample). That drops the energy of rare bright paths, a bias towards
- * dark, in exchange for their variance (the firefly trade every renderer's clamp makes); with the
- * variances a caller opts into it. A peak its noise does not explain keeps the reconstruction's
+ * sample's value gives v = y^2, z <= 1). Such a peak is shrunk by how much of it its noise
+ * explains: with r the value without it (the mean of its pixel's other samples, or, for a
+ * pixel's only sample, the median of its neighbours' means, a pixel without a sample), x the
+ * reconstruction's value and d = y - h, the pixel becomes r + w (x - r), w = max(0, 1 - v / d^2):
+ * the positive-part James-Stein (Wiener) weight, max(0, d^2 - v) estimating the excess's signal
+ * power and d^2 its total. One path carrying a whole sample (v ~ y^2) gives w ~ 0, the peak
+ * dropped; k of 64 paths carrying it give w ~ 1 - 1/k, most of it kept. Dropping all of every
+ * such peak (w = 0) took a caustic's energy, made of exactly such rare bright paths, and was
+ * measured against this (docs/bench/mitsuba.md). What is shrunk away is a bias towards dark, in
+ * exchange for variance (the firefly trade every renderer's clamp makes); with the variances a
+ * caller opts into it. A peak its noise does not explain keeps the reconstruction's
  * value: it is the image, but its sample is no better an estimate of the pixel (a peak is
  * selected for being bright and over-reads more often than not: keeping single samples' values
  * was measured and not kept, docs/bench/mitsuba.md).
  *
- * Nothing here can make a value negative: both outcomes are means of samples. */
+ * Nothing here makes a value negative that was not: r is a mean of samples, w in [0, 1). */
 #ifndef CSI_PEAK_NOISE_H
 #define CSI_PEAK_NOISE_H
 

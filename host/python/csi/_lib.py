@@ -444,7 +444,7 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
     evaluation, not a Monte Carlo estimate; CSI_SAMPLES_EXACT), which makes correct="auto" take
     the control-variate correction instead of the blend. variance: None, or each value's
     variance, the values' shape (csi_samples.variance: an isolated bright sample its own noise
-    explains is then taken as noise).
+    explains is then shrunk by how much of it that noise explains).
     progress(phase, iteration, residual) may return False to cancel (CsiError CSI_ERR_CANCELLED);
     an exception it raises cancels and is raised again."""
     L = lib()

@@ -90,8 +90,8 @@ def parser():
     s.add_argument("--paths", type=_int_range(1, 1 << 20), default=1, help="Mitsuba paths per sample, averaged (default 1)")
     s.add_argument("--variance-peaks", action="store_true",
                    help="with --paths above 1: reconstruct with each sample's variance (csi-reconstruct --variance): "
-                        "an isolated bright sample its own noise explains is taken as noise. Off by default: it drops "
-                        "the energy of rare bright paths (darker caustics), docs/bench/mitsuba.md")
+                        "an isolated bright sample its own noise explains is shrunk by how much of it that noise explains. "
+                        "Off by default: it takes away energy of rare bright paths (darker caustics), docs/bench/mitsuba.md")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
