@@ -204,8 +204,10 @@ int main(int argc, char **argv)
     csi_device *dev = NULL;
     csi_result *res = NULL;
     /* Sizes before work: the header alone decides whether the run can fit (docs/dump-format.md). */
-    csi_dump_header hdr;
+    csi_dump_header hdr, vhdr = {0};
     s = csi_dump_read_header(in, &ropts, &hdr);
+    if (s == CSI_OK && varfile) /* its header too: a missing or damaged file fails here, its bytes count */
+        s = csi_dump_read_header(varfile, &ropts, &vhdr);
     if (s == CSI_OK && hdr.grid.t > 1 && option_is(opt, "solver", "romp"))
         s = cli_fail(CSI_ERR_ARG, "%s: ROMP is real-valued and a volume (grid_t = %u) needs the complex 3-D "
                      "Fourier problem: use --solver sparsa", in, hdr.grid.t);
@@ -224,7 +226,8 @@ int main(int argc, char **argv)
     if (s == CSI_OK) {
         const uint64_t k = (uint64_t)hdr.grid.w * hdr.grid.h * hdr.grid.t;
         s = csi_reconstruct_check(dev, &hdr.grid, hdr.channels, (size_t)(hdr.count < k ? hdr.count : k), opt,
-                                  csi_dump_read_host_bytes(&hdr), in);
+                                  csi_dump_read_host_bytes(&hdr) + (varfile ? csi_dump_read_host_bytes(&vhdr) : 0),
+                                  in);
     }
     tp = cli_now();
     if (s == CSI_OK)
