@@ -45,6 +45,13 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
                                const float *values, size_t n, const csi_recon_options *opt,
                                csi_recon_result *out);
 
+/* The image of a volume's result `out` (reconstructed whole from all n samples with opt) chosen
+ * per region between it and binned solves' by two-fold cross-validation (motion_image.c); the
+ * count of pixels that changed in out->motion_image_switched. */
+csi_status csi_recon_motion_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                  const csi_sample_pos *pos, const float *values, size_t n,
+                                  const csi_recon_options *opt, csi_recon_result *out);
+
 /* Releases everything in st (not st itself). */
 void csi_recon_state_free(csi_recon_state *st);
 

@@ -172,6 +172,10 @@ static const row table[] = {
      "volumes (half spectrum): the l1 weight of the coefficients constant along t in the basis's "
      "frame (the still layer; with a velocity, what moves at it) relative to the others'; tau "
      "is still set from the unweighted problem (0.5: docs/bench/animation.md, round 7)", NULL},
+    {"motion-image-cv", K_CHOICE, AT(motion_image_cv), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "volumes solved whole: per region of 8 or 16 pixels, the blurred image of the volume solve or "
+     "of a solve of the shutter binned to 4 frames (samples sharing a cell averaged), whichever "
+     "two folds of the samples say is closer to the held-out pixel means (up to five more solves)", "off"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -149,6 +149,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
             o->motion_time = CSI_MOTION_TIME_DFT;
         if (o->motion_resid_sigma_t == 0 && o->motion_resid_sigma > 0)
             o->motion_resid_sigma_t = o->motion_resid_sigma;
+        /* the image's per-region choice against binned solves (motion_image.c): an option, off
+         * unless asked for (docs/bench/animation.md, session 10) */
+        if (o->motion_image_cv == CSI_SWITCH_AUTO)
+            o->motion_image_cv = CSI_SWITCH_OFF;
         /* the paper's form (the full spectrum) has no filter; on the half spectrum auto waits for
          * the velocity too (motion.c) */
         if (o->motion_full_spectrum)

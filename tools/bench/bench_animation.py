@@ -25,6 +25,8 @@ step 2, at each --rates fraction, per --seeds):
   csi-paper    the paper's basis: --motion-time dft --motion-velocity none (csi's default before
                issue 12, with its residual correction)
   csi-unfiltered  csi's default without Alg. 1's filter in the motion solve (--motion-filter off)
+  csi-imgcv    csi's default with the image chosen per region against a 4-bin shutter's solve
+               (--motion-image-cv on; --methods to add it)
   csi-dft-v    candidates: the sheared basis with the DFT along t; csi-dct the DCT without a
   csi-dct      velocity (--methods to add them)
   gauss        the 3-D Gaussian normalized convolution (csi --estimator gauss), its width tuned
@@ -67,12 +69,13 @@ import anim_volumes as av  # noqa: E402
 import csi  # noqa: E402
 from csi import preview  # noqa: E402
 
-ALL_METHODS = ["csi", "csi-paper", "csi-unfiltered", "csi-dft-v", "csi-dct", "gauss", "mc", "mc-pixel", "cs2d", "oidn"]
+ALL_METHODS = ["csi", "csi-paper", "csi-unfiltered", "csi-imgcv", "csi-dft-v", "csi-dct", "gauss", "mc", "mc-pixel", "cs2d", "oidn"]
 DEFAULT_METHODS = ["csi", "csi-paper", "gauss", "mc", "cs2d", "oidn"]
 CSI_VARIANTS = {
     "csi": {},
     "csi-paper": {"motion_time": "dft", "motion_velocity": "none", "motion_filter": -1},
     "csi-unfiltered": {"motion_filter": -1},
+    "csi-imgcv": {"motion_image_cv": "on"},
     "csi-dft-v": {"motion_time": "dft"},
     "csi-dct": {"motion_time": "dct", "motion_velocity": "none"},
 }

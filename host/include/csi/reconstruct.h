@@ -207,6 +207,9 @@ typedef struct csi_recon_options {
     double motion_still_weight;   /* the l1 weight of the coefficients constant along t in the
                                      basis's frame (csi_half_fourier_set_still_gain), relative
                                      to the others' (1: one weight, the paper's; 0 is 1) */
+    csi_switch motion_image_cv;   /* a volume solved whole: per region its image or that of a
+                                     solve of the shutter binned in t, by two-fold
+                                     cross-validation (host/integrate/motion_image.c); auto: off */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */
@@ -267,6 +270,7 @@ typedef struct csi_recon_result {
     csi_recon_options options; /* the options used: every auto that applies resolved */
     csi_solve_report report[4];
     size_t cv_switched;     /* pixels the cross-validated choice gave their mean (cv_select) */
+    size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
     double t_channel_integrate[4]; /* t_integrate per channel (the solves: report[c].t_total) */
