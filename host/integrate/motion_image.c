@@ -36,41 +36,32 @@ static const uint32_t BINS[] = {4};
 #define NBINS (sizeof BINS / sizeof BINS[0])
 _Static_assert(NBINS >= 1, "at least one binned estimator");
 
-typedef struct {
-    size_t pix;
-    uint32_t t;
-    size_t i;
-} keyed;
-
-static int by_pixel_then_t(const void *a, const void *b)
-{
-    const keyed *x = a, *y = b;
-    if (x->pix != y->pix)
-        return x->pix < y->pix ? -1 : 1;
-    if (x->t != y->t)
-        return x->t < y->t ? -1 : 1;
-    return x->i < y->i ? -1 : x->i > y->i;
-}
-
 /* fold[i] in {0, 1}: a pixel's samples alternately, in t order (then sample order), the first
- * to the fold of the pixel's parity. */
+ * to the fold of the pixel's parity. The samples are visited in that order by a stable counting
+ * sort on t, each pixel counting the samples it has seen. */
 static csi_status make_folds(const csi_grid *g, const csi_sample_pos *pos, size_t n, uint8_t *fold)
 {
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    keyed *k = malloc((n ? n : 1) * sizeof *k);
-    if (!k)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the folds of %zu samples", n);
-    for (size_t i = 0; i < n; i++)
-        k[i] = (keyed){csi_recon_pixel_of(pos[i], bw, bh, g->out_w), pos[i].t, i};
-    qsort(k, n, sizeof *k, by_pixel_then_t);
-    size_t rank = 0;
-    for (size_t j = 0; j < n; j++) {
-        rank = j > 0 && k[j].pix == k[j - 1].pix ? rank + 1 : 0;
-        const size_t px = k[j].pix % g->out_w, py = k[j].pix / g->out_w;
-        fold[k[j].i] = (uint8_t)((rank + px + py) & 1);
+    const size_t np = (size_t)g->out_w * g->out_h;
+    size_t *next = calloc((size_t)g->t + 1, sizeof *next), *order = malloc((n ? n : 1) * sizeof *order);
+    uint32_t *seen = calloc(np, sizeof *seen);
+    csi_status s = CSI_OK;
+    if (!next || !order || !seen)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the folds of %zu samples", n);
+    for (size_t i = 0; s == CSI_OK && i < n; i++)
+        next[pos[i].t + 1]++;
+    for (size_t t = 0; s == CSI_OK && t < g->t; t++)
+        next[t + 1] += next[t];
+    for (size_t i = 0; s == CSI_OK && i < n; i++)
+        order[next[pos[i].t]++] = i;
+    for (size_t j = 0; s == CSI_OK && j < n; j++) {
+        const size_t i = order[j], p = csi_recon_pixel_of(pos[i], bw, bh, g->out_w);
+        fold[i] = (uint8_t)((seen[p]++ + p % g->out_w + p / g->out_w) & 1);
     }
-    free(k);
-    return CSI_OK;
+    free(next);
+    free(order);
+    free(seen);
+    return s;
 }
 
 /* The samples whose fold is `f` (f = 2: all), binned to `bins` frames (bins = 0: as they are),
@@ -137,10 +128,11 @@ static csi_status gather(const csi_grid *g, uint32_t channels, const csi_sample_
 }
 
 /* The image (planar, out_w * out_h * channels) of csi's solve of these samples: on the volume's
- * grid (bins = 0) or binned to `bins` frames. */
+ * grid (bins = 0) or binned to `bins` frames; its times and CPU added to main's. */
 static csi_status solve_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                               const float *values, size_t n, const uint8_t *fold, int f, uint32_t bins,
-                              const csi_recon_options *opt, csi_sample_pos *pbuf, float *vbuf, float *image)
+                              const csi_recon_options *opt, csi_sample_pos *pbuf, float *vbuf, float *image,
+                              csi_recon_result *main)
 {
     size_t m = 0;
     CSI_TRY(gather(g, channels, pos, values, n, fold, f, bins, pbuf, vbuf, &m));
@@ -155,6 +147,10 @@ static csi_status solve_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels
     csi_recon_result r;
     CSI_TRY(csi_recon(ctx, &sg, channels, pbuf, vbuf, m, &o, &r));
     memcpy(image, r.image, (size_t)g->out_w * g->out_h * channels * sizeof *image);
+    main->t_setup += r.t_setup;
+    main->t_solve += r.t_solve;
+    main->t_integrate += r.t_integrate;
+    main->cpu_work += r.cpu_setup + r.cpu_work;
     csi_recon_result_free(&r);
     return CSI_OK;
 }
@@ -218,9 +214,9 @@ csi_status csi_recon_motion_image(csi_ctx *ctx, const csi_grid *g, uint32_t chan
         for (size_t p = 0; p < np; p++)
             for (uint32_t ch = 0; cnt[p] && ch < channels; ch++)
                 mean[ch * np + p] /= cnt[p];
-        s = solve_image(ctx, g, channels, pos, values, n, fold, a, 0, opt, pbuf, vbuf, def);
+        s = solve_image(ctx, g, channels, pos, values, n, fold, a, 0, opt, pbuf, vbuf, def, out);
         for (size_t j = 0; s == CSI_OK && j < nb; j++) {
-            s = solve_image(ctx, g, channels, pos, values, n, fold, a, bins[j], opt, pbuf, vbuf, alt);
+            s = solve_image(ctx, g, channels, pos, values, n, fold, a, bins[j], opt, pbuf, vbuf, alt, out);
             double *dj = d + (j * 2 + (size_t)a) * np;
             for (size_t p = 0; s == CSI_OK && p < np; p++)
                 for (uint32_t ch = 0; cnt[p] && ch < channels; ch++) {
@@ -271,7 +267,7 @@ csi_status csi_recon_motion_image(csi_ctx *ctx, const csi_grid *g, uint32_t chan
         for (size_t p = 0; p < np && !used; p++)
             used = pick[p] == (int)j;
         if (used)
-            s = solve_image(ctx, g, channels, pos, values, n, fold, 2, bins[j], opt, pbuf, vbuf, full + j * plane);
+            s = solve_image(ctx, g, channels, pos, values, n, fold, 2, bins[j], opt, pbuf, vbuf, full + j * plane, out);
     }
     for (size_t p = 0; s == CSI_OK && p < np; p++)
         if (pick[p] >= 0) {

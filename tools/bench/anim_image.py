@@ -12,6 +12,8 @@ own, with the volume solve kept for the frames:
          averaged, as csi's binned shutter does: host/integrate/binned.c, whose sampling
          operator takes one value per cell), solved by csi's defaults on the W x H x K grid;
          its image. K = 1 is Alg. 1 (2-D csi, with its noise-aware blend) on the per-pixel means.
+  gauss2d (--g2d) the oracle-tuned 2-D Gaussian normalized convolution of the samples projected
+         to x, y: the bound of a linear shift-invariant estimator that treats t as noise.
   cvK    per region, csi's default image or binK's (cvK+K': or the better of binK's and binK''s), whichever a two-fold cross-validation of the
          pixel integrals says is closer: each pixel's samples split in two folds (alternately in
          t order, the first fold by the pixel's parity), both estimators reconstructed from each
@@ -119,6 +121,30 @@ def region_sums(a, r):
     return p.reshape(hh // r, r, ww // r, r).sum(axis=(1, 3))
 
 
+def gauss2d_oracle(pos, vals, shape, ref):
+    """The bound of any estimator that treats t as noise and is linear and shift-invariant in x, y:
+    the 2-D Gaussian normalized convolution of the samples projected to x, y (periodic, as
+    bench_animation's 3-D one), its width the best of bench_animation's sweep against the truth."""
+    T, H, W = shape
+    fy, fx = np.fft.fftfreq(H)[:, None], np.fft.fftfreq(W)[None, :]
+    den = np.zeros((H, W))
+    np.add.at(den, (pos[:, 1], pos[:, 0]), 1.0)
+    best = None
+    for sg in ba.GAUSS_SIGMAS:
+        g = np.exp(-2 * np.pi ** 2 * sg ** 2 * (fy ** 2 + fx ** 2))
+        filt = lambda a: np.real(np.fft.ifft2(np.fft.fft2(a) * g))  # noqa: E731
+        d = filt(den)
+        out = np.empty((H, W, vals.shape[1]))
+        for c in range(vals.shape[1]):
+            num = np.zeros((H, W))
+            np.add.at(num, (pos[:, 1], pos[:, 0]), vals[:, c].astype(np.float64))
+            out[..., c] = filt(num) / np.maximum(d, 1e-12)
+        e = float(np.mean((out - ref) ** 2))
+        if best is None or e < best[0]:
+            best = (e, out)
+    return best[1]
+
+
 def cv_choice(pos, vals, shape, bins, z=CV_Z, region=CV_REGION):
     """(H, W) int: per pixel the index into `bins` of the binned estimator that wins against
     csi's default image by the two folds, -1 where none does. A region of side `region` (then,
@@ -175,24 +201,16 @@ def bundled_case(name, spp, seed, size, T, work, ref_cache):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--volumes", default="")
-    ap.add_argument("--scenes", default="")
-    ap.add_argument("--rates", default="0.01,0.03,0.1")
-    ap.add_argument("--seeds", default="0")
-    ap.add_argument("--size", default="64x64x16")
-    ap.add_argument("--mitsuba-size", default="64x64x16")
-    ap.add_argument("--ref-spp", type=int, default=64)
-    ap.add_argument("--paths", type=int, default=16)
+    ba.add_small_case_args(ap)
     ap.add_argument("--bins", default="1,2,4", help="binK estimators")
     ap.add_argument("--cv-bins", default="4", help="cv choices: comma list of K or K+K'+... (candidates)")
+    ap.add_argument("--g2d", action="store_true", help="also the oracle-tuned 2-D Gaussian of the projected samples")
     ap.add_argument("--bundled", default="", help="bundled moving scenes (csi-render), e.g. billiards,train")
     ap.add_argument("--spp", default="1,4,16")
     ap.add_argument("--bundled-seeds", default="1,2,3")
     ap.add_argument("--motion-size", default="64x64")
     ap.add_argument("--time-steps", type=int, default=32)
     ap.add_argument("--ref-cache", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-ref"))
-    ap.add_argument("--data", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-anim"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     size = tuple(int(v) for v in a.size.split("x"))
@@ -225,6 +243,9 @@ def main():
                 t0 = time.perf_counter()
                 gi, _, _, _ = ba.run_gauss(case)
                 res["gauss"] = (gi, None, time.perf_counter() - t0)
+            if a.g2d:
+                t0 = time.perf_counter()
+                res["gauss2d"] = (gauss2d_oracle(pos, vals, shape, ref), None, time.perf_counter() - t0)
             t0 = time.perf_counter()
             dimg = image_default(pos, vals, shape)
             res["csi"] = (dimg, None, time.perf_counter() - t0)

@@ -272,16 +272,7 @@ def segmented(pos, vals, grid, gain=0.03, r0=None, still_weight=1.0, hard=False,
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--volumes", default="")
-    ap.add_argument("--scenes", default="")
-    ap.add_argument("--rates", default="0.01,0.03,0.1")
-    ap.add_argument("--seeds", default="0")
-    ap.add_argument("--size", default="64x64x16")
-    ap.add_argument("--mitsuba-size", default="64x64x16")
-    ap.add_argument("--data", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-anim"))
-    ap.add_argument("--ref-spp", type=int, default=64)
-    ap.add_argument("--paths", type=int, default=16)
+    ba.add_small_case_args(ap)
     ap.add_argument("--gain", type=float, default=0.03)
     ap.add_argument("--layer-still-weight", type=float, default=1.0,
                     help="the added layers' solves with this --motion-still-weight (candidate)")

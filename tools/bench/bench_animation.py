@@ -84,6 +84,21 @@ MITSUBA_SCENES = {"anim_pan": os.path.join(ROOT, "data", "mitsuba", "anim_pan.py
                   "anim_ball": os.path.join(ROOT, "data", "mitsuba", "anim_ball.py")}
 
 
+def add_small_case_args(ap):
+    """The case options of the numpy prototypes around this benchmark (anim_segment.py,
+    anim_image.py): procedural volumes and Mitsuba scenes at 64 x 64 x 16 by default."""
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--volumes", default="")
+    ap.add_argument("--scenes", default="")
+    ap.add_argument("--rates", default="0.01,0.03,0.1")
+    ap.add_argument("--seeds", default="0")
+    ap.add_argument("--size", default="64x64x16")
+    ap.add_argument("--mitsuba-size", default="64x64x16")
+    ap.add_argument("--data", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-anim"))
+    ap.add_argument("--ref-spp", type=int, default=64)
+    ap.add_argument("--paths", type=int, default=16)
+
+
 def log(msg):
     print(f"[{time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
