@@ -12,6 +12,12 @@ configuration's extra error sits against the first's:
     total squared error (their sum is the MSE ratio minus 1);
   - hi: the share of the two images' difference energy above half the output's Nyquist
     frequency (|f| > 1/4 cycle per pixel on either axis).
+  - with --fold-cv, a rule that would choose between the first two configurations from the
+    samples alone: each pixel's samples split in two folds (csi_cv_folds' rule), each fold
+    reconstructed in both with the whole dump's filter width and tau, and z = sum D_p /
+    sqrt(sum D_p^2), D_p the second configuration's squared error against the other fold's
+    pixel mean minus the first's, summed over both directions and the channels (> 0: the
+    second loses on the held-out means); dumps under 2 samples per pixel get none.
 The tight stop shows whether a configuration's loss is a bias of its model or where the
 default stop happened to end: the default stop is early (an objective change of 3e-3), and its
 result moves by a few % with any change of the steps' path.
@@ -69,6 +75,55 @@ def study(args, bins, dump, ref, configs):
     return out
 
 
+def _write_subset(src, dst, mask):
+    """A dump of the records of src selected by mask (the header's words kept, the count set)."""
+    with open(src, "rb") as f:
+        head, body = f.read(64), f.read()
+    h = np.frombuffer(head, "<u4").copy()
+    c, n = int(h[7]), int(h[8]) | (int(h[9]) << 32)
+    rec = np.frombuffer(body, dtype=[("p", "<u4", 3), ("v", "<f4", c)], count=n)[mask]
+    h[8], h[9] = len(rec) & 0xFFFFFFFF, len(rec) >> 32
+    with open(dst, "wb") as f:
+        f.write(h.tobytes())
+        f.write(rec.tobytes())
+
+
+def fold_cv(args, dump, configs):
+    """The two-fold cross-validation of configs[1] against configs[0] (the module's docstring)."""
+    hdr, pos, val = bc.read_dump(dump)
+    ow, oh, c = hdr["out_w"], hdr["out_h"], hdr["channels"]
+    npx = ow * oh
+    if len(val) < 2 * npx:
+        return None
+    bw, bh = hdr["grid_w"] // ow, hdr["grid_h"] // oh
+    p = (pos[:, 1] // bh).astype(np.int64) * ow + pos[:, 0] // bw
+    k = np.ceil(np.sqrt(np.bincount(p, minlength=npx)[p])).astype(np.int64)
+    fold = ((pos[:, 0] % bw).astype(np.int64) * k // bw + (pos[:, 1] % bh).astype(np.int64) * k // bh) & 1
+    means, cnts = [], []
+    for f in (0, 1):
+        m = fold == f
+        cnt = np.bincount(p[m], minlength=npx)
+        cnts.append(cnt)
+        means.append(np.stack([np.bincount(p[m], weights=val[m, j].astype(np.float64), minlength=npx)
+                               for j in range(c)], -1) / np.maximum(cnt, 1)[:, None])
+    both = (cnts[0] > 0) & (cnts[1] > 0)
+    # the whole dump's filter width (sigma-spacing x sqrt(k / n)) and tau (3e-3 / spp) in a fold
+    # of about half the samples: csi-reconstruct's rules at the whole's density
+    same = ["--sigma-spacing", f"{0.8 * np.sqrt(0.5):.6f}", "--tau", f"{max(3e-3 * npx / len(val), 1e-5):.6g}"]
+    err = {}
+    for f in (0, 1):
+        fd = os.path.join(args.work, "mg_fold.csid")
+        _write_subset(dump, fd, fold == f)
+        for name, extra in configs[:2]:
+            exr, js = os.path.join(args.work, "mg_f.exr"), os.path.join(args.work, "mg_f.json")
+            bench_cost.reconstruct(args.build, fd, exr, js, [*extra, *same])
+            img = bc.read_exr(exr).astype(np.float64).reshape(npx, -1)[:, :c]
+            err[name] = err.get(name, 0) + ((img - means[1 - f]) ** 2).sum(axis=-1)
+    d = (err[configs[1][0]] - err[configs[0][0]])[both]
+    return dict(z=float(d.sum() / np.sqrt((d ** 2).sum())) if (d ** 2).sum() > 0 else 0.0,
+                rel=float(d.sum() / err[configs[0][0]][both].sum()))
+
+
 def markdown(rows, configs, ratios):
     """A table of the dumps where the configurations' D differ, and each ratio's range."""
     first = configs[0]
@@ -86,6 +141,21 @@ def markdown(rows, configs, ratios):
         lines.append(f"| {r['name']} | {' / '.join(str(r[c]['D']) for c in configs[:2])} | {r[first]['mse']:.4e} | " +
                      " | ".join(f"{r[a]['mse'] / r[b]['mse']:.4f}" for a, b in ratios) + " | " +
                      " | ".join(f"{r[c]['edge']:+.4f}, {r[c]['flat']:+.4f}" for c in configs[1:2]) + " |")
+    return "\n".join(lines) + "\n" + fold_cv_markdown(rows, configs)
+
+
+def fold_cv_markdown(rows, configs):
+    """The --fold-cv rule against the MSE: a table and the dumps where its sign is wrong."""
+    cv = [r for r in rows if r.get("fold_cv")]
+    if not cv:
+        return ""
+    a, b = configs[1], configs[0]
+    wrong = [r["name"] for r in cv if (r["fold_cv"]["z"] <= 0) != (r[a]["mse"] <= r[b]["mse"])]
+    lines = ["", f"- fold-cv: z <= 0 (the rule would take {a}) on {sum(r['fold_cv']['z'] <= 0 for r in cv)} of "
+             f"{len(cv)} dumps; {a}'s MSE <= {b}'s on {sum(r[a]['mse'] <= r[b]['mse'] for r in cv)}; "
+             f"the sign disagrees on {len(wrong)}", "",
+             f"| samples | {a} / {b} MSE | fold-cv z |", "|---|---|---|"]
+    lines += [f"| {r['name']} | {r[a]['mse'] / r[b]['mse']:.4f} | {r['fold_cv']['z']:+.2f} |" for r in cv]
     return "\n".join(lines) + "\n"
 
 
@@ -111,6 +181,8 @@ def main(argv=None):
     ap.add_argument("--ratio", action="append", default=[], metavar="A/B",
                     help="also report config A's MSE over config B's [" + ", ".join(DEFAULT_RATIOS) +
                     " with the default configurations]")
+    ap.add_argument("--fold-cv", action="store_true",
+                    help="also the two-fold cross-validation of the second configuration against the first")
     for flag, what in (("--json", "every figure (rewritten after each dump)"), ("--md", "the table as markdown"),
                        ("--from-json", "no runs: the table of an earlier --json")):
         ap.add_argument(flag, help=what)
@@ -141,6 +213,8 @@ def main(argv=None):
         if args.only and not any(o in name for o in args.only):
             continue
         r = study(args, bins, dump, ref.astype(np.float64), configs)
+        if args.fold_cv and r[configs[0][0]]["D"] != r[configs[1][0]]["D"]:
+            r["fold_cv"] = fold_cv(args, dump, configs)
         rows.append(dict(name=name, **r))
         b = r[configs[0][0]]
         bc.log(f"{name}: D {b['D']}, MSE {b['mse']:.4e}, steps {b['steps']}; " + "; ".join(
