@@ -13,7 +13,7 @@ own, with the volume solve kept for the frames:
          operator takes one value per cell), solved by csi's defaults on the W x H x K grid;
          its image. K = 1 is Alg. 1 (2-D csi, with its noise-aware blend) on the per-pixel means.
   gauss2d (--g2d) the oracle-tuned 2-D Gaussian normalized convolution of the samples projected
-         to x, y: the bound of a linear shift-invariant estimator that treats t as noise.
+         to x, y (t treated as noise).
   cvK    per region, csi's default image or binK's (cvK+K': or the better of binK's and binK''s), whichever a two-fold cross-validation of the
          pixel integrals says is closer: each pixel's samples split in two folds (alternately in
          t order, the first fold by the pixel's parity), both estimators reconstructed from each
@@ -88,9 +88,10 @@ def image_default(pos, vals, shape):
     return csi.reconstruct(pos, vals, (W, H, T, W, H)).image.astype(np.float64)
 
 
-def folds(pos, shape):
-    """Each pixel's samples alternately to folds 0 and 1 in t order, the first by the pixel's
-    parity (x + y): about half of every pixel's samples in each, independent of the values."""
+def folds(pos, shape, k=2):
+    """Each pixel's samples in turn to folds 0, 1, ..., k - 1 in t order, the first by (x + y)
+    mod k (k = 2: the pixel's parity): about 1/k of every pixel's samples in each, independent of
+    the values."""
     T, H, W = shape
     x, y, t = (pos[:, i].astype(np.int64) for i in range(3))
     pix = y * W + x
@@ -99,7 +100,7 @@ def folds(pos, shape):
     start = np.r_[0, np.flatnonzero(np.diff(ps)) + 1]
     rank = np.arange(len(ps)) - np.repeat(start, np.diff(np.r_[start, len(ps)]))
     f = np.empty(len(pos), np.int64)
-    f[order] = (rank + (x[order] + y[order])) & 1
+    f[order] = (rank + (x[order] + y[order])) % k
     return f
 
 
@@ -122,9 +123,9 @@ def region_sums(a, r):
 
 
 def gauss2d_oracle(pos, vals, shape, ref):
-    """The bound of any estimator that treats t as noise and is linear and shift-invariant in x, y:
-    the 2-D Gaussian normalized convolution of the samples projected to x, y (periodic, as
-    bench_animation's 3-D one), its width the best of bench_animation's sweep against the truth."""
+    """The 2-D Gaussian normalized convolution of the samples projected to x, y (t treated as
+    noise; periodic, as bench_animation's 3-D one), its width the best of bench_animation's sweep
+    against the truth."""
     T, H, W = shape
     fy, fx = np.fft.fftfreq(H)[:, None], np.fft.fftfreq(W)[None, :]
     den = np.zeros((H, W))
@@ -145,16 +146,17 @@ def gauss2d_oracle(pos, vals, shape, ref):
     return best[1]
 
 
-def cv_choice(pos, vals, shape, bins, z=CV_Z, region=CV_REGION):
+def cv_choice(pos, vals, shape, bins, z=CV_Z, region=CV_REGION, nfolds=2):
     """(H, W) int: per pixel the index into `bins` of the binned estimator that wins against
-    csi's default image by the two folds, -1 where none does. A region of side `region` (then,
-    where none wins there, of twice the side) takes, among the estimators whose two sums are both
-    below -z times the root of the sum of its pixels' squared D, the one with the smallest sum."""
+    csi's default image by the folds, -1 where none does. Each fold's samples are held out in
+    turn, both estimators made from the others. A region of side `region` (then, where none wins
+    there, of twice the side) takes, among the estimators whose sums (one per fold) are all below
+    -z times the root of the sum of its pixels' squared D, the one with the smallest total."""
     T, H, W = shape
-    f = folds(pos, shape)
-    d = [[None, None] for _ in bins]
-    for a in (0, 1):
-        ia, ib = f == a, f != a
+    f = folds(pos, shape, nfolds)
+    d = [[None] * nfolds for _ in bins]
+    for a in range(nfolds):
+        ia, ib = f != a, f == a
         m_b, n_b = pixel_means(pos[ib], vals[ib], shape)
         e_def = image_default(pos[ia], vals[ia], shape)
         for j, k in enumerate(bins):
@@ -165,12 +167,13 @@ def cv_choice(pos, vals, shape, bins, z=CV_Z, region=CV_REGION):
         best = np.full(region_sums(np.zeros((H, W)), r).shape, -1)
         best_s = np.zeros(best.shape)
         for j in range(len(bins)):
-            s0, s1 = region_sums(d[j][0], r), region_sums(d[j][1], r)
-            q = region_sums((d[j][0] + d[j][1]) ** 2, r)
+            sums = [region_sums(d[j][a], r) for a in range(nfolds)]
+            q = region_sums(sum(d[j]) ** 2, r)
             lim = z * np.sqrt(q)
-            ok = (s0 < -lim) & (s1 < -lim) & (q > 0) & (s0 + s1 < best_s)
+            tot = sum(sums)
+            ok = np.logical_and.reduce([sa < -lim for sa in sums]) & (q > 0) & (tot < best_s)
             best = np.where(ok, j, best)
-            best_s = np.where(ok, s0 + s1, best_s)
+            best_s = np.where(ok, tot, best_s)
         up = np.kron(best, np.ones((r, r), int))[:H, :W]
         choice = np.where(choice < 0, up, choice)
     return choice
@@ -204,6 +207,7 @@ def main():
     ba.add_small_case_args(ap)
     ap.add_argument("--bins", default="1,2,4", help="binK estimators")
     ap.add_argument("--cv-bins", default="4", help="cv choices: comma list of K or K+K'+... (candidates)")
+    ap.add_argument("--folds", type=int, default=2, help="folds of the cv choices (2: the engine's)")
     ap.add_argument("--g2d", action="store_true", help="also the oracle-tuned 2-D Gaussian of the projected samples")
     ap.add_argument("--bundled", default="", help="bundled moving scenes (csi-render), e.g. billiards,train")
     ap.add_argument("--spp", default="1,4,16")
@@ -255,11 +259,11 @@ def main():
             for ks in cvb:
                 t0 = time.perf_counter()
                 alts = [res[f"bin{k}"][0] if k in bins else image_binned(pos, vals, shape, k) for k in ks]
-                ch = cv_choice(pos, vals, shape, ks)
+                ch = cv_choice(pos, vals, shape, ks, nfolds=a.folds)
                 img = dimg.copy()
                 for j, alt in enumerate(alts):
                     img = np.where((ch == j)[..., None], alt, img)
-                res["cv" + "+".join(map(str, ks))] = (img, float((ch >= 0).mean()), time.perf_counter() - t0)
+                res["cv" + "+".join(map(str, ks)) + (f"f{a.folds}" if a.folds != 2 else "")] = (img, float((ch >= 0).mean()), time.perf_counter() - t0)
             err = {m: float(np.mean((r[0] - ref) ** 2)) for m, r in res.items()}
             g, d = err.get("gauss", float("nan")), err["csi"]
             for m, (_, share, sec) in res.items():
