@@ -19,6 +19,10 @@ pixels which of the two full-sample images to keep:
             spread (cvz, the cv_select rule with the windows as the fallback), or the windows only
             where both folds say so (cvzb, the binned as the fallback); cvblend: the
             least-squares weight per region against the other fold's pixel means
+  cv4       (--quarters) four folds (each pixel's samples in t order dealt 0, 1, 2, 3, 0, ...):
+            each image made from three of them and scored against the fourth's pixel means, the
+            four d summed; the binned image where the region's sum is positive (cv4) or above z
+            times the root of its sum of squares (cvz4)
 
 Volumes: billiards and train 64x64 x 256 at 16 spp (the dumps and 256-spp references as
 windows_still.py makes them), billiards128 / train128 (128x128 x 64 / 32, 4 spp), the disc
@@ -78,27 +82,32 @@ def load_case(name, out, bins, env):
 
 
 def folds(pos, grid):
-    """Each sample's fold: within its pixel, samples in (t, y, x) order alternate 0, 1, 0, ..."""
+    """Each sample's rank within its pixel in (t, y, x) order, and its pixel: fold rank & 1 of two,
+    rank & 3 of four."""
     bw, bh = grid[0] // grid[3], grid[1] // grid[4]
     pix = (pos[:, 1] // bh).astype(np.int64) * grid[3] + pos[:, 0] // bw
     order = np.lexsort((pos[:, 0], pos[:, 1], pos[:, 2], pix))
     sp = pix[order]
     start = np.r_[0, np.flatnonzero(np.diff(sp)) + 1]
     rank = np.arange(len(sp)) - np.repeat(start, np.diff(np.r_[start, len(sp)]))
-    f = np.empty(len(pos), np.uint8)
-    f[order] = rank & 1
+    f = np.empty(len(pos), np.int64)
+    f[order] = rank
     return f, pix
 
 
-def images(name, out, bins, env, windows):
-    """The cached images of `name`: truth, whole, and per N: windows, binned, and both per fold."""
+def images(name, out, bins, env, windows, quarters=False):
+    """The cached images of `name`: truth, whole, and per N: windows, binned, and both per fold
+    (quarters: also both from each three quarters of the samples, four folds)."""
     cache = os.path.join(out, "cache", name.replace(":", "_") + ".npz")
     have = dict(np.load(cache)) if os.path.exists(cache) else {}
     need = ["whole"] + [f"{k}{N}" for N in windows for k in ("w", "b", "w0_", "w1_", "b0_", "b1_")]
+    if quarters:
+        need += [f"{k}q{q}_{N}" for N in windows for k in "wb" for q in range(4)]
     if all(k in have for k in need):
         return have
     grid, pos, vals, seed, exact, truth = load_case(name, out, bins, env)
-    fold, pix = folds(pos, grid)
+    rank, pix = folds(pos, grid)
+    fold, quarter = rank & 1, rank & 3
     npx = grid[3] * grid[4]
     C = vals.shape[1]
     have["truth"] = truth
@@ -108,6 +117,11 @@ def images(name, out, bins, env, windows):
         s = np.stack([np.bincount(pix[m], weights=vals[m, c].astype(np.float64), minlength=npx) for c in range(C)], 1)
         have[f"cnt{f}"] = cnt
         have[f"sum{f}"] = s
+    for q in range(4):
+        m = quarter == q
+        have[f"qcnt{q}"] = np.bincount(pix[m], minlength=npx).astype(np.float64)
+        have[f"qsum{q}"] = np.stack([np.bincount(pix[m], weights=vals[m, c].astype(np.float64), minlength=npx)
+                                     for c in range(C)], 1)
 
     def rec(p, v, **kw):
         t0 = time.perf_counter()
@@ -124,6 +138,11 @@ def images(name, out, bins, env, windows):
                 key = f"{k}{f}_{N}"
                 if key not in have:
                     m = fold == f
+                    have[key], _ = rec(pos[m], vals[m], tiles=0, tiles_t=N, **kw)
+            for q in range(4) if quarters else ():
+                key = f"{k}q{q}_{N}"
+                if key not in have:
+                    m = quarter != q
                     have[key], _ = rec(pos[m], vals[m], tiles=0, tiles_t=N, **kw)
         os.makedirs(os.path.dirname(cache), exist_ok=True)
         np.savez(cache, **have)
@@ -184,6 +203,17 @@ def choices(h, N, r, z):
     out["cv"] = d[0] + d[1] > 0
     out["cvz"] = (d[0] > z * ss[0]) & (d[1] > z * ss[1])
     out["cvzb"] = ~((d[0] < -z * ss[0]) & (d[1] < -z * ss[1]))
+    if "wq0_%d" % N in h:  # four folds: images of three quarters scored against the fourth's pixel means
+        d4, s4 = 0, 0
+        for q in range(4):
+            cnt, s = h[f"qcnt{q}"].reshape(H, Wd), h[f"qsum{q}"].reshape(H, Wd, -1)
+            ok = cnt > 0
+            m = s / np.maximum(cnt, 1)[..., None]
+            dq = (((h[f"wq{q}_{N}"] - m) ** 2 - (h[f"bq{q}_{N}"] - m) ** 2).sum(-1)) * ok
+            d4 = d4 + region_sum(dq, r)
+            s4 = s4 + region_sum(dq ** 2, r)
+        out["cv4"] = d4 > 0
+        out["cvz4"] = d4 > z * np.sqrt(s4)
     return out
 
 
@@ -192,6 +222,8 @@ COLUMNS = (  # (column, rule, region side, z)
     ("cv r8", "cv", 8, 0), ("cvz r8 z1.5", "cvz", 8, 1.5), ("cvz r8 z1", "cvz", 8, 1.0),
     ("cvz r4 z1", "cvz", 4, 1.0), ("cvz r16 z1.5", "cvz", 16, 1.5), ("cvzb r8 z1.5", "cvzb", 8, 1.5),
     ("cvblend r8", "cvblend", 8, 0))
+QUARTER_COLUMNS = (("cv4 r8", "cv4", 8, 0), ("cvz4 r8 z1", "cvz4", 8, 1.0), ("cvz4 r8 z1.5", "cvz4", 8, 1.5),
+                   ("cv4 r16", "cv4", 16, 0))
 
 
 def main():
@@ -199,20 +231,21 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--cases", default="billiards")
     ap.add_argument("--windows", default="2,4,8")
+    ap.add_argument("--quarters", action="store_true", help="also the four-fold rules (8 more solves a count)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     bins, env = bs.binaries(), bc.default_env()
     windows = [int(v) for v in a.windows.split(",")]
     rows = []
     for name in a.cases.split(","):
-        h = images(name, a.out, bins, env, windows)
+        h = images(name, a.out, bins, env, windows, a.quarters)
         t = h["truth"]
         e0 = mse(h["whole"], t)
         for N in windows:
             W, B = h[f"w{N}"], h[f"b{N}"]
             row = {"case": name, "windows": N, "whole MSE": f"{e0:.3e}", "windows' image": mse(W, t) / e0,
                    "binned": mse(B, t) / e0, "half": mse((W + B) / 2, t) / e0}
-            for col, rule, r, z in COLUMNS:
+            for col, rule, r, z in COLUMNS + (QUARTER_COLUMNS if a.quarters else ()):
                 if rule in ("oblend", "cvblend"):
                     wb = blends(h, N, r)[rule][..., None]
                 else:
