@@ -52,6 +52,13 @@ csi_status csi_recon_motion_image(csi_ctx *ctx, const csi_grid *g, uint32_t chan
                                   const csi_sample_pos *pos, const float *values, size_t n,
                                   const csi_recon_options *opt, csi_recon_result *out);
 
+/* Isolated peaks by the log fit (csi/peak_range.h) on a still image's result `out`
+ * (reconstructed from all n samples with opt, out->options resolved): the peak pixels take the
+ * fit's value; its time and CPU are added to out's. Nothing runs where no pixel is a peak pixel. */
+csi_status csi_recon_peak_range(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                const float *values, size_t n, const csi_recon_options *opt,
+                                csi_recon_result *out);
+
 /* Releases everything in st (not st itself). */
 void csi_recon_state_free(csi_recon_state *st);
 

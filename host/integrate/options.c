@@ -98,6 +98,11 @@ static const row table[] = {
      "on with the blend (noisy samples, not flagged exact) on an image reconstructed whole, "
      "where it acts from 2 samples per pixel on average; off otherwise (another correction, "
      "tiled runs, volumes, the baselines)"},
+    {"peak-range", K_CHOICE, AT(peak_range), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "images with the blend: a pixel of several samples whose brightest is at least 4 times all "
+     "its others takes the mean over its cells of a fit of log(1 + y / s) on the fine grid, "
+     "expanded (one more reconstruction, its output the size of the grid)",
+     "off"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

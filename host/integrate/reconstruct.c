@@ -140,6 +140,17 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
             return s;
         }
     }
+    /* Isolated peaks by the log fit (csi/peak_range.h): after the choice, which compares the
+     * blend with the mean and knows nothing of this estimate. */
+    if (tl.count > 1 && out->options.peak_range == CSI_SWITCH_ON)
+        out->options.peak_range = CSI_SWITCH_OFF;
+    if (grid->t == 1 && out->options.estimator == CSI_EST_CS && out->options.peak_range == CSI_SWITCH_ON) {
+        s = csi_recon_peak_range(ctx, grid, channels, pos, values, n, &opt, out);
+        if (s != CSI_OK) {
+            csi_recon_result_free(out);
+            return s;
+        }
+    }
     /* Isolated peaks against their own noise (csi/peak_noise.h): last, so that a region the choice
      * gave its means loses its noisy peaks too. A tiled run's tiles did it in their windows
      * (tiled.c), before the blend, as a tile run alone does. */

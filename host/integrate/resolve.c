@@ -182,6 +182,12 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
      * samples, on the whole image (a tile cannot see the whole's folds: reconstruct.c). */
     if (o->cv_select == CSI_SWITCH_AUTO)
         o->cv_select = o->correct == CSI_CORRECT_BLEND && !scope ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+    /* The log fit at isolated peaks (csi/peak_range.h): an option, measured in
+     * docs/bench/mitsuba.md (session 10). */
+    if (o->peak_range == CSI_SWITCH_AUTO || o->correct != CSI_CORRECT_BLEND || scope)
+        o->peak_range = o->peak_range == CSI_SWITCH_ON && o->correct == CSI_CORRECT_BLEND && !scope
+                            ? CSI_SWITCH_ON
+                            : CSI_SWITCH_OFF;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)

@@ -161,6 +161,9 @@ typedef struct csi_recon_options {
     double cv_n0;                 /* CV shrinkage (see csi_aa_correct) */
     csi_switch cv_select;         /* images: per region, the image or the per-pixel mean, chosen
                                      by two-fold cross-validation (csi/cv_select.h) */
+    csi_switch peak_range;        /* images with the blend: a pixel whose samples hold one isolated
+                                     peak takes a fit of the samples' logarithm
+                                     (csi/peak_range.h); auto: off */
     double tol;                   /* solver tolerance; 0 auto */
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
@@ -271,6 +274,7 @@ typedef struct csi_recon_result {
     csi_solve_report report[4];
     size_t cv_switched;     /* pixels the cross-validated choice gave their mean (cv_select) */
     size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
+    size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
     double t_channel_integrate[4]; /* t_integrate per channel (the solves: report[c].t_total) */
