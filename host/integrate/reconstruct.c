@@ -85,6 +85,11 @@ csi_status csi_recon_check_variance(const float *variance, size_t n, uint32_t ch
     return CSI_OK;
 }
 
+/* A step on a whole reconstruction's result (internal.h: csi_recon_cv_select and its kind). */
+typedef csi_status (*whole_step)(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                 const float *values, size_t n, const csi_recon_options *opt,
+                                 csi_recon_result *out);
+
 csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
                      const float *values, size_t n, const csi_recon_options *opt_in,
                      csi_recon_result *out)
@@ -118,34 +123,27 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     free(scaled);
     CSI_TRY(s);
     csi_recon_unscale_result(out, e);
-    /* The cross-validated choice needs the folds' reconstructions of the whole image; a tile (a
-     * job of its own, csi/tiles.h) sees its window only, so a tiled run goes without it. */
-    if (tl.count > 1 && out->options.cv_select == CSI_SWITCH_ON)
-        out->options.cv_select = CSI_SWITCH_OFF;
-    if (grid->t == 1 && out->options.estimator == CSI_EST_CS && out->options.cv_select == CSI_SWITCH_ON) {
-        s = csi_recon_cv_select(ctx, grid, channels, pos, values, n, &opt, out);
-        if (s != CSI_OK) {
-            csi_recon_result_free(out);
-            return s;
-        }
-    }
-    /* A volume's image chosen per region against binned solves' (motion_image.c): like the
-     * choice above it needs the whole volume's folds, so a tiled run goes without it. */
-    if (tl.count > 1 && out->options.motion_image_cv == CSI_SWITCH_ON)
-        out->options.motion_image_cv = CSI_SWITCH_OFF;
-    if (grid->t > 1 && out->options.estimator == CSI_EST_CS && out->options.motion_image_cv == CSI_SWITCH_ON) {
-        s = csi_recon_motion_image(ctx, grid, channels, pos, values, n, &opt, out);
-        if (s != CSI_OK) {
-            csi_recon_result_free(out);
-            return s;
-        }
-    }
-    /* Isolated peaks by the log fit (csi/peak_range.h): after the choice, which compares the
-     * blend with the mean and knows nothing of this estimate. */
-    if (tl.count > 1 && out->options.peak_range == CSI_SWITCH_ON)
-        out->options.peak_range = CSI_SWITCH_OFF;
-    if (grid->t == 1 && out->options.estimator == CSI_EST_CS && out->options.peak_range == CSI_SWITCH_ON) {
-        s = csi_recon_peak_range(ctx, grid, channels, pos, values, n, &opt, out);
+    /* The steps on the whole result that need the whole image's (or volume's) samples: the
+     * cross-validated choice (csi/cv_select.h), a volume's image chosen against binned solves'
+     * (motion_image.c), then isolated peaks by the log fit (csi/peak_range.h), which comes after the
+     * choice since the choice compares the blend with the mean and knows nothing of it. A tile (a
+     * job of its own, csi/tiles.h) sees its window only, so a tiled run goes without them. */
+    int cs = out->options.estimator == CSI_EST_CS, tiled = tl.count > 1;
+    const struct {
+        whole_step fn;
+        csi_switch *on;
+        int applies;
+    } steps[] = {
+        {csi_recon_cv_select, &out->options.cv_select, cs && grid->t == 1},
+        {csi_recon_motion_image, &out->options.motion_image_cv, cs && grid->t > 1},
+        {csi_recon_peak_range, &out->options.peak_range, cs && grid->t == 1},
+    };
+    for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++) {
+        if (tiled && *steps[k].on == CSI_SWITCH_ON)
+            *steps[k].on = CSI_SWITCH_OFF;
+        if (!steps[k].applies || *steps[k].on != CSI_SWITCH_ON)
+            continue;
+        s = steps[k].fn(ctx, grid, channels, pos, values, n, &opt, out);
         if (s != CSI_OK) {
             csi_recon_result_free(out);
             return s;
