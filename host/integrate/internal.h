@@ -106,6 +106,17 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
                             const csi_recon_options *opt, csi_recon_result *res,
                             csi_recon_state *st);
+/* Reweighted l1 in Alg. 2's solve (motion_reweight.c): a second solver on A G, G a gain per
+ * coefficient. _run re-solves opt->motion_reweight times from the solution in st->x (tau from
+ * tau_scale, the unweighted operator's ||A^H y||_inf), leaving the last in st->x and in rep the
+ * last solve's report with every solve's work added. */
+typedef struct csi_motion_reweight csi_motion_reweight;
+csi_status csi_motion_reweight_create(csi_linop *A, csi_motion_reweight **out);
+csi_status csi_motion_reweight_run(csi_motion_reweight *rw, csi_recon_state *st, const csi_recon_options *opt,
+                                   double tau_scale, csi_solve_report *rep);
+void csi_motion_reweight_free(csi_motion_reweight *rw);
+void csi_motion_reweight_buffers(size_t rows, size_t cols, csi_mem_tally *t);
+uint64_t csi_motion_reweight_host_bytes(size_t rows, size_t cols);
 csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                               const csi_sample_pos *pos, const float *values, size_t n,
                               const csi_recon_options *opt, csi_recon_result *res,

@@ -210,6 +210,11 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     res->options.stop = sopt.stop;
     if (s == CSI_OK)
         s = csi_solver_create(st->A, &st->solver);
+    /* Reweighted l1 (motion_reweight.c): its own solver on A G, the first solve staying the
+     * plain one on A. */
+    csi_motion_reweight *rw = NULL;
+    if (s == CSI_OK && opt->motion_reweight > 0)
+        s = csi_motion_reweight_create(st->A, &rw);
 
     csi_nc_op rnc;
     memset(&rnc, 0, sizeof rnc);
@@ -290,6 +295,9 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
          * whole's. */
         double tau_scale = st->scope && st->scope->has_scale
                                ? (double)n * fabs(st->scope->scale[c]) / sqrt((double)k) : 0;
+        /* The reweighted l1's re-solves keep the first solve's tau (the unweighted operator's). */
+        if (s == CSI_OK && rw && !still_weighted && tau_scale == 0)
+            s = csi_solver_adjoint_amax(st->solver, st->y, &tau_scale);
         /* With the still layer weighted, tau is relative to ||A^H y||_inf of the unweighted
          * operator, so that the weight moves that layer's threshold and no other. */
         if (s == CSI_OK && still_weighted && tau_scale == 0) {
@@ -301,6 +309,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
         if (s == CSI_OK)
             s = csi_recon_run_solver(st, &sopt, tau_scale, &res->report[c]);
+        if (s == CSI_OK && rw)
+            s = csi_motion_reweight_run(rw, st, &sopt, tau_scale, &res->report[c]);
         if (s == CSI_OK)
             s = csi_finish(ctx);
         double t1 = csi_recon_now();
@@ -346,6 +356,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         t_int += res->t_channel_integrate[c];
     }
     csi_nc_free(&rnc);
+    csi_motion_reweight_free(rw);
     csi_linop_free(G);
     csi_linop_free(Sr);
     free(fine_at);

@@ -177,6 +177,13 @@ static const row table[] = {
      "volumes (half spectrum): the l1 weight of the coefficients constant along t in the basis's "
      "frame (the still layer; with a velocity, what moves at it) relative to the others'; tau "
      "is still set from the unweighted problem (0.5: docs/bench/animation.md, round 7)", NULL},
+    {"motion-reweight", K_INT, AT(motion_reweight), 0, 16, NULL, 0, "0", "N",
+     "volumes: reweighted l1 (Candes, Wakin & Boyd 2008): N re-solves, each with an l1 weight per "
+     "coefficient c / (|z| + eps) from the previous solution z (c: its weighted l1 is its l1), "
+     "warm-started; each costs about a solve or more (docs/bench/animation.md, session 11)", NULL},
+    {"motion-reweight-eps", K_DOUBLE, AT(motion_reweight_eps), 1e-6, 1e6, NULL, 0, "10", "E",
+     "volumes: the reweighted l1's eps, relative to the previous solution's mean non-zero "
+     "coefficient magnitude", NULL},
     {"motion-image-cv", K_CHOICE, AT(motion_image_cv), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "volumes solved whole: per region of 8 or 16 pixels, the blurred image of the volume solve or "
      "of a solve of the shutter binned to 4 frames (samples sharing a cell averaged), whichever "

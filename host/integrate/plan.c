@@ -223,6 +223,10 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
     csi_mem_tally_add(&m->dev, (uint64_t)wh * 4, "the time mean");
     csi_mem_tally_add(&m->dev, (uint64_t)n * 4, "the real measurements");
     m->host += csi_solver_host_bytes(n, ncoef, true, false);
+    if (opt->motion_reweight > 0) { /* motion_reweight.c: a second solver on A G */
+        csi_motion_reweight_buffers(n, ncoef, &m->dev);
+        m->host += csi_motion_reweight_host_bytes(n, ncoef);
+    }
     transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
     /* the motion basis's tables and its filter (velocity search, residual correction) */
     const bool moved = half && (g->w > 1 || g->h > 1) &&

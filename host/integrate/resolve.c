@@ -160,6 +160,9 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         /* the still layer's weight is a gain of the half-spectrum operator */
         if (o->motion_full_spectrum)
             o->motion_still_weight = 1;
+        /* the reweighted l1's eps: 0, a caller's unset field, is the option's default */
+        if (o->motion_reweight_eps <= 0)
+            o->motion_reweight_eps = 10;
         if (o->solver == CSI_SOLVER_SPARSA)
             motion_sparsa(o, n);
         return CSI_OK;

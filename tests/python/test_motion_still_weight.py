@@ -33,73 +33,30 @@ sys.path.insert(0, os.path.join(HERE, "..", "..", "host", "python"))
 sys.path.insert(0, HERE)
 import csi  # noqa: E402
 from checks import check, done  # noqa: E402
+from weighted_l1_problem import GRID, N, PAPER, TAU_REL, check_minimiser, fista, sampled, samples, volume  # noqa: E402
 
-N = 8
-T = 8
-GRID = (N, N, T, N, N)
-TAU_REL = 0.03
 TOL = 1e-4
-PAPER = dict(motion_velocity="none", motion_time="dft", motion_filter=-1, motion_resid_sigma=-1,
-             correct="none", stop="gap", tol=1e-7, max_iter=20000, frames="on")
-
-
-def volume():
-    t, y, x = np.meshgrid(np.arange(T), np.arange(N), np.arange(N), indexing="ij")
-    f = 0.5 + 0.2 * np.cos(2 * np.pi * x / N) + 0.1 * np.sin(2 * np.pi * 2 * y / N) + 0.08 * (((x // 2) + (y // 2)) % 2)
-    sq = (np.abs(x - (1 + 0.75 * t)) < 1.5) & (np.abs(y - 4) < 1.5)
-    return np.where(sq, 1.3, f)
 
 
 def reference(shape, idx, y, weight):
-    """FISTA on the complex spectrum, float64: the frames Re(F^H x) of the weighted minimiser."""
-    m = np.zeros(shape)
-    m.flat[idx] = 1.0
-    ys = np.zeros(shape)
-    ys.flat[idx] = y
-    grad0 = np.fft.fftn(ys, norm="ortho")
-    tau = TAU_REL * np.abs(grad0).max()
+    """The frames Re(F^H x) of the weighted minimiser (weight W on the plane u_t = 0)."""
+    m, ys, tau = sampled(shape, idx, y)
     w = np.ones(shape)
     w[0] = weight  # axis 0 is t: the plane u_t = 0
-    thr = tau * w
-    x = np.zeros(shape, complex)
-    z, tk = x.copy(), 1.0
-    for _ in range(200000):
-        r = m * np.fft.ifftn(z, norm="ortho") - ys  # S^T (S F^H z - y), complex (the imaginary part too)
-        v = z - np.fft.fftn(r, norm="ortho")
-        a = np.abs(v)
-        xn = v * np.maximum(0.0, 1.0 - thr / np.maximum(a, 1e-300))
-        tn = (1 + np.sqrt(1 + 4 * tk * tk)) / 2
-        z = xn + (tk - 1) / tn * (xn - x)
-        change = np.abs(xn - x).max()
-        x, tk = xn, tn
-        if change < 1e-13:
-            break
-    return np.real(np.fft.ifftn(x, norm="ortho"))
+    return np.real(np.fft.ifftn(fista(m, ys, tau * w), norm="ortho"))
 
 
 def main():
     f = volume()
-    rng = np.random.default_rng(5)
-    idx = np.sort(rng.choice(f.size, f.size // 2, replace=False))
-    t, r = np.divmod(idx, N * N)
-    yy, xx = np.divmod(r, N)
-    pos = np.stack([xx, yy, t], axis=1).astype(np.uint32)
-    vals = f.reshape(-1)[idx].astype(np.float32)[:, None]
+    idx, pos, vals = samples(f)
     peak = f.max()
     ref1 = reference(f.shape, idx, vals[:, 0].astype(np.float64), 1.0)
     base = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, **PAPER)
     for W in (0.25, 4.0):
         want = reference(f.shape, idx, vals[:, 0].astype(np.float64), W)
         res = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, motion_still_weight=W, **PAPER)
-        got = res.frames[..., 0].astype(np.float64)  # (T, H, W)
-        e = np.abs(got - want).max() / peak
-        apart = np.abs(want - ref1).max() / peak
-        e1 = np.abs(got - ref1).max() / peak
-        print(f"W = {W}: {e:.2e} from the weighted, {e1:.2e} from the unweighted, minimisers {apart:.2e} apart")
-        check(e <= TOL, f"W = {W}: the library's frames within {e:.2e} of the float64 weighted minimiser's "
-              f"(tolerance {TOL:g} of the peak)")
-        check(apart > 5 * TOL and e < e1, f"W = {W}: the weighted and unweighted minimisers {apart:.2e} apart; the "
-              f"library {e:.2e} from the weighted, {e1:.2e} from the unweighted")
+        check_minimiser(res.frames[..., 0].astype(np.float64), want, ref1, peak, TOL, f"W = {W}", "weighted",
+                        "unweighted")
     e0 = np.abs(base.frames[..., 0] - ref1).max() / peak
     check(e0 <= TOL, f"W = 1 (the default): {e0:.2e} from the float64 unweighted minimiser")
     same = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, motion_still_weight=1, **PAPER)

@@ -1,10 +1,10 @@
 /* The resource plan (csi/plan.h) against what reconstructions really allocate.
  *
  * For small reconstructions of every method and its variants (Alg. 1 with SpaRSA, ROMP and
- * ROMP with column norms; Alg. 2 on the half spectrum, the full spectrum and an odd width that
- * forces the full spectrum and clFFT's filter; frames; the Gaussian baseline in 2-D and 3-D,
- * with an odd width on clFFT's path; the sample mean) the peak of device bytes live at once is
- * measured twice, independently:
+ * ROMP with column norms; Alg. 2 on the half spectrum, with the reweighted l1, on the full
+ * spectrum and with an odd width that forces the full spectrum and clFFT's filter; frames; the
+ * Gaussian baseline in 2-D and 3-D, with an odd width on clFFT's path; the sample mean) the peak
+ * of device bytes live at once is measured twice, independently:
  *   - by csi_buffer's own counter (csi_device_bytes_peak), and
  *   - by clCreateBuffer / clReleaseMemObject defined in this executable, which every caller in
  *     the process reaches (csi's library and clFFT's shared library resolve the symbol here
@@ -196,6 +196,9 @@ int main(void)
     o = opts();
     o.motion_resid_sigma = -1;
     cases[nc++] = (run_case){"Alg. 2, no residual correction", {32, 32, 8, 8, 8}, 1, 0.1, o, 0, false};
+    o = opts();
+    o.motion_reweight = 2; /* a second solver on A G */
+    cases[nc++] = (run_case){"Alg. 2, reweighted l1", {32, 32, 8, 8, 8}, 2, 0.1, o, 0, false};
     o = opts();
     /* an odd width has no half spectrum: the full one on csi's kernels, the residual
      * correction's Gaussian on clFFT */
