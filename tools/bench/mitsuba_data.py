@@ -40,6 +40,7 @@ SCENES = {
     "horizon": os.path.join(ROOT, "data", "mitsuba", "horizon.py"),
     "envmap": os.path.join(ROOT, "data", "mitsuba", "envmap.py"),
     "glints": os.path.join(ROOT, "data", "mitsuba", "glints.py"),
+    "neon_tubes": os.path.join(ROOT, "data", "mitsuba", "neon_tubes.py"),
 }
 
 README = """Mitsuba 3 sample dumps and references for csi (issue 9), made by
