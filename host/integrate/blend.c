@@ -54,7 +54,8 @@
  * estimate is not, and where they cannot be told apart the unbiased one is the safe choice.
  * When every sample of the channel is >= 0 the result is clamped at 0, which never increases
  * any pixel's error when the truth is non-negative. A pixel without a sample is moved from b
- * towards the median of its neighbours' means by the mean of their betas. */
+ * towards the median of its neighbours' means by the mean of their betas (and, beside an HDR
+ * step, once all channels are done, possibly to its dark side: csi/empty_pixels.h). */
 #include <math.h>
 #include <stdlib.h>
 

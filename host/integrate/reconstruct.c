@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/empty_pixels.h"
 #include "csi/peak_noise.h"
 #include "internal.h"
 
@@ -144,6 +145,17 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         if (!steps[k].applies || *steps[k].on != CSI_SWITCH_ON)
             continue;
         s = steps[k].fn(ctx, grid, channels, pos, values, n, &opt, out);
+        if (s != CSI_OK) {
+            csi_recon_result_free(out);
+            return s;
+        }
+    }
+    /* Pixels without a sample next to an HDR step (csi/empty_pixels.h): on the blend's whole image, all
+     * channels at once (the step is judged on their mean). A tiled run goes without it, as without
+     * the steps above. */
+    if (grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
+        out->options.correct == CSI_CORRECT_BLEND) {
+        s = csi_empty_pixels(grid, channels, pos, values, n, out->image);
         if (s != CSI_OK) {
             csi_recon_result_free(out);
             return s;

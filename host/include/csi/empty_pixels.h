@@ -1,0 +1,22 @@
+/* Pixels without a sample next to an HDR step: the last step of a still image's blend
+ * (csi_aa_correct CSI_CORRECT_BLEND in csi/reconstruct.h), on the whole result, all channels at
+ * once. host/integrate/empty_pixels.c says why and how. */
+#ifndef CSI_EMPTY_PIXELS_H
+#define CSI_EMPTY_PIXELS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/samples.h"
+#include "csi/status.h"
+
+/* image: a still image's result, out_w * out_h * channels, planar, in and out. Each pixel of g
+ * that holds none of the n samples, whose 8 neighbours' means (by the channels' mean) span an
+ * HDR step (a ratio of 4, fully from 16) and in which the image stands less than a tenth of the
+ * way from the darkest of them to the brightest (fully below a twentieth), moves by that weight
+ * to the lowest of its neighbours' means, channel by channel; no value is raised. g->t must be
+ * 1. */
+csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                            const float *values, size_t n, float *image);
+
+#endif
