@@ -83,20 +83,6 @@ static void sort_window(double *w, int m)
     }
 }
 
-/* The 3 x 3 neighbourhood of pixel p clipped to the image: its pixel indices, and their count. */
-static int window(size_t p, size_t ow, size_t oh, size_t nb[9])
-{
-    long px = (long)(p % ow), py = (long)(p / ow);
-    int k = 0;
-    for (long dy = -1; dy <= 1; dy++)
-        for (long dx = -1; dx <= 1; dx++) {
-            long x = px + dx, y = py + dy;
-            if (x >= 0 && y >= 0 && x < (long)ow && y < (long)oh)
-                nb[k++] = (size_t)y * ow + (size_t)x;
-        }
-    return k;
-}
-
 /* The median of the non-NaN values among a[nb[0..k)]; INFINITY if there is none. */
 static double window_median(const double *a, const size_t *nb, int k)
 {
@@ -170,7 +156,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     size_t nb[9];
     for (size_t p = 0; p < np; p++) {
         double l = INFINITY, h = -INFINITY;
-        int k = window(p, ow, oh, nb);
+        int k = csi_recon_window3(p, ow, oh, nb);
         for (int j = 0; j < k; j++) {
             l = fmin(l, V[nb[j]]);
             h = fmax(h, q[nb[j]]);
@@ -204,7 +190,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
                 s2 = ss[p] / (double)(cnt[p] - 1);
         } else if (cnt[p]) {
             double d1 = INFINITY, d2 = INFINITY; /* the two smallest neighbour differences */
-            int k = window(p, ow, oh, nb);
+            int k = csi_recon_window3(p, ow, oh, nb);
             for (int j = 0; j < k; j++) {
                 if (nb[j] == p || !cnt[nb[j]])
                     continue;
@@ -231,7 +217,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
             continue;
         }
         double fpc = 1.0 - (double)cnt[p] / cells;
-        double med = window_median(rel, nb, window(p, ow, oh, nb));
+        double med = window_median(rel, nb, csi_recon_window3(p, ow, oh, nb));
         if (!by_pixel && !isnan(rel[p]))
             med = fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
         double noise = fpc > 0 && isfinite(med) ? med / (double)cnt[p] * fpc : 0.0;
@@ -251,7 +237,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         rel[p] = NAN;
         if (!cnt[p])
             continue;
-        int k = window(p, ow, oh, nb), kf = 0;
+        int k = csi_recon_window3(p, ow, oh, nb), kf = 0;
         double qs = 0, ds = 0, vs = 0;
         for (int j = 0; j < k; j++) {
             qs += q[nb[j]];
@@ -270,7 +256,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
      * from m before it), then the blend. */
     for (size_t p = 0; p < np; p++) {
         double ml = INFINITY, mh = -INFINITY;
-        int k = window(p, ow, oh, nb);
+        int k = csi_recon_window3(p, ow, oh, nb);
         for (int j = 0; j < k; j++)
             if (cnt[nb[j]]) {
                 ml = fmin(ml, m[nb[j]]);
@@ -291,7 +277,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
              * the neighbours trust their own (b alone leaks a bright neighbour's light into an
              * unsampled dark pixel as readily as into a sampled one). */
             double w[9], bs = 0;
-            int k = window(p, ow, oh, nb), kf = 0;
+            int k = csi_recon_window3(p, ow, oh, nb), kf = 0;
             for (int j = 0; j < k; j++)
                 if (cnt[nb[j]]) {
                     w[kf++] = m[nb[j]];

@@ -66,22 +66,19 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
     for (size_t p = 0; p < np; p++) {
         if (cnt[p])
             continue;
-        long px = (long)(p % ow), py = (long)(p / ow);
+        size_t nb[9];
+        const int k = csi_recon_window3(p, ow, oh, nb);
         double lo = INFINITY, hi = -INFINITY, here = 0;
-        for (long dy = -1; dy <= 1; dy++)
-            for (long dx = -1; dx <= 1; dx++) {
-                long x = px + dx, y = py + dy;
-                if (x < 0 || y < 0 || x >= (long)ow || y >= (long)oh)
-                    continue;
-                size_t q = (size_t)y * ow + (size_t)x;
-                if (!cnt[q])
-                    continue;
-                double b = 0;
-                for (uint32_t c = 0; c < channels; c++)
-                    b += m[(size_t)c * np + q];
-                b = fmax(b / channels, 0.0);
-                lo = fmin(lo, b), hi = fmax(hi, b);
-            }
+        for (int j = 0; j < k; j++) {
+            const size_t q = nb[j];
+            if (!cnt[q])
+                continue;
+            double b = 0;
+            for (uint32_t c = 0; c < channels; c++)
+                b += m[(size_t)c * np + q];
+            b = fmax(b / channels, 0.0);
+            lo = fmin(lo, b), hi = fmax(hi, b);
+        }
         if (!(hi > lo))
             continue;
         for (uint32_t c = 0; c < channels; c++)
@@ -94,12 +91,9 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
             continue;
         for (uint32_t c = 0; c < channels; c++) {
             double d = INFINITY;
-            for (long dy = -1; dy <= 1; dy++)
-                for (long dx = -1; dx <= 1; dx++) {
-                    long x = px + dx, y = py + dy;
-                    if (x >= 0 && y >= 0 && x < (long)ow && y < (long)oh && cnt[(size_t)y * ow + (size_t)x])
-                        d = fmin(d, m[(size_t)c * np + (size_t)y * ow + (size_t)x]);
-                }
+            for (int j = 0; j < k; j++)
+                if (cnt[nb[j]])
+                    d = fmin(d, m[(size_t)c * np + nb[j]]);
             float *x = image + (size_t)c * np + p;
             if (*x > d)
                 *x = (float)(*x - w * (*x - d));

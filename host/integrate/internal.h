@@ -200,6 +200,21 @@ static inline size_t csi_recon_pixel_of(csi_sample_pos p, uint32_t bw, uint32_t 
     return (size_t)(p.y / bh) * ow + p.x / bw;
 }
 
+/* The 3 x 3 neighbourhood of pixel p (row-major, ow x oh) clipped to the image: its pixel indices
+ * in row order, p among them, and their count. */
+static inline int csi_recon_window3(size_t p, size_t ow, size_t oh, size_t nb[9])
+{
+    long px = (long)(p % ow), py = (long)(p / ow);
+    int k = 0;
+    for (long dy = -1; dy <= 1; dy++)
+        for (long dx = -1; dx <= 1; dx++) {
+            long x = px + dx, y = py + dy;
+            if (x >= 0 && y >= 0 && x < (long)ow && y < (long)oh)
+                nb[k++] = (size_t)y * ow + (size_t)x;
+        }
+    return k;
+}
+
 /* The per-pixel correction of one channel (csi_aa_correct in csi/reconstruct.h; `how` is CV or
  * BLEND) of plane, which holds the box integral of the fine estimate `fine`: gathers `fine` at
  * the samples through S (into `gathered`, n floats on the device; S NULL: `fine` already holds
