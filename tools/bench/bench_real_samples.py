@@ -31,7 +31,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bench_common import binaries, default_env, read_dump, read_exr  # noqa: E402
 
-SCENES = ["cornell", "envmap", "glossy_sun", "horizon", "thin_geometry", "glints", "neon_tubes"]
+SCENES = ["cornell", "envmap", "glossy_sun", "horizon", "thin_geometry", "glints", "neon_tubes", "street_lamps"]
 
 
 def errors(img, ref):

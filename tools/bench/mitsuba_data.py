@@ -41,6 +41,7 @@ SCENES = {
     "envmap": os.path.join(ROOT, "data", "mitsuba", "envmap.py"),
     "glints": os.path.join(ROOT, "data", "mitsuba", "glints.py"),
     "neon_tubes": os.path.join(ROOT, "data", "mitsuba", "neon_tubes.py"),
+    "street_lamps": os.path.join(ROOT, "data", "mitsuba", "street_lamps.py"),
 }
 
 README = """Mitsuba 3 sample dumps and references for csi (issue 9), made by
