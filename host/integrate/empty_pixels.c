@@ -15,7 +15,22 @@
  * the fit seeing the pixel mostly on the bright side (an emitter's edge, which it extrapolates
  * well), and is kept. Ramps, not thresholds: the step counts from a ratio H / D of R0 (fully
  * from R1), a fraction below F (fully below F / 2) is lowered. Only ever lowered, never below
- * D, so the result stays in the range of the neighbours' means. */
+ * D, so the result stays in the range of the neighbours' means.
+ *
+ * How far up the step a real sliver can stand depends on the bright side's shape. Beside an
+ * extended emitter (the Cornell box's) the pixel may be mostly covered while the fit, which
+ * under-reads such an edge, sees it low on the step: only a small f says the pixel is dark.
+ * Beside a source that lives inside one pixel (a sub-pixel lamp) or a line one pixel wide (a
+ * thin tube), the light does not reach past that pixel, and the fit's blur alone puts a good
+ * fraction of it into the pixel next to it. The samples tell the two apart. A bright neighbour
+ * q (above the step's geometric midpoint, sqrt((D + eps) (H + eps)) - eps: on an HDR step a
+ * noisy bright side's samples spread over a ratio, not a fraction) is the edge of something extended when the light goes on
+ * past it straight away from the pixel: when the pixel beyond q, on the line from the pixel
+ * through q, holds samples at least a quarter as far up the step as q's (ramped from an eighth
+ * to a half). The pixel is on the feature, not beside it, when two bright neighbours lie on
+ * opposite sides of it. Where neither is, the bright side stands alone (a lamp on a dark sky, a
+ * tube beside a dark wall): the fit's value then says nothing of the pixel, and F_ALONE takes
+ * anything up to the step's top for the leak. */
 #include "csi/empty_pixels.h"
 
 #include <math.h>
@@ -31,6 +46,14 @@
  * may move (docs/bench/mitsuba.md, session 11); larger ones also lowered the corners of the
  * Cornell box's emitter, which the fit under-reads. */
 #define EMPTY_F 0.1
+/* The fraction beside a bright side that stands alone, not going on past its own pixels (fully
+ * below half of it): all of the step, as the fit's value says nothing of such a pixel. Smaller
+ * ones were measured (docs/bench/mitsuba.md, session 12) and left more of the leak. */
+#define EMPTY_F_ALONE 1.0
+/* How far up the step (relative to the bright neighbour's) the light beyond that neighbour must
+ * stand for the bright side to count as extended: a ramp from an eighth to a half. */
+#define EMPTY_BEYOND0 0.125
+#define EMPTY_BEYOND1 0.5
 /* The floor that keeps the ratio finite at 0: blend.c's 1% of the mean absolute value. */
 #define EMPTY_EPS_REL 1e-2
 
@@ -39,15 +62,50 @@ static double ramp(double x, double lo, double hi)
     return fmin(fmax((x - lo) / (hi - lo), 0.0), 1.0);
 }
 
+/* How far the bright side beside pixel p goes on past it: over p's sampled neighbours q at or
+ * above bt, the largest (b[r] - lo) / (b[q] - lo) of r = q + (q - p), the pixel
+ * beyond q straight away from p, where r holds samples (0 where none does); 1 where two such q
+ * lie on opposite sides of p (p between them: the feature runs through p). b is each pixel's
+ * mean over the channels, cnt its count of samples. */
+static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double lo,
+                     double bt)
+{
+    const long px = (long)(p % ow), py = (long)(p / ow);
+    size_t nb[9];
+    long dx[9], dy[9];
+    int m = 0;
+    const int k = csi_recon_window3(p, ow, oh, nb);
+    for (int j = 0; j < k; j++)
+        if (cnt[nb[j]] && b[nb[j]] >= bt) {
+            nb[m] = nb[j];
+            dx[m] = (long)(nb[j] % ow) - px, dy[m] = (long)(nb[j] / ow) - py;
+            m++;
+        }
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < i; j++)
+            if (dx[i] * dx[j] + dy[i] * dy[j] < 0)
+                return 1.0;
+    double most = 0;
+    for (int i = 0; i < m; i++) {
+        const long rx = px + 2 * dx[i], ry = py + 2 * dy[i];
+        if (rx < 0 || ry < 0 || rx >= (long)ow || ry >= (long)oh)
+            continue;
+        const size_t r = (size_t)ry * ow + (size_t)rx;
+        if (cnt[r])
+            most = fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
+    }
+    return most;
+}
+
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                             const float *values, size_t n, float *image)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     uint32_t *cnt = calloc(np, sizeof *cnt);
-    double *m = calloc(np * channels, sizeof *m);
-    if (!cnt || !m) {
-        free(cnt), free(m);
+    double *m = calloc(np * channels, sizeof *m), *b = calloc(np, sizeof *b);
+    if (!cnt || !m || !b) {
+        free(cnt), free(m), free(b);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
     double sabs = 0;
@@ -59,9 +117,15 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
             sabs += fabs((double)values[i * channels + c]);
         }
     }
-    for (size_t p = 0; p < np; p++)
-        for (uint32_t c = 0; c < channels && cnt[p]; c++)
+    for (size_t p = 0; p < np; p++) {
+        if (!cnt[p])
+            continue;
+        for (uint32_t c = 0; c < channels; c++) {
             m[(size_t)c * np + p] /= cnt[p];
+            b[p] += m[(size_t)c * np + p];
+        }
+        b[p] = fmax(b[p] / channels, 0.0);
+    }
     const double e = EMPTY_EPS_REL * (n ? sabs / (double)n / channels : 0.0);
     for (size_t p = 0; p < np; p++) {
         if (cnt[p])
@@ -69,24 +133,22 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
         size_t nb[9];
         const int k = csi_recon_window3(p, ow, oh, nb);
         double lo = INFINITY, hi = -INFINITY, here = 0;
-        for (int j = 0; j < k; j++) {
-            const size_t q = nb[j];
-            if (!cnt[q])
-                continue;
-            double b = 0;
-            for (uint32_t c = 0; c < channels; c++)
-                b += m[(size_t)c * np + q];
-            b = fmax(b / channels, 0.0);
-            lo = fmin(lo, b), hi = fmax(hi, b);
-        }
+        for (int j = 0; j < k; j++)
+            if (cnt[nb[j]])
+                lo = fmin(lo, b[nb[j]]), hi = fmax(hi, b[nb[j]]);
         if (!(hi > lo))
             continue;
         for (uint32_t c = 0; c < channels; c++)
             here += image[(size_t)c * np + p];
         here /= channels;
         const double f = (here - lo) / (hi - lo);
-        const double w = ramp(log((hi + e) / (lo + e)), log(EMPTY_R0), log(EMPTY_R1)) *
-                         (1.0 - ramp(f, 0.5 * EMPTY_F, EMPTY_F));
+        const double step = ramp(log((hi + e) / (lo + e)), log(EMPTY_R0), log(EMPTY_R1));
+        if (step <= 0)
+            continue;
+        const double bt = sqrt((lo + e) * (hi + e)) - e; /* bright: above the step's geometric midpoint */
+        const double alone = 1.0 - ramp(beyond(p, ow, oh, cnt, b, lo, bt), EMPTY_BEYOND0, EMPTY_BEYOND1);
+        const double F = EMPTY_F + (EMPTY_F_ALONE - EMPTY_F) * alone;
+        const double w = step * (1.0 - ramp(f, 0.5 * F, F));
         if (w <= 0)
             continue;
         for (uint32_t c = 0; c < channels; c++) {
@@ -99,6 +161,6 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
                 *x = (float)(*x - w * (*x - d));
         }
     }
-    free(cnt), free(m);
+    free(cnt), free(m), free(b);
     return CSI_OK;
 }
