@@ -151,8 +151,8 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         }
     }
     /* Pixels without a sample next to an HDR step (csi/empty_pixels.h): on the blend's whole image, all
-     * channels at once (the step is judged on their mean). A tiled run goes without it, as without
-     * the steps above. */
+     * channels at once (the step is judged on their mean). A tiled run's tiles did it in their
+     * windows (tiled.c), before the blend, as a tile run alone does. */
     if (grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
         out->options.correct == CSI_CORRECT_BLEND) {
         s = csi_empty_pixels(grid, channels, pos, values, n, out->image);

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/empty_pixels.h"
 #include "csi/peak_noise.h"
 #include "csi/tiles.h"
 #include "internal.h"
@@ -182,6 +183,26 @@ static csi_status tile_peaks(const csi_tiling *tl, uint32_t index, uint32_t chan
     return s;
 }
 
+/* Pixels without a sample next to an HDR step (csi/empty_pixels.h) in a tile's window, on the
+ * samples as given, before the tile's peaks as in an untiled run. The rule looks two pixels around
+ * a pixel (its neighbours and theirs), and a pixel a tile contributes with a weight above 0 lies
+ * at least half the margin (2 pixels with the automatic margins) inside its window, so it is
+ * judged on the same neighbours' samples as the whole image's would be (only the rule's floor,
+ * 1% of the samples' mean absolute value, is the window's, as the blend's is in a tile); tiles
+ * run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
+static csi_status tile_empty_pixels(const csi_tiling *tl, uint32_t index, uint32_t channels,
+                                    const csi_sample_pos *pos, const float *values, size_t n,
+                                    csi_recon_result *r)
+{
+    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.correct != CSI_CORRECT_BLEND)
+        return CSI_OK;
+    tile_problem p;
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
+    const csi_status s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, r->image);
+    tile_problem_free(&p);
+    return s;
+}
+
 csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
                                 const csi_recon_options *opt, const csi_tiling *tl,
@@ -195,6 +216,8 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
+    if (s == CSI_OK && (s = tile_empty_pixels(tl, index, channels, pos, values, n, &out->r)) != CSI_OK)
+        csi_tile_result_free(out);
     if (s == CSI_OK && opt->sample_variance && (s = tile_peaks(tl, index, channels, pos, values,
                                                                opt->sample_variance, n, &out->r)) != CSI_OK)
         csi_tile_result_free(out);
