@@ -20,17 +20,18 @@
  * How far up the step a real sliver can stand depends on the bright side's shape. Beside an
  * extended emitter (the Cornell box's) the pixel may be mostly covered while the fit, which
  * under-reads such an edge, sees it low on the step: only a small f says the pixel is dark.
- * Beside a source that lives inside one pixel (a sub-pixel lamp) or a line one pixel wide (a
- * thin tube), the light does not reach past that pixel, and the fit's blur alone puts a good
- * fraction of it into the pixel next to it. The samples tell the two apart. A bright neighbour
- * q (above the step's geometric midpoint, sqrt((D + eps) (H + eps)) - eps: on an HDR step a
- * noisy bright side's samples spread over a ratio, not a fraction) is the edge of something extended when the light goes on
- * past it straight away from the pixel: when the pixel beyond q, on the line from the pixel
- * through q, holds samples at least a quarter as far up the step as q's (ramped from an eighth
- * to a half). The pixel is on the feature, not beside it, when two bright neighbours lie on
- * opposite sides of it. Where neither is, the bright side stands alone (a lamp on a dark sky, a
- * tube beside a dark wall): the fit's value then says nothing of the pixel, and F_ALONE takes
- * anything up to the step's top for the leak. */
+ * Beside a source that lives inside one pixel (a sub-pixel lamp), the light does not reach the
+ * pixel, and the fit's blur alone puts a good fraction of it there. The samples tell the two
+ * apart. A neighbour is bright above the step's geometric midpoint, sqrt((D + eps) (H + eps)) -
+ * eps (on an HDR step a noisy bright side's samples spread over a ratio, not a fraction). The
+ * bright side stands alone unless its light goes on past the pixel's 3 x 3 window: a pixel next
+ * to a bright neighbour q, outside the window, holds samples at least a quarter as far up the
+ * step as q's (ramped from an eighth to a half); nor does it where two bright neighbours lie on
+ * opposite sides of the pixel (the feature runs through it). A bright side that stands alone
+ * says nothing of the pixel through the fit's value, and F_ALONE takes anything up to the
+ * step's top for the leak. A thin tube beside the pixel goes on past the window along itself
+ * and keeps F: at one sample per pixel many of a thin line's own pixels read dark, and which of
+ * the pixels without a sample it runs through the samples do not say. */
 #include "csi/empty_pixels.h"
 
 #include <math.h>
@@ -62,16 +63,16 @@ static double ramp(double x, double lo, double hi)
     return fmin(fmax((x - lo) / (hi - lo), 0.0), 1.0);
 }
 
-/* How far the bright side beside pixel p goes on past it: over p's sampled neighbours q at or
- * above bt, the largest (b[r] - lo) / (b[q] - lo) of r = q + (q - p), the pixel
- * beyond q straight away from p, where r holds samples (0 where none does); 1 where two such q
- * lie on opposite sides of p (p between them: the feature runs through p). b is each pixel's
- * mean over the channels, cnt its count of samples. */
+/* How far the bright side beside pixel p goes on past p's 3 x 3 window: over p's sampled
+ * neighbours q at or above bt, the largest (b[r] - lo) / (b[q] - lo) of a sampled pixel r next to
+ * q outside p's window (0 where none is); 1 where two such q lie on opposite sides of p (p
+ * between them: the feature runs through p). b is each pixel's mean over the channels, cnt its
+ * count of samples. */
 static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double lo,
                      double bt)
 {
     const long px = (long)(p % ow), py = (long)(p / ow);
-    size_t nb[9];
+    size_t nb[9], nq[9];
     long dx[9], dy[9];
     int m = 0;
     const int k = csi_recon_window3(p, ow, oh, nb);
@@ -87,12 +88,13 @@ static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const 
                 return 1.0;
     double most = 0;
     for (int i = 0; i < m; i++) {
-        const long rx = px + 2 * dx[i], ry = py + 2 * dy[i];
-        if (rx < 0 || ry < 0 || rx >= (long)ow || ry >= (long)oh)
-            continue;
-        const size_t r = (size_t)ry * ow + (size_t)rx;
-        if (cnt[r])
-            most = fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
+        const int kq = csi_recon_window3(nb[i], ow, oh, nq);
+        for (int j = 0; j < kq; j++) {
+            const size_t r = nq[j];
+            const long rx = (long)(r % ow), ry = (long)(r / ow);
+            if (cnt[r] && (labs(rx - px) > 1 || labs(ry - py) > 1))
+                most = fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
+        }
     }
     return most;
 }

@@ -6,18 +6,20 @@
  * f of the way from the darkest neighbour to the brightest. e, the rule's floor, is 1% of the
  * samples' mean absolute value. The fraction below which the centre is taken for the dark side
  * (fully below half of it) follows the bright side's shape:
- *   1. A line one pixel wide along row 1 (a thin tube beside the centre, nothing beyond it, on a
- *      dark wall: the bright side stands alone, F_ALONE = 1): at B = 1000, f = 0.02 and f = 0.45 the centre becomes exactly its
- *      lowest neighbours' means, 1 and 2; at f = 0.75 (halfway up the ramp from a half to all of
- *      the step) it moves half of the way there, to 1 + (x - 1) / 2 (1% relative: the ramp in the
- *      ratio is 1 here); at B = 3 (a ratio below 4: ordinary shading), f = 0.02, the same bits.
- *   2. Rows 0 and 1 bright (an extended region whose edge runs beside the centre, F = 0.1):
- *      f = 0.02 the dark side, f = 0.075 halfway, f = 0.45 the same bits.
- *   3. The line of case 1 and the pixel below the centre, (2, 3), a quarter of the way up the step
+ *   1. One bright pixel, (2, 1), above the centre (a sub-pixel source: its light goes on past
+ *      no pixel of the centre's window, the bright side stands alone, F_ALONE = 1): at B = 1000,
+ *      f = 0.02 and f = 0.45 the centre becomes exactly its lowest neighbours' means, 1 and 2;
+ *      at f = 0.75 (halfway up the ramp from a half to all of the step) it moves half of the way
+ *      there, to 1 + (x - 1) / 2 (1% relative: the ramp in the ratio is 1 here); at B = 3 (a
+ *      ratio below 4: ordinary shading), f = 0.02, the same bits.
+ *   2. A line one pixel wide along row 1 (it goes on past the window along itself, F = 0.1):
+ *      f = 0.02 the dark side, f = 0.075 halfway, f = 0.45 the same bits; rows 0 and 1 bright
+ *      (an extended region's edge beside the centre): the same.
+ *   3. The bright pixel of case 1 and the pixel below the centre, (2, 3), a quarter of the way up
  *      (bright: above the step's geometric midpoint; the centre lies between bright pixels, on
  *      the feature, F = 0.1): f = 0.02 the dark side, f = 0.075 halfway, f = 0.45 the same bits.
  *   4. A segment of row 2, pixels 1 to 3, through the centre (bright on both sides of it, dark
- *      beyond: the centre is on the feature, F = 0.1): f = 0.45 the same bits.
+ *      beyond): f = 0.45 the same bits.
  *   5. In every case every pixel holding a sample keeps its bits, and nothing is raised. */
 #include <math.h>
 #include <string.h>
@@ -28,14 +30,16 @@
 
 enum { OW = 5, F = 4, NP = OW * OW, C = 2 };
 
-enum { LINE1, EXTENDED, LINE1_BELOW, THROUGH };
+enum { POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH };
 
 static int bright_pixel(int shape, int p)
 {
     const int x = p % OW, y = p / OW;
     switch (shape) {
+    case POINT:
+    case POINT_BELOW:
+        return x == 2 && y == 1;
     case LINE1:
-    case LINE1_BELOW:
         return y == 1;
     case EXTENDED:
         return y <= 1;
@@ -56,7 +60,7 @@ static void run(int shape, double bright, double f, const char *what, int expect
             continue;
         pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1), (uint32_t)(p / OW * F + 2), 0};
         val[n * C] = bright_pixel(shape, p) ? (float)bright : 1.0f;
-        if (shape == LINE1_BELOW && p == 3 * OW + 2)
+        if (shape == POINT_BELOW && p == 3 * OW + 2)
             val[n * C] = (float)(1.0 + 0.25 * (bright - 1.0));
         val[n * C + 1] = 2 * val[n * C];
         n++;
@@ -92,16 +96,19 @@ static void run(int shape, double bright, double f, const char *what, int expect
 
 int main(void)
 {
-    run(LINE1, 1000, 0.02, "a leak beside a line of 1000", 1);
-    run(LINE1, 1000, 0.45, "a large leak beside a line of 1000", 1);
-    run(LINE1, 1000, 0.75, "beside a line, halfway up the ramp", 2);
-    run(LINE1, 3, 0.02, "a step of 3", 0);
+    run(POINT, 1000, 0.02, "a leak beside a source of 1000", 1);
+    run(POINT, 1000, 0.45, "a large leak beside a source of 1000", 1);
+    run(POINT, 1000, 0.75, "beside a source, halfway up the ramp", 2);
+    run(POINT, 3, 0.02, "a step of 3", 0);
+    run(LINE1, 1000, 0.02, "a leak beside a line", 1);
+    run(LINE1, 1000, 0.075, "beside a line, halfway up the ramp", 2);
+    run(LINE1, 1000, 0.45, "beside a line", 0);
     run(EXTENDED, 1000, 0.02, "a leak beside an extended region", 1);
     run(EXTENDED, 1000, 0.075, "beside an extended region, halfway up the ramp", 2);
     run(EXTENDED, 1000, 0.45, "an extended region's edge", 0);
-    run(LINE1_BELOW, 1000, 0.02, "a leak between a line and a bright pixel", 1);
-    run(LINE1_BELOW, 1000, 0.075, "between a line and a bright pixel, halfway up the ramp", 2);
-    run(LINE1_BELOW, 1000, 0.45, "between a line and a bright pixel", 0);
-    run(THROUGH, 1000, 0.45, "a line through the pixel", 0);
+    run(POINT_BELOW, 1000, 0.02, "a leak between two bright pixels", 1);
+    run(POINT_BELOW, 1000, 0.075, "between two bright pixels, halfway up the ramp", 2);
+    run(POINT_BELOW, 1000, 0.45, "between two bright pixels", 0);
+    run(THROUGH, 1000, 0.45, "a segment through the pixel", 0);
     return test_done();
 }
