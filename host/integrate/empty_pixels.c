@@ -20,21 +20,43 @@
  * How far up the step a real sliver can stand depends on the bright side's shape. Beside an
  * extended emitter (the Cornell box's) the pixel may be mostly covered while the fit, which
  * under-reads such an edge, sees it low on the step: only a small f says the pixel is dark.
- * Beside a source that lives inside one pixel (a sub-pixel lamp), the light does not reach the
- * pixel, and the fit's blur alone puts a good fraction of it there. The samples tell the two
- * apart. A neighbour is bright above the step's geometric midpoint, sqrt((D + eps) (H + eps)) -
- * eps (on an HDR step a noisy bright side's samples spread over a ratio, not a fraction). The
- * bright side stands alone unless its light goes on past the pixel's 3 x 3 window: a pixel next
- * to a bright neighbour q, outside the window, holds samples at least a quarter as far up the
- * step as q's (ramped from an eighth to a half); nor does it where two bright neighbours lie on
- * opposite sides of the pixel (the feature runs through it). A bright side that stands alone
- * says nothing of the pixel through the fit's value, and F_ALONE takes anything up to the
- * step's top for the leak. A thin tube beside the pixel goes on past the window along itself
- * and keeps F: at one sample per pixel many of a thin line's own pixels read dark, and which of
- * the pixels without a sample it runs through the samples do not say. */
+ * Beside a source that lives inside one pixel (a sub-pixel lamp) or a line one pixel wide (a
+ * thin tube, a gap between the slats of a blind), the light does not reach past that pixel, and
+ * the fit's blur alone puts a good fraction of it into the pixel next to it. The samples tell
+ * the two apart. A neighbour q is bright above the step's geometric midpoint, sqrt((D + eps)
+ * (H + eps)) - eps (on an HDR step a noisy bright side's samples spread over a ratio, not a
+ * fraction), and the edge of something extended when the light goes on past it straight away
+ * from the pixel: when the pixel beyond q, on the line from the pixel through q, holds samples
+ * at least a quarter as far up the step as q's (ramped from an eighth to a half). The pixel is
+ * on the feature, not beside it, when two bright neighbours lie on opposite sides of it. Where
+ * neither is, the bright side stands alone: the fit's value then says nothing of the pixel, and
+ * F_ALONE takes anything up to the step's top for the leak. A line beside the pixel counts as
+ * alone although it goes on along itself: at one sample per pixel some of a thin tube's own
+ * pixels read dark and the pixels without a sample it runs through lose its light (a few % of
+ * the image's MSE, docs/bench/mitsuba.md session 12), but beside a row of such lines (a blind's
+ * slats against the sky) the fit stands halfway up the step in dark pixels and the relative
+ * error is 50 times the mean's.
+ *
+ * Where the step runs in lines one pixel wide (the slats of a blind against a bright sky, a lamp
+ * two pixels across), the bright side goes on past the pixel and the fit, which blurs the lines
+ * together, stands anywhere up the step: the fraction says nothing either way. The neighbours'
+ * arrangement does. Each of the four lines through the pixel (its row, its column, the two
+ * diagonals) whose two neighbours hold samples on one side of the step (the same side of its
+ * geometric midpoint) is a candidate for the pixel's own side: the pixel lies on a line of that
+ * side. A candidate is supported by each line parallel to it in the 3 x 3 pixels (two of them)
+ * whose samples are all on one side, and contradicted by each whose samples are not: a dark
+ * slat between bright gaps has uniform rows above and below it, a bright line crossing a dark
+ * wall uniform columns beside it. The row and the column come first (their neighbours are
+ * nearer); the diagonals count only where neither is a candidate, and then only with a
+ * supporting line (two dark corners alone are also what a bright feature's corner looks like).
+ * The best supported candidate wins; a tie goes to the dark side, as the relative error at
+ * stake is the larger by the step's ratio squared. A dark winner moves the pixel (by the step's
+ * ramp) to the mean of its two neighbours, channel by channel; a bright one leaves it. */
 #include "csi/empty_pixels.h"
 
+#include <limits.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 
 #include "internal.h"
@@ -57,22 +79,26 @@
 #define EMPTY_BEYOND1 0.5
 /* The floor that keeps the ratio finite at 0: blend.c's 1% of the mean absolute value. */
 #define EMPTY_EPS_REL 1e-2
+/* The lines' sides are split at the step's geometric midpoint with its dark end floored at this
+ * fraction of its bright end: over a dark side of exact zeros (one-path samples that found no
+ * light) the midpoint would otherwise fall among the dark side's own noise. */
+#define EMPTY_SIDE_FLOOR 1e-3
 
 static double ramp(double x, double lo, double hi)
 {
     return fmin(fmax((x - lo) / (hi - lo), 0.0), 1.0);
 }
 
-/* How far the bright side beside pixel p goes on past p's 3 x 3 window: over p's sampled
- * neighbours q at or above bt, the largest (b[r] - lo) / (b[q] - lo) of a sampled pixel r next to
- * q outside p's window (0 where none is); 1 where two such q lie on opposite sides of p (p
- * between them: the feature runs through p). b is each pixel's mean over the channels, cnt its
- * count of samples. */
+/* How far the bright side beside pixel p goes on past it: over p's sampled neighbours q at or
+ * above bt, the largest (b[r] - lo) / (b[q] - lo) of r = q + (q - p), the pixel beyond q
+ * straight away from p, where r holds samples (0 where none does); 1 where two such q lie on
+ * opposite sides of p (p between them: the feature runs through p). b is each pixel's mean over
+ * the channels, cnt its count of samples. */
 static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double lo,
                      double bt)
 {
     const long px = (long)(p % ow), py = (long)(p / ow);
-    size_t nb[9], nq[9];
+    size_t nb[9];
     long dx[9], dy[9];
     int m = 0;
     const int k = csi_recon_window3(p, ow, oh, nb);
@@ -88,15 +114,79 @@ static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const 
                 return 1.0;
     double most = 0;
     for (int i = 0; i < m; i++) {
-        const int kq = csi_recon_window3(nb[i], ow, oh, nq);
-        for (int j = 0; j < kq; j++) {
-            const size_t r = nq[j];
-            const long rx = (long)(r % ow), ry = (long)(r / ow);
-            if (cnt[r] && (labs(rx - px) > 1 || labs(ry - py) > 1))
-                most = fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
-        }
+        const long rx = px + 2 * dx[i], ry = py + 2 * dy[i];
+        if (rx < 0 || ry < 0 || rx >= (long)ow || ry >= (long)oh)
+            continue;
+        const size_t r = (size_t)ry * ow + (size_t)rx;
+        if (cnt[r])
+            most = fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
     }
     return most;
+}
+
+/* The four lines through a pixel, as offsets (dx, dy): the two neighbours on it, then the lines
+ * parallel to it in the 3 x 3 pixels (three pixels each for the row and the column, two for a
+ * diagonal). */
+typedef struct {
+    int pair[2][2];
+    int lines[2][3][2];
+    int len;
+} line_dir;
+
+static const line_dir DIRS[4] = {
+    {{{-1, 0}, {1, 0}}, {{{-1, -1}, {0, -1}, {1, -1}}, {{-1, 1}, {0, 1}, {1, 1}}}, 3},  /* row */
+    {{{0, -1}, {0, 1}}, {{{-1, -1}, {-1, 0}, {-1, 1}}, {{1, -1}, {1, 0}, {1, 1}}}, 3},  /* column */
+    {{{-1, -1}, {1, 1}}, {{{0, -1}, {1, 0}}, {{-1, 0}, {0, 1}}}, 2},                     /* NW-SE */
+    {{{1, -1}, {-1, 1}}, {{{0, -1}, {-1, 0}}, {{1, 0}, {0, 1}}}, 2},                     /* NE-SW */
+};
+
+/* The sampled pixel at offset (dx, dy) from p, or SIZE_MAX (outside the image, or no sample). */
+static size_t sampled_at(size_t p, int dx, int dy, size_t ow, size_t oh, const uint32_t *cnt)
+{
+    const long x = (long)(p % ow) + dx, y = (long)(p / ow) + dy;
+    if (x < 0 || y < 0 || x >= (long)ow || y >= (long)oh)
+        return SIZE_MAX;
+    const size_t q = (size_t)y * ow + (size_t)x;
+    return cnt[q] ? q : SIZE_MAX;
+}
+
+/* The line through empty pixel p that the arrangement of its neighbours puts it on, when that
+ * line is on the dark side (the header's last paragraph): its index in DIRS, or -1 (none, or a
+ * bright one). b: each pixel's mean over the channels; split: the side's threshold; here: p's
+ * value (channels' mean), to which a line's side is compared. */
+static int dark_line(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double split,
+                     double here)
+{
+    int best_dark = -1, score_dark = INT_MIN, score_bright = INT_MIN;
+    double level_dark = INFINITY;
+    for (int pass = 0; pass < 2 && best_dark < 0 && score_bright == INT_MIN; pass++) {
+        for (int d = 2 * pass; d < 2 * pass + 2; d++) {
+            const line_dir *L = &DIRS[d];
+            const size_t a = sampled_at(p, L->pair[0][0], L->pair[0][1], ow, oh, cnt);
+            const size_t z = sampled_at(p, L->pair[1][0], L->pair[1][1], ow, oh, cnt);
+            if (a == SIZE_MAX || z == SIZE_MAX || (b[a] > split) != (b[z] > split))
+                continue;
+            int score = 0;
+            for (int l = 0; l < 2; l++) {
+                int seen = 0, above = 0;
+                for (int i = 0; i < L->len; i++) {
+                    const size_t q = sampled_at(p, L->lines[l][i][0], L->lines[l][i][1], ow, oh, cnt);
+                    if (q != SIZE_MAX)
+                        seen++, above += b[q] > split;
+                }
+                if (seen >= 2)
+                    score += (above == 0 || above == seen) ? 1 : -1;
+            }
+            const double level = 0.5 * (b[a] + b[z]);
+            if (level >= here)
+                score_bright = score > score_bright ? score : score_bright;
+            else if (score > score_dark || (score == score_dark && level < level_dark))
+                best_dark = d, score_dark = score, level_dark = level;
+        }
+        if (pass == 1 && score_dark < 1)
+            best_dark = -1; /* a diagonal only with a supporting line */
+    }
+    return best_dark >= 0 && score_dark >= score_bright ? best_dark : -1;
 }
 
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
@@ -151,9 +241,7 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
         const double alone = 1.0 - ramp(beyond(p, ow, oh, cnt, b, lo, bt), EMPTY_BEYOND0, EMPTY_BEYOND1);
         const double F = EMPTY_F + (EMPTY_F_ALONE - EMPTY_F) * alone;
         const double w = step * (1.0 - ramp(f, 0.5 * F, F));
-        if (w <= 0)
-            continue;
-        for (uint32_t c = 0; c < channels; c++) {
+        for (uint32_t c = 0; c < channels && w > 0; c++) {
             double d = INFINITY;
             for (int j = 0; j < k; j++)
                 if (cnt[nb[j]])
@@ -161,6 +249,23 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
             float *x = image + (size_t)c * np + p;
             if (*x > d)
                 *x = (float)(*x - w * (*x - d));
+        }
+        /* then the line the pixel lies on, from the value the fraction's rule left */
+        here = 0;
+        for (uint32_t c = 0; c < channels; c++)
+            here += image[(size_t)c * np + p];
+        here /= channels;
+        const double split = sqrt(fmax(lo, EMPTY_SIDE_FLOOR * hi) * hi);
+        const int d = dark_line(p, ow, oh, cnt, b, split, here);
+        if (d < 0)
+            continue;
+        const size_t a = sampled_at(p, DIRS[d].pair[0][0], DIRS[d].pair[0][1], ow, oh, cnt);
+        const size_t z = sampled_at(p, DIRS[d].pair[1][0], DIRS[d].pair[1][1], ow, oh, cnt);
+        for (uint32_t c = 0; c < channels; c++) {
+            const double t = 0.5 * (m[(size_t)c * np + a] + m[(size_t)c * np + z]);
+            float *x = image + (size_t)c * np + p;
+            if (*x > t)
+                *x = (float)(*x - step * (*x - t));
         }
     }
     free(cnt), free(m), free(b);

@@ -5,22 +5,41 @@
  * image handed in is 1 (2 in channel 1) everywhere but in the centre, where it stands a fraction
  * f of the way from the darkest neighbour to the brightest. e, the rule's floor, is 1% of the
  * samples' mean absolute value. The fraction below which the centre is taken for the dark side
- * (fully below half of it) follows the bright side's shape:
+ * (fully below half of it) follows the bright side's shape. In cases 1-3 the centre's left and
+ * right neighbours, (1, 2) and (3, 2), hold no sample either, so that no line through the centre
+ * decides (case 5) and the fraction alone does:
  *   1. One bright pixel, (2, 1), above the centre (a sub-pixel source: its light goes on past
  *      no pixel of the centre's window, the bright side stands alone, F_ALONE = 1): at B = 1000,
  *      f = 0.02 and f = 0.45 the centre becomes exactly its lowest neighbours' means, 1 and 2;
  *      at f = 0.75 (halfway up the ramp from a half to all of the step) it moves half of the way
  *      there, to 1 + (x - 1) / 2 (1% relative: the ramp in the ratio is 1 here); at B = 3 (a
  *      ratio below 4: ordinary shading), f = 0.02, the same bits.
- *   2. A line one pixel wide along row 1 (it goes on past the window along itself, F = 0.1):
- *      f = 0.02 the dark side, f = 0.075 halfway, f = 0.45 the same bits; rows 0 and 1 bright
- *      (an extended region's edge beside the centre): the same.
+ *   2. A line one pixel wide along row 1 (nothing beyond it straight away from the centre: it
+ *      stands alone, F_ALONE = 1): f = 0.02, 0.075 and 0.45 the dark side; rows 0 and 1 bright
+ *      (an extended region's edge beside the centre, F = 0.1): f = 0.02 the dark side, f = 0.075
+ *      halfway, f = 0.45 the same bits.
  *   3. The bright pixel of case 1 and the pixel below the centre, (2, 3), a quarter of the way up
  *      (bright: above the step's geometric midpoint; the centre lies between bright pixels, on
  *      the feature, F = 0.1): f = 0.02 the dark side, f = 0.075 halfway, f = 0.45 the same bits.
  *   4. A segment of row 2, pixels 1 to 3, through the centre (bright on both sides of it, dark
  *      beyond): f = 0.45 the same bits.
- *   5. In every case every pixel holding a sample keeps its bits, and nothing is raised. */
+ *   5. The line the centre lies on (csi/empty_pixels.h), every neighbour sampled, B = 1000:
+ *      a. a dark slat: rows 1 and 3 bright, row 2 dark (the centre's left neighbour 1.5, so that
+ *         the target, the mean of its row's two neighbours, 1.25, is not just the darkest
+ *         neighbour), at f = 0.45 and f = 0.9 (far up the step, where the fraction keeps it):
+ *         exactly 1.25 and 2.5;
+ *      b. the source of case 1 with the centre's row sampled: its row is dark on both sides, so
+ *         at f = 0.75 (where the fraction's ramp moves it halfway) it goes all the way;
+ *      c. an extended region, rows 0 and 1, the centre's row dark on both sides and the rows
+ *         beside it uniform: at f = 0.45 (an edge the fraction keeps) it goes to its dark side;
+ *      d. a bright column through the centre crossing the dark rows (the columns beside it
+ *         uniformly dark, the rows not): f = 0.45, the same bits; so does case 4's segment;
+ *      e. two dark corners alone, (1, 1) and (3, 3), the centre's upper and left neighbours
+ *         unsampled, (3, 2), (2, 3), (1, 3) bright, (3, 1) dark: no line parallel to that
+ *         diagonal holds two samples, so it does not decide (a diagonal needs a supporting
+ *         line), and the fraction's rule (bright neighbours on opposite sides: F = 0.1) keeps
+ *         f = 0.45.
+ *   6. In every case every pixel holding a sample keeps its bits, and nothing is raised. */
 #include <math.h>
 #include <string.h>
 
@@ -30,7 +49,7 @@
 
 enum { OW = 5, F = 4, NP = OW * OW, C = 2 };
 
-enum { POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH };
+enum { POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH, SLAT, POINT_ROW, EXTENDED_ROW, COLUMN, CORNERS };
 
 static int bright_pixel(int shape, int p)
 {
@@ -42,13 +61,34 @@ static int bright_pixel(int shape, int p)
     case LINE1:
         return y == 1;
     case EXTENDED:
+    case EXTENDED_ROW:
         return y <= 1;
+    case POINT_ROW:
+        return x == 2 && y == 1;
+    case SLAT:
+        return y == 1 || y == 3;
+    case COLUMN:
+        return x == 2;
+    case CORNERS:
+        return (x == 3 && y == 2) || (x == 2 && y == 3) || (x == 1 && y == 3);
     default:
         return y == 2 && x >= 1 && x <= 3;
     }
 }
 
-/* expect: 0 the same bits, 1 the dark side, 2 halfway to it */
+/* the pixels without a sample besides the centre */
+static int unsampled(int shape, int p)
+{
+    const int x = p % OW, y = p / OW;
+    if (shape == POINT || shape == LINE1 || shape == EXTENDED || shape == POINT_BELOW)
+        return y == 2 && (x == 1 || x == 3);
+    if (shape == CORNERS)
+        return (x == 2 && y == 1) || (x == 1 && y == 2);
+    return 0;
+}
+
+/* expect: 0 the same bits, 1 the dark side, 2 halfway to it, 3 the mean of its row's neighbours
+ * (1.25 and 2.5) */
 static void run(int shape, double bright, double f, const char *what, int expect)
 {
     const csi_grid g = {OW * F, OW * F, 1, OW, OW};
@@ -56,12 +96,14 @@ static void run(int shape, double bright, double f, const char *what, int expect
     float val[NP * C];
     size_t n = 0;
     for (int p = 0; p < NP; p++) {
-        if (p == 2 * OW + 2)
+        if (p == 2 * OW + 2 || unsampled(shape, p))
             continue;
         pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1), (uint32_t)(p / OW * F + 2), 0};
         val[n * C] = bright_pixel(shape, p) ? (float)bright : 1.0f;
         if (shape == POINT_BELOW && p == 3 * OW + 2)
             val[n * C] = (float)(1.0 + 0.25 * (bright - 1.0));
+        if (shape == SLAT && p == 2 * OW + 1)
+            val[n * C] = 1.5f;
         val[n * C + 1] = 2 * val[n * C];
         n++;
     }
@@ -87,6 +129,9 @@ static void run(int shape, double bright, double f, const char *what, int expect
             CHECK(memcmp(&got, &was, sizeof got) == 0, "%s: channel %d moved %g -> %g", what, c, was, got);
         else if (expect == 1)
             CHECK(got == (float)(c + 1), "%s: channel %d is %g, not its dark side %d", what, c, got, c + 1);
+        else if (expect == 3)
+            CHECK(got == 1.25f * (float)(c + 1), "%s: channel %d is %g, not its row's %g", what, c, got,
+                  1.25 * (c + 1));
         else {
             const double want = (c + 1) + 0.5 * (was - (c + 1));
             CHECK(fabs(got - want) <= 1e-2 * want, "%s: channel %d is %g, not %g", what, c, got, want);
@@ -101,8 +146,8 @@ int main(void)
     run(POINT, 1000, 0.75, "beside a source, halfway up the ramp", 2);
     run(POINT, 3, 0.02, "a step of 3", 0);
     run(LINE1, 1000, 0.02, "a leak beside a line", 1);
-    run(LINE1, 1000, 0.075, "beside a line, halfway up the ramp", 2);
-    run(LINE1, 1000, 0.45, "beside a line", 0);
+    run(LINE1, 1000, 0.075, "beside a line, low on the step", 1);
+    run(LINE1, 1000, 0.45, "beside a line, halfway up the step", 1);
     run(EXTENDED, 1000, 0.02, "a leak beside an extended region", 1);
     run(EXTENDED, 1000, 0.075, "beside an extended region, halfway up the ramp", 2);
     run(EXTENDED, 1000, 0.45, "an extended region's edge", 0);
@@ -110,5 +155,11 @@ int main(void)
     run(POINT_BELOW, 1000, 0.075, "between two bright pixels, halfway up the ramp", 2);
     run(POINT_BELOW, 1000, 0.45, "between two bright pixels", 0);
     run(THROUGH, 1000, 0.45, "a segment through the pixel", 0);
+    run(SLAT, 1000, 0.45, "a dark slat between bright rows", 3);
+    run(SLAT, 1000, 0.9, "a dark slat between bright rows, far up the step", 3);
+    run(POINT_ROW, 1000, 0.75, "beside a source, its own row dark", 1);
+    run(EXTENDED_ROW, 1000, 0.45, "beside an extended region, its own row dark", 1);
+    run(COLUMN, 1000, 0.45, "a bright column crossing dark rows", 0);
+    run(CORNERS, 1000, 0.45, "two dark corners alone", 0);
     return test_done();
 }

@@ -15,8 +15,11 @@
  * HDR step (a ratio of 4, fully from 16) and in which the image stands less than a fraction F of
  * the way from the darkest of them to the brightest (fully below F / 2), moves by that weight to
  * the lowest of its neighbours' means, channel by channel; no value is raised. F is a tenth
- * beside the edge of something extended or a line, the whole step beside a bright side that
- * stands alone (a sub-pixel source: empty_pixels.c says how the samples tell). g->t must be 1.
+ * beside the edge of something extended, the whole step beside a bright side that stands alone
+ * (a sub-pixel source, a thin line: empty_pixels.c says how the samples tell). Then, at such a
+ * step, where the neighbours' arrangement puts the pixel on a line of the dark side (its row's
+ * or column's two neighbours dark, the lines beside it uniform: a slat between bright gaps), it
+ * moves by the step's weight to the mean of that line's two neighbours. g->t must be 1.
  * Used on the whole image, or in each tile's window in a tiled run (tiled.c). */
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                             const float *values, size_t n, float *image);
