@@ -347,6 +347,9 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     o.levels = tl->levels > 0 ? tl->levels : opt->levels;
     o.frames = opt->frames || split_t; /* a time window's share of the mean needs its frames */
     o.tiles = 0;
+    /* The whole image's variances are indexed by its samples, not the tile's: the tile's peaks
+     * read them through tile_peaks, which gathers the tile's own; the solve gets none. */
+    o.sample_variance = NULL;
     /* A time window keeps its volume at its samples for the whole shutter's correction. */
     csi_recon_fit fit = {NULL, false};
     csi_status s = CSI_OK;
