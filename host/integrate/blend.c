@@ -26,24 +26,23 @@
  *       whose few samples all missed its bright part (m low) still gets the noise level of the
  *       light around it. Since |out - m| <= min(|b - m|, V / |b - m|) <= sqrt(V) (beta's form,
  *       with B^2 >= (m - b)^2 - V), that magnitude is also how far the fit may move the pixel
- *       from m. Where most pixels hold two samples or more and a pixel's own samples agree far
- *       better than those around (relative variance about m under a hundredth of the 3 x 3
- *       median: four samples of Gaussian noise at the window's level fall that low about once
- *       in 700), b counts in it only up to 4 times the pixel's brightest sample. Below that,
- *       b may be light that the samples missed: a fine texture whose bright parts fall between
- *       a pixel's stratified positions leaves four precise samples that agree several times
- *       below the pixel, and the fit, a few times above them, is the better guess. Far above
- *       every one of them, b is more likely an emitter's light leaked from a neighbour, and
- *       scaled by the leak the noise level would judge the fit by its own bias (sub-pixel
- *       emitters on a dark sky: a pixel of precise dark samples beside an emitter pixel was
- *       handed to the leak). The two errors are not alike: distrusting b costs at most the
- *       mean's own error, trusting a leak costs a dark pixel far more than the mean's relMSE.
- *       The bound, 4 (where the empty pixels' rule, csi/empty_pixels.h, starts to see an HDR
- *       step), lets the fit move such a pixel from m by at most 3 times its brightest sample
- *       times the square root of the window's median relative variance over n_p. Single paths
- *       that all scored exactly 0 agree too, and their pixel keeps m: the mean's own error,
- *       never more. With one sample per pixel nothing in the samples says whether it is
- *       precise, and b keeps its whole weight (docs/bench/mitsuba.md, session 12).
+ *       from m. Where most pixels hold two samples or more, b counts in it only up to 4 times
+ *       the brightest of the pixel's own samples. Up to there b may be light the samples
+ *       missed (a fine texture whose bright parts fall between a pixel's stratified positions
+ *       leaves four samples several times below the pixel, and the fit, a few times above
+ *       them, is the better guess). Far above every one of them, b is more likely an
+ *       emitter's light leaked from a neighbour, and scaled by the leak the noise level would
+ *       judge the fit by its own bias (sub-pixel lamps on a dark sky: a pixel whose samples all
+ *       saw the sky was handed to the leak). Whether the samples agree does not tell the two
+ *       apart: a wet road's reflections beside a lamp spread a pixel's samples as much as its
+ *       neighbours'. The two errors are not alike: distrusting b costs at most the mean's own
+ *       error (a small lamp inside the pixel that all its single paths missed, where b was
+ *       right), trusting a leak costs a dark pixel far more than the mean's relMSE. The bound, 4 (where the empty pixels' rule, csi/empty_pixels.h, starts
+ *       to see an HDR step), lets the fit move such a pixel from m by at most 3 times its
+ *       brightest sample times the square root of the window's median relative variance over
+ *       n_p. With one sample per pixel, b keeps its whole weight: a single sample below the
+ *       fit is most often a path that missed the light, the case b is in the magnitude for
+ *       (docs/bench/mitsuba.md, sessions 12 and 13).
  *       The finite-population factor makes V = 0, so out = m exactly, when every cell of the
  *       pixel is sampled.
  *       The second term is the error of m that its positions explain: gbar, the mean of the
@@ -91,12 +90,8 @@
 /* E[median over 3 x 3 pixels of the second smallest (y_p - y_q)^2 / 2 over the 8 neighbours q]
  * / sigma^2 for independent Gaussian noise of variance sigma^2 (simulated on 10^6 pixels). */
 #define CSI_BLEND_NBR_CAL 0.083
-/* A pixel's samples are precise when their relative variance about their mean is below this
- * fraction of the median over its 3 x 3 pixels (see the header: for four samples of Gaussian
- * noise at the window's level, chi^2 with 3 degrees of freedom below 0.03: p ~ 0.0014). */
-#define CSI_BLEND_PRECISE 1e-2
-/* How many times a precise pixel's brightest sample its box integral may count for in the
- * noise magnitude (the header). */
+/* How many times a pixel's brightest sample its box integral may count for in the noise
+ * magnitude, where most pixels hold two samples or more (the header). */
 #define CSI_BLEND_LEAK 4.0
 
 /* Ascending order of the at most 9 values of a window, in place (an insertion sort: qsort's
@@ -145,14 +140,13 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     size_t *cnt = calloc(np, sizeof *cnt);
     double *m = calloc(np, sizeof *m), *ss = calloc(np, sizeof *ss), *gbar = calloc(np, sizeof *gbar);
     double *sc = malloc(np * sizeof *sc), *rel = malloc(np * sizeof *rel);
-    double *own = malloc(np * sizeof *own), *top = malloc(np * sizeof *top);
+    double *top = malloc(np * sizeof *top);
     double *V = malloc(np * sizeof *V), *q = malloc(np * sizeof *q), *d = malloc(np * sizeof *d);
     float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
     uint32_t *pix = malloc((n ? n : 1) * sizeof *pix); /* each sample's pixel, divided out once */
     csi_status s = CSI_OK;
     int passes = 0;
-    if (!cnt || !m || !ss || !gbar || !sc || !rel || !own || !top || !V || !q || !d || !lo || !hi ||
-        !pix) {
+    if (!cnt || !m || !ss || !gbar || !sc || !rel || !top || !V || !q || !d || !lo || !hi || !pix) {
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel blend");
         goto done;
     }
@@ -238,9 +232,8 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
                 s2 = d2 / CSI_BLEND_NBR_CAL;
         }
         rel[p] = s2 / sc[p];
-        /* the pixel's own relative variance about m, and its brightest sample (V and q still
-         * hold the least and largest of its samples here) */
-        own[p] = by_pixel ? s2 / (mm * mm + eps) : NAN;
+        /* the pixel's brightest sample (V and q still hold the least and largest of its
+         * samples here) */
         top[p] = fmax(fabs(V[p]), fabs(q[p]));
     }
     BLEND_PASS_DONE();
@@ -253,13 +246,12 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
             continue;
         }
         double fpc = 1.0 - (double)cnt[p] / cells;
-        const int k = csi_recon_window3(p, ow, oh, nb);
-        double med = window_median(rel, nb, k);
+        double med = window_median(rel, nb, csi_recon_window3(p, ow, oh, nb));
         if (!by_pixel && !isnan(rel[p]))
             med = fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
         double noise = fpc > 0 && isfinite(med) ? med / (double)cnt[p] * fpc : 0.0;
-        if (!isnan(own[p]) && own[p] < CSI_BLEND_PRECISE * window_median(own, nb, k)) {
-            /* precise samples: b only up to a few times the brightest of them (the header) */
+        if (by_pixel && cnt[p] >= 2) {
+            /* b only up to a few times the pixel's brightest sample (the header) */
             double bc = fmin(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
             noise *= (0.5 * (m[p] * m[p] + bc * bc) + eps) / sc[p];
         }
@@ -337,7 +329,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     }
 done:
     free(cnt), free(m), free(ss), free(gbar), free(sc), free(rel), free(V), free(q), free(d);
-    free(own), free(top), free(lo), free(hi), free(pix);
+    free(top), free(lo), free(hi), free(pix);
     return s;
 }
 #undef BLEND_PASS_DONE
