@@ -43,6 +43,20 @@
  *       n_p. With one sample per pixel, b keeps its whole weight: a single sample below the
  *       fit is most often a path that missed the light, the case b is in the magnitude for
  *       (docs/bench/mitsuba.md, sessions 12 and 13).
+ *       With --blend-spread on (an option, off by default: docs/bench/mitsuba.md, session 13),
+ *       where each sample's variance is given (several paths per sample: the records' variance,
+ *       csi_recon_options.sample_variance) and a pixel's samples spread more than CSI_BLEND_SPREAD
+ *       times the mean of their variances, the spread is where the samples fell, not noise: a
+ *       step or a highlight inside the pixel that some samples hit and others missed. That is
+ *       the mean's own error, s^2 / n_p for positions drawn at random in the pixel, which the
+ *       window's median, made from the flat pixels around, does not see; the noise term is then
+ *       at least that, scaled for stratification. Of n_p strata a straight step crosses
+ *       sqrt(n_p) to 2 sqrt(n_p), each erring by its share 1 / n_p of the pixel, so the
+ *       stratified mean's variance there is about 0.7 to 1.3 / sqrt(n_p) of s^2 / n_p; the
+ *       scale 2 / sqrt(n_p), at most 1, lies between that and random positions' 1 (unscaled,
+ *       it over-trusted the fit at 16 spp). Without the records' variance a large spread may as
+ *       well be one path's noise, which s^2 of a few samples estimates too poorly to trust alone
+ *       (single-path cells went above the mean), so the window's median stays.
  *       The finite-population factor makes V = 0, so out = m exactly, when every cell of the
  *       pixel is sampled.
  *       The second term is the error of m that its positions explain: gbar, the mean of the
@@ -93,6 +107,10 @@
 /* How many times a pixel's brightest sample its box integral may count for in the noise
  * magnitude, where most pixels hold two samples or more (the header). */
 #define CSI_BLEND_LEAK 4.0
+/* A pixel's samples spread beyond their noise when their variance about m is above this many
+ * times the mean of their given variances (the header): for four samples of Gaussian noise,
+ * chi^2 with 3 degrees of freedom above 12, p ~ 0.007. */
+#define CSI_BLEND_SPREAD 4.0
 
 /* Ascending order of the at most 9 values of a window, in place (an insertion sort: qsort's
  * calls through a comparator were most of the blend's time at 1920x1080). The values are never
@@ -144,9 +162,12 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     double *V = malloc(np * sizeof *V), *q = malloc(np * sizeof *q), *d = malloc(np * sizeof *d);
     float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
     uint32_t *pix = malloc((n ? n : 1) * sizeof *pix); /* each sample's pixel, divided out once */
+    /* the sum of each pixel's given sample variances (calloc: 0, unused, when none is given) */
+    double *vsum = calloc(np, sizeof *vsum);
     csi_status s = CSI_OK;
     int passes = 0;
-    if (!cnt || !m || !ss || !gbar || !sc || !rel || !top || !V || !q || !d || !lo || !hi || !pix) {
+    if (!cnt || !m || !ss || !gbar || !sc || !rel || !top || !V || !q || !d || !lo || !hi || !pix ||
+        !vsum) {
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel blend");
         goto done;
     }
@@ -203,6 +224,8 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         const size_t p = pix[i];
         double e = values[i * channels + c] - m[p];
         ss[p] += e * e;
+        if (opt->blend_spread == CSI_SWITCH_ON && opt->sample_variance)
+            vsum[p] += opt->sample_variance[i * channels + c];
     }
     BLEND_PASS_DONE();
     const bool by_pixel = 2 * multi >= np;
@@ -254,6 +277,13 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
             /* b only up to a few times the pixel's brightest sample (the header) */
             double bc = fmin(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
             noise *= (0.5 * (m[p] * m[p] + bc * bc) + eps) / sc[p];
+            const double s2 = ss[p] / (double)(cnt[p] - 1);
+            if (opt->blend_spread == CSI_SWITCH_ON && opt->sample_variance &&
+                s2 > CSI_BLEND_SPREAD * vsum[p] / (double)cnt[p]) {
+                /* a spread beyond the records' noise: at least the mean's own error (the header) */
+                const double strat = fmin(1.0, 2.0 / sqrt((double)cnt[p]));
+                noise = fmax(noise, s2 / sc[p] / (double)cnt[p] * fpc * strat);
+            }
         }
         double pe = gbar[p] - plane[p], mf = gbar[p] - m[p];
         V[p] = noise + fmin(fmax(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
@@ -329,7 +359,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     }
 done:
     free(cnt), free(m), free(ss), free(gbar), free(sc), free(rel), free(V), free(q), free(d);
-    free(top), free(lo), free(hi), free(pix);
+    free(top), free(lo), free(hi), free(pix), free(vsum);
     return s;
 }
 #undef BLEND_PASS_DONE

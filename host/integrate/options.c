@@ -103,6 +103,10 @@ static const row table[] = {
      "its others takes the mean over its cells of a fit of log(1 + y / s) on the fine grid, "
      "expanded (one more reconstruction, its output the size of the grid)",
      "off"},
+    {"blend-spread", K_CHOICE, AT(blend_spread), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "the blend, given each sample's variance (--variance): a pixel whose samples spread more than "
+     "4 times their variances (a step or a highlight some of them hit) counts that spread, s^2 / n, "
+     "in its mean's noise, scaled by 2 / sqrt(n) from 4 samples on (stratification)", "off"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

@@ -191,6 +191,12 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->peak_range = o->peak_range == CSI_SWITCH_ON && o->correct == CSI_CORRECT_BLEND && !scope
                             ? CSI_SWITCH_ON
                             : CSI_SWITCH_OFF;
+    /* The blend's own spread given the samples' variances (blend.c): an option, measured in
+     * docs/bench/mitsuba.md (session 13). */
+    if (o->blend_spread == CSI_SWITCH_AUTO || o->correct != CSI_CORRECT_BLEND)
+        o->blend_spread = o->blend_spread == CSI_SWITCH_ON && o->correct == CSI_CORRECT_BLEND
+                              ? CSI_SWITCH_ON
+                              : CSI_SWITCH_OFF;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)

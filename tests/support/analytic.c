@@ -75,3 +75,22 @@ float *analytic_sample(const analytic_scene *s, const csi_sample_pos *pos, size_
     }
     return v;
 }
+
+float *analytic_draw(const analytic_scene *s, csi_pos_method method, uint32_t spp, uint64_t seed,
+                     uint64_t noise_seed, int paths, csi_sample_pos **pos, size_t *n)
+{
+    const csi_grid g = {GRID, GRID, 1, OUT, OUT};
+    const csi_pos_opts po = {.method = method, .spp = spp, .seed = seed};
+    *pos = NULL;
+    *n = 0;
+    if (csi_positions(&g, &po, pos, n, NULL) != CSI_OK)
+        return NULL;
+    test_rng r;
+    test_rng_seed(&r, noise_seed);
+    float *v = analytic_sample(s, *pos, *n, paths, &r);
+    if (!v) {
+        free(*pos);
+        *pos = NULL;
+    }
+    return v;
+}

@@ -49,4 +49,11 @@ void analytic_scene_make(analytic_fn fn, analytic_scene *s);
 float *analytic_sample(const analytic_scene *s, const csi_sample_pos *pos, size_t n, int paths,
                        test_rng *r);
 
+/* Positions on the scene's grid (GRID x GRID cells, OUT x OUT pixels) by `method` at `spp`
+ * (csi_positions, seed `seed`) in *pos (malloc'd, *n of them) and their values as
+ * analytic_sample's, the noise drawn from a generator seeded with `noise_seed`. NULL (nothing
+ * allocated) if either fails. */
+float *analytic_draw(const analytic_scene *s, csi_pos_method method, uint32_t spp, uint64_t seed,
+                     uint64_t noise_seed, int paths, csi_sample_pos **pos, size_t *n);
+
 #endif

@@ -164,6 +164,9 @@ typedef struct csi_recon_options {
     csi_switch peak_range;        /* images with the blend: a pixel whose samples hold one isolated
                                      peak takes a fit of the samples' logarithm
                                      (csi/peak_range.h); auto: off */
+    csi_switch blend_spread;      /* the blend, given each sample's variance: a pixel whose samples
+                                     spread beyond their variances counts that spread in its
+                                     mean's noise (host/integrate/blend.c); auto: off */
     double tol;                   /* solver tolerance; 0 auto */
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
