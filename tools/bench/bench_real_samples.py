@@ -65,16 +65,21 @@ def reconstruct(exe, dump, args, tmp):
     return read_exr(out).astype(np.float64)
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def cell_arguments(ap, spp, paths):
+    """The arguments that pick the cells of DATA (cells() above) and the build, on `ap`."""
     ap.add_argument("--data", required=True, help="the Mitsuba dump cache (tools/bench/mitsuba_data.py)")
-    ap.add_argument("--configs", default="csi=", help="NAME=args;... (default: the defaults)")
     ap.add_argument("--scenes", default=",".join(SCENES))
-    ap.add_argument("--spp", default="1,4,16")
-    ap.add_argument("--paths", default="1,64")
+    ap.add_argument("--spp", default=spp)
+    ap.add_argument("--paths", default=paths)
     ap.add_argument("--positions", default="stratified,poisson")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--build", help="build directory (default: the source tree's build/)")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cell_arguments(ap, "1,4,16", "1,64")
+    ap.add_argument("--configs", default="csi=", help="NAME=args;... (default: the defaults)")
     ap.add_argument("--json", help="write every figure here")
     ap.add_argument("--md", help="write the tables here (Markdown)")
     a = ap.parse_args()
