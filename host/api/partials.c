@@ -18,6 +18,9 @@ uint64_t csi_samples_id(const csi_samples *s)
         id = csi_hash64(id, xyt, sizeof xyt);
     }
     id = csi_hash64(id, s->values, s->count * s->channels * sizeof(float));
+    /* the samples' variances change the result: tiles run with and without them do not merge */
+    if (s->variance)
+        id = csi_hash64(id, s->variance, s->count * s->channels * sizeof(float));
     /* what the samples are decides correct = auto; 0 leaves the ids of earlier partials as they were */
     return s->flags ? csi_hash64(id, &s->flags, sizeof s->flags) : id;
 }

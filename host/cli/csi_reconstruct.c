@@ -36,7 +36,9 @@ static void usage(FILE *f)
 "      --variance FILE.csid  each sample's variance: a dump of the same grid, positions and\n"
 "                            channels whose values are the variances of the dump's (csi-mitsuba's\n"
 "                            X.variance.csid, docs/dump-format.md); an isolated bright sample its\n"
-"                            own noise explains is then taken as noise\n"
+"                            own noise explains is then taken as noise. Default: DUMP's stem\n"
+"                            .variance.csid where that file exists (said on stderr), none with\n"
+"                            --drop-invalid; --variance none ignores it\n"
 "other:\n"
 "      --seed S              seed of the solver's randomised parts (ROMP's column-norm probes with\n"
 "                            --romp-normalize on); default: the dump's seed (csi-render's), else 1\n"
@@ -55,6 +57,30 @@ static bool option_is(const csi_options *o, const char *name, const char *value)
 {
     char buf[64];
     return csi_options_get(o, name, buf, sizeof buf) == CSI_OK && !strcmp(buf, value);
+}
+
+/* The variances csi-mitsuba writes beside a dump X.csid (its --dump with --paths above 1):
+ * X.variance.csid, taken by default where it exists, since the two are one render's output and
+ * the variances only ever sharpen what the samples say of their own noise. NULL where there is
+ * none (or `in` is itself such a file); the caller frees the path. */
+static char *variance_beside(const char *in)
+{
+    static const char ext[] = ".csid", side[] = ".variance.csid";
+    const size_t n = strlen(in), e = sizeof ext - 1, v = sizeof side - 1;
+    if (n <= e || strcmp(in + n - e, ext) || (n >= v && !strcmp(in + n - v, side)))
+        return NULL;
+    char *path = malloc(n - e + v + 1);
+    if (!path)
+        return NULL;
+    memcpy(path, in, n - e);
+    memcpy(path + n - e, side, v + 1);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        free(path);
+        return NULL;
+    }
+    fclose(f);
+    return path;
 }
 
 /* The variances of the dump `in`'s samples from the dump `path` (--variance): the same grid,
@@ -181,13 +207,20 @@ int main(int argc, char **argv)
         rc = cli_tile_check(prog, &tile, outs.png != NULL, outs.frames_dir != NULL);
     if (!rc && tile.one && !outs.exr)
         rc = cli_error(prog, CSI_ERR_ARG, "--tile needs -o PARTIAL (the tile's partial result)");
+    const bool no_variance = varfile && !strcmp(varfile, "none");
+    if (no_variance)
+        varfile = NULL;
     if (!rc && varfile && drop)
         rc = cli_error(prog, CSI_ERR_ARG, "--variance and --drop-invalid: a dropped record would leave its "
                        "variance without a sample");
+    char *found = !rc && !varfile && !no_variance && !drop ? variance_beside(in) : NULL;
+    if (found)
+        varfile = found;
     if (!rc && !outs.exr && !outs.png && !tile.info)
         rc = cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
     if (rc) {
         csi_options_free(opt);
+        free(found);
         return rc;
     }
     if (tile.frames)
@@ -206,8 +239,9 @@ int main(int argc, char **argv)
     /* Sizes before work: the header alone decides whether the run can fit (docs/dump-format.md). */
     csi_dump_header hdr, vhdr = {0};
     s = csi_dump_read_header(in, &ropts, &hdr);
+    bool var_failed = false; /* the variances' file is what failed (a found one gets a hint) */
     if (s == CSI_OK && varfile) /* its header too: a missing or damaged file fails here, its bytes count */
-        s = csi_dump_read_header(varfile, &ropts, &vhdr);
+        var_failed = (s = csi_dump_read_header(varfile, &ropts, &vhdr)) != CSI_OK;
     if (s == CSI_OK && hdr.grid.t > 1 && option_is(opt, "solver", "romp"))
         s = cli_fail(CSI_ERR_ARG, "%s: ROMP is real-valued and a volume (grid_t = %u) needs the complex 3-D "
                      "Fourier problem: use --solver sparsa", in, hdr.grid.t);
@@ -233,12 +267,16 @@ int main(int argc, char **argv)
     if (s == CSI_OK)
         s = csi_dump_read(in, &ropts, &dump, &drep);
     if (s == CSI_OK && varfile)
-        s = read_variance(varfile, in, &dump, &drep, &ropts, &var, &vrep);
+        var_failed = (s = read_variance(varfile, in, &dump, &drep, &ropts, &var, &vrep)) != CSI_OK;
     phase[0] = cli_now() - tp;
     if (s != CSI_OK) {
-        rc = cli_error(prog, s, "%s", cli_last_error());
+        rc = cli_error(prog, s, "%s%s", cli_last_error(),
+                       found && var_failed ? " (found beside the dump; --variance none ignores it)" : "");
         goto done;
     }
+    if (!quiet && found)
+        fprintf(stderr, "%s: each sample's variance from %s (beside the dump; --variance none ignores it)\n", prog,
+                found);
     if (!quiet && drep.dropped_invalid)
         cli_warn(prog, "%s: dropped %llu records with NaN/Inf values (first: record %llu)", in, (unsigned long long)drep.dropped_invalid, (unsigned long long)drep.first_invalid);
     if (!quiet && drep.duplicates)
@@ -298,6 +336,7 @@ done:
     csi_device_release(dev);
     csi_dump_free(&dump);
     csi_dump_free(&var);
+    free(found);
     csi_options_free(opt);
     return rc;
 }

@@ -201,6 +201,21 @@ refused "a negative variance" "vn.csid: record 3 channel 1: variance -1 is negat
 refused "variances with --drop-invalid" "--variance and --drop-invalid" \
     "$B/csi-reconstruct" "$T/s4.csid" -o "$T/o.exr" --variance "$T/v.csid" --drop-invalid
 [[ ! -e "$T/o.exr" ]] && ok || bad "a refused --variance run wrote its output"
+# The variances beside a dump (X.variance.csid) are taken by default, said on stderr, and give the
+# bits of naming them; --variance none ignores them; a found file that is not the dump's is
+# refused with the hint, before the work.
+mkdir -p "$T/side" && cp "$T/s4.csid" "$T/side/a.csid" && cp "$T/v.csid" "$T/side/a.variance.csid"
+"$B/csi-reconstruct" "$T/side/a.csid" -o "$T/side/e.exr" --variance "$T/side/a.variance.csid" "${fast[@]}" -q
+msg=$("$B/csi-reconstruct" "$T/side/a.csid" -o "$T/side/f.exr" --max-iter 20 2>&1 >/dev/null)
+[[ "$msg" == *"each sample's variance from $T/side/a.variance.csid"* ]] && cmp -s "$T/side/e.exr" "$T/side/f.exr" &&
+    ok || bad "the variances beside a dump were not taken as --variance takes them: $msg"
+msg=$("$B/csi-reconstruct" "$T/side/a.csid" -o "$T/side/n.exr" --variance none --max-iter 20 2>&1 >/dev/null)
+[[ "$msg" != *"variance from"* && -s "$T/side/n.exr" ]] && ok || bad "--variance none still took them: $msg"
+cp "$T/vo.csid" "$T/side/a.variance.csid"
+refused "variances beside the dump at other positions" \
+    "a.variance.csid: record 0 is at (2, 1, 0), .*a.csid's at (1, 1, 0): not its variances (found beside the dump; --variance none ignores it)" \
+    "$B/csi-reconstruct" "$T/side/a.csid" -o "$T/o.exr"
+[[ ! -e "$T/o.exr" ]] && ok || bad "a refused run with the variances beside the dump wrote its output"
 
 # --- messages: control characters escaped ---------------------------------------------------------
 esc=$'\e[31mred\e[0m.csid'

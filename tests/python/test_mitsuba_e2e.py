@@ -57,7 +57,8 @@ def main():
         common = ["cornell", "--out", "64x64", "--spp", 4, "--paths", 16, "--seed", 2, "-q"]
         ok(cli(*common, "--dump", p("a.csid"), "--aov", "-o", p("cs.exr"), "--stats", p("a.json")), "render + csi")
         ok(cli(*common, "--dump", p("b.csid"), "-o", p("mean.exr"), "--", "--estimator", "mean"), "render + mean")
-        ok(cli(*common, "--dump", p("b.csid"), "--variance-peaks", "-o", p("csv.exr")), "render + csi with the variances")
+        ok(cli(*common, "--dump", p("b.csid"), "--no-variance-peaks", "-o", p("csn.exr")),
+           "render + csi without the variances")
         ok(cli("cornell", "--out", "64x64", "--reference", 256, "--npy", p("ref.npy"), "-o", p("ref.exr"), "-q"),
            "reference")
         d = csid.read(p("a.csid"), want="samples")
@@ -104,21 +105,19 @@ def main():
         # differences of a shifted image on top.
         ratio = (diff ** 2).sum() / (var_pix + var_ref).sum()
         check(ratio < 1.2, f"MSE(mean, reference) / predicted variance = {ratio:.3f}")
-        # csi's own estimate resembles the scene: far below the error of a flat image at the
-        # reference's mean (the reference's variance), which any image of the scene beats
         # csi-mitsuba reconstructs in its own process through the library: the bits of
-        # csi-reconstruct on the dump it wrote (the same samples, options and seed)
-        # (the variances it wrote beside the dump only with --variance-peaks: the image of the
-        # b run, same samples, is csi-reconstruct's with --variance on them)
+        # csi-reconstruct on the dump it wrote (the same samples, options and seed; with 16 paths
+        # per sample both use the variances beside the dump by default, and neither with
+        # --no-variance-peaks / --variance none)
         subprocess.run([programs.find("csi-reconstruct"), p("a.csid"), "-o", p("cs_c.exr"), "-q"], check=True)
         check(np.array_equal(exr.read(p("cs.exr")), exr.read(p("cs_c.exr"))),
-              "csi-mitsuba's image differs from csi-reconstruct's on its dump")
-        subprocess.run([programs.find("csi-reconstruct"), p("b.csid"), "-o", p("csv_c.exr"), "-q",
-                        "--variance", p("b.variance.csid")], check=True)
-        check(np.array_equal(exr.read(p("csv.exr")), exr.read(p("csv_c.exr"))),
-              "csi-mitsuba --variance-peaks differs from csi-reconstruct --variance on its dump")
-        check(not np.array_equal(exr.read(p("csv.exr")), exr.read(p("cs.exr"))),
-              "--variance-peaks changed nothing (this seed's samples hold peaks their noise explains)")
+              "csi-mitsuba's image differs from csi-reconstruct's on its dump (and the variances beside it)")
+        subprocess.run([programs.find("csi-reconstruct"), p("b.csid"), "-o", p("csn_c.exr"), "-q",
+                        "--variance", "none"], check=True)
+        check(np.array_equal(exr.read(p("csn.exr")), exr.read(p("csn_c.exr"))),
+              "csi-mitsuba --no-variance-peaks differs from csi-reconstruct --variance none on its dump")
+        check(not np.array_equal(exr.read(p("csn.exr")), exr.read(p("cs.exr"))),
+              "the variances changed nothing (this seed's samples hold peaks their noise explains)")
         # Each sample's variance (its 16 paths' sample variance / 16): the dump's positions,
         # >= 0, and no larger on average than the within-pixel spread s2 above, whose
         # expectation is the paths' variance plus the signal's spread over the pixel (both
@@ -128,6 +127,8 @@ def main():
               "the variances' positions or values")
         check(va.values.astype(np.float64).mean() <= s.var(axis=1, ddof=1).mean() and va.values.mean() > 0,
               f"mean sample variance {va.values.mean():.4g} vs within-pixel {s.var(axis=1, ddof=1).mean():.4g}")
+        # csi's own estimate resembles the scene: far below the error of a flat image at the
+        # reference's mean (the reference's variance), which any image of the scene beats
         cs = exr.read(p("cs.exr")).astype(np.float64)
         mse_cs = ((cs - ref) ** 2).mean()
         check(mse_cs < 0.05 * ref.var(), f"csi: MSE {mse_cs:.4g} vs the reference's variance {ref.var():.4g}")

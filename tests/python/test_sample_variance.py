@@ -18,7 +18,8 @@ library, the program and the binding, on samples whose outcome csi/peak_noise.h 
   (to float rounding: a pixel two tiles' windows share is their weighted blend of it), no other
   pixel than it moves against the tiles without the variances, and tiles made one at a time
   (csi-reconstruct --tile I/N --variance, csi.reconstruct_tile(variance=...)) and merged give the
-  in-process tiled image bit for bit."""
+  in-process tiled image bit for bit; csi-reconstruct takes the variances beside a dump by default,
+  and a tile run without them does not merge with tiles run with them."""
 import json
 import os
 import subprocess
@@ -105,6 +106,20 @@ with tempfile.TemporaryDirectory() as T:
     m = csi.merge_partials(parts)
     check(r.returncode == 0 and m.stats["image_fnv1a64"] == tiled.stats["image_fnv1a64"],
           f"merged tiles {m.stats['image_fnv1a64']} vs in-process tiles {tiled.stats['image_fnv1a64']}")
+    # csi-reconstruct takes s.variance.csid beside s.csid by default: the same tile; a tile run
+    # without them (--variance none) is another run's, and the merge refuses it
+    auto, none = os.path.join(T, "t1a.csip"), os.path.join(T, "t1n.csip")
+    for path, extra in ((auto, []), (none, ["--variance", "none"])):
+        r = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "s.csid"), "--tile", "1/4",
+                            "--tile-margin", "4", "-o", path, "-q"] + extra)
+        check(r.returncode == 0, f"csi-reconstruct --tile 1/4 {extra}: exit {r.returncode}")
+    m = csi.merge_partials(parts[:-1] + [auto])
+    check(m.stats["image_fnv1a64"] == tiled.stats["image_fnv1a64"], "the variances beside the dump: another tile")
+    try:
+        csi.merge_partials(parts[:-1] + [none])
+        check(False, "tiles with and without the variances merged")
+    except csi.CsiError as e:
+        check("input" in str(e) or "another" in str(e) or "differ" in str(e), f"the merge's refusal: {e}")
 
 pos, val, var = samples(2, 5)
 pix = (pos[:, 1] // F) * OW + pos[:, 0] // F

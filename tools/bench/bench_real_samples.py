@@ -14,9 +14,11 @@ only csi-reconstruct on the cached dumps.
         --configs "csi=;cv=--correct cv" --json out.json --md out.md
 
 Configurations: NAME=csi-reconstruct arguments, separated by ';' (NAME= alone: the defaults).
-The argument `--variance=auto` becomes `--variance <dump>.variance.csid` where that file exists
-(each sample's path variance, mitsuba_data.py writes it for several paths per sample) and is
-dropped where it does not; the row says which (`variance`).
+csi-reconstruct takes `<dump>.variance.csid` (each sample's path variance, mitsuba_data.py
+writes it for several paths per sample) by default where it exists; the row says where it does
+(`variance`). `--variance none` measures without it; `--variance=auto` (the same as the default
+since csi-reconstruct reads the file itself) becomes `--variance <dump>.variance.csid` where that
+file exists and is dropped where it does not.
 """
 import argparse
 import json

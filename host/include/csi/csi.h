@@ -502,7 +502,7 @@ typedef struct csi_partial_info {
  * bytes are read as little-endian 64-bit words, so the same bytes hash the same everywhere. */
 CSI_API uint64_t csi_hash64(uint64_t h, const void *data, size_t bytes);
 /* The identity of samples: csi_hash64 of the grid, channels, positions and values (and the flags
- * when any is set). */
+ * when any is set, and the variances when given). */
 CSI_API uint64_t csi_samples_id(const csi_samples *samples);
 
 /* Writes a tile's result (csi_reconstruct_tile or csi_reconstruct_tile_window) as a partial, to

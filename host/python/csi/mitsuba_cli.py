@@ -88,10 +88,11 @@ def parser():
     s.add_argument("--out", type=_size, metavar="WxH", help="output image size (default: the scene film's)")
     s.add_argument("--spp", type=_int_range(1, 65536), default=4, help="samples per pixel (default 4)")
     s.add_argument("--paths", type=_int_range(1, 1 << 20), default=1, help="Mitsuba paths per sample, averaged (default 1)")
-    s.add_argument("--variance-peaks", action="store_true",
-                   help="with --paths above 1: reconstruct with each sample's variance (csi-reconstruct --variance): "
-                        "an isolated bright sample its own noise explains is shrunk by how much of it that noise explains. "
-                        "Off by default: it takes away energy of rare bright paths (darker caustics), docs/bench/mitsuba.md")
+    s.add_argument("--variance-peaks", action=argparse.BooleanOptionalAction, default=None,
+                   help="reconstruct with each sample's variance (csi-reconstruct --variance, which takes the "
+                        "X.variance.csid beside a dump by default): an isolated bright sample its own noise explains "
+                        "is shrunk by how much of it that noise explains. Default: on with --paths above 1 "
+                        "(one path has no variance), docs/bench/mitsuba.md")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
@@ -230,6 +231,8 @@ def run(a, extra):
         if a.aov and not a.dump:
             raise UsageError("--aov needs --dump FILE.csid (the albedo and normal go beside it)")
         reconstruction_options(extra)  # bad options refused before any rendering
+    if a.variance_peaks is None:
+        a.variance_peaks = a.paths > 1
     if a.variance_peaks and a.paths < 2:
         raise UsageError("--variance-peaks needs --paths above 1 (one path has no sample variance)")
     if not (a.output or a.png or a.dump or a.npy):
