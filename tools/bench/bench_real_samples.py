@@ -78,6 +78,24 @@ def cell_arguments(ap, spp, paths):
     ap.add_argument("--build", help="build directory (default: the source tree's build/)")
 
 
+def parse_cells(doc, spp, paths, csi_args_help):
+    """The command line of a script over DATA's cells with one more set of csi-reconstruct
+    arguments (--csi-args): (the parsed arguments, csi-reconstruct's path)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    cell_arguments(ap, spp, paths)
+    ap.add_argument("--csi-args", default="", help=csi_args_help)
+    a = ap.parse_args()
+    return a, binaries(a.build)["csi-reconstruct"]
+
+
+def with_variance(args, dump):
+    """csi-reconstruct arguments with `--variance=auto` made `--variance <dump>.variance.csid`
+    where that file exists, and dropped where it does not; and whether it exists."""
+    side = dump[: -len(".csid")] + ".variance.csid"
+    have = os.path.exists(side)
+    return [x for v in args for x in ((["--variance", side] if have else []) if v == "--variance=auto" else [v])], have
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     cell_arguments(ap, "1,4,16", "1,64")
@@ -98,11 +116,9 @@ def main():
             m0, r0 = errors(reconstruct(exe, dump, ["--estimator", "mean"], tmp), ref)
             row = dict(scene=scene, spp=int(spp), paths=int(paths), positions=pos,
                        grid=f"{hdr['grid_w']}x{hdr['grid_h']}", mean_mse=m0, mean_relmse=r0)
-            side = dump[: -len(".csid")] + ".variance.csid"
-            row["variance"] = os.path.exists(side)
+            row["variance"] = with_variance([], dump)[1]
             for name, args in cfgs:
-                args = [x for v in args for x in (
-                    (["--variance", side] if row["variance"] else []) if v == "--variance=auto" else [v])]
+                args = with_variance(args, dump)[0]
                 img = reconstruct(exe, dump, args, tmp)
                 m, r = errors(img, ref)
                 row[name] = dict(mse=m / m0, relmse=r / r0, negative=int((img < 0).sum()),

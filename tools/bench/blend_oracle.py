@@ -13,7 +13,6 @@ that blends b and m pixel by pixel can beat the second. Also the share of the me
 
     .venv/bin/python tools/bench/blend_oracle.py --data /work/data/mitsuba --spp 4 --paths 64
 """
-import argparse
 import os
 import sys
 import tempfile
@@ -22,8 +21,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from bench_common import binaries  # noqa: E402
-from bench_real_samples import cell_arguments, cells, reconstruct  # noqa: E402
+from bench_real_samples import cells, parse_cells, reconstruct  # noqa: E402
 
 
 def hdr_pixels(ref):
@@ -47,11 +45,7 @@ def oracles(b, m, ref, wt):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    cell_arguments(ap, "4", "64")
-    ap.add_argument("--csi-args", default="", help="csi-reconstruct arguments for the csi column")
-    a = ap.parse_args()
-    exe = binaries(a.build)["csi-reconstruct"]
+    a, exe = parse_cells(__doc__, "4", "64", "csi-reconstruct arguments for the csi column")
     print("| scene | spp | paths | positions | csi | b alone | oracle: b or m per pixel | "
           "oracle: best convex weight per pixel | mean's MSE / relMSE in HDR pixels | HDR pixels |")
     print("|---|---|---|---|---|---|---|---|---|---|")
