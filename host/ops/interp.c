@@ -17,8 +17,10 @@
  * gen_refs.py): 2.0-2.2 w gave the smallest error over white noise and image-like signals. */
 #define BETA (2.1 * CSI_INTERP_TAPS)
 #define IH (CSI_INTERP_TAPS / 2 - 1)
-/* Tile size: larger than the kernel's reach on either side (IH left, w - 1 - IH right), so
- * that tiles two apart never touch the same cell; wide along x for contiguous rows. */
+/* Tile size: larger than the kernel's reach on either side (IH left, w - 1 - IH right; the
+ * spreading's aligned blocks reach 7 cells further left and 12 - (w - 1 - IH) further right,
+ * kernels/interp.cl), so that tiles two apart never touch the same cell; wide along x for
+ * contiguous rows. */
 #define TILE_W 64
 #define TILE_H 8
 #define MAX_COLOURS 9
@@ -77,7 +79,7 @@ double csi_interp_kernel_ft(double xi)
 
 typedef struct {
     size_t mw, mh, n;
-    cl_mem cell, ph, perm, wt8, tstart, tlist;
+    cl_mem cell, ph, perm, wt8, wpad, tstart, tlist;
     size_t col_off[MAX_COLOURS + 1]; /* tiles of colour c: tlist[col_off[c] .. col_off[c + 1]) */
 } interp_state;
 
@@ -107,8 +109,8 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
             continue;
         cl_uint toff = (cl_uint)first, ntl = (cl_uint)count;
         CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(r), CSI_MEM(s->cell), CSI_MEM(s->ph),
-                         CSI_MEM(s->perm), CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh),
-                         CSI_MEM(s->tstart), CSI_MEM(s->tlist), CSI_ARG(toff), CSI_ARG(ntl)));
+                         CSI_MEM(s->perm), CSI_MEM(s->wt8), CSI_MEM(s->wpad), CSI_ARG(mw),
+                         CSI_ARG(mh), CSI_MEM(s->tstart), CSI_MEM(s->tlist), CSI_ARG(toff), CSI_ARG(ntl)));
         size_t l = 1, g = count;
         CSI_TRY(csi_run(ctx, k, 1, &g, &l));
     }
@@ -124,6 +126,7 @@ static void interp_destroy(csi_linop *op)
     csi_buffer_release(&s->ph);
     csi_buffer_release(&s->perm);
     csi_buffer_release(&s->wt8);
+    csi_buffer_release(&s->wpad);
     csi_buffer_release(&s->tstart);
     csi_buffer_release(&s->tlist);
     free(s);
@@ -215,6 +218,12 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
     for (unsigned d = 0; d < D; d++)
         for (int a = 0; a < CSI_INTERP_TAPS; a++)
             wt8[d * 8 + a] = (float)csi_interp_kernel((double)d / D - (a - IH));
+    /* The same weights between 8 zeros each side, wpad[24 d + 8 + a] = wt8[8 d + a]: the
+     * spreading reads them shifted into its aligned blocks (kernels/interp.cl). */
+    float wpad[64 * 24];
+    memset(wpad, 0, sizeof wpad);
+    for (unsigned d = 0; d < D; d++)
+        memcpy(wpad + d * 24 + 8, wt8 + d * 8, 8 * sizeof(float));
     if (st == CSI_OK)
         st = upload(ctx, cell, n * 4, "the samples' model cells", &s->cell);
     if (st == CSI_OK)
@@ -223,6 +232,8 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
         st = upload(ctx, perm, n * 4, "the samples' order", &s->perm);
     if (st == CSI_OK)
         st = upload(ctx, wt8, D * 8 * sizeof(float), "the interpolation weights", &s->wt8);
+    if (st == CSI_OK)
+        st = upload(ctx, wpad, D * 24 * sizeof(float), "the interpolation weights", &s->wpad);
     if (st == CSI_OK)
         st = upload(ctx, count, (nt + 1) * 4, "the tiles' sample ranges", &s->tstart);
     if (st == CSI_OK)
@@ -250,6 +261,7 @@ void csi_interp_buffers(size_t mw, size_t mh, unsigned D, size_t n, csi_mem_tall
     csi_mem_tally_add(t, n * 4, "the samples' phases");
     csi_mem_tally_add(t, n * 4, "the samples' order");
     csi_mem_tally_add(t, D * 8 * sizeof(float), "the interpolation weights");
+    csi_mem_tally_add(t, D * 24 * sizeof(float), "the interpolation weights");
     csi_mem_tally_add(t, (nt + 1) * 4, "the tiles' sample ranges");
     csi_mem_tally_add(t, nt * 4, "the tile lists");
 }
