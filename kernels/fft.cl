@@ -659,7 +659,9 @@ __kernel void csi_fft_r2c_post(__global const float *restrict Z, __global float 
  * for a quarter of its arithmetic. Each work-item handles 16 consecutive k: the mirrored run
  * M - k is one ascending load reversed in registers. Same arithmetic per element as the scalar
  * kernels, so the same bits. Launched over (M / 16, rows), exact. */
-/* csi_fft_r2c_post for k = 16 g .. 16 g + 15 (k = 0 is overwritten by csi_fft_r2c_edges). */
+/* csi_fft_r2c_post for k = 16 g .. 16 g + 15; the work-item of k = 0 then writes bins 0 and M
+ * as csi_fft_r2c_edges does (the same arithmetic; one launch per unpacking instead of two, which
+ * counts where the row stages run block by block). */
 __kernel void csi_fft_r2c_post16(__global const float *restrict Z, __global float *restrict X,
                                  __global const float *restrict wn, const uint M_,
                                  const uint hs, const uint nrows)
@@ -675,7 +677,15 @@ __kernel void csi_fft_r2c_post16(__global const float *restrict Z, __global floa
     float16 or_ = 0.5f * di, oi = -0.5f * dr;
     float16 tr, ti;
     CMUL16(tr, ti, wr, wi, or_, oi);
-    store16c(X, row * (size_t)hs + k0, er + tr, ei + ti);
+    const size_t o = row * (size_t)hs;
+    store16c(X, o + k0, er + tr, ei + ti);
+    if (k0 == 0) {
+        const float z0r = Z[2 * row * M], z0i = Z[2 * row * M + 1];
+        X[2 * o] = z0r + z0i;
+        X[2 * o + 1] = 0.0f;
+        X[2 * (o + M)] = z0r - z0i;
+        X[2 * (o + M) + 1] = 0.0f;
+    }
 }
 
 /* csi_fft_c2r_pre for k = 16 g .. 16 g + 15. */

@@ -490,12 +490,16 @@ static size_t pow2_dividing(size_t n, size_t cap)
     return p;
 }
 
+/* Whether the unpacking and packing of rows of M complex values run on 16-wide vectors
+ * (csi_fft_r2c_post16, csi_fft_c2r_pre16). */
+static bool unpack16(size_t M) { return M % 16 == 0; }
+
 /* The real <-> complex unpacking or packing (`kernel`: csi_fft_r2c_post or csi_fft_c2r_pre) of
  * `rows` rows: its 16-wide form where M allows (see kernels/fft.cl), else the per-element one. */
 static csi_status run_unpack(csi_ctx *ctx, const char *kernel, cl_mem in, cl_mem out, cl_mem wn,
                              size_t M_, size_t hs_, size_t rows)
 {
-    const bool v16 = M_ % 16 == 0;
+    const bool v16 = unpack16(M_);
     char name[40];
     snprintf(name, sizeof name, "%s%s", kernel, v16 ? "16" : "");
     cl_kernel k;
@@ -512,10 +516,13 @@ static csi_status run_unpack(csi_ctx *ctx, const char *kernel, cl_mem in, cl_mem
 }
 
 /* The forward unpacking of `rows` real rows (read as M complex values) into the half spectrum:
- * csi_fft_r2c_post for the bins inside, then csi_fft_r2c_edges for bins 0 and M. */
+ * csi_fft_r2c_post for the bins inside, then csi_fft_r2c_edges for bins 0 and M (its 16-wide
+ * form writes those itself). */
 static csi_status run_r2c_unpack(csi_ctx *ctx, cl_mem in, cl_mem out, cl_mem wn, size_t M_, size_t hs_, size_t rows)
 {
     CSI_TRY(run_unpack(ctx, "csi_fft_r2c_post", in, out, wn, M_, hs_, rows));
+    if (unpack16(M_))
+        return CSI_OK;
     cl_kernel k;
     cl_uint M = (cl_uint)M_, hs = (cl_uint)hs_, nrows = (cl_uint)rows;
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
