@@ -68,11 +68,13 @@ void csi_interp_gather(__global const float *restrict c, __global float *restric
     }
 }
 
-/* c += the spread of r over the samples of the tiles tlist[toff .. toff + ntl): each work-item adds its
- * tile's samples one after another, in their internal order. The host launches one colour of
- * tiles at a time: tiles of one colour are far enough apart that no two of them write the same
- * cell, so there are no races, and every cell receives its terms in a fixed order (colour by
- * colour, then sample by sample): the result is the same bits on every run.
+/* c += the spread of r over the samples of the rows of tiles rows[roff .. roff + nrows): each
+ * work-item takes one row of tiles, its tiles in the order rows[xoff .. xoff + Tx) (the tile
+ * columns by colour along x), and adds each tile's samples one after another, in their internal
+ * order. The host launches one colour of rows at a time: rows of one colour, and tiles of one
+ * colour within a row, are far enough apart that no two of them write the same cell, so there
+ * are no races, and every cell receives its terms in a fixed order (colour by colour, then sample
+ * by sample): the result is the same bits on every run.
  *
  * Where the grid's rows are a multiple of 8 cells, a window row is added as the aligned 8-cell
  * blocks that hold it (wpad: each phase's 8 weights between 8 zeros, read shifted by the window's
@@ -88,51 +90,54 @@ void csi_interp_spread(__global float *restrict c, __global const float *restric
                        __global const uint *restrict cell, __global const uint *restrict ph,
                        __global const uint *restrict perm, __global const float *restrict wt8,
                        __global const float *restrict wpad, const uint mw, const uint mh,
-                       __global const uint *restrict tstart, __global const uint *restrict tlist,
-                       const uint toff, const uint ntl)
+                       __global const uint *restrict tstart, __global const uint *restrict rows,
+                       const uint roff, const uint nrows, const uint xoff, const uint Tx)
 {
     const size_t g = get_global_id(0);
-    if (g >= ntl)
+    if (g >= nrows)
         return;
-    const uint t = tlist[toff + g];
+    const uint ty = rows[roff + g];
     const bool blocks = mw % 8u == 0u;
-    for (uint i = tstart[t]; i < tstart[t + 1]; i++) {
-        const float v = r[perm[i]];
-        const uint p = ph[i];
-        __global const float *wx = wt8 + (size_t)(p & 0xffu) * 8;
-        __global const float *wy = wt8 + (size_t)((p >> 8) & 0xffu) * 8;
-        if ((p & INSIDE) && blocks) {
-            const size_t e0 = (size_t)cell[i] - IH * (size_t)mw - IH, s = e0 % 8;
-            __global float8 *dst = (__global float8 *)(c + (e0 - s));
-            __global const float *wp = wpad + (size_t)(p & 0xffu) * 24 + 8 - s;
-            const float8 wlo = vload8(0, wp), whi = vload8(0, wp + 8);
-            const size_t rs = mw / 8;
-            /* for s <= 8 - IW the window ends inside the first block (whi is all zeros) */
+    for (uint q = 0; q < Tx; q++) {
+        const uint t = ty * Tx + rows[xoff + q];
+        for (uint i = tstart[t]; i < tstart[t + 1]; i++) {
+            const float v = r[perm[i]];
+            const uint p = ph[i];
+            __global const float *wx = wt8 + (size_t)(p & 0xffu) * 8;
+            __global const float *wy = wt8 + (size_t)((p >> 8) & 0xffu) * 8;
+            if ((p & INSIDE) && blocks) {
+                const size_t e0 = (size_t)cell[i] - IH * (size_t)mw - IH, s = e0 % 8;
+                __global float8 *dst = (__global float8 *)(c + (e0 - s));
+                __global const float *wp = wpad + (size_t)(p & 0xffu) * 24 + 8 - s;
+                const float8 wlo = vload8(0, wp), whi = vload8(0, wp + 8);
+                const size_t rs = mw / 8;
+                /* for s <= 8 - IW the window ends inside the first block (whi is all zeros) */
 #pragma unroll
-            for (int a = 0; a < IW; a++) {
-                __global float8 *row = dst + (size_t)a * rs;
-                const float ta = v * wy[a];
-                row[0] = row[0] + ta * wlo;
-                if (s > 8 - IW)
-                    row[1] = row[1] + ta * whi;
-            }
-        } else if (p & INSIDE) {
-            /* 8-wide rows (two extra cells get + 0: within the tile's margin, see the host). */
-            __global float *dst = c + (size_t)cell[i] - IH * (size_t)mw - IH;
-            const float8 w8 = vload8(0, wx);
+                for (int a = 0; a < IW; a++) {
+                    __global float8 *row = dst + (size_t)a * rs;
+                    const float ta = v * wy[a];
+                    row[0] = row[0] + ta * wlo;
+                    if (s > 8 - IW)
+                        row[1] = row[1] + ta * whi;
+                }
+            } else if (p & INSIDE) {
+                /* 8-wide rows (two extra cells get + 0: within the tile's margin, see the host). */
+                __global float *dst = c + (size_t)cell[i] - IH * (size_t)mw - IH;
+                const float8 w8 = vload8(0, wx);
 #pragma unroll
-            for (int a = 0; a < IW; a++) {
-                __global float *row = dst + (size_t)a * mw;
-                vstore8(vload8(0, row) + (v * wy[a]) * w8, 0, row);
-            }
-        } else {
-            const uint mx = cell[i] % mw, my = cell[i] / mw;
-            for (int a = 0; a < IW; a++) {
-                const uint ry = (my + mh * IW + (uint)a - IH) % mh;
-                const float va = v * wy[a];
-                for (int b = 0; b < IW; b++) {
-                    const uint rx = (mx + mw * IW + (uint)b - IH) % mw;
-                    c[(size_t)ry * mw + rx] += va * wx[b];
+                for (int a = 0; a < IW; a++) {
+                    __global float *row = dst + (size_t)a * mw;
+                    vstore8(vload8(0, row) + (v * wy[a]) * w8, 0, row);
+                }
+            } else {
+                const uint mx = cell[i] % mw, my = cell[i] / mw;
+                for (int a = 0; a < IW; a++) {
+                    const uint ry = (my + mh * IW + (uint)a - IH) % mh;
+                    const float va = v * wy[a];
+                    for (int b = 0; b < IW; b++) {
+                        const uint rx = (mx + mw * IW + (uint)b - IH) % mw;
+                        c[(size_t)ry * mw + rx] += va * wx[b];
+                    }
                 }
             }
         }

@@ -2,10 +2,13 @@
  * csi/interp.h; kernels/interp.cl).
  *
  * The host groups the samples by tile of the model grid (tiles of at least TILE_H rows x TILE_W
- * columns, row by row): the spreading runs one work-item per tile, adding its samples' terms one
- * after another, and launches the tiles in colours such that two tiles of one colour never write
- * the same model cell; the gather reads the samples in the same order (neighbouring samples,
- * neighbouring cells). */
+ * columns, row by row) and colours the tiles along each axis so that two tiles of one colour
+ * never write the same model cell. The spreading runs one work-item per row of tiles, adding the
+ * samples' terms one after another, the row's tiles in the order of their colour along x, and
+ * launches the rows one colour along y at a time: every cell receives its terms in the order of
+ * the tiles' colour (y, then x) and, within a tile, of its samples. A row's band of the grid stays
+ * in the cache from one colour of its tiles to the next. The gather reads the samples in the
+ * same order (neighbouring samples, neighbouring cells). */
 #include "csi/interp.h"
 
 #include <math.h>
@@ -23,7 +26,6 @@
  * contiguous rows. */
 #define TILE_W 64
 #define TILE_H 8
-#define MAX_COLOURS 9
 /* Samples per work-item of the gather. */
 #define GATHER_CHUNK 256
 
@@ -79,8 +81,10 @@ double csi_interp_kernel_ft(double xi)
 
 typedef struct {
     size_t mw, mh, n;
-    cl_mem cell, ph, perm, wt8, wpad, tstart, tlist;
-    size_t col_off[MAX_COLOURS + 1]; /* tiles of colour c: tlist[col_off[c] .. col_off[c + 1]) */
+    cl_mem cell, ph, perm, wt8, wpad, tstart;
+    cl_mem rows;       /* the rows of tiles by colour along y, then the tile columns by colour along x */
+    size_t Tx, Ty;
+    size_t row_off[4]; /* rows of colour c: rows[row_off[c] .. row_off[c + 1]) */
 } interp_state;
 
 static csi_status interp_apply(const csi_linop *op, cl_mem c, cl_mem y)
@@ -102,15 +106,16 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
     CSI_TRY(csi_fill_zero(ctx, c, s->mw * s->mh * sizeof(float)));
     cl_kernel k;
     CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_spread", &k));
-    cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh;
-    for (int col = 0; col < MAX_COLOURS; col++) {
-        size_t first = s->col_off[col], count = s->col_off[col + 1] - first;
+    cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh, Tx = (cl_uint)s->Tx, xoff = (cl_uint)s->Ty;
+    for (int col = 0; col < 3; col++) {
+        size_t first = s->row_off[col], count = s->row_off[col + 1] - first;
         if (count == 0)
             continue;
-        cl_uint toff = (cl_uint)first, ntl = (cl_uint)count;
+        cl_uint roff = (cl_uint)first, nrows = (cl_uint)count;
         CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(r), CSI_MEM(s->cell), CSI_MEM(s->ph),
                          CSI_MEM(s->perm), CSI_MEM(s->wt8), CSI_MEM(s->wpad), CSI_ARG(mw),
-                         CSI_ARG(mh), CSI_MEM(s->tstart), CSI_MEM(s->tlist), CSI_ARG(toff), CSI_ARG(ntl)));
+                         CSI_ARG(mh), CSI_MEM(s->tstart), CSI_MEM(s->rows), CSI_ARG(roff), CSI_ARG(nrows),
+                         CSI_ARG(xoff), CSI_ARG(Tx)));
         size_t l = 1, g = count;
         CSI_TRY(csi_run(ctx, k, 1, &g, &l));
     }
@@ -128,7 +133,7 @@ static void interp_destroy(csi_linop *op)
     csi_buffer_release(&s->wt8);
     csi_buffer_release(&s->wpad);
     csi_buffer_release(&s->tstart);
-    csi_buffer_release(&s->tlist);
+    csi_buffer_release(&s->rows);
     free(s);
     op->state = NULL;
 }
@@ -172,9 +177,9 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
     const size_t Tx = tile_axis(mw, TILE_W, ofx), Ty = tile_axis(mh, TILE_H, ofy), nt = Tx * Ty;
     uint32_t *count = calloc(nt + 1, sizeof *count);
     uint32_t *cell = malloc(n * sizeof *cell), *ph = malloc(n * sizeof *ph), *perm = malloc(n * sizeof *perm);
-    uint32_t *key = malloc(n * sizeof *key), *tlist = malloc(nt * sizeof *tlist);
+    uint32_t *key = malloc(n * sizeof *key), *rows = malloc((Ty + Tx) * sizeof *rows);
     csi_status st = CSI_OK;
-    if (!count || !cell || !ph || !perm || !key || !tlist)
+    if (!count || !cell || !ph || !perm || !key || !rows)
         st = csi_fail(CSI_ERR_NOMEM, "interpolation: out of host memory for %zu samples", n);
     if (st == CSI_OK) {
         /* Stable counting sort of the samples by tile. */
@@ -201,16 +206,21 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
             }
             free(next);
         }
-        /* Colour lists. */
+        /* The rows of tiles by colour along y, then the tile columns by colour along x. */
         size_t fill = 0;
-        for (int col = 0; col < MAX_COLOURS; col++) {
-            s->col_off[col] = fill;
+        for (int col = 0; col < 3; col++) {
+            s->row_off[col] = fill;
             for (size_t ty = 0; ty < Ty; ty++)
-                for (size_t tx = 0; tx < Tx; tx++)
-                    if (tile_colour(ty, Ty) * 3 + tile_colour(tx, Tx) == col)
-                        tlist[fill++] = (uint32_t)(ty * Tx + tx);
+                if (tile_colour(ty, Ty) == col)
+                    rows[fill++] = (uint32_t)ty;
         }
-        s->col_off[MAX_COLOURS] = fill;
+        s->row_off[3] = fill;
+        for (int col = 0; col < 3; col++)
+            for (size_t tx = 0; tx < Tx; tx++)
+                if (tile_colour(tx, Tx) == col)
+                    rows[fill++] = (uint32_t)tx;
+        s->Tx = Tx;
+        s->Ty = Ty;
     }
     /* The kernel at the D phases: wt8[8 d + a] = phi(d / D - (a - IH)), zero from a = w on. */
     float wt8[64 * 8];
@@ -237,7 +247,7 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
     if (st == CSI_OK)
         st = upload(ctx, count, (nt + 1) * 4, "the tiles' sample ranges", &s->tstart);
     if (st == CSI_OK)
-        st = upload(ctx, tlist, nt * 4, "the tile lists", &s->tlist);
+        st = upload(ctx, rows, (Ty + Tx) * 4, "the tile lists", &s->rows);
     free(ofx);
     free(ofy);
     free(count);
@@ -245,7 +255,7 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
     free(ph);
     free(perm);
     free(key);
-    free(tlist);
+    free(rows);
     static const char *names[] = {"csi_interp_gather", "csi_interp_spread"};
     for (int i = 0; i < 2 && st == CSI_OK; i++) {
         cl_kernel k;
@@ -263,7 +273,7 @@ void csi_interp_buffers(size_t mw, size_t mh, unsigned D, size_t n, csi_mem_tall
     csi_mem_tally_add(t, D * 8 * sizeof(float), "the interpolation weights");
     csi_mem_tally_add(t, D * 24 * sizeof(float), "the interpolation weights");
     csi_mem_tally_add(t, (nt + 1) * 4, "the tiles' sample ranges");
-    csi_mem_tally_add(t, nt * 4, "the tile lists");
+    csi_mem_tally_add(t, (Ty + Tx) * 4, "the tile lists");
 }
 
 csi_status csi_interp_create(csi_ctx *ctx, size_t mw, size_t mh, unsigned D, const uint32_t *idx,
