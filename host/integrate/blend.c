@@ -37,8 +37,9 @@
  *       apart: a wet road's reflections beside a lamp spread a pixel's samples as much as its
  *       neighbours'. The two errors are not alike: distrusting b costs at most the mean's own
  *       error (a small lamp inside the pixel that all its single paths missed, where b was
- *       right), trusting a leak costs a dark pixel far more than the mean's relMSE. The bound, 4 (where the empty pixels' rule, csi/empty_pixels.h, starts
- *       to see an HDR step), lets the fit move such a pixel from m by at most 3 times its
+ *       right), trusting a leak costs a dark pixel far more than the mean's relMSE. The
+ *       bound, 4 (where the empty pixels' rule, csi/empty_pixels.h, starts to see an HDR
+ *       step), lets the fit move such a pixel from m by at most 3 times its
  *       brightest sample times the square root of the window's median relative variance over
  *       n_p. With one sample per pixel, b keeps its whole weight: a single sample below the
  *       fit is most often a path that missed the light, the case b is in the magnitude for
