@@ -112,14 +112,16 @@ static csi_status read_variance(const char *path, const char *in, const csi_dump
 }
 
 /* The statistics of a whole run. */
-static csi_status write_stats(csi_outset *set, const char *path, const char *in, const csi_device *dev,
-                              const csi_dump *d, const csi_dump_report *rep, const csi_result *r,
-                              const double phase[3], double t0)
+static csi_status write_stats(csi_outset *set, const char *path, const char *in, const char *varfile,
+                              const csi_device *dev, const csi_dump *d, const csi_dump_report *rep,
+                              const csi_result *r, const double phase[3], double t0)
 {
     csi_json *j = NULL;
     CSI_TRY(csi_json_new(&j));
     csi_json_str(j, "tool", "csi-reconstruct");
     csi_json_str(j, "input", in);
+    if (varfile) /* named, or found beside the dump: either way an input of the run */
+        csi_json_str(j, "variance", varfile);
     csi_json_str(j, "device", csi_device_name(dev));
     cli_json_grid(j, &d->grid);
     csi_json_int(j, "records", (int64_t)rep->records);
@@ -314,7 +316,7 @@ int main(int argc, char **argv)
     s = cli_write_images(&outs, set, res, NULL, &bar);
     phase[2] = cli_now() - tp;
     if (s == CSI_OK && outs.stats)
-        s = write_stats(set, outs.stats, in, dev, &dump, &drep, res, phase, t0);
+        s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0);
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK) {

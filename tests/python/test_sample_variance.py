@@ -80,6 +80,8 @@ with tempfile.TemporaryDirectory() as T:
     py = csi.reconstruct_dump(os.path.join(T, "s.csid"), variance_path=os.path.join(T, "s.variance.csid"))
     check(r.returncode == 0 and json.load(open(os.path.join(T, "c.json")))["image_fnv1a64"] == py.stats["image_fnv1a64"],
           "csi-reconstruct --variance and csi.reconstruct_dump(variance_path=...): the same bits")
+    check(json.load(open(os.path.join(T, "c.json"))).get("variance", "").endswith("s.variance.csid"),
+          "the stats do not name the variances' file")
     check(py.image[noise // OW, noise % OW, 0] == want_noise, "the dump's noisy peak taken as noise as well")
     r = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), os.path.join(T, "s.csid"), "-o", os.path.join(T, "x.exr"),
                         "--variance", os.path.join(T, "o.variance.csid")], capture_output=True, text=True)
