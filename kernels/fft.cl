@@ -502,23 +502,12 @@ COL_CGAIN_V16(8)
  * (T >= 16), so it recomputes and rewrites a few of its neighbour's outputs with the same
  * values. Inputs times `scale` (1 where the pass is not scaled: exact). Same arithmetic per
  * butterfly as csi_fft_row_r*, so the same bits. */
-#define ROW1_V16(R, LOG2_2R)                                                                    \
-    __kernel void csi_fft_row1v_r##R(__global const float *restrict in,                       \
-                                     __global float *restrict out, const uint T_,              \
-                                     const uint rs, const float sgn, const float scale)        \
+/* The 16 x R outputs xr[r], xi[r] of 16 butterflies at p = 1 as v[0 .. 2 R - 1], one contiguous
+ * run of 16 R complex values: log2(2R) rounds of interleaving the rows xr[0], xi[0], xr[1], ...
+ * with their second half. */
+#define ROW1_TRANSPOSE(R, LOG2_2R)                                                              \
     {                                                                                          \
-        const size_t T = T_, row = get_global_id(1);                                           \
-        size_t i0 = 16 * get_global_id(0);                                                     \
-        if (i0 > T - 16)                                                                       \
-            i0 = T - 16;                                                                       \
-        const size_t base = row * (size_t)rs;                                                  \
-        float16 xr[R], xi[R], v[2 * R], w[2 * R];                                              \
-        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
-            load16c(in, base + i0 + (size_t)r * T, false, &xr[r], &xi[r]);                     \
-            xr[r] *= scale;                                                                    \
-            xi[r] *= scale;                                                                    \
-        }                                                                                      \
-        dft##R##_v16(xr, xi, sgn);                                                             \
+        float16 w[2 * R];                                                                      \
         _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
             v[2 * r] = xr[r];                                                                  \
             v[2 * r + 1] = xi[r];                                                              \
@@ -530,6 +519,25 @@ COL_CGAIN_V16(8)
             }                                                                                  \
             _Pragma("unroll") for (int q = 0; q < 2 * R; q++) v[q] = w[q];                     \
         }                                                                                      \
+    }
+#define ROW1_V16(R, LOG2_2R)                                                                    \
+    __kernel void csi_fft_row1v_r##R(__global const float *restrict in,                       \
+                                     __global float *restrict out, const uint T_,              \
+                                     const uint rs, const float sgn, const float scale)        \
+    {                                                                                          \
+        const size_t T = T_, row = get_global_id(1);                                           \
+        size_t i0 = 16 * get_global_id(0);                                                     \
+        if (i0 > T - 16)                                                                       \
+            i0 = T - 16;                                                                       \
+        const size_t base = row * (size_t)rs;                                                  \
+        float16 xr[R], xi[R], v[2 * R];                                                        \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            load16c(in, base + i0 + (size_t)r * T, false, &xr[r], &xi[r]);                     \
+            xr[r] *= scale;                                                                    \
+            xi[r] *= scale;                                                                    \
+        }                                                                                      \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        ROW1_TRANSPOSE(R, LOG2_2R)                                                             \
         __global float *o = out + 2 * (base + i0 * R);                                         \
         _Pragma("unroll") for (int q = 0; q < 2 * R; q++)                                      \
             *(__global float16u *)(o + 16 * q) = v[q];                                         \
@@ -659,6 +667,31 @@ __kernel void csi_fft_r2c_post(__global const float *restrict Z, __global float 
  * for a quarter of its arithmetic. Each work-item handles 16 consecutive k: the mirrored run
  * M - k is one ascending load reversed in registers. Same arithmetic per element as the scalar
  * kernels, so the same bits. Launched over (M / 16, rows), exact. */
+/* The unpacking of 16 bins: z = Z[k], m = Z[M - k] (not yet conjugated), w = W^k -> X[k]. */
+inline void r2c_unpack16(float16 zr, float16 zi, float16 mr, float16 mi, float16 wr, float16 wi,
+                         float16 *xr, float16 *xi)
+{
+    mi = -mi; /* m = conj */
+    float16 er = 0.5f * (zr + mr), ei = 0.5f * (zi + mi);
+    float16 dr = zr - mr, di = zi - mi;
+    float16 or_ = 0.5f * di, oi = -0.5f * dr;
+    float16 tr, ti;
+    CMUL16(tr, ti, wr, wi, or_, oi);
+    *xr = er + tr;
+    *xi = ei + ti;
+}
+/* The packing of 16 bins: x = X[k], m = X[M - k] (not yet conjugated), w = W^k -> Z[k]. */
+inline void c2r_pack16(float16 xr, float16 xi, float16 mr, float16 mi, float16 wr, float16 wi,
+                       float16 *zr, float16 *zi)
+{
+    mi = -mi;
+    float16 er = 0.5f * (xr + mr), ei = 0.5f * (xi + mi);
+    float16 or_, oi;
+    CMUL16(or_, oi, xr - mr, xi - mi, wr, -wi);
+    *zr = er - 0.5f * oi;
+    *zi = ei + 0.5f * or_;
+}
+
 /* csi_fft_r2c_post for k = 16 g .. 16 g + 15; the work-item of k = 0 then writes bins 0 and M
  * as csi_fft_r2c_edges does (the same arithmetic; one launch per unpacking instead of two, which
  * counts where the row stages run block by block). */
@@ -671,14 +704,10 @@ __kernel void csi_fft_r2c_post16(__global const float *restrict Z, __global floa
     load16c(Z, row * M + k0, false, &zr, &zi);
     load16c(Z, row * M + M - k0 - 15, true, &mr, &mi);
     load16c(wn, k0, false, &wr, &wi);
-    mi = -mi; /* m = conj */
-    float16 er = 0.5f * (zr + mr), ei = 0.5f * (zi + mi);
-    float16 dr = zr - mr, di = zi - mi;
-    float16 or_ = 0.5f * di, oi = -0.5f * dr;
-    float16 tr, ti;
-    CMUL16(tr, ti, wr, wi, or_, oi);
+    float16 xr, xi;
+    r2c_unpack16(zr, zi, mr, mi, wr, wi, &xr, &xi);
     const size_t o = row * (size_t)hs;
-    store16c(X, o + k0, er + tr, ei + ti);
+    store16c(X, o + k0, xr, xi);
     if (k0 == 0) {
         const float z0r = Z[2 * row * M], z0i = Z[2 * row * M + 1];
         X[2 * o] = z0r + z0i;
@@ -699,11 +728,9 @@ __kernel void csi_fft_c2r_pre16(__global const float *restrict X, __global float
     load16c(X, xb + k0, false, &xr, &xi);
     load16c(X, xb + M - k0 - 15, true, &mr, &mi);
     load16c(wn, k0, false, &wr, &wi);
-    mi = -mi;
-    float16 er = 0.5f * (xr + mr), ei = 0.5f * (xi + mi);
-    float16 or_, oi;
-    CMUL16(or_, oi, xr - mr, xi - mi, wr, -wi);
-    store16c(Z, row * M + k0, er - 0.5f * oi, ei + 0.5f * or_);
+    float16 zr, zi;
+    c2r_pack16(xr, xi, mr, mi, wr, wi, &zr, &zi);
+    store16c(Z, row * M + k0, zr, zi);
 }
 
 /* X[0] = Re Z[0] + Im Z[0] and X[M] = Re Z[0] - Im Z[0] (the formula above at k = 0, M). */
@@ -741,6 +768,197 @@ __kernel void csi_fft_c2r_pre(__global const float *restrict X, __global float *
     const size_t o = row * M + k;
     Z[2 * o] = er - 0.5f * oi; /* E + i O */
     Z[2 * o + 1] = ei + 0.5f * or_;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* A filter's whole row stage in one launch, one work-item per row (csi_fft_rows_r2c: the passes
+ * along x and the unpacking; csi_fft_rows_c2r: the packing and the passes back). Run block by
+ * block (host/ops/fft_filter.c), a stage costs a launch per pass and block, and a launch's fixed
+ * cost on PoCL is a sizeable share of a block's work (docs/bench/cost.md); here a row's
+ * intermediate passes live in two __local rows of M + 1 complex values (in L1 / L2) and the stage
+ * reads its input and writes its output once. For M a power of two whose plan is radix 8 first, then radices 4 and 8
+ * (the host checks; plan_radices gives radix 2 only where M has a single factor 2): the passes
+ * are csi_fft_row1v_r* (p = 1), csi_fft_rowk8v_r* (p = 8) and the k-indexed form of
+ * csi_fft_rowk_r* (p >= 16) on 16-wide vectors, then csi_fft_r2c_post16, with the same arithmetic
+ * per element, so the same bits as the stages launched pass by pass. plan[0] = the number of
+ * passes, plan[1 + 2 j] = pass j's radix, plan[2 + 2 j] = its offset in the twiddles twp. */
+inline void load16l(__local const float *restrict a, size_t e, bool rev, float16 *re, float16 *im)
+{
+    const float16 lo = *(__local const float16u *)(a + 2 * e);
+    const float16 hi = *(__local const float16u *)(a + 2 * e + 16);
+    *re = shuffle2(lo, hi, EVEN16);
+    *im = shuffle2(lo, hi, ODD16);
+    if (rev) {
+        *re = shuffle(*re, REV16);
+        *im = shuffle(*im, REV16);
+    }
+}
+inline void store16l(__local float *restrict a, size_t e, float16 re, float16 im)
+{
+    *(__local float16u *)(a + 2 * e) = shuffle2(re, im, ILV_LO16);
+    *(__local float16u *)(a + 2 * e + 16) = shuffle2(re, im, ILV_HI16);
+}
+
+/* The pass at p = 1 of a row of L values, in -> out (csi_fft_row1v_r* without its scale, which
+ * the filter's stages set to 1: exact), for input address space AS (LD: load16c or load16l). */
+#define ROW_FIRST_R(R, LOG2_2R, LD)                                                             \
+    for (size_t i0 = 0; i0 < T; i0 += 16) {                                                    \
+        float16 xr[R], xi[R], v[2 * R];                                                        \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            LD(in, i0 + (size_t)r * T, false, &xr[r], &xi[r]);                                 \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        ROW1_TRANSPOSE(R, LOG2_2R)                                                             \
+        __local float *o = out + 2 * (i0 * R);                                                 \
+        _Pragma("unroll") for (int q = 0; q < 2 * R; q++)                                      \
+            *(__local float16u *)(o + 16 * q) = v[q];                                          \
+    }
+#define ROW_FIRST(AS, S, LD)                                                                    \
+    inline void row_first_##S(AS const float *restrict in, __local float *restrict out, int R,  \
+                              size_t L, float sgn)                                             \
+    {                                                                                          \
+        const size_t T = L / (size_t)R;                                                        \
+        if (R == 8) {                                                                          \
+            ROW_FIRST_R(8, 4, LD)                                                              \
+        } else {                                                                               \
+            ROW_FIRST_R(4, 3, LD)                                                              \
+        }                                                                                      \
+    }
+ROW_FIRST(__global, g, load16c)
+ROW_FIRST(__local, l, load16l)
+
+/* The pass at p = 8, __local -> __local (csi_fft_rowk8v_r*). */
+#define ROW_P8_R(R)                                                                             \
+    for (size_t i0 = 0; i0 < T; i0 += 16) {                                                    \
+        float16 xr[R], xi[R];                                                                  \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            load16l(in, i0 + (size_t)r * T, false, &xr[r], &xi[r]);                           \
+        _Pragma("unroll") for (int r = 1; r < R; r++) {                                        \
+            const float16 t = *(__global const float16u *)(twp + 2 * ((size_t)twoff + (r - 1) * p)); \
+            CMUL16(xr[r], xi[r], xr[r], xi[r], shuffle(t, DUP8_RE), -sgn * shuffle(t, DUP8_IM)); \
+        }                                                                                      \
+        dft##R##_v16(xr, xi, sgn);                                                             \
+        __local float *o = out + 2 * ((i0 / p) * p * R);                                       \
+        _Pragma("unroll") for (int r = 0; r < R; r++) {                                        \
+            *(__local float16u *)(o + 2 * r * p) = shuffle2(xr[r], xi[r], ILV_LO16);           \
+            *(__local float16u *)(o + 2 * (p * R + r * p)) = shuffle2(xr[r], xi[r], ILV_HI16); \
+        }                                                                                      \
+    }
+inline void row_p8(__local const float *restrict in, __local float *restrict out,
+                   __global const float *restrict twp, size_t twoff, int R, size_t L, float sgn)
+{
+    const size_t T = L / (size_t)R, p = 8;
+    if (R == 8) {
+        ROW_P8_R(8)
+    } else {
+        ROW_P8_R(4)
+    }
+}
+
+/* A pass at p >= 16 (a multiple of 16), 16 consecutive k at a time (csi_fft_rowk_r*'s arithmetic),
+ * into output address space AS (ST: store16c or store16l). */
+#define ROW_PK_R(R, ST)                                                                         \
+    for (size_t g = 0; g < T / p; g++)                                                         \
+        for (size_t k = 0; k < p; k += 16) {                                                   \
+            const size_t i = g * p + k;                                                        \
+            float16 xr[R], xi[R];                                                              \
+            _Pragma("unroll") for (int r = 0; r < R; r++)                                      \
+                load16l(in, i + (size_t)r * T, false, &xr[r], &xi[r]);                         \
+            _Pragma("unroll") for (int r = 1; r < R; r++) {                                    \
+                float16 wr, wi;                                                                \
+                load16c(twp, twoff + (size_t)(r - 1) * p + k, false, &wr, &wi);                \
+                CMUL16(xr[r], xi[r], xr[r], xi[r], wr, -sgn * wi);                             \
+            }                                                                                  \
+            dft##R##_v16(xr, xi, sgn);                                                         \
+            _Pragma("unroll") for (int r = 0; r < R; r++)                                      \
+                ST(out, g * p * R + k + (size_t)r * p, xr[r], xi[r]);                          \
+        }
+#define ROW_PK(AS, S, ST)                                                                       \
+    inline void row_pk_##S(__local const float *restrict in, AS float *restrict out,           \
+                           __global const float *restrict twp, size_t twoff, int R, size_t L,  \
+                           size_t p, float sgn)                                                \
+    {                                                                                          \
+        const size_t T = L / (size_t)R;                                                        \
+        if (R == 8) {                                                                          \
+            ROW_PK_R(8, ST)                                                                    \
+        } else {                                                                               \
+            ROW_PK_R(4, ST)                                                                    \
+        }                                                                                      \
+    }
+ROW_PK(__global, g, store16c)
+ROW_PK(__local, l, store16l)
+
+/* Passes 1 .. np - 1 of a row from *a through b (ping-pong); the last one writes `last` when it
+ * is not NULL, else the result is left in *a. */
+inline void row_rest(__local float **a, __local float **b, __global float *restrict last,
+                     __global const uint *restrict plan, __global const float *restrict twp,
+                     size_t L, float sgn)
+{
+    const uint np = plan[0];
+    size_t p = plan[1];
+    for (uint j = 1; j < np; j++) {
+        const int R = (int)plan[1 + 2 * j];
+        const size_t twoff = plan[2 + 2 * j];
+        if (p == 8)
+            row_p8(*a, *b, twp, twoff, R, L, sgn);
+        else if (last && j == np - 1)
+            row_pk_g(*a, last, twp, twoff, R, L, p, sgn);
+        else
+            row_pk_l(*a, *b, twp, twoff, R, L, p, sgn);
+        __local float *t = *a;
+        *a = *b;
+        *b = t;
+        p *= (size_t)R;
+    }
+}
+
+/* The unpacking or packing (OP: r2c_unpack16, c2r_pack16) of a row of M bins, 16 at a time: bins
+ * k and M - k of `in` (loaded by LD) with W^k -> bin k of `out` (stored by ST). */
+#define MIRRORED_BINS16(LD, in, OP, ST, out)                                                    \
+    for (size_t k0 = 0; k0 < M; k0 += 16) {                                                    \
+        float16 ar, ai, mr, mi, wr, wi, yr, yi;                                                \
+        LD(in, k0, false, &ar, &ai);                                                           \
+        LD(in, M - k0 - 15, true, &mr, &mi);                                                   \
+        load16c(wn, k0, false, &wr, &wi);                                                      \
+        OP(ar, ai, mr, mi, wr, wi, &yr, &yi);                                                  \
+        ST(out, k0, yr, yi);                                                                   \
+    }
+/* The two stage kernels' parameters: A and B are the row's two __local rows. */
+#define ROWS_STAGE_PARAMS(IN, OUT)                                                              \
+    __global const float *restrict IN, __global float *restrict OUT,                           \
+        __global const float *restrict twp, __global const float *restrict wn,                 \
+        __global const uint *restrict plan, const uint M_, const uint hs, __local float *A,    \
+        __local float *B
+
+/* Forward: row `row` of the real input (M complex values) -> its half spectrum row in X (hs
+ * values a row). A and B hold M + 1 complex values each: the unpacking's mirrored load at k = 0
+ * reads element M (its lane is then overwritten by bins 0 and M, as in csi_fft_r2c_post16). */
+__kernel void csi_fft_rows_r2c(ROWS_STAGE_PARAMS(in, X))
+{
+    const size_t row = get_global_id(0), M = M_;
+    __local float *a = A, *b = B;
+    A[2 * M] = A[2 * M + 1] = B[2 * M] = B[2 * M + 1] = 0.0f;
+    row_first_g(in + 2 * row * M, b, (int)plan[1], M, -1.0f);
+    row_rest(&b, &a, NULL, plan, twp, M, -1.0f);
+    /* csi_fft_r2c_post16 on the row in b */
+    __global float *Xr = X + 2 * row * (size_t)hs;
+    MIRRORED_BINS16(load16l, b, r2c_unpack16, store16c, Xr)
+    const float z0r = b[0], z0i = b[1];
+    Xr[0] = z0r + z0i;
+    Xr[1] = 0.0f;
+    Xr[2 * M] = z0r - z0i;
+    Xr[2 * M + 1] = 0.0f;
+}
+
+/* Inverse: the half spectrum row `row` of X -> the real output row (M complex values). */
+__kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
+{
+    const size_t row = get_global_id(0), M = M_;
+    __local float *a = A, *b = B;
+    /* csi_fft_c2r_pre16 into a */
+    __global const float *Xr = X + 2 * row * (size_t)hs;
+    MIRRORED_BINS16(load16c, Xr, c2r_pack16, store16l, a)
+    row_first_l(a, b, (int)plan[1], M, 1.0f);
+    row_rest(&b, &a, out + 2 * row * M, plan, twp, M, 1.0f);
 }
 
 /* Gain on a half spectrum of rows of hs values (1-D filters, which have no column pass to fuse

@@ -8,6 +8,8 @@
  *   4. inverse passes along z, then y; the first one multiplies by the gain (Gaussian or Wiener)
  *      and by the normalisation 2/N as it loads, so the gain costs no pass of its own
  *   5. pack to M complex values per row, inverse passes along x, the last writing y.
+ * Stages 1-2 and 5 run as one launch each where the row plan allows (rows_fused_fit), else block
+ * by block where the volumes outgrow the cache (row_block), else pass by pass over all rows.
  * No transposes: the layout never changes between axes, which is what a filter allows (the
  * spectrum is never seen outside). Every pass reads and writes the whole volume once, so the
  * radices are as large as the kernels offer (16) to keep the number of passes small. */
@@ -22,6 +24,7 @@
 
 #define PI_ 3.14159265358979323846
 #define MAX_PASSES 24
+#define ROW_PLAN_BYTES ((1 + 2 * MAX_PASSES) * sizeof(cl_uint)) /* upload_row_plan's table */
 
 typedef struct {
     size_t L;
@@ -43,6 +46,7 @@ struct csi_fft_filter {
     cl_mem A, B;              /* blocked: ping-pong rows of one block (blk rows of M values) */
     size_t nblk;              /* blocked: the number of blocks; 0 when not blocked */
     cl_mem *Pblk, *Qblk;      /* blocked: each block's rows of P and Q as sub-buffers, made once */
+    cl_mem plan;              /* fused row stages (rows_fused_fit): the row axis's radices, offsets */
     cl_mem gx, g1, g2, one;   /* gains along x (hs entries), y, z; {1} */
     cl_mem fc, fa;            /* optional complex factor along x (hs entries) and y (2-D) */
     cl_uint wiener;
@@ -221,6 +225,24 @@ static size_t row_block(size_t M, size_t rows)
     return b < rows ? b : rows;
 }
 
+/* Whether the row stages run as one launch each (csi_fft_rows_r2c / csi_fft_rows_c2r in
+ * kernels/fft.cl: a work-item per row, its passes in two __local rows of M + 1 complex values),
+ * which saves the launches of the passes one by one (a fixed cost each on PoCL, per block where
+ * the stages run in blocks) and keeps a row's intermediate passes in the core's caches: a
+ * power-of-two M whose plan is radix 8 first, then radices 4 and 8, at least 3 passes (so every
+ * pass runs in the 16-wide forms those kernels take: p = 1, p = 8, then multiples of 16), and two
+ * rows in the device's local memory. The same arithmetic per element as the passes launched one
+ * by one, so the same bits. */
+static bool rows_fused_plan(const axis_plan *a)
+{
+    if (a->np < 3 || a->radix[0] != 8)
+        return false;
+    for (int i = 0; i < a->np; i++)
+        if (a->radix[i] != 4 && a->radix[i] != 8)
+            return false;
+    return true;
+}
+
 void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
 {
     const size_t M = c[0] / 2, hs = half_stride(M), rows = c[1] * c[2];
@@ -230,6 +252,12 @@ void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
     csi_mem_tally_add(t, (M + 1) * 8, "FFT twiddles");
     csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum");
     csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum scratch");
+    axis_plan x = {.L = M};
+    plan_radices(&x, 0);
+    if (rows_fused_plan(&x))
+        csi_mem_tally_add(t, ROW_PLAN_BYTES, "FFT plan");
+    /* the blocks whenever row_block blocks: build may run fused rows or find the volumes in the
+     * device's cache instead (an upper bound then) */
     const size_t blk = row_block(M, rows);
     if (blk < rows) {
         csi_mem_tally_add(t, (blk * M + 1) * 8, "the filter's row block");
@@ -283,6 +311,7 @@ void csi_fft_filter_free(csi_fft_filter *f)
         csi_buffer_release(&f->ax[a].twp);
     }
     csi_buffer_release(&f->wn);
+    csi_buffer_release(&f->plan);
     /* the blocks before their parents, and not through csi_buffer_release: a sub-buffer holds
      * no device bytes of its own, so it must not leave the device's live count */
     for (size_t b = 0; b < f->nblk; b++) {
@@ -402,6 +431,28 @@ static csi_status spectrum_blocks(csi_fft_filter *f)
     return CSI_OK;
 }
 
+/* rows_fused_plan's plan in the device's local memory: two rows of M + 1 complex values. */
+static bool rows_fused_fit(csi_ctx *ctx, const axis_plan *a)
+{
+    if (!rows_fused_plan(a))
+        return false;
+    cl_ulong local = 0;
+    return clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_LOCAL_MEM_SIZE, sizeof local, &local, NULL) == CL_SUCCESS &&
+           2 * (a->L + 1) * 8 <= local;
+}
+
+/* The fused row stages' plan: the number of passes, then each pass's radix and table offset. */
+static csi_status upload_row_plan(csi_fft_filter *f)
+{
+    const axis_plan *a = &f->ax[0];
+    cl_uint t[ROW_PLAN_BYTES / sizeof(cl_uint)] = {(cl_uint)a->np};
+    for (int i = 0; i < a->np; i++) {
+        t[1 + 2 * i] = (cl_uint)a->radix[i];
+        t[2 + 2 * i] = (cl_uint)a->twoff[i];
+    }
+    return upload_table(f->ctx, t, sizeof t, "FFT plan", &f->plan);
+}
+
 static csi_status build(csi_fft_filter *f, const double sigma[3])
 {
     csi_ctx *ctx = f->ctx;
@@ -413,6 +464,7 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
         CSI_TRY(prepare_axis(ctx, &f->ax[a], a == 0, f->hs, "row", true));
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
     const size_t bytes = spectrum_bytes(M, f->hs, f->rows);
+    cl_kernel k;
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
     f->blk = row_block(M, f->rows);
@@ -427,6 +479,12 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
         clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache, &cache, NULL) != CL_SUCCESS ||
         2 * bytes <= cache)
         f->blk = f->rows;
+    if (rows_fused_fit(ctx, &f->ax[0])) {
+        f->blk = f->rows;
+        CSI_TRY(upload_row_plan(f));
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_rows_r2c", &k));
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_rows_c2r", &k));
+    }
     if (f->blk < f->rows) {
         /* zeroed: csi_fft_r2c_post reads the element past a block's last row (and discards it) */
         const size_t bb = (f->blk * M + 1) * 8;
@@ -441,7 +499,6 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     CSI_TRY(gains(ctx, f->c[2], f->c[2], f->c[2], f->nd > 2 ? sigma[2] : 0.0, &f->g2));
     const float one = 1.0f;
     CSI_TRY(upload_table(ctx, &one, sizeof one, "filter gains", &f->one));
-    cl_kernel k;
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_post", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_r2c_edges", &k));
     CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_c2r_pre", &k));
@@ -769,6 +826,20 @@ static csi_status block_stage(csi_fft_filter *f, cl_mem real, cl_mem sv, size_t 
     return st;
 }
 
+/* A fused row stage (`kernel`: csi_fft_rows_r2c, real rows -> half spectrum, or csi_fft_rows_c2r
+ * back) over all rows, one work-item per row with its two __local rows. */
+static csi_status rows_fused(csi_fft_filter *f, const char *kernel, cl_mem in, cl_mem out)
+{
+    cl_kernel k;
+    CSI_TRY(csi_kernel(f->ctx, "fft", kernel, &k));
+    const cl_uint M = (cl_uint)f->M, hs = (cl_uint)f->hs;
+    const size_t row_bytes = (f->M + 1) * 8;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(f->ax[0].twp), CSI_MEM(f->wn), CSI_MEM(f->plan),
+                     CSI_ARG(M), CSI_ARG(hs), CSI_LOCAL(row_bytes), CSI_LOCAL(row_bytes)));
+    const size_t global[1] = {f->rows}, local[1] = {1};
+    return csi_run(f->ctx, k, 1, global, local);
+}
+
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
 {
     return csi_fft_filter_run_dir(f, x, y, false);
@@ -782,7 +853,11 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     const size_t lx = 32;
 
     cl_mem cur = x;
-    if (f->blk < f->rows) {
+    if (f->plan) {
+        /* 1, 2 in one launch (rows_fused_fit): the half spectrum in P */
+        CSI_TRY(rows_fused(f, "csi_fft_rows_r2c", x, f->P));
+        cur = f->P;
+    } else if (f->blk < f->rows) {
         /* 1, 2 block by block (row_block): the half spectrum in P */
         for (size_t b = 0, r0 = 0; b < f->nblk; b++, r0 += f->blk)
             CSI_TRY(block_stage(f, x, f->Pblk[b], r0, f->rows - r0 < f->blk ? f->rows - r0 : f->blk, true));
@@ -821,6 +896,8 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
         size_t global[2] = {f->M + 1, f->rows}, local[2] = {lx, 1};
         CSI_TRY(csi_run(ctx, k, 2, global, local));
     }
+    if (f->plan)
+        return rows_fused(f, "csi_fft_rows_c2r", cur, y);
     if (f->blk < f->rows) {
         /* 5 block by block */
         cl_mem *spec = cur == f->P ? f->Pblk : f->Qblk;

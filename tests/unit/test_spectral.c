@@ -181,19 +181,18 @@ static void test_squeezed_axis(csi_ctx *ctx)
     test_npy_free(&ag);
 }
 
-/* The filter's row stages run block by block once its two volumes outgrow the device's cache
- * (host/ops/fft_filter.c, row_block: 1024 rows at M = 64 complex values per row, so 128 x 44100,
- * two volumes of 28 MB, makes 43 whole blocks and a partial one where the cache is at most 56 MB,
- * as PoCL's 32 MiB here). A plane wave cos(2 pi (a i / n0 + b j / n1) + phi) is one pair
- * of DFT bins, so the Gaussian multiplies it by exp(-2 pi^2 sigma^2 f^2) per axis (f in cycles
- * per cell), and a factor exp(-2 pi i (kx s / n0 + ky t / n1)) shifts it by (s, t) cells (apply;
- * the adjoint by (-s, -t)); a row written to the wrong block or left out breaks both. Tolerance
- * as for the references above: 2e-5 relative L2 (log2 n = 23 here, ~2.8e-6 before the
- * constant). */
-static void test_row_blocks(csi_ctx *ctx)
+/* A plane wave cos(2 pi (a i / n0 + b j / n1) + phi) is one pair of DFT bins, so the Gaussian
+ * multiplies it by exp(-2 pi^2 sigma^2 f^2) per axis (f in cycles per cell), and a factor
+ * exp(-2 pi i (kx s / n0 + ky t / n1)) shifts it by (s, t) cells (apply; the adjoint by (-s, -t));
+ * a row stage that writes a row to the wrong place, leaves one out or gets a pass wrong breaks
+ * all three. A constant d and q (-1)^i add the two bins along x that the real-to-complex
+ * unpacking writes apart (0 and M: the Gaussian keeps d and multiplies q by its gain at 1/2 cycle
+ * per cell, the shift multiplies q by (-1)^s). Tolerance as for the references above: 2e-5 relative L2 (log2 n = 23 at most here,
+ * ~2.8e-6 before the constant). `what` names the row stages under test. */
+static void plane_wave_filters(csi_ctx *ctx, size_t n0, size_t n1, const char *what)
 {
-    const size_t n0 = 128, n1 = 44100, n = n0 * n1, dims[3] = {n0, n1, 1};
-    const double sig[3] = {1.3, 0.9, 0.0}, a = 5, b = 37, phi = 0.3;
+    const size_t n = n0 * n1, dims[3] = {n0, n1, 1};
+    const double sig[3] = {0.7, 0.9, 0.0}, a = 5, b = 37, phi = 0.3, d = 0.25, q = 0.5;
     const long s = 3, t = -2;
     float *x = malloc(n * sizeof *x), *y = malloc(n * sizeof *y), *want = malloc(n * sizeof *want);
     double *fx = calloc(2 * (n0 / 2 + 1), sizeof *fx), *fy = calloc(2 * n1, sizeof *fy);
@@ -207,9 +206,10 @@ static void test_row_blocks(csi_ctx *ctx)
         fy[2 * k + 1] = k == n1 / 2 ? 0.0 : sin(-2 * PI * ky * (double)t / (double)n1);
     }
     const double g = exp(-2 * PI * PI * (sig[0] * sig[0] * (a / n0) * (a / n0) + sig[1] * sig[1] * (b / n1) * (b / n1)));
+    const double gq = exp(-2 * PI * PI * sig[0] * sig[0] * 0.25);
     for (size_t j = 0; j < n1; j++)
         for (size_t i = 0; i < n0; i++)
-            x[i + n0 * j] = (float)cos(2 * PI * (a * (double)i / n0 + b * (double)j / n1) + phi);
+            x[i + n0 * j] = (float)(cos(2 * PI * (a * (double)i / n0 + b * (double)j / n1) + phi) + d + (i % 2 ? -q : q));
     csi_linop *G = NULL, *F = NULL;
     const uint64_t live0 = csi_device_bytes_live();
     CHECK_OK(csi_filter_create_backend(ctx, dims, sig, CSI_FILTER_GAUSS, 0.0f, CSI_FFT_NATIVE, &G));
@@ -219,24 +219,40 @@ static void test_row_blocks(csi_ctx *ctx)
         const long ds = c == 0 ? 0 : c == 1 ? s : -s, dt = c == 0 ? 0 : c == 1 ? t : -t;
         for (size_t j = 0; j < n1; j++)
             for (size_t i = 0; i < n0; i++)
-                want[i + n0 * j] = (float)(g * cos(2 * PI * (a * ((double)i - ds) / n0 + b * ((double)j - dt) / n1) + phi));
+                want[i + n0 * j] = (float)(g * cos(2 * PI * (a * ((double)i - ds) / n0 + b * ((double)j - dt) / n1) + phi) +
+                                           d + ((i + (size_t)labs(ds)) % 2 ? -q : q) * gq);
         run_op(c == 0 ? G : F, x, y, c == 2);
         double e = test_rel_l2(y, want, n);
-        CHECK(e < 2e-5, "%zu x %zu in row blocks, %s: rel L2 %.3g against the plane wave", n0, n1,
+        CHECK(e < 2e-5, "%zu x %zu in %s, %s: rel L2 %.3g against the plane wave", n0, n1, what,
               c == 0 ? "Gaussian" : c == 1 ? "factor (apply)" : "factor (adjoint)", e);
-        printf("row blocks %s: rel L2 %.2e\n", c == 0 ? "gauss" : c == 1 ? "factor apply" : "factor adjoint", e);
+        printf("%zu x %zu %s %s: rel L2 %.2e\n", n0, n1, what,
+               c == 0 ? "gauss" : c == 1 ? "factor apply" : "factor adjoint", e);
     }
     csi_linop_free(G);
     csi_linop_free(F);
     /* the blocks' sub-buffers hold no device bytes: freed, the filters leave the live count where
      * it was (a sub-buffer counted out as a buffer once made the next tile's plan refuse) */
-    CHECK(csi_device_bytes_live() == live0, "device bytes live after the blocked filters: %llu, before %llu",
-          (unsigned long long)csi_device_bytes_live(), (unsigned long long)live0);
+    CHECK(csi_device_bytes_live() == live0, "device bytes live after the filters in %s: %llu, before %llu",
+          what, (unsigned long long)csi_device_bytes_live(), (unsigned long long)live0);
     free(x);
     free(y);
     free(want);
     free(fx);
     free(fy);
+}
+
+/* The filter's row stages run block by block once its two volumes outgrow the device's cache
+ * (host/ops/fft_filter.c, row_block: 1024 rows at M = 64 complex values per row, so 128 x 44100,
+ * two volumes of 28 MB, makes 43 whole blocks and a partial one where the cache is at most 56 MB,
+ * as PoCL's 32 MiB here; M = 64 has two row passes, so no fused stage). */
+static void test_row_blocks(csi_ctx *ctx) { plane_wave_filters(ctx, 128, 44100, "row blocks"); }
+
+/* The fused row stages (one launch per stage, a work-item per row: rows_fused_fit) take powers of
+ * two M >= 128: M = 128 (passes 8, 4, 4), M = 2048 (8, 8, 8, 4: the 1920x1080 default's tiles). */
+static void test_rows_fused(csi_ctx *ctx)
+{
+    plane_wave_filters(ctx, 256, 300, "fused rows");
+    plane_wave_filters(ctx, 4096, 96, "fused rows");
 }
 
 static void test_sigmas(void)
@@ -428,6 +444,7 @@ int main(void)
     test_references(ctx);
     test_squeezed_axis(ctx);
     test_row_blocks(ctx);
+    test_rows_fused(ctx);
     test_dc(ctx);
     test_gauss_then_wiener(ctx);
     test_tiny_lambda(ctx);
