@@ -51,11 +51,28 @@
  * supporting line (two dark corners alone are also what a bright feature's corner looks like).
  * The best supported candidate wins; a tie goes to the dark side, as the relative error at
  * stake is the larger by the step's ratio squared. A dark winner moves the pixel (by the step's
- * ramp) to the mean of its two neighbours, channel by channel; a bright one leaves it. */
+ * ramp) to the mean of its two neighbours, channel by channel; a bright one leaves it.
+ *
+ * Neither rule is sure where the samples themselves mislead: a thin bright line crossing a dark
+ * pixel's corner puts one point sample far up the step (a blind's slanted gaps, a neon tube on
+ * the diagonal), one path in a hundred finds a lamp, and a neighbour without a sample hides a
+ * line. A pixel left high on the step there can cost the relative error of thousands of the
+ * mean's pixels (a slat between gaps, 1 spp on Poisson-disk positions: 1.2-1.9x the mean's
+ * relMSE on 8 seeds of a blind, docs/bench/mitsuba.md session 14), while the mean's 0 costs at
+ * most 1. So, last, unless the pixel's row or column shows it inside the bright side (both
+ * neighbours on that line bright, a neighbour without a sample stood in for by the pixel beyond
+ * it) and neither shows a dark line through it (both dark, or unknown), the pixel is capped
+ * (from a ratio of 16, fully from 64) at the step's geometric midpoint, the value whose ratio to
+ * either end is the same: if it is dark, its relative error is the step's ratio, not that ratio
+ * squared; if it is bright, at most the mean's. Where the row and the column each cross the step
+ * (a corner of it: a lamp's edge pixel, or a dark pixel beside a thin line's bend), the side
+ * most of the 8 neighbours are on decides, a tie counting as dark. Channels are scaled
+ * together, keeping the pixel's colour. */
 #include "csi/empty_pixels.h"
 
 #include <limits.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
 
@@ -83,6 +100,16 @@
  * fraction of its bright end: over a dark side of exact zeros (one-path samples that found no
  * light) the midpoint would otherwise fall among the dark side's own noise. */
 #define EMPTY_SIDE_FLOOR 1e-3
+/* The same split for the row and the column of the cap (the header's last paragraph), its dark
+ * end floored higher: the cap errs towards the dark side, and at a floor of a thousandth a slat's
+ * faint light (a few % of the gaps' beside it) already counted as bright. */
+#define EMPTY_AXIS_FLOOR 1e-2
+/* The ratios over which the cap comes in: from where the step is fully an HDR one (EMPTY_R1) to
+ * four times that. Below, a leak costs at most the ratio squared in relative error, hundreds
+ * rather than the thousands the cap is for, and an LDR texture's pixels lost to the cap cost
+ * more than that (tests/e2e/test_fit_trust.c). */
+#define EMPTY_CAP_R0 16.0
+#define EMPTY_CAP_R1 64.0
 
 static double ramp(double x, double lo, double hi)
 {
@@ -189,6 +216,42 @@ static int dark_line(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const 
     return best_dark >= 0 && score_dark >= score_bright ? best_dark : -1;
 }
 
+/* Whether the row and the column through empty pixel p place it inside the bright side (the
+ * header's last paragraph): neither has both neighbours below bt, and one has both at or above
+ * it, or else (each has one of each: a corner of the step) more of p's sampled neighbours are
+ * at or above bt than below. A neighbour without a sample is stood in for by the pixel beyond it
+ * on that line; with neither, the line is unknown, which counts as possibly dark. */
+static bool inside_bright(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt)
+{
+    bool bright = false;
+    for (int d = 0; d < 2; d++) { /* DIRS' row, then its column */
+        size_t q[2];
+        for (int k = 0; k < 2; k++) {
+            const int dx = DIRS[d].pair[k][0], dy = DIRS[d].pair[k][1];
+            q[k] = sampled_at(p, dx, dy, ow, oh, cnt);
+            if (q[k] == SIZE_MAX)
+                q[k] = sampled_at(p, 2 * dx, 2 * dy, ow, oh, cnt);
+        }
+        if (q[0] == SIZE_MAX || q[1] == SIZE_MAX || (b[q[0]] < bt && b[q[1]] < bt))
+            return false;
+        bright |= b[q[0]] >= bt && b[q[1]] >= bt;
+    }
+    if (bright)
+        return true;
+    /* both lines cross the step (a corner of it): the side of most of the 8 neighbours */
+    size_t nb[9];
+    int up = 0, down = 0;
+    const int k = csi_recon_window3(p, ow, oh, nb);
+    for (int j = 0; j < k; j++)
+        if (nb[j] != p && cnt[nb[j]]) {
+            if (b[nb[j]] >= bt)
+                up++;
+            else
+                down++;
+        }
+    return up > down;
+}
+
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                             const float *values, size_t n, float *image)
 {
@@ -257,15 +320,30 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
         here /= channels;
         const double split = sqrt(fmax(lo, EMPTY_SIDE_FLOOR * hi) * hi);
         const int d = dark_line(p, ow, oh, cnt, b, split, here);
-        if (d < 0)
+        if (d >= 0) {
+            const size_t a = sampled_at(p, DIRS[d].pair[0][0], DIRS[d].pair[0][1], ow, oh, cnt);
+            const size_t z = sampled_at(p, DIRS[d].pair[1][0], DIRS[d].pair[1][1], ow, oh, cnt);
+            for (uint32_t c = 0; c < channels; c++) {
+                const double t = 0.5 * (m[(size_t)c * np + a] + m[(size_t)c * np + z]);
+                float *x = image + (size_t)c * np + p;
+                if (*x > t)
+                    *x = (float)(*x - step * (*x - t));
+            }
+        }
+        /* last, the cap where the row and the column do not both place the pixel inside the
+         * bright side */
+        if (inside_bright(p, ow, oh, cnt, b, sqrt(fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi)))
             continue;
-        const size_t a = sampled_at(p, DIRS[d].pair[0][0], DIRS[d].pair[0][1], ow, oh, cnt);
-        const size_t z = sampled_at(p, DIRS[d].pair[1][0], DIRS[d].pair[1][1], ow, oh, cnt);
-        for (uint32_t c = 0; c < channels; c++) {
-            const double t = 0.5 * (m[(size_t)c * np + a] + m[(size_t)c * np + z]);
-            float *x = image + (size_t)c * np + p;
-            if (*x > t)
-                *x = (float)(*x - step * (*x - t));
+        here = 0;
+        for (uint32_t c = 0; c < channels; c++)
+            here += image[(size_t)c * np + p];
+        here /= channels;
+        const double cap = sqrt((lo + e) * (hi + e)) - e;
+        const double capw = ramp(log((hi + e) / (lo + e)), log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
+        if (here > cap && capw > 0) {
+            const double k = 1.0 - capw * (1.0 - cap / here);
+            for (uint32_t c = 0; c < channels; c++)
+                image[(size_t)c * np + p] *= (float)k;
         }
     }
     free(cnt), free(m), free(b);

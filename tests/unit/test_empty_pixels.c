@@ -39,7 +39,25 @@
  *         diagonal holds two samples, so it does not decide (a diagonal needs a supporting
  *         line), and the fraction's rule (bright neighbours on opposite sides: F = 0.1) keeps
  *         f = 0.45.
- *   6. In every case every pixel holding a sample keeps its bits, and nothing is raised. */
+ *   6. The cap, last (csi/empty_pixels.h): unless the centre's row or column has both
+ *      neighbours bright and neither has both dark or unknown (a neighbour without a sample
+ *      stood in for by the pixel beyond it), a centre still above the step's geometric midpoint
+ *      sqrt((D + e) (H + e)) - e of its darkest and brightest neighbours D and H (channels'
+ *      means) is scaled, both channels together, to stand exactly there (the step's ratio is
+ *      1000, its weight 1). So the cases above that kept the centre far up the step are now
+ *      capped: case 1 at f = 0.75 (its row, beyond the unsampled neighbours, is dark), the
+ *      extended edge of case 2 and case 3 at f = 0.45 (the same), the segment of case 4 and the
+ *      column of 5d (a bright line one way, a dark one the other: which the pixel lies on, the
+ *      samples cannot tell) and the corners of 5e (no line bright on both sides);
+ *      f. a dark slat whose row neighbour on the left holds no sample (no line decides, the
+ *         fraction keeps f = 0.9; beyond the hole, the row is dark): capped;
+ *      g. an extended region's edge row, rows 0 to 2 bright but the centre, rows 3 and 4 dark
+ *         (its row bright on both sides, its column bright above): kept at f = 0.45;
+ *      h. the inner corner of an L-shaped bright region, columns 0-1 and rows 3-4 (its row and
+ *         its column each cross the step, 5 of its 8 neighbours bright): kept at f = 0.45; the
+ *         corners of 5e are such a crossing with 3 of 6 sampled neighbours bright, a tie, which
+ *         counts as dark.
+ *   7. In every case every pixel holding a sample keeps its bits, and nothing is raised. */
 #include <math.h>
 #include <string.h>
 
@@ -49,7 +67,7 @@
 
 enum { OW = 5, F = 4, NP = OW * OW, C = 2 };
 
-enum { POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH, SLAT, POINT_ROW, EXTENDED_ROW, COLUMN, CORNERS };
+enum { POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH, SLAT, POINT_ROW, EXTENDED_ROW, COLUMN, CORNERS, SLAT_HOLE, EDGE_ROW, L_CORNER };
 
 static int bright_pixel(int shape, int p)
 {
@@ -66,7 +84,12 @@ static int bright_pixel(int shape, int p)
     case POINT_ROW:
         return x == 2 && y == 1;
     case SLAT:
+    case SLAT_HOLE:
         return y == 1 || y == 3;
+    case EDGE_ROW:
+        return y <= 2;
+    case L_CORNER:
+        return x <= 1 || y >= 3;
     case COLUMN:
         return x == 2;
     case CORNERS:
@@ -84,11 +107,13 @@ static int unsampled(int shape, int p)
         return y == 2 && (x == 1 || x == 3);
     if (shape == CORNERS)
         return (x == 2 && y == 1) || (x == 1 && y == 2);
+    if (shape == SLAT_HOLE)
+        return x == 1 && y == 2;
     return 0;
 }
 
 /* expect: 0 the same bits, 1 the dark side, 2 halfway to it, 3 the mean of its row's neighbours
- * (1.25 and 2.5) */
+ * (1.25 and 2.5), 4 capped at the step's geometric midpoint */
 static void run(int shape, double bright, double f, const char *what, int expect)
 {
     const csi_grid g = {OW * F, OW * F, 1, OW, OW};
@@ -115,6 +140,19 @@ static void run(int shape, double bright, double f, const char *what, int expect
             img[c * NP + p] = (float)((p == 2 * OW + 2 ? x : 1.0) * (c + 1));
         }
     memcpy(before, img, sizeof img);
+    /* the cap (case 6): the step's ends D and H among the centre's sampled neighbours, by the
+     * channels' mean, and the floor e */
+    double lo = INFINITY, hi = -INFINITY, sabs = 0;
+    for (size_t i = 0; i < n; i++) {
+        const int dx = (int)(pos[i].x / F) - 2, dy = (int)(pos[i].y / F) - 2;
+        const double mean = 0.5 * (val[i * C] + val[i * C + 1]);
+        if (dx >= -1 && dx <= 1 && dy >= -1 && dy <= 1)
+            lo = fmin(lo, mean), hi = fmax(hi, mean);
+        sabs += fabs(val[i * C]) + fabs(val[i * C + 1]);
+    }
+    const double e = 1e-2 * sabs / (double)n / C;
+    const double cap = sqrt((lo + e) * (hi + e)) - e;
+    const double centre = 0.5 * (before[2 * OW + 2] + before[NP + 2 * OW + 2]);
     CHECK_OK(csi_empty_pixels(&g, C, pos, val, n, img));
     int changed = 0, raised = 0;
     for (int i = 0; i < NP * C; i++) {
@@ -129,6 +167,9 @@ static void run(int shape, double bright, double f, const char *what, int expect
             CHECK(memcmp(&got, &was, sizeof got) == 0, "%s: channel %d moved %g -> %g", what, c, was, got);
         else if (expect == 1)
             CHECK(got == (float)(c + 1), "%s: channel %d is %g, not its dark side %d", what, c, got, c + 1);
+        else if (expect == 4)
+            CHECK(fabs(got - was * cap / centre) <= 1e-5 * was * cap / centre,
+                  "%s: channel %d is %g, not capped at %g", what, c, got, was * cap / centre);
         else if (expect == 3)
             CHECK(got == 1.25f * (float)(c + 1), "%s: channel %d is %g, not its row's %g", what, c, got,
                   1.25 * (c + 1));
@@ -143,23 +184,26 @@ int main(void)
 {
     run(POINT, 1000, 0.02, "a leak beside a source of 1000", 1);
     run(POINT, 1000, 0.45, "a large leak beside a source of 1000", 1);
-    run(POINT, 1000, 0.75, "beside a source, halfway up the ramp", 2);
+    run(POINT, 1000, 0.75, "beside a source, halfway up the ramp: capped", 4);
     run(POINT, 3, 0.02, "a step of 3", 0);
     run(LINE1, 1000, 0.02, "a leak beside a line", 1);
     run(LINE1, 1000, 0.075, "beside a line, low on the step", 1);
     run(LINE1, 1000, 0.45, "beside a line, halfway up the step", 1);
     run(EXTENDED, 1000, 0.02, "a leak beside an extended region", 1);
     run(EXTENDED, 1000, 0.075, "beside an extended region, halfway up the ramp", 2);
-    run(EXTENDED, 1000, 0.45, "an extended region's edge", 0);
+    run(EXTENDED, 1000, 0.45, "an extended region's edge, its row dark beyond: capped", 4);
     run(POINT_BELOW, 1000, 0.02, "a leak between two bright pixels", 1);
     run(POINT_BELOW, 1000, 0.075, "between two bright pixels, halfway up the ramp", 2);
-    run(POINT_BELOW, 1000, 0.45, "between two bright pixels", 0);
-    run(THROUGH, 1000, 0.45, "a segment through the pixel", 0);
+    run(POINT_BELOW, 1000, 0.45, "between two bright pixels, the row dark beyond: capped", 4);
+    run(THROUGH, 1000, 0.45, "a segment through the pixel: capped", 4);
     run(SLAT, 1000, 0.45, "a dark slat between bright rows", 3);
     run(SLAT, 1000, 0.9, "a dark slat between bright rows, far up the step", 3);
     run(POINT_ROW, 1000, 0.75, "beside a source, its own row dark", 1);
     run(EXTENDED_ROW, 1000, 0.45, "beside an extended region, its own row dark", 1);
-    run(COLUMN, 1000, 0.45, "a bright column crossing dark rows", 0);
-    run(CORNERS, 1000, 0.45, "two dark corners alone", 0);
+    run(COLUMN, 1000, 0.45, "a bright column crossing dark rows: capped", 4);
+    run(CORNERS, 1000, 0.45, "two dark corners alone: capped", 4);
+    run(SLAT_HOLE, 1000, 0.9, "a dark slat beside a neighbour without a sample: capped", 4);
+    run(EDGE_ROW, 1000, 0.45, "an extended region's edge row", 0);
+    run(L_CORNER, 1000, 0.45, "an L-shaped region's inner corner", 0);
     return test_done();
 }

@@ -189,6 +189,8 @@ def main(argv=None):
     ap.add_argument("--size", default="128x128")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--methods", default="stratified", help="positions: stratified and/or poisson")
+    ap.add_argument("--seed", type=int, default=1,
+                    help="the positions' and paths' seed; another seed goes in another DIR (the reference, seed 0, is the same render)")
     a = ap.parse_args(argv)
     size = tuple(int(v) for v in a.size.split("x"))
     scenes = a.scenes.split(",")
@@ -197,7 +199,7 @@ def main(argv=None):
         for spp in (int(v) for v in a.spp.split(",")):
             for paths in (int(v) for v in a.paths.split(",")):
                 for method in a.methods.split(","):
-                    samples(a.data, scene, size, spp, paths, method=method)
+                    samples(a.data, scene, size, spp, paths, seed=a.seed, method=method)
         reference(a.data, scene, size, a.reference_spp)
         write_readme(a.data)
 

@@ -19,7 +19,11 @@
  * (a sub-pixel source, a thin line: empty_pixels.c says how the samples tell). Then, at such a
  * step, where the neighbours' arrangement puts the pixel on a line of the dark side (its row's
  * or column's two neighbours dark, the lines beside it uniform: a slat between bright gaps), it
- * moves by the step's weight to the mean of that line's two neighbours. g->t must be 1.
+ * moves by the step's weight to the mean of that line's two neighbours. Last, at a ratio from 16
+ * (fully from 64), unless its row or column has both neighbours bright and neither has both dark
+ * or unknown (a neighbour without a sample stood in for by the pixel beyond it), or both cross
+ * the step with most of its 8 neighbours bright, it is capped at the step's geometric midpoint,
+ * all channels scaled together. g->t must be 1.
  * Used on the whole image, or in each tile's window in a tiled run (tiled.c). */
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                             const float *values, size_t n, float *image);
