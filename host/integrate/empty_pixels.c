@@ -252,6 +252,15 @@ static bool inside_bright(size_t p, size_t ow, size_t oh, const uint32_t *cnt, c
     return up > down;
 }
 
+/* Pixel p's value in the image, by the channels' mean (planar, np pixels a channel). */
+static double channel_mean(const float *image, size_t np, uint32_t channels, size_t p)
+{
+    double v = 0;
+    for (uint32_t c = 0; c < channels; c++)
+        v += image[(size_t)c * np + p];
+    return v / channels;
+}
+
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                             const float *values, size_t n, float *image)
 {
@@ -287,17 +296,15 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
             continue;
         size_t nb[9];
         const int k = csi_recon_window3(p, ow, oh, nb);
-        double lo = INFINITY, hi = -INFINITY, here = 0;
+        double lo = INFINITY, hi = -INFINITY;
         for (int j = 0; j < k; j++)
             if (cnt[nb[j]])
                 lo = fmin(lo, b[nb[j]]), hi = fmax(hi, b[nb[j]]);
         if (!(hi > lo))
             continue;
-        for (uint32_t c = 0; c < channels; c++)
-            here += image[(size_t)c * np + p];
-        here /= channels;
-        const double f = (here - lo) / (hi - lo);
-        const double step = ramp(log((hi + e) / (lo + e)), log(EMPTY_R0), log(EMPTY_R1));
+        const double f = (channel_mean(image, np, channels, p) - lo) / (hi - lo);
+        const double ratio = log((hi + e) / (lo + e));
+        const double step = ramp(ratio, log(EMPTY_R0), log(EMPTY_R1));
         if (step <= 0)
             continue;
         const double bt = sqrt((lo + e) * (hi + e)) - e; /* bright: above the step's geometric midpoint */
@@ -314,12 +321,8 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
                 *x = (float)(*x - w * (*x - d));
         }
         /* then the line the pixel lies on, from the value the fraction's rule left */
-        here = 0;
-        for (uint32_t c = 0; c < channels; c++)
-            here += image[(size_t)c * np + p];
-        here /= channels;
         const double split = sqrt(fmax(lo, EMPTY_SIDE_FLOOR * hi) * hi);
-        const int d = dark_line(p, ow, oh, cnt, b, split, here);
+        const int d = dark_line(p, ow, oh, cnt, b, split, channel_mean(image, np, channels, p));
         if (d >= 0) {
             const size_t a = sampled_at(p, DIRS[d].pair[0][0], DIRS[d].pair[0][1], ow, oh, cnt);
             const size_t z = sampled_at(p, DIRS[d].pair[1][0], DIRS[d].pair[1][1], ow, oh, cnt);
@@ -330,21 +333,15 @@ csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_samp
                     *x = (float)(*x - step * (*x - t));
             }
         }
-        /* last, the cap where the row and the column do not both place the pixel inside the
-         * bright side */
-        if (inside_bright(p, ow, oh, cnt, b, sqrt(fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi)))
+        /* last, the cap at the step's geometric midpoint bt where the row and the column do not
+         * both place the pixel inside the bright side */
+        const double capw = ramp(ratio, log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
+        const double here = channel_mean(image, np, channels, p);
+        if (capw <= 0 || here <= bt || inside_bright(p, ow, oh, cnt, b, sqrt(fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi)))
             continue;
-        here = 0;
+        const double scale = 1.0 - capw * (1.0 - bt / here);
         for (uint32_t c = 0; c < channels; c++)
-            here += image[(size_t)c * np + p];
-        here /= channels;
-        const double cap = sqrt((lo + e) * (hi + e)) - e;
-        const double capw = ramp(log((hi + e) / (lo + e)), log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
-        if (here > cap && capw > 0) {
-            const double k = 1.0 - capw * (1.0 - cap / here);
-            for (uint32_t c = 0; c < channels; c++)
-                image[(size_t)c * np + p] *= (float)k;
-        }
+            image[(size_t)c * np + p] *= (float)scale;
     }
     free(cnt), free(m), free(b);
     return CSI_OK;
