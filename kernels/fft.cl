@@ -35,10 +35,10 @@
 #define CMUL(tr, ti, ar, ai, br, bi) CMUL_T(float, tr, ti, ar, ai, br, bi)
 #define CMUL16(tr, ti, ar, ai, br, bi) CMUL_T(float16, tr, ti, ar, ai, br, bi)
 
-/* The power-of-two DFTs, for scalars (T = float, S empty: dft4, dft2, dft8) and for 16 lanes
- * at once (T = float16, S = _v16). dft4: 4-point DFT in place, natural order in and out;
- * sgn = -1 forward, +1 inverse. dft8: 4-point DFTs of the even and odd samples, then radix 2
- * with w8^k, w8 = exp(sgn 2 pi i / 8). */
+/* The power-of-two DFTs, for scalars (T = float, S empty: dft4, dft2, dft8) and for 16 or 8
+ * lanes at once (T = float16, S = _v16; T = float8, S = _v8). dft4: 4-point DFT in place,
+ * natural order in and out; sgn = -1 forward, +1 inverse. dft8: 4-point DFTs of the even and odd
+ * samples, then radix 2 with w8^k, w8 = exp(sgn 2 pi i / 8). */
 #define DFT_POW2(T, S)                                                                         \
 inline void dft4##S(T *xr, T *xi, float sgn)                                                   \
 {                                                                                              \
@@ -92,6 +92,7 @@ inline void dft8##S(T *xr, T *xi, float sgn)                                    
 }
 DFT_POW2(float, )
 DFT_POW2(float16, _v16)
+DFT_POW2(float8, _v8)
 
 /* Explicit 16-wide vectors, for the kernels PoCL's work-group vectoriser leaves scalar or turns
  * into gathers and scatters (mirrored or transposed accesses): such kernels run one work-item
@@ -161,43 +162,46 @@ inline void dft16(float *xr, float *xi, float sgn)
 }
 
 /* Odd radices: x'[q] = sum_r x[r] exp(sgn 2 pi i q r / R), with a_r = x_r + x_(R-r),
- * b_r = x_r - x_(R-r): x'[q], x'[R-q] = x0 + sum a_r cos(2 pi q r/R) +- sgn i sum b_r sin(...). */
-inline void dft3(float *xr, float *xi, float sgn)
-{
-    const float c = -0.5f, s = 0.86602540378443865f;
-    float ar = xr[1] + xr[2], ai = xi[1] + xi[2], br = xr[1] - xr[2], bi = xi[1] - xi[2];
-    float mr = xr[0] + c * ar, mi = xi[0] + c * ai;
-    float rr = -sgn * s * bi, ri = sgn * s * br;
-    xr[0] += ar;
-    xi[0] += ai;
-    xr[1] = mr + rr;
-    xi[1] = mi + ri;
-    xr[2] = mr - rr;
-    xi[2] = mi - ri;
+ * b_r = x_r - x_(R-r): x'[q], x'[R-q] = x0 + sum a_r cos(2 pi q r/R) +- sgn i sum b_r sin(...).
+ * dft3 and dft5 also on 8 lanes (S = _v8), by the same expressions. */
+#define DFT_3_5(T, S)                                                                          \
+inline void dft3##S(T *xr, T *xi, float sgn)                                                   \
+{                                                                                              \
+    const float c = -0.5f, s = 0.86602540378443865f;                                           \
+    T ar = xr[1] + xr[2], ai = xi[1] + xi[2], br = xr[1] - xr[2], bi = xi[1] - xi[2];          \
+    T mr = xr[0] + c * ar, mi = xi[0] + c * ai;                                                \
+    T rr = -sgn * s * bi, ri = sgn * s * br;                                                   \
+    xr[0] += ar;                                                                               \
+    xi[0] += ai;                                                                               \
+    xr[1] = mr + rr;                                                                           \
+    xi[1] = mi + ri;                                                                           \
+    xr[2] = mr - rr;                                                                           \
+    xi[2] = mi - ri;                                                                           \
+}                                                                                              \
+inline void dft5##S(T *xr, T *xi, float sgn)                                                   \
+{                                                                                              \
+    const float c1 = 0.30901699437494742f, c2 = -0.80901699437494742f;                         \
+    const float s1 = 0.95105651629515357f, s2 = 0.58778525229247313f;                          \
+    T a1r = xr[1] + xr[4], a1i = xi[1] + xi[4], b1r = xr[1] - xr[4], b1i = xi[1] - xi[4];      \
+    T a2r = xr[2] + xr[3], a2i = xi[2] + xi[3], b2r = xr[2] - xr[3], b2i = xi[2] - xi[3];      \
+    T m1r = xr[0] + c1 * a1r + c2 * a2r, m1i = xi[0] + c1 * a1i + c2 * a2i;                    \
+    T m2r = xr[0] + c2 * a1r + c1 * a2r, m2i = xi[0] + c2 * a1i + c1 * a2i;                    \
+    T v1r = s1 * b1r + s2 * b2r, v1i = s1 * b1i + s2 * b2i;                                    \
+    T v2r = s2 * b1r - s1 * b2r, v2i = s2 * b1i - s1 * b2i;                                    \
+    T r1r = -sgn * v1i, r1i = sgn * v1r, r2r = -sgn * v2i, r2i = sgn * v2r;                    \
+    xr[0] += a1r + a2r;                                                                        \
+    xi[0] += a1i + a2i;                                                                        \
+    xr[1] = m1r + r1r;                                                                         \
+    xi[1] = m1i + r1i;                                                                         \
+    xr[4] = m1r - r1r;                                                                         \
+    xi[4] = m1i - r1i;                                                                         \
+    xr[2] = m2r + r2r;                                                                         \
+    xi[2] = m2i + r2i;                                                                         \
+    xr[3] = m2r - r2r;                                                                         \
+    xi[3] = m2i - r2i;                                                                         \
 }
-
-inline void dft5(float *xr, float *xi, float sgn)
-{
-    const float c1 = 0.30901699437494742f, c2 = -0.80901699437494742f;
-    const float s1 = 0.95105651629515357f, s2 = 0.58778525229247313f;
-    float a1r = xr[1] + xr[4], a1i = xi[1] + xi[4], b1r = xr[1] - xr[4], b1i = xi[1] - xi[4];
-    float a2r = xr[2] + xr[3], a2i = xi[2] + xi[3], b2r = xr[2] - xr[3], b2i = xi[2] - xi[3];
-    float m1r = xr[0] + c1 * a1r + c2 * a2r, m1i = xi[0] + c1 * a1i + c2 * a2i;
-    float m2r = xr[0] + c2 * a1r + c1 * a2r, m2i = xi[0] + c2 * a1i + c1 * a2i;
-    float v1r = s1 * b1r + s2 * b2r, v1i = s1 * b1i + s2 * b2i;
-    float v2r = s2 * b1r - s1 * b2r, v2i = s2 * b1i - s1 * b2i;
-    float r1r = -sgn * v1i, r1i = sgn * v1r, r2r = -sgn * v2i, r2i = sgn * v2r;
-    xr[0] += a1r + a2r;
-    xi[0] += a1i + a2i;
-    xr[1] = m1r + r1r;
-    xi[1] = m1i + r1i;
-    xr[4] = m1r - r1r;
-    xi[4] = m1i - r1i;
-    xr[2] = m2r + r2r;
-    xi[2] = m2i + r2i;
-    xr[3] = m2r - r2r;
-    xi[3] = m2i - r2i;
-}
+DFT_3_5(float, )
+DFT_3_5(float8, _v8)
 
 inline void dft7(float *xr, float *xi, float sgn)
 {
@@ -243,9 +247,9 @@ inline void dft7(float *xr, float *xi, float sgn)
         i2 = mi_ - ri_;                                                                        \
     } while (0)
 
-/* 9-point DFT as 3 x 3 (input index q + 3 m, output s + 3 t), for scalars (dft9) and 16 lanes
- * (dft9_v16): X[s + 3t] = sum_q w3^(q t) w9^(q s) sum_m x[q + 3m] w3^(m s). One pass of it
- * replaces two radix-3 passes: every pass reads and writes the whole volume, and a radix-3 pass
+/* 9-point DFT as 3 x 3 (input index q + 3 m, output s + 3 t), for scalars (dft9) and 16 or 8
+ * lanes (dft9_v16, dft9_v8): X[s + 3t] = sum_q w3^(q t) w9^(q s) sum_m x[q + 3m] w3^(m s). One
+ * pass of it replaces two radix-3 passes: every pass reads and writes the whole volume, and a radix-3 pass
  * costs about as much as a radix-8 one (docs/bench/cost.md). Named values throughout, with
  * w9^m = (cos, sgn sin)(2 pi m / 9) for m = q s in {1, 2, 4}. */
 #define DFT9(T, S)                                                                             \
@@ -273,6 +277,7 @@ inline void dft9##S(T *xr, T *xi, float sgn)                                    
 }
 DFT9(float, )
 DFT9(float16, _v16)
+DFT9(float8, _v8)
 
 /* The pass kernels have no bounds checks: the host launches them with global sizes that are
  * exact multiples of the local sizes (column passes run over the padded row length hs, a
@@ -959,6 +964,177 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
     MIRRORED_BINS16(load16c, Xr, c2r_pack16, store16l, a)
     row_first_l(a, b, (int)plan[1], M, 1.0f);
     row_rest(&b, &a, out + 2 * row * M, plan, twp, M, 1.0f);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* A 2-D filter's whole column stage in one launch (csi_fft_cols_2d): the forward passes along y,
+ * the gain pass (the first inverse one) and the inverse passes along y, on a strip of 8 adjacent
+ * columns per work-item, one work-item per work-group. Launched pass by pass, each of the stage's
+ * passes reads and writes the whole spectrum (71 MB at a 1920x1080 tile), which has long left the
+ * caches when the next pass reads it; here the strip's L values (64 bytes a row) live in two
+ * __local volumes of L x 8 complex values (the core's L2), so the stage reads the spectrum once
+ * and writes it once. 8 columns, not the 16 of csi_fft_col1v_r*: two 16-column volumes of a
+ * tile's 4320 rows do not fit PoCL's 1 MiB of local memory, and one row of the strip is then one
+ * cache line. The passes are csi_fft_col_r* / col1v_r* / col_gain_r* / col_cgain_r* on 8 lanes:
+ * the same arithmetic per element, so the same bits as the passes launched one by one. Local
+ * layout: row q of the strip at v[2 q] (its 8 real parts) and v[2 q + 1] (imaginary parts).
+ * plan[0] = the number of passes per direction (>= 2), plan[1 + j] = pass j's radix (2, 3, 4,
+ * 5, 8 or 9; the host checks). */
+#define EVEN8 (uint8)(0, 2, 4, 6, 8, 10, 12, 14)
+#define ODD8 (uint8)(1, 3, 5, 7, 9, 11, 13, 15)
+#define ILV8 (uint16)(0, 8, 1, 9, 2, 10, 3, 11, 4, 12, 5, 13, 6, 14, 7, 15)
+#define CMUL8(tr, ti, ar, ai, br, bi) CMUL_T(float8, tr, ti, ar, ai, br, bi)
+/* row q of the strip at column c0 of a spectrum of rows of hs values (global, interleaved), or
+ * of a __local strip */
+#define COLS_LD_G(a, q, re, im)                                                                 \
+    {                                                                                          \
+        const float16 v_ = *(__global const float16 *)(a + 2 * ((q) * hs + c0));               \
+        re = shuffle(v_, EVEN8);                                                               \
+        im = shuffle(v_, ODD8);                                                                \
+    }
+#define COLS_ST_G(a, q, re, im)                                                                 \
+    *(__global float16 *)(a + 2 * ((q) * hs + c0)) = shuffle2(re, im, ILV8);
+#define COLS_LD_L(a, q, re, im)                                                                 \
+    {                                                                                          \
+        re = a[2 * (q)];                                                                       \
+        im = a[2 * (q) + 1];                                                                   \
+    }
+#define COLS_ST_L(a, q, re, im)                                                                 \
+    {                                                                                          \
+        a[2 * (q)] = re;                                                                       \
+        a[2 * (q) + 1] = im;                                                                   \
+    }
+/* One radix-R pass at p over the strip, in -> out (address spaces IAS / OAS). */
+#define COLS_PASS_R(NAME, R, IAS, ITYPE, LD, OAS, OTYPE, ST)                                    \
+    inline void NAME##_r##R(IAS const ITYPE *restrict in, OAS OTYPE *restrict out,             \
+                            __global const float *restrict tw, size_t c0, size_t hs, size_t L,  \
+                            size_t p, float sgn)                                               \
+    {                                                                                          \
+        const size_t T = L / R, ts = L / (p * R);                                              \
+        for (size_t i = 0; i < T; i++) {                                                       \
+            float8 xr[R], xi[R];                                                               \
+            _Pragma("unroll") for (int r = 0; r < R; r++)                                      \
+                LD(in, i + (size_t)r * T, xr[r], xi[r])                                        \
+            PASS_TWIDDLES(R, CMUL8)                                                            \
+            dft##R##_v8(xr, xi, sgn);                                                          \
+            const size_t j = (i - k) * R + k;                                                  \
+            _Pragma("unroll") for (int r = 0; r < R; r++)                                      \
+                ST(out, j + (size_t)r * p, xr[r], xi[r])                                       \
+        }                                                                                      \
+    }
+#define COLS_PASS(NAME, IAS, ITYPE, LD, OAS, OTYPE, ST)                                         \
+    COLS_PASS_R(NAME, 2, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+    COLS_PASS_R(NAME, 3, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+    COLS_PASS_R(NAME, 4, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+    COLS_PASS_R(NAME, 5, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+    COLS_PASS_R(NAME, 8, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+    COLS_PASS_R(NAME, 9, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+    inline void NAME(IAS const ITYPE *restrict in, OAS OTYPE *restrict out,                    \
+                     __global const float *restrict tw, size_t c0, size_t hs, size_t L, int R,  \
+                     size_t p, float sgn)                                                      \
+    {                                                                                          \
+        switch (R) {                                                                           \
+        case 2: NAME##_r2(in, out, tw, c0, hs, L, p, sgn); break;                              \
+        case 3: NAME##_r3(in, out, tw, c0, hs, L, p, sgn); break;                              \
+        case 4: NAME##_r4(in, out, tw, c0, hs, L, p, sgn); break;                              \
+        case 5: NAME##_r5(in, out, tw, c0, hs, L, p, sgn); break;                              \
+        case 8: NAME##_r8(in, out, tw, c0, hs, L, p, sgn); break;                              \
+        default: NAME##_r9(in, out, tw, c0, hs, L, p, sgn); break;                             \
+        }                                                                                      \
+    }
+COLS_PASS(cols_pass_gl, __global, float, COLS_LD_G, __local, float8, COLS_ST_L)
+COLS_PASS(cols_pass_ll, __local, float8, COLS_LD_L, __local, float8, COLS_ST_L)
+COLS_PASS(cols_pass_lg, __local, float8, COLS_LD_L, __global, float, COLS_ST_G)
+
+/* The gain pass (p = 1, the first inverse pass), __local -> __local: the gain of
+ * csi_fft_col_gain_r* (cplx = 0: inputs times the real gain) or csi_fft_col_cgain_r* (times the
+ * gain and the complex factor fc[c] fa[q], conjugated when csgn = -1), as GAIN_AT_T computes it. */
+#define COLS_GAIN_R(R)                                                                          \
+    inline void cols_gain_r##R(__local const float8 *restrict in, __local float8 *restrict out, \
+                               size_t L, float8 gcb, __global const float *restrict ga,       \
+                               uint wiener, float lambda, float scale, uint cplx, float8 fcr,  \
+                               float8 fci, __global const float *restrict fa, float csgn,     \
+                               float sgn)                                                      \
+    {                                                                                          \
+        const size_t T = L / R;                                                                \
+        for (size_t i = 0; i < T; i++) {                                                       \
+            float8 xr[R], xi[R];                                                               \
+            _Pragma("unroll") for (int r = 0; r < R; r++) {                                    \
+                const size_t q_ = i + (size_t)r * T;                                           \
+                GAIN_AT_T(float8, q_)                                                          \
+                float8 ur, ui;                                                                 \
+                COLS_LD_L(in, q_, ur, ui)                                                      \
+                if (cplx) {                                                                    \
+                    float8 er, ei;                                                             \
+                    CMUL8(er, ei, fcr, fci, fa[2 * q_], csgn * fa[2 * q_ + 1]);                \
+                    CMUL8(xr[r], xi[r], ur, ui, g * er, g * ei);                               \
+                } else {                                                                       \
+                    xr[r] = ur * g;                                                            \
+                    xi[r] = ui * g;                                                            \
+                }                                                                              \
+            }                                                                                  \
+            dft##R##_v8(xr, xi, sgn);                                                          \
+            _Pragma("unroll") for (int r = 0; r < R; r++)                                      \
+                COLS_ST_L(out, i * R + (size_t)r, xr[r], xi[r])                                \
+        }                                                                                      \
+    }
+COLS_GAIN_R(2)
+COLS_GAIN_R(3)
+COLS_GAIN_R(4)
+COLS_GAIN_R(5)
+COLS_GAIN_R(8)
+COLS_GAIN_R(9)
+
+/* Spectrum in -> out (rows of hs values, L rows), strip of columns 8 get_global_id(0) .. + 7.
+ * The gain is gx[c] ga[q] (Gaussian or Wiener, times scale) as in csi_fft_col_gain_r*, with
+ * the complex factor when cplx != 0. A and B: L x 8 complex values each. */
+__kernel void csi_fft_cols_2d(__global const float *restrict in, __global float *restrict out,
+                              __global const float *restrict tw, __global const uint *restrict plan,
+                              const uint L_, const uint hs_, __global const float *restrict gx,
+                              __global const float *restrict ga, const uint wiener,
+                              const float lambda, const float scale, const uint cplx,
+                              __global const float *restrict fc, __global const float *restrict fa,
+                              const float csgn, __local float8 *A, __local float8 *B)
+{
+    const size_t c0 = 8 * get_global_id(0), L = L_, hs = hs_;
+    const uint np = plan[0];
+    __local float8 *a = A, *b = B, *t;
+    /* forward: in -> a, then a -> b (swapped after each pass) */
+    cols_pass_gl(in, a, tw, c0, hs, L, (int)plan[1], 1, -1.0f);
+    size_t p = plan[1];
+    for (uint j = 1; j < np; j++) {
+        cols_pass_ll(a, b, tw, c0, hs, L, (int)plan[1 + j], p, -1.0f);
+        t = a, a = b, b = t;
+        p *= plan[1 + j];
+    }
+    /* inverse: the gain pass at p = 1 */
+    const float8 gcb = *(__global const float8 *)(gx + c0);
+    float8 fcr = 0.0f, fci = 0.0f;
+    if (cplx) {
+        const float16 v = *(__global const float16 *)(fc + 2 * c0);
+        fcr = shuffle(v, EVEN8);
+        fci = csgn * shuffle(v, ODD8);
+    }
+#define COLS_GAIN_CASE(R)                                                                       \
+    case R:                                                                                    \
+        cols_gain_r##R(a, b, L, gcb, ga, wiener, lambda, scale, cplx, fcr, fci, fa, csgn, 1.0f); \
+        break;
+    switch (plan[1]) {
+    COLS_GAIN_CASE(2)
+    COLS_GAIN_CASE(3)
+    COLS_GAIN_CASE(4)
+    COLS_GAIN_CASE(5)
+    COLS_GAIN_CASE(8)
+    COLS_GAIN_CASE(9)
+    }
+    t = a, a = b, b = t;
+    p = plan[1];
+    for (uint j = 1; j + 1 < np; j++) {
+        cols_pass_ll(a, b, tw, c0, hs, L, (int)plan[1 + j], p, 1.0f);
+        t = a, a = b, b = t;
+        p *= plan[1 + j];
+    }
+    cols_pass_lg(a, out, tw, c0, hs, L, (int)plan[np], p, 1.0f);
 }
 
 /* Gain on a half spectrum of rows of hs values (1-D filters, which have no column pass to fuse

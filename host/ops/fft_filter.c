@@ -10,6 +10,8 @@
  *   5. pack to M complex values per row, inverse passes along x, the last writing y.
  * Stages 1-2 and 5 run as one launch each where the row plan allows (rows_fused_fit), else block
  * by block where the volumes outgrow the cache (row_block), else pass by pass over all rows.
+ * Stages 3-4 of a 2-D filter run as one launch, a strip of 8 columns per work-item held in local
+ * memory, where the column plan allows (cols_fused_fit), else pass by pass.
  * No transposes: the layout never changes between axes, which is what a filter allows (the
  * spectrum is never seen outside). Every pass reads and writes the whole volume once, so the
  * radices are as large as the kernels offer (16) to keep the number of passes small. */
@@ -25,6 +27,7 @@
 #define PI_ 3.14159265358979323846
 #define MAX_PASSES 24
 #define ROW_PLAN_BYTES ((1 + 2 * MAX_PASSES) * sizeof(cl_uint)) /* upload_row_plan's table */
+#define COL_PLAN_BYTES ((1 + MAX_PASSES) * sizeof(cl_uint))     /* upload_col_plan's table */
 
 typedef struct {
     size_t L;
@@ -47,6 +50,7 @@ struct csi_fft_filter {
     size_t nblk;              /* blocked: the number of blocks; 0 when not blocked */
     cl_mem *Pblk, *Qblk;      /* blocked: each block's rows of P and Q as sub-buffers, made once */
     cl_mem plan;              /* fused row stages (rows_fused_fit): the row axis's radices, offsets */
+    cl_mem cplan;             /* fused column stage (cols_fused_fit): the y axis's radices */
     cl_mem gx, g1, g2, one;   /* gains along x (hs entries), y, z; {1} */
     cl_mem fc, fa;            /* optional complex factor along x (hs entries) and y (2-D) */
     cl_uint wiener;
@@ -243,6 +247,24 @@ static bool rows_fused_plan(const axis_plan *a)
     return true;
 }
 
+/* Whether a 2-D filter's column stage runs as one launch (csi_fft_cols_2d in kernels/fft.cl: a
+ * strip of 8 columns per work-item, its passes in two __local volumes of L x 8 complex values),
+ * which reads and writes the spectrum once instead of once per pass: at least 2 passes per
+ * direction, each of a radix the kernel takes (2, 3, 4, 5, 8, 9). cols_fused_fit adds the room in
+ * the device's local memory. The same arithmetic per element as the passes launched one by one,
+ * so the same bits. */
+static bool cols_fused_plan(const axis_plan *a)
+{
+    if (a->np < 2)
+        return false;
+    for (int i = 0; i < a->np; i++) {
+        const int R = a->radix[i];
+        if (R != 2 && R != 3 && R != 4 && R != 5 && R != 8 && R != 9)
+            return false;
+    }
+    return true;
+}
+
 void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
 {
     const size_t M = c[0] / 2, hs = half_stride(M), rows = c[1] * c[2];
@@ -256,6 +278,12 @@ void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
     plan_radices(&x, 0);
     if (rows_fused_plan(&x))
         csi_mem_tally_add(t, ROW_PLAN_BYTES, "FFT plan");
+    if (nd == 2) {
+        axis_plan y = {.L = c[1]};
+        plan_radices(&y, hs);
+        if (cols_fused_plan(&y))
+            csi_mem_tally_add(t, COL_PLAN_BYTES, "FFT plan");
+    }
     /* the blocks whenever row_block blocks: build may run fused rows or find the volumes in the
      * device's cache instead (an upper bound then) */
     const size_t blk = row_block(M, rows);
@@ -312,6 +340,7 @@ void csi_fft_filter_free(csi_fft_filter *f)
     }
     csi_buffer_release(&f->wn);
     csi_buffer_release(&f->plan);
+    csi_buffer_release(&f->cplan);
     /* the blocks before their parents, and not through csi_buffer_release: a sub-buffer holds
      * no device bytes of its own, so it must not leave the device's live count */
     for (size_t b = 0; b < f->nblk; b++) {
@@ -441,6 +470,27 @@ static bool rows_fused_fit(csi_ctx *ctx, const axis_plan *a)
            2 * (a->L + 1) * 8 <= local;
 }
 
+/* cols_fused_plan's plan (a 2-D filter's y axis) in the device's local memory: two volumes of
+ * L x 8 complex values. */
+static bool cols_fused_fit(csi_ctx *ctx, const csi_fft_filter *f)
+{
+    if (f->nd != 2 || !cols_fused_plan(&f->ax[1]))
+        return false;
+    cl_ulong local = 0;
+    return clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_LOCAL_MEM_SIZE, sizeof local, &local, NULL) == CL_SUCCESS &&
+           2 * f->ax[1].L * 64 <= local;
+}
+
+/* The fused column stage's plan: the number of passes per direction, then each pass's radix. */
+static csi_status upload_col_plan(csi_fft_filter *f)
+{
+    const axis_plan *a = &f->ax[1];
+    cl_uint t[COL_PLAN_BYTES / sizeof(cl_uint)] = {(cl_uint)a->np};
+    for (int i = 0; i < a->np; i++)
+        t[1 + i] = (cl_uint)a->radix[i];
+    return upload_table(f->ctx, t, sizeof t, "FFT plan", &f->cplan);
+}
+
 /* The fused row stages' plan: the number of passes, then each pass's radix and table offset. */
 static csi_status upload_row_plan(csi_fft_filter *f)
 {
@@ -484,6 +534,10 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
         CSI_TRY(upload_row_plan(f));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_rows_r2c", &k));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_rows_c2r", &k));
+    }
+    if (cols_fused_fit(ctx, f)) {
+        CSI_TRY(upload_col_plan(f));
+        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_cols_2d", &k));
     }
     if (f->blk < f->rows) {
         /* zeroed: csi_fft_r2c_post reads the element past a block's last row (and discards it) */
@@ -840,6 +894,26 @@ static csi_status rows_fused(csi_fft_filter *f, const char *kernel, cl_mem in, c
     return csi_run(f->ctx, k, 1, global, local);
 }
 
+/* The fused column stage (cols_fused_fit) of a 2-D filter, spectrum in -> out: the forward
+ * passes along y, the gain pass (with the complex factor, conjugated when conj), the inverse
+ * passes; one work-item per strip of 8 columns, with its two __local volumes. */
+static csi_status cols_fused(csi_fft_filter *f, cl_mem in, cl_mem out, bool conj)
+{
+    cl_kernel k;
+    CSI_TRY(csi_kernel(f->ctx, "fft", "csi_fft_cols_2d", &k));
+    const cl_uint L = (cl_uint)f->c[1], hs = (cl_uint)f->hs, cplx = f->fc != NULL;
+    const float csgn = conj ? -1.0f : 1.0f;
+    /* without a factor the kernel reads neither table: any buffer will do */
+    cl_mem fc = cplx ? f->fc : f->one, fa = cplx ? f->fa : f->one;
+    const size_t strip_bytes = f->c[1] * 64;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(f->ax[1].tw), CSI_MEM(f->cplan), CSI_ARG(L),
+                     CSI_ARG(hs), CSI_MEM(f->gx), CSI_MEM(f->g1), CSI_ARG(f->wiener), CSI_ARG(f->lambda),
+                     CSI_ARG(f->scale), CSI_ARG(cplx), CSI_MEM(fc), CSI_MEM(fa), CSI_ARG(csgn),
+                     CSI_LOCAL(strip_bytes), CSI_LOCAL(strip_bytes)));
+    const size_t global[1] = {f->hs / 8}, local[1] = {1};
+    return csi_run(f->ctx, k, 1, global, local);
+}
+
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y)
 {
     return csi_fft_filter_run_dir(f, x, y, false);
@@ -879,13 +953,18 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
         }
     }
     /* 3, 4: forward along y, z; inverse along z, y with the gain in the first inverse pass */
-    if (f->nd >= 2)
+    if (f->cplan) {
+        /* 3, 4 in one launch (cols_fused_fit, 2-D only) */
+        cl_mem dst = cur == f->P ? f->Q : f->P;
+        CSI_TRY(cols_fused(f, cur, dst, conj));
+        cur = dst;
+    } else if (f->nd >= 2)
         CSI_TRY(run_axis_cols(f, &cur, 1, -1.0f, false, conj));
     if (f->nd == 3) {
         CSI_TRY(run_axis_cols(f, &cur, 2, -1.0f, false, conj));
         CSI_TRY(run_axis_cols(f, &cur, 2, 1.0f, true, conj));
     }
-    if (f->nd >= 2)
+    if (f->nd >= 2 && !f->cplan)
         CSI_TRY(run_axis_cols(f, &cur, 1, 1.0f, f->nd == 2, conj));
     if (f->nd == 1) {
         cl_kernel k;

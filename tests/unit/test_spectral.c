@@ -255,6 +255,12 @@ static void test_rows_fused(csi_ctx *ctx)
     plane_wave_filters(ctx, 4096, 96, "fused rows");
 }
 
+/* A 2-D filter's column stage runs as one launch, a strip of 8 columns per work-item in local
+ * memory, where its plan allows (host/ops/fft_filter.c, cols_fused_fit): along y 300 is passes
+ * 4, 3, 5, 5, 96 is 8, 4, 3 (above), 90 is 2, 9, 5 (here); 44100 (above) runs pass by pass (two
+ * strip volumes of 5.6 MB, more than PoCL's 1 MiB of local memory). */
+static void test_cols_fused(csi_ctx *ctx) { plane_wave_filters(ctx, 256, 90, "fused columns"); }
+
 static void test_sigmas(void)
 {
     /* The paper's example (Sec. 4): k = 1024^2 reduced to p = 256^2 gives 2 sigma_Phi = 2.2. */
@@ -445,6 +451,7 @@ int main(void)
     test_squeezed_axis(ctx);
     test_row_blocks(ctx);
     test_rows_fused(ctx);
+    test_cols_fused(ctx);
     test_dc(ctx);
     test_gauss_then_wiener(ctx);
     test_tiny_lambda(ctx);
