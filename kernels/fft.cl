@@ -1004,8 +1004,8 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
         a[2 * (q)] = re;                                                                       \
         a[2 * (q) + 1] = im;                                                                   \
     }
-/* One radix-R pass at p over the strip, in -> out (address spaces IAS / OAS). */
-#define COLS_PASS_R(NAME, R, IAS, ITYPE, LD, OAS, OTYPE, ST)                                    \
+/* One radix-R pass at p over the strip, in -> out (address spaces IAS / OAS; PF: the prefetch). */
+#define COLS_PASS_R(NAME, R, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                               \
     inline void NAME##_r##R(IAS const ITYPE *restrict in, OAS OTYPE *restrict out,             \
                             __global const float *restrict tw, size_t c0, size_t hs, size_t L,  \
                             size_t p, float sgn)                                               \
@@ -1013,8 +1013,10 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
         const size_t T = L / R, ts = L / (p * R);                                              \
         for (size_t i = 0; i < T; i++) {                                                       \
             float8 xr[R], xi[R];                                                               \
-            _Pragma("unroll") for (int r = 0; r < R; r++)                                      \
+            _Pragma("unroll") for (int r = 0; r < R; r++) {                                    \
                 LD(in, i + (size_t)r * T, xr[r], xi[r])                                        \
+                PF(in, i + 16 + (size_t)r * T);                                                \
+            }                                                                                  \
             PASS_TWIDDLES(R, CMUL8)                                                            \
             dft##R##_v8(xr, xi, sgn);                                                          \
             const size_t j = (i - k) * R + k;                                                  \
@@ -1022,13 +1024,13 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
                 ST(out, j + (size_t)r * p, xr[r], xi[r])                                       \
         }                                                                                      \
     }
-#define COLS_PASS(NAME, IAS, ITYPE, LD, OAS, OTYPE, ST)                                         \
-    COLS_PASS_R(NAME, 2, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
-    COLS_PASS_R(NAME, 3, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
-    COLS_PASS_R(NAME, 4, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
-    COLS_PASS_R(NAME, 5, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
-    COLS_PASS_R(NAME, 8, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
-    COLS_PASS_R(NAME, 9, IAS, ITYPE, LD, OAS, OTYPE, ST)                                       \
+#define COLS_PASS(NAME, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                    \
+    COLS_PASS_R(NAME, 2, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                   \
+    COLS_PASS_R(NAME, 3, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                   \
+    COLS_PASS_R(NAME, 4, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                   \
+    COLS_PASS_R(NAME, 5, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                   \
+    COLS_PASS_R(NAME, 8, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                   \
+    COLS_PASS_R(NAME, 9, IAS, ITYPE, LD, OAS, OTYPE, ST, PF)                                   \
     inline void NAME(IAS const ITYPE *restrict in, OAS OTYPE *restrict out,                    \
                      __global const float *restrict tw, size_t c0, size_t hs, size_t L, int R,  \
                      size_t p, float sgn)                                                      \
@@ -1042,9 +1044,13 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
         default: NAME##_r9(in, out, tw, c0, hs, L, p, sgn); break;                             \
         }                                                                                      \
     }
-COLS_PASS(cols_pass_gl, __global, float, COLS_LD_G, __local, float8, COLS_ST_L)
-COLS_PASS(cols_pass_ll, __local, float8, COLS_LD_L, __local, float8, COLS_ST_L)
-COLS_PASS(cols_pass_lg, __local, float8, COLS_LD_L, __global, float, COLS_ST_G)
+/* The first pass reads the spectrum a row (one cache line) per element, each row in another page,
+ * and the hardware prefetchers stay within a page: it asks for the rows 16 butterflies ahead. */
+#define COLS_PF_G(a, q) __builtin_prefetch(a + 2 * ((q) * hs + c0))
+#define COLS_PF_L(a, q)
+COLS_PASS(cols_pass_gl, __global, float, COLS_LD_G, __local, float8, COLS_ST_L, COLS_PF_G)
+COLS_PASS(cols_pass_ll, __local, float8, COLS_LD_L, __local, float8, COLS_ST_L, COLS_PF_L)
+COLS_PASS(cols_pass_lg, __local, float8, COLS_LD_L, __global, float, COLS_ST_G, COLS_PF_L)
 
 /* The gain pass (p = 1, the first inverse pass), __local -> __local: the gain of
  * csi_fft_col_gain_r* (cplx = 0: inputs times the real gain) or csi_fft_col_cgain_r* (times the

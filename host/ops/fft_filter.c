@@ -13,8 +13,9 @@
  * Stages 3-4 of a 2-D filter run as one launch, a strip of 8 columns per work-item held in local
  * memory, where the column plan allows (cols_fused_fit), else pass by pass.
  * No transposes: the layout never changes between axes, which is what a filter allows (the
- * spectrum is never seen outside). Every pass reads and writes the whole volume once, so the
- * radices are as large as the kernels offer (16) to keep the number of passes small. */
+ * spectrum is never seen outside). A pass launched on its own reads and writes the whole volume
+ * once, so the radices are as large as the kernels offer (16) to keep the number of passes small;
+ * the fused stages read and write it once per stage. */
 #include "fft_filter.h"
 
 #include <math.h>
