@@ -1092,9 +1092,13 @@ COLS_GAIN_R(8)
 COLS_GAIN_R(9)
 
 /* Spectrum in -> out (rows of hs values, L rows), strip of columns 8 get_global_id(0) .. + 7.
+ * in and out may be the same buffer (not restrict): a work-item reads its whole strip in the first
+ * pass before its last pass writes it, and the strips are disjoint. In place, the last pass writes
+ * rows the first one brought into the caches, where a second volume would first be read from
+ * memory for its writes.
  * The gain is gx[c] ga[q] (Gaussian or Wiener, times scale) as in csi_fft_col_gain_r*, with
  * the complex factor when cplx != 0. A and B: L x 8 complex values each. */
-__kernel void csi_fft_cols_2d(__global const float *restrict in, __global float *restrict out,
+__kernel void csi_fft_cols_2d(__global const float *in, __global float *out,
                               __global const float *restrict tw, __global const uint *restrict plan,
                               const uint L_, const uint hs_, __global const float *restrict gx,
                               __global const float *restrict ga, const uint wiener,

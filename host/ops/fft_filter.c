@@ -895,9 +895,10 @@ static csi_status rows_fused(csi_fft_filter *f, const char *kernel, cl_mem in, c
     return csi_run(f->ctx, k, 1, global, local);
 }
 
-/* The fused column stage (cols_fused_fit) of a 2-D filter, spectrum in -> out: the forward
- * passes along y, the gain pass (with the complex factor, conjugated when conj), the inverse
- * passes; one work-item per strip of 8 columns, with its two __local volumes. */
+/* The fused column stage (cols_fused_fit) of a 2-D filter, spectrum in -> out (the same buffer
+ * is allowed; the filter runs it in place): the forward passes along y, the gain pass (with the
+ * complex factor, conjugated when conj), the inverse passes; one work-item per strip of 8
+ * columns, with its two __local volumes. */
 static csi_status cols_fused(csi_fft_filter *f, cl_mem in, cl_mem out, bool conj)
 {
     cl_kernel k;
@@ -955,10 +956,8 @@ csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool co
     }
     /* 3, 4: forward along y, z; inverse along z, y with the gain in the first inverse pass */
     if (f->cplan) {
-        /* 3, 4 in one launch (cols_fused_fit, 2-D only) */
-        cl_mem dst = cur == f->P ? f->Q : f->P;
-        CSI_TRY(cols_fused(f, cur, dst, conj));
-        cur = dst;
+        /* 3, 4 in one launch (cols_fused_fit, 2-D only), in place */
+        CSI_TRY(cols_fused(f, cur, cur, conj));
     } else if (f->nd >= 2)
         CSI_TRY(run_axis_cols(f, &cur, 1, -1.0f, false, conj));
     if (f->nd == 3) {
