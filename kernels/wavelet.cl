@@ -433,6 +433,174 @@ inline int wrap(int i, int n)
         }                                                                                          \
     }
 
+/* One whole level in one launch: the x pass of a band of rows, then the y pass of that band, with
+ * the band held in __local memory between them, so a level reads its input and writes its output
+ * once instead of going through the scratch image (a level's two passes are bound by memory, not
+ * by their multiply-adds). One work-item per work-group; band g makes output rows (analysis) or
+ * row pairs (synthesis) [gB, gB + B) over the whole width, reading and writing whole rows (one
+ * work-item per strip of columns, walking down its rows, ran 1.6x slower: every row in another
+ * page). The x rows a band needs overlap its neighbours' by F - 2 (analysis) or F/2 (synthesis),
+ * computed again by each. Every output is the same fma chain, in the same order, as in the pass
+ * kernels above, so the same bits. In local memory a row's halves are G = ceil(n/32) vectors of
+ * 16 each; where n/2 is not a multiple of 16 the last vector's extra lanes are computed from
+ * wrapped windows and not stored. The host launches these only where input and output are
+ * distinct buffers. */
+
+/* 16 lanes of v to p[0 .. cnt) (all 16 when cnt >= 16). */
+inline void store_lanes(const float16 v, __global float *p, const int cnt)
+{
+    if (cnt >= 16) {
+        vstore16(v, 0, p);
+        return;
+    }
+    float t[16];
+    vstore16(v, 0, t);
+    for (int i = 0; i < cnt; i++)
+        p[i] = t[i];
+}
+
+/* Analysis of one level: src (offset soff, row stride sstride: n x m values) -> the approximation
+ * band (ll: n/2 x m/2 at loff, stride lstride) and the three detail bands in coef (stride
+ * cstride), in the layout the two passes make: rows o < m/2 low along y, m/2 + o high; columns
+ * o low along x, n/2 + o high. Output row o reads x rows 2o + F/2 - j (j < F), so band g's rows
+ * [o0, o1) read x rows r0 + i, r0 = 2 o0 - F/2 + 1, i < 2 (o1 - o0) + F - 2 (wrapped into [0, m)),
+ * local row i: the low half at S[2Gi + c], the high half at S[2Gi + G + c]. */
+#define CSI_FWD_XY(NAME, F, LO, HI, TAPS)                                                          \
+    __kernel void NAME(__global const float *src, const uint soff, const uint sstride,            \
+                       __global float *ll, const uint loff, const uint lstride,                   \
+                       __global float *coef, const uint cstride, const uint n_, const uint m_,    \
+                       const uint B, __local float16 *S)                                           \
+    {                                                                                              \
+        const int n = (int)n_, m = (int)m_, nx = n >> 1, ny = m >> 1, G = (nx + 15) / 16;         \
+        const int o0 = (int)get_global_id(0) * (int)B;                                             \
+        const int o1 = o0 + (int)B < ny ? o0 + (int)B : ny, r0 = 2 * o0 - F / 2 + 1;               \
+        const int rows = 2 * (o1 - o0) + F - 2;                                                    \
+        for (int i = 0; i < rows; i++) {                                                           \
+            __global const float *row = src + soff + (size_t)wrap(r0 + i, m) * sstride;            \
+            __local float16 *out = S + (size_t)(2 * G) * i;                                        \
+            for (int c = 0; c < G; c++) {                                                          \
+                const int base = 32 * c - F / 2;                                                   \
+                float16 w0, w1, w2;                                                                \
+                if (c >= 1 && base + 48 <= n && 16 * c + 16 <= nx) {                               \
+                    w0 = vload16(0, row + base);                                                   \
+                    w1 = vload16(1, row + base);                                                   \
+                    w2 = vload16(2, row + base);                                                   \
+                } else {                                                                           \
+                    float win[48];                                                                 \
+                    int k = wrap(base, n);                                                         \
+                    for (int t = 0; t < 48; t++) {                                                 \
+                        win[t] = row[k];                                                           \
+                        k = k + 1 == n ? 0 : k + 1;                                                \
+                    }                                                                              \
+                    w0 = vload16(0, win);                                                          \
+                    w1 = vload16(1, win);                                                          \
+                    w2 = vload16(2, win);                                                          \
+                }                                                                                  \
+                const float16 E0 = (float16)(w0.even, w1.even), O0 = (float16)(w0.odd, w1.odd);   \
+                const float16 E1 = (float16)(w2.even, w2.even), O1 = (float16)(w2.odd, w2.odd);   \
+                float16 a = 0.0f, d = 0.0f;                                                        \
+                TAPS(LO, HI)                                                                       \
+                out[c] = a;                                                                        \
+                out[G + c] = d;                                                                    \
+            }                                                                                      \
+        }                                                                                          \
+        for (int o = o0; o < o1; o++) {                                                            \
+            /* x row 2o + F/2 - j is local row 2 (o - o0) + F - 1 - j */                           \
+            __local const float16 *top = S + (size_t)(2 * G) * (2 * (o - o0) + F - 1);            \
+            for (int c = 0; c < 2 * G; c += 2) {                                                   \
+                float16 l0 = 0.0f, h0 = 0.0f, l1 = 0.0f, h1 = 0.0f;                                \
+                for (int j = 0; j < F; j++) {                                                      \
+                    __local const float16 *r = top - (size_t)(2 * G) * j;                         \
+                    const float16 v0 = r[c], v1 = r[c + 1];                                        \
+                    l0 = fma(LO[j], v0, l0);                                                       \
+                    h0 = fma(HI[j], v0, h0);                                                       \
+                    l1 = fma(LO[j], v1, l1);                                                       \
+                    h1 = fma(HI[j], v1, h1);                                                       \
+                }                                                                                  \
+                _Pragma("unroll") for (int u = 0; u < 2; u++) {                                    \
+                    const int cc = c + u, hi = cc >= G, x = hi ? nx + 16 * (cc - G) : 16 * cc;     \
+                    const int cnt = hi ? nx - 16 * (cc - G) : nx - 16 * cc;                        \
+                    const float16 lv = u ? l1 : l0, hv = u ? h1 : h0;                              \
+                    store_lanes(lv, hi ? coef + (size_t)o * cstride + x                            \
+                                       : ll + loff + (size_t)o * lstride + x, cnt);                \
+                    store_lanes(hv, coef + (size_t)(ny + o) * cstride + x, cnt);                   \
+                }                                                                                  \
+            }                                                                                      \
+        }                                                                                          \
+    }
+
+/* Synthesis of one level: the approximation band (approx: n/2 x m/2 at aoff, stride astride) and
+ * the three detail bands in coef (stride cstride) -> dst (n x m at doff, stride dstride). Pair p
+ * (output rows 2p, 2p + 1) reads x rows p - F/4 + k, k <= F/2, of each half along y, so band g's
+ * pairs [p0, p1) read rows p0 - F/4 + i, i < p1 - p0 + F/2 (wrapped into [0, m/2)) of the low
+ * half (local rows i) and of the high half (local rows cnt + i); a local row is 2G vectors, the
+ * output columns 32c .. 32c + 31 of x pairs 16c .. 16c + 15 at S[2Gi + 2c], S[2Gi + 2c + 1]. */
+#define CSI_INV_XY(NAME, F, LO, HI, TAPS)                                                          \
+    __kernel void NAME(__global const float *approx, const uint aoff, const uint astride,         \
+                       __global const float *coef, const uint cstride, __global float *dst,       \
+                       const uint doff, const uint dstride, const uint n_, const uint m_,         \
+                       const uint B, __local float16 *S)                                           \
+    {                                                                                              \
+        const int n = (int)n_, m = (int)m_, nh = n >> 1, ny = m >> 1, G = (nh + 15) / 16;         \
+        const int p0 = (int)get_global_id(0) * (int)B;                                             \
+        const int p1 = p0 + (int)B < ny ? p0 + (int)B : ny, cnt = p1 - p0 + F / 2;                \
+        for (int i = 0; i < 2 * cnt; i++) {                                                        \
+            const int y = (i < cnt ? 0 : ny) + wrap(p0 - F / 4 + (i < cnt ? i : i - cnt), ny);    \
+            __global const float *a = y < ny ? approx + aoff + (size_t)y * astride                 \
+                                             : coef + (size_t)y * cstride;                         \
+            __global const float *d = coef + (size_t)y * cstride + nh;                             \
+            __local float16 *out = S + (size_t)(2 * G) * i;                                        \
+            for (int c = 0; c < G; c++) {                                                          \
+                const int w = 16 * c - F / 4;                                                      \
+                float16 A0, D0;                                                                    \
+                float8 a1, d1;                                                                     \
+                if (c >= 1 && w + 24 <= nh && 16 * c + 16 <= nh) {                                 \
+                    A0 = vload16(0, a + w);                                                        \
+                    D0 = vload16(0, d + w);                                                        \
+                    a1 = vload8(2, a + w);                                                         \
+                    d1 = vload8(2, d + w);                                                         \
+                } else {                                                                           \
+                    float wa[24], wd[24];                                                          \
+                    int k = wrap(w, nh);                                                           \
+                    for (int t = 0; t < 24; t++) {                                                 \
+                        wa[t] = a[k];                                                              \
+                        wd[t] = d[k];                                                              \
+                        k = k + 1 == nh ? 0 : k + 1;                                               \
+                    }                                                                              \
+                    A0 = vload16(0, wa);                                                           \
+                    D0 = vload16(0, wd);                                                           \
+                    a1 = vload8(2, wa);                                                            \
+                    d1 = vload8(2, wd);                                                            \
+                }                                                                                  \
+                const float16 A1 = (float16)(a1, a1), D1 = (float16)(d1, d1);                      \
+                float16 e = 0.0f, od = 0.0f;                                                       \
+                TAPS(LO, HI)                                                                       \
+                out[2 * c] = ZIP_LO(e, od);                                                        \
+                out[2 * c + 1] = ZIP_HI(e, od);                                                    \
+            }                                                                                      \
+        }                                                                                          \
+        for (int p = p0; p < p1; p++) {                                                            \
+            /* row p - F/4 + k of the low half is local row p - p0 + k, of the high half cnt + */ \
+            __local const float16 *ra = S + (size_t)(2 * G) * (p - p0);                            \
+            __local const float16 *rd = ra + (size_t)(2 * G) * cnt;                                \
+            __global float *out = dst + doff + (size_t)(2 * p) * dstride;                          \
+            for (int q = 0; q < 2 * G; q += 2) {                                                   \
+                float16 e0 = 0.0f, e1 = 0.0f, od0 = 0.0f, od1 = 0.0f;                              \
+                for (int k = 0; k < F / 2; k++) {                                                  \
+                    const size_t r0 = (size_t)(2 * G) * k, r1 = r0 + 2 * G;                        \
+                    e0 = fma(LO[2 * k], ra[r0 + q], fma(HI[2 * k], rd[r0 + q], e0));               \
+                    e1 = fma(LO[2 * k], ra[r0 + q + 1], fma(HI[2 * k], rd[r0 + q + 1], e1));       \
+                    od0 = fma(LO[2 * k + 1], ra[r1 + q], fma(HI[2 * k + 1], rd[r1 + q], od0));     \
+                    od1 = fma(LO[2 * k + 1], ra[r1 + q + 1], fma(HI[2 * k + 1], rd[r1 + q + 1], od1)); \
+                }                                                                                  \
+                store_lanes(e0, out + 16 * q, n - 16 * q);                                         \
+                store_lanes(e1, out + 16 * q + 16, n - 16 * q - 16);                               \
+                store_lanes(od0, out + dstride + 16 * q, n - 16 * q);                              \
+                store_lanes(od1, out + dstride + 16 * q + 16, n - 16 * q - 16);                    \
+            }                                                                                      \
+        }                                                                                          \
+    }
+
 CSI_FWD_X(csi_wavelet_fwd_x_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)
 CSI_FWD_XW(csi_wavelet_fwd_xw_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)
 CSI_FWD_X_EDGE(csi_wavelet_fwd_xe_db4, 8, csi_db4_lo, csi_db4_hi)
@@ -443,6 +611,8 @@ CSI_INV_XW(csi_wavelet_inv_xw_db4, 8, csi_db4_lo, csi_db4_hi, INV_X_TAPS_8)
 CSI_INV_X_EDGE(csi_wavelet_inv_xe_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_INV_Y(csi_wavelet_inv_y_db4, 8, csi_db4_lo, csi_db4_hi)
 CSI_INV_Y_EDGE(csi_wavelet_inv_ye_db4, 8, csi_db4_lo, csi_db4_hi)
+CSI_FWD_XY(csi_wavelet_fwd_xy_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)
+CSI_INV_XY(csi_wavelet_inv_xy_db4, 8, csi_db4_lo, csi_db4_hi, INV_X_TAPS_8)
 CSI_FWD_X(csi_wavelet_fwd_x_db8, 16, csi_db8_lo, csi_db8_hi, FWD_X_TAPS_16)
 CSI_FWD_XW(csi_wavelet_fwd_xw_db8, 16, csi_db8_lo, csi_db8_hi, FWD_X_TAPS_16)
 CSI_FWD_X_EDGE(csi_wavelet_fwd_xe_db8, 16, csi_db8_lo, csi_db8_hi)
@@ -453,3 +623,5 @@ CSI_INV_XW(csi_wavelet_inv_xw_db8, 16, csi_db8_lo, csi_db8_hi, INV_X_TAPS_16)
 CSI_INV_X_EDGE(csi_wavelet_inv_xe_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_INV_Y(csi_wavelet_inv_y_db8, 16, csi_db8_lo, csi_db8_hi)
 CSI_INV_Y_EDGE(csi_wavelet_inv_ye_db8, 16, csi_db8_lo, csi_db8_hi)
+CSI_FWD_XY(csi_wavelet_fwd_xy_db8, 16, csi_db8_lo, csi_db8_hi, FWD_X_TAPS_16)
+CSI_INV_XY(csi_wavelet_inv_xy_db8, 16, csi_db8_lo, csi_db8_hi, INV_X_TAPS_16)

@@ -11,7 +11,10 @@
  * (docs/bench/wavelet.md).
  *
  * Per level: one x pass (rows) and one y pass (columns), out of place between the output and one
- * scratch image made at create. The forward transform reads the input only in level 1's x pass
+ * scratch image made at create; or, where the input and output are distinct buffers and a strip
+ * of the finest level's rows fits the device's local memory (fused_fit), both passes of a level
+ * in one launch (the *_xy kernels, the same bits), which reads the level's input and writes its
+ * output once. The forward transform reads the input only in level 1's x pass
  * and writes the output only from y passes, so it never writes its input and also works in
  * place; the inverse reads the coarsest approximation straight from the coefficient vector and
  * the details where they lie (no copy), and each level consumes the coefficients it overwrites
@@ -33,6 +36,9 @@ typedef struct {
     /* Per pass an interior kernel (16-wide, no edge branch) and an edge kernel (scalar,
      * periodic wrap) for the outputs the interior one does not cover. */
     cl_kernel fwd_x, fwd_xw, fwd_xe, fwd_y, fwd_ye, inv_x, inv_xw, inv_xe, inv_y, inv_ye;
+    /* Both passes of a level in one launch (fused_fit), NULL where a band does not fit. */
+    cl_kernel fwd_xy, inv_xy;
+    cl_ulong local; /* the device's local memory, bytes */
 } wavelet_state;
 
 const char *csi_wavelet_name(csi_wavelet_family f)
@@ -211,10 +217,93 @@ static csi_status run_y(csi_ctx *ctx, cl_kernel vec, cl_kernel edge, cl_mem src,
     return CSI_OK;
 }
 
+/* The fused levels' intermediate approximations live in the scratch image, alternately in its
+ * top and bottom half (a level reads one while it writes the other): the one made or read by
+ * level l (0 = finest) starts at row (l % 2) h/2 of the scratch image, in floats. */
+static cl_uint scratch_half(const wavelet_state *s, int l)
+{
+    return (cl_uint)((size_t)(l % 2) * (s->h / 2) * s->ts);
+}
+
+/* The largest band the fused kernels take: output rows (analysis) or row pairs (synthesis) per
+ * work-item. Larger bands compute fewer x rows twice (F - 2 or F/2 per band) but need more local
+ * memory. */
+#define BAND_MAX 16
+
+/* Bytes of local memory a fused level's band of B needs at width n: its x rows (2B + F - 2 for
+ * the analysis, 2 (B + F/2) for the synthesis, the larger for F >= 4), each 2 ceil(n/32) float16. */
+static size_t band_bytes(size_t n, int F, size_t B)
+{
+    return (2 * B + (size_t)F) * 2 * ((n / 2 + 15) / 16) * 64;
+}
+
+/* The band for width n within `local` bytes, 0 if not even a band of 1 fits. */
+static size_t band_rows(size_t n, int F, cl_ulong local)
+{
+    size_t B = BAND_MAX;
+    while (B > 0 && band_bytes(n, F, B) > local)
+        B--;
+    return B;
+}
+
+/* One fused launch over m rows: a work-item (and a work-group) per band of B. */
+static csi_status run_bands(csi_ctx *ctx, cl_kernel k, cl_uint m, cl_uint B)
+{
+    const size_t global[1] = {(m / 2 + B - 1) / B}, local[1] = {1};
+    return csi_run(ctx, k, 1, global, local);
+}
+
+/* Forward DWT with each level's two passes in one launch (img and coef distinct): level l reads
+ * the image (l = 0) or the previous level's approximation in the scratch image, writes its
+ * details into coef and its approximation into the scratch image, or into coef at the last
+ * level. */
+static csi_status analysis_fused(wavelet_state *s, csi_ctx *ctx, cl_mem img, cl_mem coef)
+{
+    const cl_uint stride = (cl_uint)s->w, ts = (cl_uint)s->ts;
+    const int F = csi_wavelet_taps(s->family);
+    for (int l = 0; l < s->levels; l++) {
+        const cl_uint n = (cl_uint)(s->w >> l), m = (cl_uint)(s->h >> l);
+        const bool first = l == 0, last = l == s->levels - 1;
+        const cl_uint B = (cl_uint)band_rows(n, F, s->local);
+        cl_mem src = first ? img : s->tmp, ll = last ? coef : s->tmp;
+        const cl_uint soff = first ? 0 : scratch_half(s, l - 1), sstride = first ? stride : ts;
+        const cl_uint loff = last ? 0 : scratch_half(s, l), lstride = last ? stride : ts;
+        CSI_TRY(CSI_ARGS(s->fwd_xy, CSI_MEM(src), CSI_ARG(soff), CSI_ARG(sstride), CSI_MEM(ll),
+                         CSI_ARG(loff), CSI_ARG(lstride), CSI_MEM(coef), CSI_ARG(stride), CSI_ARG(n),
+                         CSI_ARG(m), CSI_ARG(B), CSI_LOCAL(band_bytes(n, F, B))));
+        CSI_TRY(run_bands(ctx, s->fwd_xy, m, B));
+    }
+    return CSI_OK;
+}
+
+/* Inverse DWT with each level's two passes in one launch (coef and img distinct), coarsest level
+ * first: it reads its approximation from coef, the finer ones from the scratch image; each level
+ * but the finest writes the scratch image, the finest the image. */
+static csi_status synthesis_fused(wavelet_state *s, csi_ctx *ctx, cl_mem coef, cl_mem img)
+{
+    const cl_uint stride = (cl_uint)s->w, ts = (cl_uint)s->ts;
+    const int F = csi_wavelet_taps(s->family);
+    for (int l = s->levels - 1; l >= 0; l--) {
+        const cl_uint n = (cl_uint)(s->w >> l), m = (cl_uint)(s->h >> l);
+        const bool coarsest = l == s->levels - 1, finest = l == 0;
+        const cl_uint B = (cl_uint)band_rows(n, F, s->local);
+        cl_mem approx = coarsest ? coef : s->tmp, dst = finest ? img : s->tmp;
+        const cl_uint aoff = coarsest ? 0 : scratch_half(s, l), astride = coarsest ? stride : ts;
+        const cl_uint doff = finest ? 0 : scratch_half(s, l - 1), dstride = finest ? stride : ts;
+        CSI_TRY(CSI_ARGS(s->inv_xy, CSI_MEM(approx), CSI_ARG(aoff), CSI_ARG(astride), CSI_MEM(coef),
+                         CSI_ARG(stride), CSI_MEM(dst), CSI_ARG(doff), CSI_ARG(dstride), CSI_ARG(n),
+                         CSI_ARG(m), CSI_ARG(B), CSI_LOCAL(band_bytes(n, F, B))));
+        CSI_TRY(run_bands(ctx, s->inv_xy, m, B));
+    }
+    return CSI_OK;
+}
+
 /* adjoint: image y -> coefficients x (forward DWT). */
 static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
 {
     wavelet_state *s = state_of(op);
+    if (s->fwd_xy && img != coef)
+        return analysis_fused(s, op->ctx, img, coef);
     const cl_uint stride = (cl_uint)s->w, ts = (cl_uint)s->ts;
     const long F = csi_wavelet_taps(s->family);
     for (int l = 0; l < s->levels; l++) {
@@ -248,6 +337,8 @@ static csi_status wavelet_analysis(const csi_linop *op, cl_mem img, cl_mem coef)
 static csi_status wavelet_synthesis(const csi_linop *op, cl_mem coef, cl_mem img)
 {
     wavelet_state *s = state_of(op);
+    if (s->inv_xy && coef != img)
+        return synthesis_fused(s, op->ctx, coef, img);
     const cl_uint stride = (cl_uint)s->w, ts = (cl_uint)s->ts;
     const long F = csi_wavelet_taps(s->family);
     for (int l = s->levels; l >= 1; l--) {
@@ -289,6 +380,14 @@ static void wavelet_destroy(csi_linop *op)
         free(s);
     }
     op->state = NULL;
+}
+
+/* Whether the fused levels fit the device's local memory (s->local): the finest level's band, the
+ * widest, of at least BAND_MIN rows. Narrower bands would compute most x rows twice or more. */
+#define BAND_MIN 4
+static bool fused_fit(const wavelet_state *s)
+{
+    return band_rows(s->w, csi_wavelet_taps(s->family), s->local) >= BAND_MIN;
 }
 
 /* Rows of the scratch image: w + 16 floats (see csi_wavelet_create). */
@@ -362,6 +461,17 @@ csi_status csi_wavelet_create(csi_ctx *ctx, csi_wavelet_family f, size_t w, size
         char kname[64];
         snprintf(kname, sizeof kname, "csi_wavelet_%s_%s", stems[i], name);
         st = csi_kernel(ctx, "wavelet", kname, slots[i]);
+    }
+    if (st == CSI_OK &&
+        clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_LOCAL_MEM_SIZE, sizeof s->local, &s->local, NULL) != CL_SUCCESS)
+        s->local = 0;
+    if (st == CSI_OK && fused_fit(s)) {
+        char kname[64];
+        snprintf(kname, sizeof kname, "csi_wavelet_fwd_xy_%s", name);
+        st = csi_kernel(ctx, "wavelet", kname, &s->fwd_xy);
+        snprintf(kname, sizeof kname, "csi_wavelet_inv_xy_%s", name);
+        if (st == CSI_OK)
+            st = csi_kernel(ctx, "wavelet", kname, &s->inv_xy);
     }
     if (st != CSI_OK) {
         csi_linop_free(op);

@@ -2,14 +2,16 @@
  * a device buffer copy of the same bytes (clEnqueueCopyBuffer, and a float4 copy kernel), on the
  * csi device (PoCL CPU unless CSI_DEVICE says otherwise).
  *
- *   csi-bench-wavelet [--reps N] [--sizes 1024,2048] [--levels L] [--markdown]
+ *   csi-bench-wavelet [--reps N] [--sizes 1024,2048,4096x4320] [--levels L] [--markdown]
  *
  * Each figure is the median over N timed runs after two warm-up runs, timed on the host around
  * enqueue + clFinish (so launch overheads count, as they do for the solvers). Levels default to
  * csi_wavelet_default_levels. Also checks inverse(forward(x)) = x on the benchmark data, so a
- * fast wrong kernel cannot go unnoticed. */
+ * fast wrong kernel cannot go unnoticed, and prints a hash of the forward and inverse outputs'
+ * bytes, so that two builds meant to give the same bits can be compared. */
 #include <math.h>
 #include <stdio.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -47,6 +49,16 @@ static double median(double *v, int n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/* FNV-1a over the bytes. */
+static uint64_t hash_bytes(const void *p, size_t n)
+{
+    const unsigned char *b = p;
+    uint64_t h = 1469598103934665603ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
 static void die(const char *what)
 {
     fprintf(stderr, "csi-bench-wavelet: %s: %s\n", what, csi_last_error());
@@ -62,7 +74,7 @@ int main(int argc, char **argv)
 {
     int reps = 11, fixed_levels = 0;
     bool markdown = false;
-    size_t sizes[8] = {1024, 2048};
+    size_t sizes[8] = {1024, 2048}, heights[8] = {1024, 2048};
     int nsizes = 2;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--reps") && i + 1 < argc)
@@ -74,9 +86,15 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--sizes") && i + 1 < argc) {
             nsizes = 0;
             for (char *p = strtok(argv[++i], ","); p && nsizes < 8; p = strtok(NULL, ","))
-                sizes[nsizes++] = (size_t)strtoul(p, NULL, 10);
+            {
+                char *end;
+                sizes[nsizes] = heights[nsizes] = (size_t)strtoul(p, &end, 10);
+                if (*end == 'x')
+                    heights[nsizes] = (size_t)strtoul(end + 1, NULL, 10);
+                nsizes++;
+            }
         } else {
-            fprintf(stderr, "usage: %s [--reps N] [--sizes 1024,2048] [--levels L] [--markdown]\n",
+            fprintf(stderr, "usage: %s [--reps N] [--sizes 1024,2048,WxH] [--levels L] [--markdown]\n",
                     argv[0]);
             return 2;
         }
@@ -105,16 +123,16 @@ int main(int argc, char **argv)
     printf("median of %d runs after 2 warm-ups; wall time around enqueue + clFinish\n\n", reps);
     if (markdown) {
         printf("| size | wavelet | levels | forward ms | inverse ms | fwd+inv ms | copyBuffer ms | "
-               "copy kernel ms | (fwd+inv) / copyBuffer | (fwd+inv) / copy kernel | fwd+inv CPU ms | max roundtrip err |\n");
-        printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+               "copy kernel ms | (fwd+inv) / copyBuffer | (fwd+inv) / copy kernel | fwd+inv CPU ms | max roundtrip err | hash fwd, inv |\n");
+        printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     } else {
-        printf("%-10s %-4s %3s %8s %8s %8s %10s %9s %8s %8s %8s %8s\n", "size", "wav", "L", "fwd ms",
-               "inv ms", "f+i ms", "copyBuf ms", "copyK ms", "f+i/cpB", "f+i/cpK", "f+i cpu", "rt err");
+        printf("%-10s %-4s %3s %8s %8s %8s %10s %9s %8s %8s %8s %8s %s\n", "size", "wav", "L", "fwd ms",
+               "inv ms", "f+i ms", "copyBuf ms", "copyK ms", "f+i/cpB", "f+i/cpK", "f+i cpu", "rt err", "hash fwd, inv");
     }
 
     double *t = malloc((size_t)reps * sizeof *t), *t2 = malloc((size_t)reps * sizeof *t2);
     for (int si = 0; si < nsizes; si++) {
-        const size_t w = sizes[si], h = sizes[si], n = w * h, bytes = n * sizeof(float);
+        const size_t w = sizes[si], h = heights[si], n = w * h, bytes = n * sizeof(float);
         float *host = malloc(bytes), *back = malloc(bytes);
         uint64_t s = 12345;
         for (size_t i = 0; i < n; i++) {
@@ -173,8 +191,12 @@ int main(int argc, char **argv)
             }
             double cpu = (cpu_seconds() - c0) / reps; /* mean CPU time of one forward + inverse */
             double tf = median(t, reps), ti = median(t2, reps);
+            if (csi_read(ctx, b, 0, bytes, back) != CSI_OK)
+                die("download");
+            const uint64_t hf = hash_bytes(back, bytes);
             if (csi_read(ctx, c, 0, bytes, back) != CSI_OK)
                 die("download");
+            const uint64_t hi = hash_bytes(back, bytes);
             double err = 0;
             for (size_t i = 0; i < n; i++)
                 err = fmax(err, fabs((double)back[i] - (double)host[i]));
@@ -182,13 +204,15 @@ int main(int argc, char **argv)
             char label[32];
             snprintf(label, sizeof label, "%zux%zu", w, h);
             if (markdown)
-                printf("| %zux%zu | %s | %d | %.2f | %.2f | %.2f | %.3f | %.3f | %.1f | %.1f | %.2f | %.1e |\n", w,
+                printf("| %zux%zu | %s | %d | %.2f | %.2f | %.2f | %.3f | %.3f | %.1f | %.1f | %.2f | %.1e | %016llx %016llx |\n", w,
                        h, csi_wavelet_name(f), levels, tf * ms, ti * ms, (tf + ti) * ms, copy_buf * ms,
-                       copy_k * ms, (tf + ti) / copy_buf, (tf + ti) / copy_k, cpu * ms, err);
+                       copy_k * ms, (tf + ti) / copy_buf, (tf + ti) / copy_k, cpu * ms, err,
+                       (unsigned long long)hf, (unsigned long long)hi);
             else
-                printf("%-10s %-4s %3d %8.2f %8.2f %8.2f %10.3f %9.3f %8.1f %8.1f %8.2f %8.1e\n", label,
+                printf("%-10s %-4s %3d %8.2f %8.2f %8.2f %10.3f %9.3f %8.1f %8.1f %8.2f %8.1e %016llx %016llx\n", label,
                        csi_wavelet_name(f), levels, tf * ms, ti * ms, (tf + ti) * ms, copy_buf * ms,
-                       copy_k * ms, (tf + ti) / copy_buf, (tf + ti) / copy_k, cpu * ms, err);
+                       copy_k * ms, (tf + ti) / copy_buf, (tf + ti) / copy_k, cpu * ms, err,
+                       (unsigned long long)hf, (unsigned long long)hi);
             csi_linop_free(op);
         }
         csi_buffer_release(&a);
