@@ -11,7 +11,7 @@
  * (docs/bench/wavelet.md).
  *
  * Per level: one x pass (rows) and one y pass (columns), out of place between the output and one
- * scratch image made at create; or, where the input and output are distinct buffers and a strip
+ * scratch image made at create; or, where the input and output are distinct buffers and a band
  * of the finest level's rows fits the device's local memory (fused_fit), both passes of a level
  * in one launch (the *_xy kernels, the same bits), which reads the level's input and writes its
  * output once. The forward transform reads the input only in level 1's x pass
