@@ -132,7 +132,8 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
     return s;
 }
 
-/* The reconstruction from the samples of one fold alone (the same options, the choice off). */
+/* The reconstruction from the samples of one fold alone (the same options but the choice off and
+ * the folds' model grid, CSI_CV_FOLD_SIGMA_MIN). */
 static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                              const float *values, size_t n, const uint8_t *fold, uint8_t f,
                              const csi_recon_options *opt, csi_recon_result *main, float **image)
@@ -156,6 +157,8 @@ static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
     csi_recon_options o = *opt;
     o.cv_select = CSI_SWITCH_OFF;
+    if (o.model_sigma_min == 0 /* auto: CSI_MODEL_SIGMA_MIN */ || o.model_sigma_min > CSI_CV_FOLD_SIGMA_MIN)
+        o.model_sigma_min = CSI_CV_FOLD_SIGMA_MIN;
     /* The folds measure the blend against the mean; the peaks' test (csi/peak_noise.h) comes
      * after the choice, on the whole image only (and a fold's indexing is not the whole's). */
     o.sample_variance = NULL;

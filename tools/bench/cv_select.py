@@ -40,7 +40,7 @@ sum of a function of x and a function of y over the pixel (edges along the axes 
 a split into halves of rows or columns is not. Pixels with one sample (every pixel at 1 spp) give
 no held-out pair and no term: a region without any keeps csi, so 1-spp dumps are csi's image.
 
-The price: two more reconstructions (each with half the samples).
+The price: two more reconstructions (each with half the samples, on a coarser model grid).
 
     .venv/bin/python tools/bench/cv_select.py --data /work/data/mitsuba --cache /tmp/cvsel \\
         --regions 8,16,8+16 --z 0,-1.5 --step off,30:4 --json out.json
@@ -57,6 +57,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bench_common import binaries, default_env, read_dump, read_exr  # noqa: E402
 from bench_real_samples import SCENES, cells, errors  # noqa: E402
+
+
+FOLD_ARGS = ["--model-sigma-min", "0.75"]
 
 
 def reconstruct(exe, dump, out, args=()):
@@ -216,8 +219,9 @@ def main():
             write_subset(dump, dB, f == 1)
         c = reconstruct(exe, dump, base + ".csi.exr")
         m = reconstruct(exe, dump, base + ".mean.exr", ["--estimator", "mean"])
-        cA = reconstruct(exe, dA, base + ".A.exr")
-        cB = reconstruct(exe, dB, base + ".B.exr")
+        # the folds on csi-reconstruct's own model grid for them (CSI_CV_FOLD_SIGMA_MIN, csi/cv_select.h)
+        cA = reconstruct(exe, dA, base + ".A.exr", FOLD_ARGS)
+        cB = reconstruct(exe, dB, base + ".B.exr", FOLD_ARGS)
         mA, nA = pixel_means(vals, pix, f == 0, W * H)
         mB, nB = pixel_means(vals, pix, f == 1, W * H)
         both = (nA > 0) & (nB > 0)
