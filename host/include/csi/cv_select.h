@@ -55,11 +55,10 @@
 #define CSI_CV_REGION 8
 /* The folds' model grid. The folds are the choice's instrument, not its output: each fold's
  * reconstruction only has to lose where the whole's would. So each is made with the model grid's
- * smallest Gaussian width at most this (in model cells; csi/model_grid.h), a band-limited model
- * one level coarser than the default's exact one at 4-15 spp on csi's grids, which costs about a
- * third of it. Measured on Mitsuba's dumps (docs/bench/mitsuba.md, session 16): the same choices,
- * the image bit for bit on most dumps and within 0.1% of the MSE on the others, at 0.5-0.75x the
- * CPU of the whole run; a grid coarser again (0.375) changed the choice on the Cornell box. */
+ * smallest Gaussian width at most this (in model cells; csi/model_grid.h): at 4-16 spp on csi's
+ * grids the band-limited model one level coarser than the image's exact one, about a third of its
+ * cost. On Mitsuba's dumps it makes the same choices as folds on the image's own grid, and a grid
+ * coarser again does not (docs/bench/mitsuba.md, session 16). */
 #define CSI_CV_FOLD_SIGMA_MIN 0.75
 /* The threshold of the self-normalised sums (above). */
 #define CSI_CV_Z 1.5
