@@ -364,14 +364,27 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
         opt = *opt_in;
     else
         csi_recon_defaults(&opt);
-    CSI_TRY(csi_recon_plan_whole(g, channels, n, &opt, NULL, out));
+    /* what csi_recon solves (internal.h: csi_recon_solved_grid) */
+    csi_grid solved;
+    if (csi_recon_solved_grid(ctx, g, channels, n, &opt, &solved))
+        g = &solved;
+    csi_tiling tl0;
+    const csi_status ts = csi_tiling_plan(ctx, g, channels, n, &opt, &tl0);
+    const csi_status ws = csi_recon_plan_whole(g, channels, n, &opt, NULL, out);
+    /* sides the transforms cannot take in the whole are no obstacle to tiles the planner laid
+     * out (windows of lengths they take); any other refusal of the whole stands */
+    csi_grid unused;
+    if (ws != CSI_OK && !(csi_recon_pad_grid(g, &unused) && ts == CSI_OK && tl0.count > 1))
+        return ws;
+    if (ws != CSI_OK)
+        out->cells = (uint64_t)g->w * g->h * g->t;
     /* a scaled copy of the samples, made when a channel's magnitude is far from 1 (result.c) */
     const uint64_t scaled_copy = (uint64_t)n * channels * 4;
     out->host_bytes += scaled_copy;
     /* csi_recon's layout (csi/tiles.h): when it tiles, the device holds one tile's
      * problem at a time, and the host the whole result besides. */
-    csi_tiling tl;
-    CSI_TRY(csi_tiling_plan(ctx, g, channels, n, &opt, &tl));
+    CSI_TRY(ts);
+    const csi_tiling tl = tl0;
     if (tl.count <= 1)
         return CSI_OK;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;

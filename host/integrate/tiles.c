@@ -64,16 +64,6 @@ static tile_method method_of(const csi_grid *g, const csi_recon_options *opt)
     return g->t > 1 ? M_MOTION : M_AA;
 }
 
-static bool smooth7(uint64_t v)
-{
-    static const unsigned p[] = {2, 3, 5, 7};
-    if (v == 0)
-        return false;
-    for (int i = 0; i < 4; i++)
-        while (v % p[i] == 0)
-            v /= p[i];
-    return v == 1;
-}
 
 /* What one axis needs of a window length E (pixels or frames): E * cells is 7-smooth (FFT
  * radices) and a multiple of `multiple` (2^levels for the wavelets, 2 for an even first axis). */
@@ -84,7 +74,7 @@ typedef struct {
 static bool len_ok(const axis_req *a, uint32_t e)
 {
     uint64_t f = (uint64_t)e * a->cells;
-    return smooth7(f) && f % a->multiple == 0;
+    return csi_smooth7(f) && f % a->multiple == 0;
 }
 
 static uint32_t core_bound(uint32_t L, uint32_t n, uint32_t align, uint32_t i)
@@ -480,7 +470,7 @@ uint32_t csi_tiling_bin_t(const csi_tiling *tl)
     if (tl->n[2] <= 1 || L == 0)
         return 1;
     uint32_t b = (T + L - 1) / L;
-    while (!smooth7((T + b - 1) / b))
+    while (!csi_smooth7((T + b - 1) / b))
         b++;
     return b;
 }

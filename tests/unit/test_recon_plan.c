@@ -260,9 +260,14 @@ int main(void)
     CHECK(p.tiles > 1 && p.largest_buffer < (1ull << 30), "tiled: %u tiles, largest buffer %llu", p.tiles,
           (unsigned long long)p.largest_buffer);
     /* Sizes csi_recon refuses are refused by the plan with its messages. */
-    const csi_grid odd = {22, 22, 1, 11, 11}; /* 11: no FFT size */
+    const csi_grid odd = {22, 22, 4, 11, 11}; /* 11: no FFT size, and a volume is not padded */
     CHECK(csi_recon_plan_make(NULL, &odd, 1, 10, NULL, &p) == CSI_ERR_ARG && strstr(csi_last_error(), "prime factor"),
           "FFT size: %s", csi_last_error());
+    /* An image of such sides is planned as csi_recon solves it: padded right and down to the
+     * nearest sides the transforms take (11 pixels of 2 cells: 12 pixels, 24 cells). */
+    const csi_grid odd_image = {22, 22, 1, 11, 11};
+    CHECK_OK(csi_recon_plan_make(NULL, &odd_image, 1, 10, NULL, &p));
+    CHECK(p.cells == 24 * 24, "padded image: %llu cells planned, expected 576", (unsigned long long)p.cells);
     const csi_grid huge = {65536, 65536, 2, 1, 1};
     CHECK(csi_recon_plan_make(NULL, &huge, 1, 10, NULL, &p) == CSI_ERR_ARG && strstr(csi_last_error(), "over 2^32"),
           "cells: %s", csi_last_error());

@@ -1,0 +1,86 @@
+/* Images whose sizes the transforms cannot take, padded: see csi_recon_pad_grid (internal.h). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+bool csi_smooth7(uint64_t v)
+{
+    static const uint64_t p[4] = {2, 3, 5, 7};
+    if (v == 0)
+        return false;
+    for (int i = 0; i < 4; i++)
+        while (v % p[i] == 0)
+            v /= p[i];
+    return v == 1;
+}
+
+/* The output length (pixels) one axis is solved at: `out` itself when its `cells` fine cells per
+ * pixel make a length the transforms take (7-smooth; even for the first axis, the real FFT's),
+ * else the smallest longer one that also keeps as many factors of two as a grid of its size can
+ * use (up to 2^6: five wavelet levels on an even model grid), so that the padding does not cost
+ * the wavelet levels an unpadded grid of that size would have. */
+static uint32_t padded_length(uint32_t out, uint32_t cells, bool even)
+{
+    const uint64_t f = (uint64_t)out * cells;
+    if (csi_smooth7(f) && (!even || f % 2 == 0))
+        return out;
+    uint64_t m = even ? 2 : 1;
+    while (m < 64 && m * 8 <= f)
+        m *= 2;
+    uint32_t e = out + 1;
+    /* ends: a length a multiple of 64 cells and a power of two pixels is always taken */
+    while ((uint64_t)e * cells % m != 0 || !csi_smooth7((uint64_t)e * cells))
+        e++;
+    return e;
+}
+
+bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
+{
+    *padded = *g;
+    if (g->t != 1 || !g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
+        return false; /* volumes keep their sizes; bad sizes are csi_recon's errors to report */
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const uint32_t pw = padded_length(g->out_w, bw, true), ph = padded_length(g->out_h, bh, false);
+    if (pw == g->out_w && ph == g->out_h)
+        return false;
+    padded->out_w = pw;
+    padded->out_h = ph;
+    padded->w = pw * bw;
+    padded->h = ph * bh;
+    return true;
+}
+
+csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h)
+{
+    if (out_w > r->out_w || out_h > r->out_h || r->nframes)
+        return csi_fail(CSI_ERR_ARG, "cannot crop a %ux%u result to %ux%u", r->out_w, r->out_h, out_w, out_h);
+    float *img = malloc((size_t)out_w * out_h * r->channels * sizeof *img);
+    if (!img)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the output image");
+    for (uint32_t c = 0; c < r->channels; c++)
+        for (uint32_t y = 0; y < out_h; y++)
+            memcpy(img + ((size_t)c * out_h + y) * out_w,
+                   r->image + ((size_t)c * r->out_h + y) * r->out_w, out_w * sizeof *img);
+    free(r->image);
+    r->image = img;
+    r->out_w = out_w;
+    r->out_h = out_h;
+    return CSI_OK;
+}
+
+bool csi_recon_solved_grid(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                           const csi_recon_options *opt, csi_grid *out)
+{
+    csi_grid padded;
+    *out = *g;
+    if (!csi_recon_pad_grid(g, &padded))
+        return false;
+    csi_tiling own, whole;
+    const bool tiles = csi_tiling_plan(ctx, g, channels, n, opt, &own) == CSI_OK && own.count > 1;
+    const bool fits = csi_tiling_plan(ctx, &padded, channels, n, opt, &whole) == CSI_OK && whole.count == 1;
+    if (tiles && !fits)
+        return false;
+    *out = padded;
+    return true;
+}
