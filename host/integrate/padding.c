@@ -23,16 +23,17 @@ bool csi_smooth7(uint64_t v)
 static uint32_t padded_length(uint32_t out, uint32_t cells, bool even)
 {
     const uint64_t f = (uint64_t)out * cells;
-    if (csi_smooth7(f) && (!even || f % 2 == 0))
+    /* cells with a prime factor above 7 make every length unusable: nothing to pad to */
+    if ((csi_smooth7(f) && (!even || f % 2 == 0)) || !csi_smooth7(cells))
         return out;
     uint64_t m = even ? 2 : 1;
     while (m < 64 && m * 8 <= f)
         m *= 2;
-    uint32_t e = out + 1;
-    /* ends: a length a multiple of 64 cells and a power of two pixels is always taken */
-    while ((uint64_t)e * cells % m != 0 || !csi_smooth7((uint64_t)e * cells))
-        e++;
-    return e;
+    /* ends: cells being 7-smooth, a power of two pixels at least m is always taken */
+    for (uint64_t e = (uint64_t)out + 1; e <= UINT32_MAX; e++)
+        if (e * cells % m == 0 && csi_smooth7(e * cells))
+            return (uint32_t)e;
+    return out;
 }
 
 bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
@@ -42,7 +43,7 @@ bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
         return false; /* volumes keep their sizes; bad sizes are csi_recon's errors to report */
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     const uint32_t pw = padded_length(g->out_w, bw, true), ph = padded_length(g->out_h, bh, false);
-    if (pw == g->out_w && ph == g->out_h)
+    if ((pw == g->out_w && ph == g->out_h) || (uint64_t)pw * bw > UINT32_MAX || (uint64_t)ph * bh > UINT32_MAX)
         return false;
     padded->out_w = pw;
     padded->out_h = ph;

@@ -366,6 +366,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
         csi_recon_defaults(&opt);
     /* what csi_recon solves (internal.h: csi_recon_solved_grid) */
     csi_grid solved;
+    const csi_grid *given = g;
     if (csi_recon_solved_grid(ctx, g, channels, n, &opt, &solved))
         g = &solved;
     csi_tiling tl0;
@@ -374,7 +375,16 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     /* sides the transforms cannot take in the whole are no obstacle to tiles the planner laid
      * out (windows of lengths they take); any other refusal of the whole stands */
     csi_grid unused;
-    if (ws != CSI_OK && !(csi_recon_pad_grid(g, &unused) && ts == CSI_OK && tl0.count > 1))
+    const csi_status refused = ws != CSI_OK && !(csi_recon_pad_grid(g, &unused) && ts == CSI_OK && tl0.count > 1)
+                                   ? ws
+                                   : ts;
+    if (refused != CSI_OK && g == &solved) {
+        char why[512];
+        snprintf(why, sizeof why, "%s", csi_last_error());
+        return csi_fail(refused, "%s (the %ux%u image padded to %ux%u for the FFT)", why, given->out_w,
+                        given->out_h, g->out_w, g->out_h);
+    }
+    if (refused != CSI_OK && refused == ws)
         return ws;
     if (ws != CSI_OK)
         out->cells = (uint64_t)g->w * g->h * g->t;

@@ -3,6 +3,7 @@
 #include "csi/reconstruct.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -113,8 +114,13 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         csi_status ps = csi_recon(ctx, &padded, channels, pos, values, n, &opt, out);
         if (ps == CSI_OK)
             ps = csi_recon_crop(out, grid->out_w, grid->out_h);
-        if (ps != CSI_OK)
+        if (ps != CSI_OK) {
             csi_recon_result_free(out);
+            char why[512];
+            snprintf(why, sizeof why, "%s", csi_last_error());
+            return csi_fail(ps, "%s (the %ux%u image padded to %ux%u for the FFT)", why, grid->out_w,
+                            grid->out_h, padded.out_w, padded.out_h);
+        }
         return ps;
     }
     csi_tiling tl;

@@ -53,6 +53,9 @@ refused() { # name want cmd...
 # --- sizes before work ---------------------------------------------------------------------------
 mkheader "$T/huge.csid" 65536 65536 1 65536 65536 3 1
 refused "4 G cells" "huge.csid: byte 8: grid 65536x65536x1" "$B/csi-reconstruct" "$T/huge.csid" -o "$T/o.exr"
+# 11 cells per pixel: no padding of the image makes a length the FFT takes (a hang, once)
+mkheader "$T/f11.csid" 176 176 1 16 16 3 1
+refused "11 cells per pixel" "prime factor" "$B/csi-reconstruct" "$T/f11.csid" -o "$T/o.exr"
 mkheader "$T/big.csid" 16384 16384 1 8192 8192 3 1
 CSI_HOST_MEMORY_LIMIT=$((512 << 20)) refused "host memory" "host memory" \
     "$B/csi-reconstruct" "$T/big.csid" -o "$T/o.exr"
