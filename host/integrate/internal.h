@@ -37,11 +37,12 @@ typedef struct csi_recon_fit {
     bool kept;
 } csi_recon_fit;
 
-/* An image whose fine grid the transforms cannot take (a side of 1366, 3440 or 858 pixels: a
- * prime factor above 7 in cells x pixels) is solved on a grid padded on the right and the bottom
- * to the nearest lengths they take (padding.c), from the same samples, and cropped: the padding
- * holds no sample and is filled like any region without one. csi_recon_pad_grid: whether g
- * needs it, and the padded grid (g itself when not). Volumes keep their sizes. */
+/* An image or volume whose grid the transforms cannot take along x or y (a side of 1366, 3440
+ * or 858 pixels: a prime factor above 7 in cells x pixels) is solved on a grid padded on the
+ * right and the bottom to the nearest lengths they take (padding.c), from the same samples, and
+ * cropped: the padding holds no sample and is filled like any region without one. A volume's
+ * frame count is never padded (the shutter's mean is over its frames). csi_recon_pad_grid:
+ * whether g needs it, and the padded grid (g itself when not). */
 bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded);
 /* Whether v > 0 has no prime factor above 7: a length csi's FFT takes (padding.c). */
 bool csi_smooth7(uint64_t v);
@@ -50,7 +51,7 @@ bool csi_smooth7(uint64_t v);
  * (windows of lengths the transforms take) does; else g. */
 bool csi_recon_solved_grid(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_grid *out);
-/* The result's image cut to its top-left out_w x out_h pixels (no frames). */
+/* The result's image and frames cut to their top-left out_w x out_h pixels. */
 csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h);
 
 /* The cross-validated choice (csi/cv_select.h) on a still image's result `out` (reconstructed

@@ -16,18 +16,19 @@ bool csi_smooth7(uint64_t v)
 }
 
 /* The output length (pixels) one axis is solved at: `out` itself when its `cells` fine cells per
- * pixel make a length the transforms take (7-smooth; even for the first axis, the real FFT's),
- * else the smallest longer one that also keeps as many factors of two as a grid of its size can
- * use (up to 2^6: five wavelet levels on an even model grid), so that the padding does not cost
- * the wavelet levels an unpadded grid of that size would have. */
-static uint32_t padded_length(uint32_t out, uint32_t cells, bool even)
+ * pixel make a length the transforms take (7-smooth; even for the first axis, the real FFT's and
+ * the half spectrum's), else the smallest longer one that also keeps as many factors of two as a
+ * grid of its size can use, up to `twos` (2^6 for an image: five wavelet levels on an even model
+ * grid, so that the padding does not cost the levels an unpadded grid of that size would have;
+ * a volume's Fourier basis needs none). */
+static uint32_t padded_length(uint32_t out, uint32_t cells, bool even, uint64_t twos)
 {
     const uint64_t f = (uint64_t)out * cells;
     /* cells with a prime factor above 7 make every length unusable: nothing to pad to */
     if ((csi_smooth7(f) && (!even || f % 2 == 0)) || !csi_smooth7(cells))
         return out;
     uint64_t m = even ? 2 : 1;
-    while (m < 64 && m * 8 <= f)
+    while (m < twos && m * 8 <= f)
         m *= 2;
     /* ends: cells being 7-smooth, a power of two pixels at least m is always taken */
     for (uint64_t e = (uint64_t)out + 1; e <= UINT32_MAX; e++)
@@ -39,10 +40,11 @@ static uint32_t padded_length(uint32_t out, uint32_t cells, bool even)
 bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
 {
     *padded = *g;
-    if (g->t != 1 || !g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
-        return false; /* volumes keep their sizes; bad sizes are csi_recon's errors to report */
+    if (!g->t || !g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
+        return false; /* bad sizes are csi_recon's errors to report */
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const uint32_t pw = padded_length(g->out_w, bw, true), ph = padded_length(g->out_h, bh, false);
+    const uint64_t twos = g->t == 1 ? 64 : 1;
+    const uint32_t pw = padded_length(g->out_w, bw, true, twos), ph = padded_length(g->out_h, bh, false, twos);
     if ((pw == g->out_w && ph == g->out_h) || (uint64_t)pw * bw > UINT32_MAX || (uint64_t)ph * bh > UINT32_MAX)
         return false;
     padded->out_w = pw;
@@ -52,19 +54,34 @@ bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
     return true;
 }
 
+/* planes planar images of W x H (a result's image: one per channel; its frames: one per frame
+ * and channel), each cut to its top-left w x h pixels, into a new array. */
+static float *crop_planes(const float *src, size_t planes, uint32_t W, uint32_t H, uint32_t w, uint32_t h)
+{
+    const size_t count = planes * w * h;
+    float *dst = malloc((count ? count : 1) * sizeof *dst);
+    for (size_t p = 0; dst && p < planes; p++)
+        for (uint32_t y = 0; y < h; y++)
+            memcpy(dst + (p * h + y) * w, src + (p * H + y) * W, w * sizeof *dst);
+    return dst;
+}
+
 csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h)
 {
-    if (out_w > r->out_w || out_h > r->out_h || r->nframes)
+    if (out_w > r->out_w || out_h > r->out_h)
         return csi_fail(CSI_ERR_ARG, "cannot crop a %ux%u result to %ux%u", r->out_w, r->out_h, out_w, out_h);
-    float *img = malloc((size_t)out_w * out_h * r->channels * sizeof *img);
-    if (!img)
+    float *img = crop_planes(r->image, r->channels, r->out_w, r->out_h, out_w, out_h);
+    float *frames = r->frames ? crop_planes(r->frames, (size_t)r->nframes * r->channels, r->out_w, r->out_h, out_w, out_h)
+                              : NULL;
+    if (!img || (r->frames && !frames)) {
+        free(img);
+        free(frames);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the output image");
-    for (uint32_t c = 0; c < r->channels; c++)
-        for (uint32_t y = 0; y < out_h; y++)
-            memcpy(img + ((size_t)c * out_h + y) * out_w,
-                   r->image + ((size_t)c * r->out_h + y) * r->out_w, out_w * sizeof *img);
+    }
     free(r->image);
+    free(r->frames);
     r->image = img;
+    r->frames = frames;
     r->out_w = out_w;
     r->out_h = out_h;
     return CSI_OK;

@@ -6,8 +6,8 @@
  *      mean computed here in double and rounded to float, to 1 float ulp (the library sums in
  *      double in another order: the two doubles differ by ~1e-16 relative, which changes the
  *      rounded float only at a rounding tie, by one ulp). Alg. 1 and Alg. 2 (a volume: each
- *      pixel is the mean of its cells over x, y and t), and an image whose sides (37 x 23
- *      pixels) the transforms take only padded (internal.h: csi_recon_pad_grid).
+ *      pixel is the mean of its cells over x, y and t), and an image and a volume whose sides
+ *      (37 x 23 pixels) the transforms take only padded (internal.h: csi_recon_pad_grid).
  *   2. Non-negative HDR samples (1e-4 next to 1e4: a bright dot on black, a bright disc and a
  *      bright edge, with and without Monte Carlo noise) give no negative value, and every pixel
  *      lies within [min, max] of the samples in its own and its 8 neighbouring pixels: no
@@ -81,7 +81,7 @@ static uint32_t float_ulps(float a, float b)
 
 /* Property 1 on a grid (w x h x t -> ow x oh) with every cell sampled once, 3 channels of HDR
  * values 1e-4 .. 1e4 (log-uniform); with `gap`, only every eighth pixel along the diagonals is
- * sampled in every cell, the others in their first cell alone, and the former are checked. Returns the result's
+ * sampled in every cell (all t), the others in their first cell alone, and the former are checked. Returns the result's
  * cells (the grid csi_recon solved). */
 static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32_t ow, uint32_t oh, bool gap)
 {
@@ -96,7 +96,7 @@ static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32
     size_t n = 0;
     for (size_t i = 0; i < k; i++) {
         const csi_sample_pos q = {(uint32_t)(i % w), (uint32_t)(i / w % h), (uint32_t)(i / w / h)};
-        if (gap && (q.x / bw + q.y / bh) % 8 && (q.x % bw || q.y % bh))
+        if (gap && (q.x / bw + q.y / bh) % 8 && (q.x % bw || q.y % bh || q.t))
             continue;
         pos[n] = q;
         size_t p = (size_t)(q.y / bh) * ow + q.x / bw;
@@ -436,6 +436,9 @@ int main(void)
      * pixels and cropped (csi_recon_pad_grid), the pixels stay exact. */
     const size_t solved = full_dump(ctx, 37 * 8, 23 * 8, 1, 37, 23, true);
     CHECK(solved == 40 * 8 * 24 * 8, "37 x 23 pixels solved on %zu cells, not the padded 320 x 192", solved);
+    /* and a volume of 37 x 23 pixels x 4 frames (Alg. 2): 40 x 24 x 4 */
+    const size_t solved_t = full_dump(ctx, 37, 23, 4, 37, 23, true);
+    CHECK(solved_t == 40 * 24 * 4, "37 x 23 x 4 solved on %zu cells, not the padded 40 x 24 x 4", solved_t);
     static analytic_scene sc;
     hdr_range(ctx, dot_on_black, "dot on black", &sc);
     hdr_range(ctx, disc_and_edge, "disc and edge", &sc);

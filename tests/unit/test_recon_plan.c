@@ -260,7 +260,7 @@ int main(void)
     CHECK(p.tiles > 1 && p.largest_buffer < (1ull << 30), "tiled: %u tiles, largest buffer %llu", p.tiles,
           (unsigned long long)p.largest_buffer);
     /* Sizes csi_recon refuses are refused by the plan with its messages. */
-    const csi_grid odd = {22, 22, 4, 11, 11}; /* 11: no FFT size, and a volume is not padded */
+    const csi_grid odd = {16, 16, 11, 16, 16}; /* 11 frames: no FFT size, and frames are not padded */
     CHECK(csi_recon_plan_make(NULL, &odd, 1, 10, NULL, &p) == CSI_ERR_ARG && strstr(csi_last_error(), "prime factor"),
           "FFT size: %s", csi_last_error());
     /* An image of such sides is planned as csi_recon solves it: padded right and down to the
