@@ -1,4 +1,4 @@
-/* Images whose sizes the transforms cannot take, padded: see csi_recon_pad_grid (internal.h). */
+/* Images and volumes whose sizes the transforms cannot take, padded: see csi_recon_pad_grid (internal.h). */
 #include <stdlib.h>
 #include <string.h>
 
