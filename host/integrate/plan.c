@@ -375,17 +375,16 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     /* sides the transforms cannot take in the whole are no obstacle to tiles the planner laid
      * out (windows of lengths they take); any other refusal of the whole stands */
     csi_grid unused;
-    const csi_status refused = ws != CSI_OK && !(csi_recon_pad_grid(g, &unused) && ts == CSI_OK && tl0.count > 1)
-                                   ? ws
-                                   : ts;
-    if (refused != CSI_OK && g == &solved) {
+    const bool tiles_instead = ts == CSI_OK && tl0.count > 1 && csi_recon_pad_grid(g, &unused);
+    const csi_status refused = ws != CSI_OK && !tiles_instead ? ws : ts;
+    if (refused != CSI_OK) {
+        if (g != &solved)
+            return refused;
         char why[512];
         snprintf(why, sizeof why, "%s", csi_last_error());
         return csi_fail(refused, "%s (the %ux%u image padded to %ux%u for the FFT)", why, given->out_w,
                         given->out_h, g->out_w, g->out_h);
     }
-    if (refused != CSI_OK && refused == ws)
-        return ws;
     if (ws != CSI_OK)
         out->cells = (uint64_t)g->w * g->h * g->t;
     /* a scaled copy of the samples, made when a channel's magnitude is far from 1 (result.c) */
@@ -393,7 +392,6 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     out->host_bytes += scaled_copy;
     /* csi_recon's layout (csi/tiles.h): when it tiles, the device holds one tile's
      * problem at a time, and the host the whole result besides. */
-    CSI_TRY(ts);
     const csi_tiling tl = tl0;
     if (tl.count <= 1)
         return CSI_OK;
