@@ -203,6 +203,8 @@ static void put_tiling(wbuf *w, const csi_tiling *t)
     const uint32_t gv[5] = {g->w, g->h, g->t, g->out_w, g->out_h};
     for (int i = 0; i < 5; i++)
         put_u32(w, gv[i]);
+    put_u32(w, t->image_w);
+    put_u32(w, t->image_h);
     for (int a = 0; a < 3; a++) {
         put_u32(w, t->length[a]);
         put_u32(w, t->n[a]);
@@ -226,6 +228,8 @@ static void get_tiling(rbuf *r, csi_tiling *t)
     t->grid.t = get_u32(r);
     t->grid.out_w = get_u32(r);
     t->grid.out_h = get_u32(r);
+    t->image_w = get_u32(r);
+    t->image_h = get_u32(r);
     for (int a = 0; a < 3; a++) {
         t->length[a] = get_u32(r);
         t->n[a] = get_u32(r);

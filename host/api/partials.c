@@ -56,7 +56,7 @@ static void info_of(const csi_partial *p, csi_partial_info *out)
     out->input_id = p->input_id;
     out->tile_index = p->tile.index;
     out->tile_count = p->tiling.count;
-    out->grid = p->tiling.grid;
+    out->grid = csi_tiling_image_grid(&p->tiling);
     out->channels = p->scope.channels;
     out->frames = p->tile.r.nframes;
     out->samples = p->scope.n;
@@ -95,7 +95,8 @@ csi_status csi_partial_read(const char *path, csi_result **out, csi_partial_info
     r->r = p.tile.r;
     r->tile = p.tile;
     memset(&r->tile.r, 0, sizeof r->tile.r); /* the pixels are r->r's */
-    const csi_status st = csi_result_finish(r, &p.tiling.grid);
+    const csi_grid image = csi_tiling_image_grid(&p.tiling);
+    const csi_status st = csi_result_finish(r, &image);
     if (st != CSI_OK) {
         csi_result_free(r);
         return st;
@@ -225,7 +226,8 @@ csi_status csi_partials_merge(const char *const *paths, size_t count, bool frame
         const csi_solver_kind used = r->r.options.solver; /* the tiles' (their partials hold it) */
         r->r.options = first.options;                     /* the options as the tiles were given them */
         r->r.options.solver = used;
-        st = csi_result_finish(r, &first.tiling.grid);
+        const csi_grid image = csi_tiling_image_grid(&first.tiling);
+        st = csi_result_finish(r, &image);
     }
     free(by_index);
     csi_partial_release(&first);

@@ -24,7 +24,7 @@ static csi_status layout_of(csi_device *dev, const csi_samples *s, size_t n, con
         return csi_fail(CSI_ERR_ARG, "%s: %s is NULL", fn, !dev ? "the device" : "the samples");
     csi_recon_options o;
     CSI_TRY(csi_api_options_for(options, s, fn, &o));
-    return csi_tiling_plan(dev->ctx, &s->grid, s->channels, n, &o, tl);
+    return csi_tiling_layout(dev->ctx, &s->grid, s->channels, n, &o, tl);
 }
 
 csi_status csi_tiling_get(csi_device *dev, const csi_samples *s, const csi_options *options, csi_tiling_info *out)
@@ -63,6 +63,9 @@ csi_status csi_tiling_stats(csi_device *dev, const csi_samples *s, const csi_opt
     csi_json_int(j, "band", tl.band[0]);
     csi_json_int(j, "band_y", tl.band[1]);
     csi_json_int(j, "band_t", tl.band[2]);
+    /* the grid the tiles lie on: the image's own, or padded for the FFT (cut at the merge) */
+    csi_json_int(j, "solved_out_w", tl.grid.out_w);
+    csi_json_int(j, "solved_out_h", tl.grid.out_h);
     static const char *names[3] = {"cores_x", "cores_y", "cores_t"};
     for (int a = 0; a < 3; a++) {
         char list[4096];
@@ -117,9 +120,9 @@ csi_status csi_tile_scale(csi_device *dev, const csi_samples *s, const csi_optio
     CSI_TRY(csi_device_record(dev, csi_api_options_for(options, s, "csi_tile_scale", &o)));
     csi_tiling tl;
     csi_tile_scope scope;
-    csi_status st = csi_tiling_plan(dev->ctx, &s->grid, s->channels, s->count, &o, &tl);
+    csi_status st = csi_tiling_layout(dev->ctx, &s->grid, s->channels, s->count, &o, &tl);
     if (st == CSI_OK)
-        st = csi_tile_scope_make(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &tl, &scope);
+        st = csi_tile_scope_make(dev->ctx, &tl.grid, s->channels, s->pos, s->values, s->count, &o, &tl, &scope);
     if (st != CSI_OK)
         return csi_device_record(dev, st);
     for (int c = 0; c < 4; c++)
@@ -152,22 +155,24 @@ static csi_status reconstruct_tile(csi_device *dev, const csi_samples *s, size_t
     csi_api_progress pr = {progress, user};
     o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;
-    csi_status st = csi_tiling_plan(dev->ctx, &s->grid, s->channels, whole, &o, &r->tiling);
+    csi_status st = csi_tiling_layout(dev->ctx, &s->grid, s->channels, whole, &o, &r->tiling);
+    /* the grid the layout lies on (padded for the FFT or not): the samples are its cells too */
+    const csi_grid *g = &r->tiling.grid;
     if (st == CSI_OK && index >= r->tiling.count)
         st = csi_fail(CSI_ERR_ARG, "tile %u of a layout of %u tiles", index, r->tiling.count);
     if (st == CSI_OK && (scale || s->count < whole)) {
-        csi_tile_scope_init(&s->grid, s->channels, whole, &r->scope);
+        csi_tile_scope_init(g, s->channels, whole, &r->scope);
         r->scope.has_scale = scale != NULL;
         for (uint32_t c = 0; scale && c < s->channels && c < 4; c++)
             r->scope.scale[c] = scale[c];
     } else if (st == CSI_OK) {
-        st = csi_tile_scope_make(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
+        st = csi_tile_scope_make(dev->ctx, g, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
                                  &r->scope);
     }
     csi_tile_result t;
     memset(&t, 0, sizeof t);
     if (st == CSI_OK)
-        st = csi_recon_tile(dev->ctx, &s->grid, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
+        st = csi_recon_tile(dev->ctx, g, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
                             &r->scope, index, &t);
     if (st == CSI_OK) {
         r->is_tile = true;
@@ -262,7 +267,8 @@ csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_res
     if (st == CSI_OK) {
         r->r.n = first->scope.n;
         r->r.options = first->r.options; /* tile 0's, with the autos it resolved */
-        st = csi_result_finish(r, &first->tiling.grid);
+        const csi_grid image = csi_tiling_image_grid(&first->tiling);
+        st = csi_result_finish(r, &image);
     }
     free(sorted);
     if (st != CSI_OK) {

@@ -48,7 +48,8 @@ bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded);
 bool csi_smooth7(uint64_t v);
 /* The grid csi_recon solves an image on (into out; returns whether it is padded): the padded
  * grid when g needs it and it fits the budget whole, or when no layout of tiles of g's own
- * (windows of lengths the transforms take) does; else g. */
+ * (windows of lengths the transforms take) does; else g. The layout of the one-process run and
+ * of each tile run alone follows it (csi_tiling_layout, csi/tiles.h). */
 bool csi_recon_solved_grid(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_grid *out);
 /* The result's image and frames cut to their top-left out_w x out_h pixels. */

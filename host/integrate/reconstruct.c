@@ -105,12 +105,14 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
     CSI_TRY(csi_recon_check_variance(opt.sample_variance, n, channels));
-    /* Sides the transforms cannot take (internal.h): the padded grid, on which the samples'
-     * positions are the same cells (it grows right and down), unless tiles of the image's own
-     * grid are laid out and the padded whole would not fit either (then a tile run alone,
-     * --tile, solves what this run solves). */
-    csi_grid padded;
-    if (csi_recon_solved_grid(ctx, grid, channels, n, &opt, &padded)) {
+    /* The layout (csi_tiling_layout: what a tile run alone, --tile, lays out too). Sides the
+     * transforms cannot take (internal.h): the padded grid, on which the samples' positions are
+     * the same cells (it grows right and down), unless tiles of the image's own grid are laid out
+     * and the padded whole would not fit either. */
+    csi_tiling tl;
+    CSI_TRY(csi_tiling_layout(ctx, grid, channels, n, &opt, &tl));
+    if (memcmp(&tl.grid, grid, sizeof *grid)) {
+        const csi_grid padded = tl.grid;
         csi_status ps = csi_recon(ctx, &padded, channels, pos, values, n, &opt, out);
         if (ps == CSI_OK)
             ps = csi_recon_crop(out, grid->out_w, grid->out_h);
@@ -123,8 +125,6 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         }
         return ps;
     }
-    csi_tiling tl;
-    CSI_TRY(csi_tiling_plan(ctx, grid, channels, n, &opt, &tl));
     /* Any finite float32 reconstructs: a channel whose largest magnitude is far from 1 is solved
      * scaled by a power of two (exact), its result scaled back. */
     int e[4];

@@ -380,7 +380,11 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
         if (s == CSI_OK && (!r->image || (r->nframes && !r->frames)))
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for tile %u", index);
     } else if (s == CSI_OK) {
-        s = csi_recon_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, scope, split_t ? &fit : NULL, &out->r);
+        /* One tile is the whole problem, solved as csi_recon solves it: with its own scale (a
+         * volume's scope only approximates that, from the mean sample), so that a run of the one
+         * tile alone (--tile 0/1) gives the one-process bits. */
+        s = csi_recon_scoped(ctx, &p.g, channels, p.pos, p.values, p.n, &o, tl->count > 1 ? scope : NULL,
+                             split_t ? &fit : NULL, &out->r);
     }
     if (s == CSI_OK && split_t && (p.n == 0 || fit.kept))
         s = resid_sums(tl, &p.tile, &p, channels, fit.kept ? fit.at : NULL, &out->resid);
@@ -624,6 +628,9 @@ csi_status csi_tiles_end(csi_blend *b)
         s = resid_correct(b, c);
     csi_tiles_release(b);
     CSI_TRY(s);
+    /* a padded grid's pixels past the image's own (docs/tiles.md, "Limits") */
+    if (out->out_w != b->tl.image_w || out->out_h != b->tl.image_h)
+        CSI_TRY(csi_recon_crop(out, b->tl.image_w, b->tl.image_h));
     for (uint32_t c = 0; c < out->channels; c++) {
         csi_solve_report *a = &out->report[c];
         if (a->converged)

@@ -3,6 +3,7 @@
 #include "csi/tiles.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "csi/wavelet.h"
@@ -176,6 +177,12 @@ static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint
     }
     const uint64_t cells = (uint64_t)c->window[0] * p->bw * c->window[1] * p->bh * c->window[2];
     const uint32_t count = n[0] * n[1] * n[2];
+    /* A tile's window along an axis not split is the whole axis, which its transforms must take
+     * as well (the whole alone is judged by its own plan below): an image whose side the FFT
+     * cannot take is tiled along that side or solved padded (csi_tiling_layout). */
+    for (int a = 0; a < 3 && count > 1; a++)
+        if (n[a] == 1 && !len_ok(&p->ax[a], c->window[a]))
+            return false;
     uint64_t ns = p->n;
     if (count > 1) {
         double share = ceil(TILE_SAMPLE_HEADROOM * (double)p->n * (double)cells / (double)p->k);
@@ -255,6 +262,8 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
 {
     memset(out, 0, sizeof *out);
     out->grid = *g;
+    out->image_w = g->out_w;
+    out->image_h = g->out_h;
     out->length[0] = g->out_w;
     out->length[1] = g->out_h;
     out->length[2] = g->t;
@@ -459,6 +468,37 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     return CSI_OK;
 }
 
+csi_status csi_tiling_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                             const csi_recon_options *opt, csi_tiling *out)
+{
+    csi_grid solved;
+    const bool padded = csi_recon_solved_grid(ctx, g, channels, n, opt, &solved);
+    const csi_status s = csi_tiling_plan(ctx, padded ? &solved : g, channels, n, opt, out);
+    if (s != CSI_OK) {
+        if (!padded)
+            return s;
+        char why[512];
+        snprintf(why, sizeof why, "%s", csi_last_error());
+        return csi_fail(s, "%s (the %ux%u image padded to %ux%u for the FFT)", why, g->out_w, g->out_h,
+                        solved.out_w, solved.out_h);
+    }
+    out->image_w = g->out_w;
+    out->image_h = g->out_h;
+    return CSI_OK;
+}
+
+csi_grid csi_tiling_image_grid(const csi_tiling *tl)
+{
+    csi_grid g = tl->grid;
+    if (g.out_w && g.out_h) {
+        g.w = g.w / g.out_w * tl->image_w;
+        g.h = g.h / g.out_h * tl->image_h;
+    }
+    g.out_w = tl->image_w;
+    g.out_h = tl->image_h;
+    return g;
+}
+
 bool csi_tiling_image_binned(const csi_tiling *tl, const csi_recon_options *opt)
 {
     return tl->n[2] > 1 && opt->estimator == CSI_EST_CS && opt->tile_image_binned == CSI_SWITCH_ON;
@@ -516,6 +556,8 @@ const char *csi_tiling_check(const csi_tiling *tl)
         return "the grid";
     if (tl->length[0] != g->out_w || tl->length[1] != g->out_h || tl->length[2] != g->t)
         return "the lengths of the axes";
+    if (!tl->image_w || !tl->image_h || tl->image_w > g->out_w || tl->image_h > g->out_h)
+        return "the image's size";
     uint64_t count = 1;
     for (int a = 0; a < 3; a++) {
         const uint32_t L = tl->length[a], n = tl->n[a], e = tl->window[a];
@@ -529,7 +571,8 @@ const char *csi_tiling_check(const csi_tiling *tl)
 
 bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b)
 {
-    if (memcmp(&a->grid, &b->grid, sizeof a->grid) || a->count != b->count || a->levels != b->levels)
+    if (memcmp(&a->grid, &b->grid, sizeof a->grid) || a->image_w != b->image_w || a->image_h != b->image_h ||
+        a->count != b->count || a->levels != b->levels)
         return false;
     for (int i = 0; i < 3; i++)
         if (a->length[i] != b->length[i] || a->n[i] != b->n[i] || a->window[i] != b->window[i] ||

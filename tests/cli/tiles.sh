@@ -2,7 +2,8 @@
 # Tiles on the command line (docs/tiles.md): a run tiled in one process, the same tiles run one
 # by one with --tile I/N (in any order, the scale given or computed) and blended by csi-merge,
 # and csi-render tracing only each tile's samples, all give the same pixels, bit for bit (image
-# hashes in the statistics, frame PNGs byte for byte); csi-merge refuses a missing, repeated,
+# hashes in the statistics, frame PNGs byte for byte), also for an image and a volume whose side
+# the FFT cannot take (solved padded, or in tiles of its own grid); csi-merge refuses a missing, repeated,
 # foreign (another dump, scene, options or layout), truncated, damaged, other-version or
 # non-partial input, and a layout csi does not make, with one line naming the file, exit 2 and
 # no output.
@@ -57,6 +58,53 @@ check "[[ $? == 0 && '$(json "$T/mm.json" image_fnv1a64)' == '$(json "$T/mv.json
 same=1; for f in "$T"/f1/*.png; do cmp -s "$f" "$T/f2/$(basename "$f")" || same=0; done
 check "[[ $same == 1 && -s '$T/f2/frame_0007.png' ]]" "merged frames differ from the tiled run's"
 
+# --- a side the FFT cannot take (37 x 23 pixels): the one-process run solves a grid padded right and
+# down and crops it; the tile runs lay out the same problem (csi_tiling_layout) and the merge crops
+sed 's/size 32 32/size 37 23/' "$static" > "$T/pad.scene"
+"$B/csi-render" "$T/pad.scene" --dump "$T/pad.csid" -o "$T/pad_mean.exr" --estimator mean -q
+# padded NAME SOLVED_WIDTH OPTIONS...: one process, then --tile-info and the tiles in reverse order
+# merged: the same pixels, the image's own size, the layout over the grid of SOLVED_WIDTH pixels
+padded() {
+    local name="$1" want="$2"; shift 2
+    "$B/csi-reconstruct" "$T/pad.csid" -o "$T/$name.exr" --stats "$T/$name.json" "$@"
+    "$B/csi-reconstruct" "$T/pad.csid" --tile-info "$@" > "$T/$name.info"
+    local n; n="$(json "$T/$name.info" tiles)"
+    check "[[ '$(json "$T/$name.info" solved_out_w)' == $want && '$(json "$T/$name.json" tiles)' == '$n' ]]" \
+        "$name: the layout is not over $want pixels or not the one-process run's: $(cat "$T/$name.info")"
+    for ((i = n - 1; i >= 0; i--)); do
+        "$B/csi-reconstruct" "$T/pad.csid" --tile $i/$n -o "$T/$name.$i.csip" "$@"
+    done
+    "$B/csi-merge" "$T/$name".*.csip -o "$T/$name.m.exr" --stats "$T/$name.m.json" -q
+    check "[[ $? == 0 && '$(json "$T/$name.m.json" image_fnv1a64)' == '$(json "$T/$name.json" image_fnv1a64)' ]]" \
+        "$name: the merged tiles differ from the one-process run"
+    check "[[ '$(json "$T/$name.m.json" out_w)x$(json "$T/$name.m.json" out_h)' == 37x23 ]]" "$name: merged size"
+}
+padded pad_whole 40 --max-iter 40 -q                            # the padded whole: one tile
+padded pad_tiles 40 --tiles 2 --tile-margin 4 --max-iter 40 -q  # no 2 tiles of its own grid: of the padded one
+padded pad_own 37 --tiles 4 --tile-margin 4 --max-iter 40 -q    # 2x2 tiles of its own grid
+for i in 0 1; do
+    "$B/csi-render" "$T/pad.scene" --tile $i/2 --tile-margin 4 --max-iter 40 -q -o "$T/padr$i.csip" \
+        --tile-scale "$(json "$T/pad_tiles.info" tile_scale)"
+done
+"$B/csi-merge" "$T"/padr?.csip -o "$T/padr.exr" --stats "$T/padr.json" -q
+check "[[ '$(json "$T/padr.json" image_fnv1a64)' == '$(json "$T/pad_tiles.json" image_fnv1a64)' ]]" \
+    "csi-render's tiles of the padded grid differ from the one-process run"
+expect_fail "a padded run's tile with another layout's" "pad_own.1.csip: tile 1 belongs to another run.*the tile layout" \
+    "$B/csi-merge" "$T/pad_tiles.0.csip" "$T/pad_own.1.csip" -o "$T/out.exr"
+# a volume padded in x and y, in tiles of the padded grid, with its frames
+sed 's/size 32 32/size 37 23/' "$moving" > "$T/padm.scene"
+"$B/csi-render" "$T/padm.scene" --dump "$T/padm.csid" -o "$T/padm_mean.exr" --estimator mean -q
+"$B/csi-reconstruct" "$T/padm.csid" -o "$T/padm.exr" --stats "$T/padm.json" --frames "$T/pf1" --tiles 2 "${tiles[@]}"
+"$B/csi-reconstruct" "$T/padm.csid" --tile-info --tiles 2 "${tiles[@]}" > "$T/padm.info"
+for i in 1 0; do
+    "$B/csi-reconstruct" "$T/padm.csid" --tile $i/2 --partial-frames -o "$T/padm$i.csip" "${tiles[@]}"
+done
+"$B/csi-merge" "$T"/padm?.csip -o "$T/padmm.exr" --frames "$T/pf2" --stats "$T/padmm.json" -q
+check "[[ $? == 0 && '$(json "$T/padm.info" solved_out_w)' == 40 && '$(json "$T/padmm.json" image_fnv1a64)' == '$(json "$T/padm.json" image_fnv1a64)' ]]" \
+    "a padded volume's merged tiles differ: $(cat "$T/padm.info")"
+same=1; for f in "$T"/pf1/*.png; do cmp -s "$f" "$T/pf2/$(basename "$f")" || same=0; done
+check "[[ $same == 1 && -s '$T/pf2/frame_0007.png' ]]" "a padded volume's merged frames differ from the one-process run's"
+
 # --- progress where stderr is a file (a log): plain lines, at most one every CSI_PROGRESS s ------
 prog=(--tile-margin 4 --max-iter 40)
 CSI_PROGRESS=0.001 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pg.exr" --stats "$T/pg.json" "${prog[@]}" 2> "$T/pg.err"
@@ -94,8 +142,9 @@ expect_fail "truncated partial" "trunc.csip: checksum" "$B/csi-merge" "$T/p0.csi
 size=$(stat -c %s "$T/p2.csip")
 { head -c $((size - 64)) "$T/p2.csip"; printf 'Z'; tail -c 63 "$T/p2.csip"; } > "$T/damaged.csip"
 expect_fail "damaged partial" "damaged.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/damaged.csip" "$T/p3.csip" -o "$T/out.exr"
-{ head -c 4 "$T/p2.csip"; printf '\x03'; tail -c +6 "$T/p2.csip"; } > "$T/v3.csip"
-expect_fail "another format version" "v3.csip: partial format version 3" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v3.csip" "$T/p3.csip" -o "$T/out.exr"
+# (version 2, before the image's own size was in the layout: a partial of the previous library)
+{ head -c 4 "$T/p2.csip"; printf '\x02'; tail -c +6 "$T/p2.csip"; } > "$T/v2.csip"
+expect_fail "another format version" "v2.csip: partial format version 2 (this program reads version 3)" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v2.csip" "$T/p3.csip" -o "$T/out.exr"
 expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
 # layouts written over a 2x2 tile with a valid checksum (tests/fuzz/make_seeds.py): the merge of
 # the file alone once allocated the 60000x60000 image (14 GB), or a path for each of 4.3e9 tiles

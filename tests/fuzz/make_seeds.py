@@ -71,7 +71,7 @@ def untimed_partial(b):
     checksum recomputed; the offsets follow docs/partial-format.md."""
     b = bytearray(b)
     m = struct.unpack_from("<Q", b, 272)[0]
-    at = 280 + 96 * m + (5 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
+    at = 280 + 96 * m + (5 * 8 + 2 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
     channels = struct.unpack_from("<Q", b, at + 48)[0]
     at += 8 * 8 + 8 + 8 + 3 * 8
     b[at:at + 80] = bytes(80)
@@ -89,11 +89,11 @@ def relaid_partial(b, size, n, window):
     allocated for before it refused them (14 GB for the image, 34 GB for the tiles' paths)."""
     b = bytearray(b)
     at = 280 + 96 * struct.unpack_from("<Q", b, 272)[0]
-    struct.pack_into("<5Q", b, at, size, size, 1, size, size)
+    struct.pack_into("<7Q", b, at, size, size, 1, size, size, size, size)  # the grid, the image's size
     for a, (length, tiles, win) in enumerate(((size, n, window), (size, n, window), (1, 1, 1))):
-        struct.pack_into("<6Q", b, at + 40 + 48 * a, length, tiles, win, 0, 1, 1)
-    struct.pack_into("<Q", b, at + 184, n * n)
-    struct.pack_into("<2Q", b, at + 240, size, size)  # the scope's out_w, out_h
+        struct.pack_into("<6Q", b, at + 56 + 48 * a, length, tiles, win, 0, 1, 1)
+    struct.pack_into("<Q", b, at + 200, n * n)
+    struct.pack_into("<2Q", b, at + 256, size, size)  # the scope's out_w, out_h
     struct.pack_into("<Q", b, len(b) - 8, hash64(0, bytes(b[:-8])))
     return bytes(b)
 
@@ -171,10 +171,13 @@ def main():
         ("static_rgb32", "static_rgb_romp_whole", ["--tile", "0/1", "--solver", "romp"]),
         ("moving_y32", "moving_y_frames", ["--tile", "1/2", "--partial-frames", "--tile-margin", "4", "--tile-margin-t", "2"]),
         ("moving_ya", "moving_ya_gauss_whole", ["--tile", "0/1", "--partial-frames", "--estimator", "gauss"]),
+        # a side the FFT cannot take: tiles of the padded 40x24 grid, cut to 37x23 at the merge
+        ("static_y37", "static_y_padded_tile1of2", ["--tile", "1/2", "--tile-margin", "4"]),
     ]
     prng = random.Random(1414)  # its own: the other corpora stay as they were
     dumps["static_rgb32"] = dump((32, 32, 1), (32, 32), random_records(prng, (32, 32, 1), 200, 3), 3)
     dumps["moving_y32"] = dump((32, 16, 4), (32, 16), random_records(prng, (32, 16, 4), 200, 1), 1)
+    dumps["static_y37"] = dump((37, 23, 1), (37, 23), random_records(prng, (37, 23, 1), 200, 1), 1)
     with tempfile.TemporaryDirectory() as tmp:
         for src, name, args in partials:
             dpath, ppath = os.path.join(tmp, src + ".csid"), os.path.join(tmp, name + ".csip")

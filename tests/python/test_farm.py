@@ -11,9 +11,13 @@ Claims:
      each the bits of csi-render --tiles N on that scene;
   4. a moving scene's volume in time windows (--tiles-t 2), each window a task whose partial
      carries its residual sums for the whole shutter's correction (csi/tiles.h): the bits of
-     csi-reconstruct --tiles-t 2 in one process.
-The dump is written here from an analytic image (no renderer involved): a 128 x 128 image on a
-1024 x 1024 grid, 4 samples per pixel at distinct random cells, 8 tiles.
+     csi-reconstruct --tiles-t 2 in one process;
+  5. an image whose sides the FFT cannot take (74 x 46 pixels: 37 and 23 are prime), which one
+     process solves on a padded grid and crops: by default the padded whole (one task), with
+     --tiles 2 tiles of the padded grid (its own has no layout of 2), with --tiles 4 tiles of its
+     own grid; each the pixels of csi-reconstruct in one process with the same options.
+The dumps are written here from an analytic image (no renderer involved): a 128 x 128 image on a
+1024 x 1024 grid, 4 samples per pixel at distinct random cells, 8 tiles; and the same at 74 x 46.
 Run by ctest with CSI_BUILD_DIR set (the programs) and this tree's host/python on PYTHONPATH.
 """
 import json
@@ -40,17 +44,18 @@ def check(cond, what):
         print("FAIL:", what, file=sys.stderr)
 
 
-def write_dump(path, out=128, factor=8, spp=4, seed=5):
-    """A one-channel dump (docs/dump-format.md) of a smooth image with edges, sampled at
-    distinct random cells."""
-    g = out * factor
+def write_dump(path, out=128, out_h=None, factor=8, spp=4, seed=5):
+    """A one-channel dump (docs/dump-format.md) of a smooth image with edges, out x out_h pixels
+    (out_h None: square), sampled at distinct random cells."""
+    out_h = out_h or out
+    gw, gh = out * factor, out_h * factor
     rng = np.random.default_rng(seed)
-    lin = np.sort(rng.choice(g * g, size=out * out * spp, replace=False))
-    x, y = lin % g, lin // g
-    u, v = (x + 0.5) / g, (y + 0.5) / g
+    lin = np.sort(rng.choice(gw * gh, size=out * out_h * spp, replace=False))
+    x, y = lin % gw, lin // gw
+    u, v = (x + 0.5) / gw, (y + 0.5) / gh
     val = 0.3 + 0.2 * np.sin(2 * np.pi * 3 * u) * np.cos(2 * np.pi * 2 * v) + 0.4 * ((u - 0.5) ** 2 + (v - 0.4) ** 2 < 0.06)
     hdr = np.zeros(16, "<u4")
-    hdr[:8] = [int.from_bytes(b"CSID", "little"), 1, g, g, 1, out, out, 1]
+    hdr[:8] = [int.from_bytes(b"CSID", "little"), 1, gw, gh, 1, out, out_h, 1]
     hdr[8] = len(lin)
     rec = np.zeros(len(lin), dtype=[("p", "<u4", 3), ("v", "<f4", 1)])
     rec["p"][:, 0], rec["p"][:, 1] = x, y
@@ -189,6 +194,27 @@ def main():
                          options=topts, client=client, bin_dir=BUILD, quiet=True)
         check(image_hash(os.path.join(out4, "moving.json")) == image_hash(tref),
               "2 workers, 2 time windows: the farm's image differs from --tiles-t 2 in one process")
+
+        # 5. sides the FFT cannot take: padded whole, tiles of the padded grid, tiles of its own
+        pdump = os.path.join(tmp, "padded.csid")
+        write_dump(pdump, out=74, out_h=46)
+        popts = ["--tile-margin", "8", "--max-iter", "60"]
+        out5 = os.path.join(tmp, "out5")
+        os.mkdir(out5)
+        for tiles, solved, count in ((None, 80, 1), (2, 80, 2), (4, 74, 4)):
+            name = f"padded_{tiles or 'auto'}"
+            targs = ["--tiles", str(tiles)] if tiles else []
+            pref = os.path.join(tmp, name + ".json")
+            subprocess.run([recon, pdump, "-o", os.path.join(tmp, name + ".exr"), "--stats", pref, "-q"] + targs + popts,
+                           check=True)
+            info = farm.reconstruct(pdump, os.path.join(out5, name + ".exr"), stats=os.path.join(out5, name + ".json"),
+                                    tiles=tiles, options=popts, client=client, bin_dir=BUILD, quiet=True)
+            check(info["tiles"] == count and info["solved_out_w"] == solved and info["solved_out_h"] == (48 if solved == 80 else 46),
+                  f"{name}: the layout is not {count} tiles over {solved} pixels: {info}")
+            a = read_exr(os.path.join(out5, name + ".exr"))
+            b = read_exr(os.path.join(tmp, name + ".exr"))
+            check(image_hash(os.path.join(out5, name + ".json")) == image_hash(pref) and a.shape == b.shape and a.shape[:2] == (46, 74)
+                  and np.array_equal(a, b), f"{name}: the farm's image differs from one process's ({a.shape}, {b.shape})")
     finally:
         client.close()
         cluster.close()

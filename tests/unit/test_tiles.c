@@ -10,7 +10,9 @@
  *   - the plan: a problem that fits is one tile; a budget forces a tiling whose modelled tile
  *     fits it and whose windows cover the fewest cells among the layouts that fit, checked
  *     against a brute-force search over every (nx, ny) with the same model; N asked gives N;
- *     impossible requests are refused with a message naming the budget or the count. */
+ *     impossible requests are refused with a message naming the budget or the count;
+ *   - an image whose side the FFT cannot take: no layout of its own grid leaves such a side
+ *     whole; csi_tiling_layout then lays the tiles over the padded grid with the image's size. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -334,6 +336,42 @@ int main(void)
         REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &a));
         REQUIRE_OK(csi_tiling_plan(NULL, &g, 3, 262144, &o, &b));
         CHECK(csi_tiling_equal(&a, &b) && !memcmp(&a, &b, sizeof a), "the layout is deterministic");
+    }
+    /* A side the FFT cannot take: 37 x 23 pixels of 4 x 4 cells (148 = 4 * 37, 92 = 4 * 23). A
+     * layout of the image's own grid must take every side: in 2 tiles one side stays whole, so
+     * there is none, and csi_tiling_layout lays the 2 tiles over the padded grid (40 x 24 pixels),
+     * cut back to 37 x 23; 4 tiles (2 x 2) keep the image's own grid; by default the padded
+     * whole fits, one tile. */
+    {
+        const csi_grid g = {148, 92, 1, 37, 23};
+        const size_t n = 37 * 23 * 4;
+        csi_recon_defaults(&o);
+        o.tile_margin = 4;
+        o.tiles = 2;
+        csi_tiling tl;
+        CHECK(csi_tiling_plan(NULL, &g, 1, n, &o, &tl) == CSI_ERR_ARG,
+              "2 tiles of the 37x23 image's own grid (one side of 92 cells whole) are refused");
+        REQUIRE_OK(csi_tiling_layout(NULL, &g, 1, n, &o, &tl));
+        CHECK(tl.count == 2 && tl.grid.out_w == 40 && tl.grid.out_h == 24 && tl.grid.w == 160 && tl.grid.h == 96 &&
+                  tl.image_w == 37 && tl.image_h == 23 && !csi_tiling_check(&tl),
+              "2 tiles of 37x23: %u over %ux%u (%ux%u cells), image %ux%u", tl.count, tl.grid.out_w, tl.grid.out_h,
+              tl.grid.w, tl.grid.h, tl.image_w, tl.image_h);
+        check_layout(&tl, "2 tiles of the padded 37x23 image");
+        const csi_grid own = csi_tiling_image_grid(&tl);
+        CHECK(!memcmp(&own, &g, sizeof g), "the image's own grid from the padded layout: %ux%u -> %ux%u", own.w,
+              own.h, own.out_w, own.out_h);
+        o.tiles = 4;
+        REQUIRE_OK(csi_tiling_layout(NULL, &g, 1, n, &o, &tl));
+        CHECK(tl.count == 4 && tl.n[0] == 2 && tl.n[1] == 2 && !memcmp(&tl.grid, &g, sizeof g) && tl.image_w == 37 &&
+                  tl.image_h == 23,
+              "4 tiles of 37x23: %ux%u over %ux%u", tl.n[0], tl.n[1], tl.grid.out_w, tl.grid.out_h);
+        check_layout(&tl, "2x2 tiles of the 37x23 image's own grid");
+        o.tiles = 0;
+        REQUIRE_OK(csi_tiling_layout(NULL, &g, 1, n, &o, &tl));
+        CHECK(tl.count == 1 && tl.grid.out_w == 40 && tl.grid.out_h == 24 && tl.image_w == 37 && tl.image_h == 23,
+              "37x23 by default: %u tiles over %ux%u", tl.count, tl.grid.out_w, tl.grid.out_h);
+        tl.image_w = 41;
+        CHECK(csi_tiling_check(&tl) != NULL, "an image wider than its layout's grid is not a layout csi makes");
     }
     /* The sample mean never tiles. */
     {

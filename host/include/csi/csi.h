@@ -492,7 +492,7 @@ typedef struct csi_partial_info {
     char input[128];      /* the input's file name (no directory), for messages */
     uint64_t input_id;
     uint32_t tile_index, tile_count;
-    csi_grid grid;        /* the whole problem's */
+    csi_grid grid;        /* the image's (its tiles may lie on a grid padded for the FFT) */
     uint32_t channels;
     uint32_t frames;      /* frames of the tile's window it holds (0: the image only) */
     uint64_t samples;     /* the whole problem's */

@@ -65,7 +65,9 @@ uint64_t csi_tile_default_budget(const csi_ctx *ctx);
 /* A layout of tiles over one problem (see the top of this file). Axis 0 = x and 1 = y in output
  * pixels, 2 = t in frames (length 1 when grid.t == 1). */
 typedef struct csi_tiling {
-    csi_grid grid;       /* the whole problem's grid */
+    csi_grid grid;       /* the whole problem's grid: the image's own, or padded (csi_tiling_layout) */
+    uint32_t image_w, image_h; /* the image's own size (pixels): grid.out_w x out_h unless the grid is
+                                  padded, then less (the blend's result is cut to it) */
     uint32_t length[3];  /* out_w, out_h, grid.t */
     uint32_t n[3];       /* tiles along each axis */
     uint32_t count;      /* n[0] * n[1] * n[2] */
@@ -102,6 +104,15 @@ typedef struct csi_tile {
 csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_tiling *out);
 
+/* The layout a run of the image g solves (csi_recon, and each tile run alone): csi_tiling_plan
+ * over the grid csi_recon_solved_grid decides (g's own, or g padded right and down for the FFT,
+ * internal.h), with image_w x image_h g's own size. The one decision both make, so that tiles run
+ * apart and merged are the one-process run's problem. */
+csi_status csi_tiling_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                             const csi_recon_options *opt, csi_tiling *out);
+/* The image's own grid of a layout (its grid cut to image_w x image_h pixels). */
+csi_grid csi_tiling_image_grid(const csi_tiling *tl);
+
 /* The binned shutter of a layout split in t (csi_recon_options.tile_image_binned): the frames
  * per bin b, the smallest with ceil(T / b) bins no more than a window's frames and a 7-smooth
  * number of bins (an FFT length); frame t falls into bin t / b, so the bins are equal (the last
@@ -120,8 +131,8 @@ void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *out);
  * window). The weights of all tiles at any coordinate sum to 1. */
 double csi_tile_weight(const csi_tiling *tl, const csi_tile *t, int axis, uint32_t c);
 
-/* NULL when tl could be a layout csi_tiling_plan made: a grid whose sizes divide, the axes'
- * lengths its output's, on each axis at least one tile and no more than the axis has alignment
+/* NULL when tl could be a layout csi_tiling_layout made: a grid whose sizes divide, the axes'
+ * lengths its output's, an image size within them, on each axis at least one tile and no more than the axis has alignment
  * units, windows no longer than the axis (the whole axis for one tile) and together at least as
  * long, and count the product of the tiles per axis; otherwise what is wrong ("the tile count").
  * A layout read from a file (docs/partial-format.md) is checked before csi_tiling_tile or a
@@ -206,7 +217,8 @@ typedef struct csi_blend {
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
                            csi_blend *b, csi_recon_result *out);
 csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
-/* Time windows: corrects the image by the residual sums of all tiles (see csi_tile_result). */
+/* Time windows: corrects the image by the residual sums of all tiles (see csi_tile_result); a
+ * padded layout's result is then cut to the image's own size (image_w x image_h). */
 csi_status csi_tiles_end(csi_blend *b);
 /* Releases what the blend holds besides out (csi_tiles_end does it too): for a blend given up. */
 void csi_tiles_release(csi_blend *b);
