@@ -205,6 +205,7 @@ static void put_tiling(wbuf *w, const csi_tiling *t)
         put_u32(w, gv[i]);
     put_u32(w, t->image_w);
     put_u32(w, t->image_h);
+    put_u32(w, t->image_t);
     for (int a = 0; a < 3; a++) {
         put_u32(w, t->length[a]);
         put_u32(w, t->n[a]);
@@ -230,6 +231,7 @@ static void get_tiling(rbuf *r, csi_tiling *t)
     t->grid.out_h = get_u32(r);
     t->image_w = get_u32(r);
     t->image_h = get_u32(r);
+    t->image_t = get_u32(r);
     for (int a = 0; a < 3; a++) {
         t->length[a] = get_u32(r);
         t->n[a] = get_u32(r);

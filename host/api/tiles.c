@@ -63,9 +63,11 @@ csi_status csi_tiling_stats(csi_device *dev, const csi_samples *s, const csi_opt
     csi_json_int(j, "band", tl.band[0]);
     csi_json_int(j, "band_y", tl.band[1]);
     csi_json_int(j, "band_t", tl.band[2]);
-    /* the grid the tiles lie on: the image's own, or padded for the FFT (cut at the merge) */
+    /* the grid the tiles lie on: the image's own, or padded for the FFT (cut at the merge; its
+     * frames to the volume's own) */
     csi_json_int(j, "solved_out_w", tl.grid.out_w);
     csi_json_int(j, "solved_out_h", tl.grid.out_h);
+    csi_json_int(j, "solved_t", tl.grid.t);
     static const char *names[3] = {"cores_x", "cores_y", "cores_t"};
     for (int a = 0; a < 3; a++) {
         char list[4096];

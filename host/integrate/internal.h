@@ -41,8 +41,9 @@ typedef struct csi_recon_fit {
  * or 858 pixels: a prime factor above 7 in cells x pixels) is solved on a grid padded on the
  * right and the bottom to the nearest lengths they take (padding.c), from the same samples, and
  * cropped: the padding holds no sample and is filled like any region without one. A volume's
- * frame count is never padded (the shutter's mean is over its frames). csi_recon_pad_grid:
- * whether g needs it, and the padded grid (g itself when not). */
+ * frame count (11, 13 ...) is padded the same way with later frames, and its image is the mean
+ * over its own frames only (csi_recon_options.shutter_frames). csi_recon_pad_grid: whether g
+ * needs it, and the padded grid (g itself when not). */
 bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded);
 /* Whether v > 0 has no prime factor above 7: a length csi's FFT takes (padding.c). */
 bool csi_smooth7(uint64_t v);
@@ -52,8 +53,12 @@ bool csi_smooth7(uint64_t v);
  * of each tile run alone follows it (csi_tiling_layout, csi/tiles.h). */
 bool csi_recon_solved_grid(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                            const csi_recon_options *opt, csi_grid *out);
-/* The result's image and frames cut to their top-left out_w x out_h pixels. */
-csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h);
+/* s, a refusal of the problem of g padded to `padded` (csi_last_error says why), said of the image
+ * g: the message names both sizes. */
+csi_status csi_recon_padded_fail(csi_status s, const csi_grid *g, const csi_grid *padded);
+/* The result's image and frames cut to their top-left out_w x out_h pixels, and the frames to
+ * their first nframes (ignored without frames). */
+csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h, uint32_t nframes);
 
 /* The cross-validated choice (csi/cv_select.h) on a still image's result `out` (reconstructed
  * from all n samples with opt): the two folds' reconstructions, then the choice in out->image;

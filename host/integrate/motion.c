@@ -264,6 +264,11 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * follows the motion, and the correction measured worse (a pan at 3%: 1.47x the image MSE
      * without it; docs/bench/animation.md). */
     const bool own = opt->correct == CSI_CORRECT_AUTO && !sheared;
+    /* the per-pixel steps' cells per pixel are the shutter's (a padded volume's other frames
+     * hold no sample) */
+    csi_grid shutter = *g;
+    if (opt->shutter_frames && opt->shutter_frames < g->t)
+        shutter.t = opt->shutter_frames;
     csi_linop *Sr = NULL;
     float *fine_at = NULL;
     if (s == CSI_OK && opt->correct != CSI_CORRECT_NONE) /* AUTO too: the plan counts it (csi/plan.h) */
@@ -343,12 +348,12 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             memcpy(st->fit->at + (size_t)c * n, fine_at, n * sizeof *fine_at);
             st->fit->kept = true;
         } else if (s == CSI_OK && own) {
-            s = csi_recon_motion_correct(g, values, channels, c, pos, fine_at, n, res->image + (size_t)c * np);
+            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, res->image + (size_t)c * np);
         }
         if (s == CSI_OK && blend)
-            csi_recon_exact_full(g, values, channels, c, pos, n, res->image + (size_t)c * np);
+            csi_recon_exact_full(&shutter, values, channels, c, pos, n, res->image + (size_t)c * np);
         if (s == CSI_OK && (opt->correct == CSI_CORRECT_BLEND || opt->correct == CSI_CORRECT_CV))
-            s = csi_recon_correct(ctx, g, opt, opt->correct, Sr, st->tmp, real_y, values,
+            s = csi_recon_correct(ctx, &shutter, opt, opt->correct, Sr, st->tmp, real_y, values,
                                   channels, c, pos, n,
                                   opt->correct == CSI_CORRECT_BLEND && csi_recon_nonneg(values, channels, c, n),
                                   res->image + (size_t)c * np);

@@ -1,4 +1,5 @@
 /* Images and volumes whose sizes the transforms cannot take, padded: see csi_recon_pad_grid (internal.h). */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -45,12 +46,17 @@ bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     const uint64_t twos = g->t == 1 ? 64 : 1;
     const uint32_t pw = padded_length(g->out_w, bw, true, twos), ph = padded_length(g->out_h, bh, false, twos);
-    if ((pw == g->out_w && ph == g->out_h) || (uint64_t)pw * bw > UINT32_MAX || (uint64_t)ph * bh > UINT32_MAX)
+    /* a volume's frames too: the later ones hold no sample, and the image is the mean over the
+     * shutter's own (csi_recon_options.shutter_frames) */
+    const uint32_t pt = g->t > 1 ? padded_length(g->t, 1, false, 1) : 1;
+    if ((pw == g->out_w && ph == g->out_h && pt == g->t) || (uint64_t)pw * bw > UINT32_MAX ||
+        (uint64_t)ph * bh > UINT32_MAX)
         return false;
     padded->out_w = pw;
     padded->out_h = ph;
     padded->w = pw * bw;
     padded->h = ph * bh;
+    padded->t = pt;
     return true;
 }
 
@@ -66,12 +72,15 @@ static float *crop_planes(const float *src, size_t planes, uint32_t W, uint32_t 
     return dst;
 }
 
-csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h)
+csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h, uint32_t nframes)
 {
-    if (out_w > r->out_w || out_h > r->out_h)
+    if (out_w > r->out_w || out_h > r->out_h || (r->frames && nframes > r->nframes))
         return csi_fail(CSI_ERR_ARG, "cannot crop a %ux%u result to %ux%u", r->out_w, r->out_h, out_w, out_h);
+    if (!r->frames)
+        nframes = 0;
+    /* frames are frame-major: the first nframes are a prefix */
     float *img = crop_planes(r->image, r->channels, r->out_w, r->out_h, out_w, out_h);
-    float *frames = r->frames ? crop_planes(r->frames, (size_t)r->nframes * r->channels, r->out_w, r->out_h, out_w, out_h)
+    float *frames = r->frames ? crop_planes(r->frames, (size_t)nframes * r->channels, r->out_w, r->out_h, out_w, out_h)
                               : NULL;
     if (!img || (r->frames && !frames)) {
         free(img);
@@ -84,7 +93,18 @@ csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h)
     r->frames = frames;
     r->out_w = out_w;
     r->out_h = out_h;
+    r->nframes = nframes;
     return CSI_OK;
+}
+
+csi_status csi_recon_padded_fail(csi_status s, const csi_grid *g, const csi_grid *padded)
+{
+    char why[512], frames[64] = "";
+    snprintf(why, sizeof why, "%s", csi_last_error());
+    if (padded->t != g->t)
+        snprintf(frames, sizeof frames, ", its %u frames to %u,", g->t, padded->t);
+    return csi_fail(s, "%s (the %ux%u image padded to %ux%u%s for the FFT)", why, g->out_w, g->out_h, padded->out_w,
+                    padded->out_h, frames);
 }
 
 bool csi_recon_solved_grid(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,

@@ -364,27 +364,26 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
         opt = *opt_in;
     else
         csi_recon_defaults(&opt);
-    /* what csi_recon solves (internal.h: csi_recon_solved_grid) */
+    /* what csi_recon solves and how (csi_tiling_layout, over internal.h's csi_recon_solved_grid;
+     * a refusal of a padded grid's layout names the padding itself) */
     csi_grid solved;
     const csi_grid *given = g;
     if (csi_recon_solved_grid(ctx, g, channels, n, &opt, &solved))
         g = &solved;
     csi_tiling tl0;
-    const csi_status ts = csi_tiling_plan(ctx, g, channels, n, &opt, &tl0);
+    char layout_why[512] = "";
+    const csi_status ts = csi_tiling_layout(ctx, given, channels, n, &opt, &tl0);
+    if (ts != CSI_OK)
+        snprintf(layout_why, sizeof layout_why, "%s", csi_last_error());
     const csi_status ws = csi_recon_plan_whole(g, channels, n, &opt, NULL, out);
     /* sides the transforms cannot take in the whole are no obstacle to tiles the planner laid
      * out (windows of lengths they take); any other refusal of the whole stands */
     csi_grid unused;
     const bool tiles_instead = ts == CSI_OK && tl0.count > 1 && csi_recon_pad_grid(g, &unused);
-    const csi_status refused = ws != CSI_OK && !tiles_instead ? ws : ts;
-    if (refused != CSI_OK) {
-        if (g != &solved)
-            return refused;
-        char why[512];
-        snprintf(why, sizeof why, "%s", csi_last_error());
-        return csi_fail(refused, "%s (the %ux%u image padded to %ux%u for the FFT)", why, given->out_w,
-                        given->out_h, g->out_w, g->out_h);
-    }
+    if (ws != CSI_OK && !tiles_instead)
+        return g != &solved ? ws : csi_recon_padded_fail(ws, given, g);
+    if (ts != CSI_OK)
+        return csi_fail(ts, "%s", layout_why);
     if (ws != CSI_OK)
         out->cells = (uint64_t)g->w * g->h * g->t;
     /* a scaled copy of the samples, made when a channel's magnitude is far from 1 (result.c) */

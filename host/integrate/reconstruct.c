@@ -113,15 +113,24 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     CSI_TRY(csi_tiling_layout(ctx, grid, channels, n, &opt, &tl));
     if (memcmp(&tl.grid, grid, sizeof *grid)) {
         const csi_grid padded = tl.grid;
-        csi_status ps = csi_recon(ctx, &padded, channels, pos, values, n, &opt, out);
+        csi_recon_options po = opt;
+        po.shutter_frames = grid->t; /* the later frames are padding: the image is the mean of these */
+        if (padded.t != grid->t)
+            po.tiles_t = 1; /* as csi_tiling_layout laid it out: no time windows over padding */
+        /* the cross-validated image bins the whole solved shutter */
+        csi_status ps = padded.t != grid->t && opt.motion_image_cv == CSI_SWITCH_ON
+                            ? csi_fail(CSI_ERR_ARG, "--motion-image-cv bins the frames it solves, and %u frames are "
+                                       "solved as %u", grid->t, padded.t)
+                            : csi_recon(ctx, &padded, channels, pos, values, n, &po, out);
         if (ps == CSI_OK)
-            ps = csi_recon_crop(out, grid->out_w, grid->out_h);
+            ps = csi_recon_crop(out, grid->out_w, grid->out_h, grid->t);
+        if (ps == CSI_OK) {
+            out->options.shutter_frames = 0; /* internal: not the result's */
+            out->options.tiles_t = opt.tiles_t;
+        }
         if (ps != CSI_OK) {
             csi_recon_result_free(out);
-            char why[512];
-            snprintf(why, sizeof why, "%s", csi_last_error());
-            return csi_fail(ps, "%s (the %ux%u image padded to %ux%u for the FFT)", why, grid->out_w,
-                            grid->out_h, padded.out_w, padded.out_h);
+            return csi_recon_padded_fail(ps, grid, &padded);
         }
         return ps;
     }

@@ -175,7 +175,9 @@ csi_status csi_recon_integrate_volume(csi_ctx *ctx, const csi_grid *g, cl_mem vo
         CSI_TRY(csi_box_integrate(ctx, vol, g->w, g->h, 1, g->out_w, g->out_h, out));
         return csi_read(ctx, out, 0, np * 4, res->image + (size_t)c * np);
     }
-    CSI_TRY(csi_time_mean(ctx, vol, g->w, g->h, g->t, 1, scratch_wh));
+    /* the shutter's frames are the volume's first (frame-major): the mean over them alone */
+    const uint32_t nt = opt->shutter_frames && opt->shutter_frames < g->t ? opt->shutter_frames : g->t;
+    CSI_TRY(csi_time_mean(ctx, vol, g->w, g->h, nt, 1, scratch_wh));
     CSI_TRY(csi_box_integrate(ctx, scratch_wh, g->w, g->h, 1, g->out_w, g->out_h, out));
     CSI_TRY(csi_read(ctx, out, 0, np * 4, res->image + (size_t)c * np));
     for (size_t t = 0; opt->frames && t < g->t; t++) {

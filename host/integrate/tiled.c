@@ -347,6 +347,8 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     o.levels = tl->levels > 0 ? tl->levels : opt->levels;
     o.frames = opt->frames || split_t; /* a time window's share of the mean needs its frames */
     o.tiles = 0;
+    if (tl->image_t < tl->grid.t)
+        o.shutter_frames = tl->image_t; /* the later frames are padding (csi_tiling_layout) */
     /* The whole image's variances are indexed by its samples, not the tile's: the tile's peaks
      * read them through tile_peaks, which gathers the tile's own; the solve gets none. */
     o.sample_variance = NULL;
@@ -629,8 +631,8 @@ csi_status csi_tiles_end(csi_blend *b)
     csi_tiles_release(b);
     CSI_TRY(s);
     /* a padded grid's pixels past the image's own (docs/tiles.md, "Limits") */
-    if (out->out_w != b->tl.image_w || out->out_h != b->tl.image_h)
-        CSI_TRY(csi_recon_crop(out, b->tl.image_w, b->tl.image_h));
+    if (out->out_w != b->tl.image_w || out->out_h != b->tl.image_h || (out->nframes && out->nframes != b->tl.image_t))
+        CSI_TRY(csi_recon_crop(out, b->tl.image_w, b->tl.image_h, b->tl.image_t));
     for (uint32_t c = 0; c < out->channels; c++) {
         csi_solve_report *a = &out->report[c];
         if (a->converged)

@@ -264,6 +264,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     out->grid = *g;
     out->image_w = g->out_w;
     out->image_h = g->out_h;
+    out->image_t = g->t;
     out->length[0] = g->out_w;
     out->length[1] = g->out_h;
     out->length[2] = g->t;
@@ -473,17 +474,22 @@ csi_status csi_tiling_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t cha
 {
     csi_grid solved;
     const bool padded = csi_recon_solved_grid(ctx, g, channels, n, opt, &solved);
-    const csi_status s = csi_tiling_plan(ctx, padded ? &solved : g, channels, n, opt, out);
-    if (s != CSI_OK) {
-        if (!padded)
-            return s;
-        char why[512];
-        snprintf(why, sizeof why, "%s", csi_last_error());
-        return csi_fail(s, "%s (the %ux%u image padded to %ux%u for the FFT)", why, g->out_w, g->out_h,
-                        solved.out_w, solved.out_h);
+    /* No time windows over padded frames: a window's share of the image is its frames' */
+    csi_recon_options o = *opt;
+    csi_status s = CSI_OK;
+    if (padded && solved.t != g->t) {
+        if (o.tiles_t > 1)
+            s = csi_fail(CSI_ERR_ARG, "%u time windows asked for a volume whose %u frames are solved as %u (a "
+                         "prime factor above 7), which is not split in t", o.tiles_t, g->t, solved.t);
+        o.tiles_t = 1;
     }
+    if (s == CSI_OK)
+        s = csi_tiling_plan(ctx, padded ? &solved : g, channels, n, &o, out);
+    if (s != CSI_OK)
+        return padded ? csi_recon_padded_fail(s, g, &solved) : s;
     out->image_w = g->out_w;
     out->image_h = g->out_h;
+    out->image_t = g->t;
     return CSI_OK;
 }
 
@@ -496,6 +502,7 @@ csi_grid csi_tiling_image_grid(const csi_tiling *tl)
     }
     g.out_w = tl->image_w;
     g.out_h = tl->image_h;
+    g.t = tl->image_t;
     return g;
 }
 
@@ -556,7 +563,8 @@ const char *csi_tiling_check(const csi_tiling *tl)
         return "the grid";
     if (tl->length[0] != g->out_w || tl->length[1] != g->out_h || tl->length[2] != g->t)
         return "the lengths of the axes";
-    if (!tl->image_w || !tl->image_h || tl->image_w > g->out_w || tl->image_h > g->out_h)
+    if (!tl->image_w || !tl->image_h || !tl->image_t || tl->image_w > g->out_w || tl->image_h > g->out_h ||
+        tl->image_t > g->t || (tl->image_t < g->t && tl->n[2] > 1))
         return "the image's size";
     uint64_t count = 1;
     for (int a = 0; a < 3; a++) {
@@ -572,7 +580,7 @@ const char *csi_tiling_check(const csi_tiling *tl)
 bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b)
 {
     if (memcmp(&a->grid, &b->grid, sizeof a->grid) || a->image_w != b->image_w || a->image_h != b->image_h ||
-        a->count != b->count || a->levels != b->levels)
+        a->image_t != b->image_t || a->count != b->count || a->levels != b->levels)
         return false;
     for (int i = 0; i < 3; i++)
         if (a->length[i] != b->length[i] || a->n[i] != b->n[i] || a->window[i] != b->window[i] ||

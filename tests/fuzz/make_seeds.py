@@ -71,7 +71,7 @@ def untimed_partial(b):
     checksum recomputed; the offsets follow docs/partial-format.md."""
     b = bytearray(b)
     m = struct.unpack_from("<Q", b, 272)[0]
-    at = 280 + 96 * m + (5 * 8 + 2 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
+    at = 280 + 96 * m + (5 * 8 + 3 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
     channels = struct.unpack_from("<Q", b, at + 48)[0]
     at += 8 * 8 + 8 + 8 + 3 * 8
     b[at:at + 80] = bytes(80)
@@ -89,11 +89,11 @@ def relaid_partial(b, size, n, window):
     allocated for before it refused them (14 GB for the image, 34 GB for the tiles' paths)."""
     b = bytearray(b)
     at = 280 + 96 * struct.unpack_from("<Q", b, 272)[0]
-    struct.pack_into("<7Q", b, at, size, size, 1, size, size, size, size)  # the grid, the image's size
+    struct.pack_into("<8Q", b, at, size, size, 1, size, size, size, size, 1)  # the grid, the image's size
     for a, (length, tiles, win) in enumerate(((size, n, window), (size, n, window), (1, 1, 1))):
-        struct.pack_into("<6Q", b, at + 56 + 48 * a, length, tiles, win, 0, 1, 1)
-    struct.pack_into("<Q", b, at + 200, n * n)
-    struct.pack_into("<2Q", b, at + 256, size, size)  # the scope's out_w, out_h
+        struct.pack_into("<6Q", b, at + 64 + 48 * a, length, tiles, win, 0, 1, 1)
+    struct.pack_into("<Q", b, at + 208, n * n)
+    struct.pack_into("<2Q", b, at + 264, size, size)  # the scope's out_w, out_h
     struct.pack_into("<Q", b, len(b) - 8, hash64(0, bytes(b[:-8])))
     return bytes(b)
 

@@ -15,7 +15,8 @@ Claims:
   5. an image whose sides the FFT cannot take (74 x 46 pixels: 37 and 23 are prime), which one
      process solves on a padded grid and crops: by default the padded whole (one task), with
      --tiles 2 tiles of the padded grid (its own has no layout of 2), with --tiles 4 tiles of its
-     own grid; each the pixels of csi-reconstruct in one process with the same options.
+     own grid; each the pixels of csi-reconstruct in one process with the same options; and a
+     volume of 11 frames (a prime count), solved on 12, in 2 x/y tiles: the one-process bits.
 The dumps are written here from an analytic image (no renderer involved): a 128 x 128 image on a
 1024 x 1024 grid, 4 samples per pixel at distinct random cells, 8 tiles; and the same at 74 x 46.
 Run by ctest with CSI_BUILD_DIR set (the programs) and this tree's host/python on PYTHONPATH.
@@ -194,6 +195,20 @@ def main():
                          options=topts, client=client, bin_dir=BUILD, quiet=True)
         check(image_hash(os.path.join(out4, "moving.json")) == image_hash(tref),
               "2 workers, 2 time windows: the farm's image differs from --tiles-t 2 in one process")
+
+        # 4b. 11 frames, a count the FFT cannot take: solved on 12 in 2 x/y tiles
+        pdump11 = os.path.join(tmp, "moving11.csid")
+        subprocess.run([os.path.join(BUILD, "csi-render"), scenes[1], "--spp", "4", "--time-steps", "11", "--dump",
+                        pdump11, "--estimator", "mean", "-o", os.path.join(tmp, "moving11_mean.exr"), "-q"], check=True)
+        o11 = ["--tiles-t", "1", "--tile-margin", "4", "--max-iter", "40"]
+        ref11 = os.path.join(tmp, "moving11_ref.json")
+        subprocess.run([recon, pdump11, "-o", os.path.join(tmp, "moving11_ref.exr"), "--tiles", "2", "--stats", ref11,
+                        "-q"] + o11, check=True)
+        info11 = farm.reconstruct(pdump11, os.path.join(out4, "moving11.exr"), stats=os.path.join(out4, "moving11.json"),
+                                  tiles=2, options=o11, client=client, bin_dir=BUILD, quiet=True)
+        check(info11["solved_t"] == 12 and info11["tiles"] == 2 and
+              image_hash(os.path.join(out4, "moving11.json")) == image_hash(ref11),
+              f"11 frames in 2 tiles: the farm's image differs from one process's, or the layout is not over 12: {info11}")
 
         # 5. sides the FFT cannot take: padded whole, tiles of the padded grid, tiles of its own
         pdump = os.path.join(tmp, "padded.csid")

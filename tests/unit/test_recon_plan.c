@@ -260,9 +260,13 @@ int main(void)
     CHECK(p.tiles > 1 && p.largest_buffer < (1ull << 30), "tiled: %u tiles, largest buffer %llu", p.tiles,
           (unsigned long long)p.largest_buffer);
     /* Sizes csi_recon refuses are refused by the plan with its messages. */
-    const csi_grid odd = {16, 16, 11, 16, 16}; /* 11 frames: no FFT size, and frames are not padded */
+    const csi_grid odd = {22, 16, 1, 2, 16}; /* 11 cells per pixel: no whole number of pixels pads it */
     CHECK(csi_recon_plan_make(NULL, &odd, 1, 10, NULL, &p) == CSI_ERR_ARG && strstr(csi_last_error(), "prime factor"),
           "FFT size: %s", csi_last_error());
+    /* 11 frames are solved as 12 (the last holds no sample), and planned so */
+    const csi_grid odd_t = {16, 16, 11, 16, 16};
+    CHECK_OK(csi_recon_plan_make(NULL, &odd_t, 1, 10, NULL, &p));
+    CHECK(p.cells == 16 * 16 * 12, "padded frames: %llu cells planned, expected 3072", (unsigned long long)p.cells);
     /* An image of such sides is planned as csi_recon solves it: padded right and down to the
      * nearest sides the transforms take (11 pixels of 2 cells: 12 pixels, 24 cells). */
     const csi_grid odd_image = {22, 22, 1, 11, 11};

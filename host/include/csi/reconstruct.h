@@ -239,6 +239,10 @@ typedef struct csi_recon_options {
      * reconstructed by csi with the blend (csi/peak_noise.h): by csi_recon on the whole image,
      * by each tile in its window (csi_recon_tile). */
     const float *sample_variance;
+    /* Not an option either: how many of the grid's frames are the shutter's, the first ones
+     * (0: all). A volume whose frame count the FFT cannot take is solved on more frames, which
+     * hold no sample (padding.c); its image is the mean over these frames only. */
+    uint32_t shutter_frames;
     csi_solve_progress_fn progress; /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
                                      "integrate c/C"; returning false cancels

@@ -68,6 +68,8 @@ typedef struct csi_tiling {
     csi_grid grid;       /* the whole problem's grid: the image's own, or padded (csi_tiling_layout) */
     uint32_t image_w, image_h; /* the image's own size (pixels): grid.out_w x out_h unless the grid is
                                   padded, then less (the blend's result is cut to it) */
+    uint32_t image_t;    /* its frames: grid.t, or fewer when they are padded (then the image is the
+                            mean over these, the first, and t is not split) */
     uint32_t length[3];  /* out_w, out_h, grid.t */
     uint32_t n[3];       /* tiles along each axis */
     uint32_t count;      /* n[0] * n[1] * n[2] */
@@ -110,7 +112,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
  * apart and merged are the one-process run's problem. */
 csi_status csi_tiling_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                              const csi_recon_options *opt, csi_tiling *out);
-/* The image's own grid of a layout (its grid cut to image_w x image_h pixels). */
+/* The image's own grid of a layout (its grid cut to image_w x image_h pixels, image_t frames). */
 csi_grid csi_tiling_image_grid(const csi_tiling *tl);
 
 /* The binned shutter of a layout split in t (csi_recon_options.tile_image_binned): the frames
@@ -218,7 +220,7 @@ csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
                            csi_blend *b, csi_recon_result *out);
 csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
 /* Time windows: corrects the image by the residual sums of all tiles (see csi_tile_result); a
- * padded layout's result is then cut to the image's own size (image_w x image_h). */
+ * padded layout's result is then cut to the image's own size (image_w x image_h, image_t frames). */
 csi_status csi_tiles_end(csi_blend *b);
 /* Releases what the blend holds besides out (csi_tiles_end does it too): for a blend given up. */
 void csi_tiles_release(csi_blend *b);
