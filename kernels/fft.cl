@@ -509,7 +509,17 @@ COL_CGAIN_V16(8)
  * butterfly as csi_fft_row_r*, so the same bits. */
 /* The 16 x R outputs xr[r], xi[r] of 16 butterflies at p = 1 as v[0 .. 2 R - 1], one contiguous
  * run of 16 R complex values: log2(2R) rounds of interleaving the rows xr[0], xi[0], xr[1], ...
- * with their second half. */
+ * with their second half, each interleave one two-source permute. Each round's results pass
+ * through SHUFFLE_FENCE16: left to itself, LLVM (15, in PoCL) merges the rounds into shuffles of
+ * many sources, which it lowers to chains of 128- and 256-bit inserts, blends and permutes, more
+ * than twice the instructions, all on the one port that shuffles (seen in the generated code);
+ * the fence is an empty asm statement, which LLVM cannot look through. It moves no value, so the
+ * transpose's result is the same. Where the device is not x86 with AVX-512 it is nothing. */
+#if defined(__x86_64__) && defined(__AVX512F__)
+#define SHUFFLE_FENCE16(x) __asm__("" : "+v"(x))
+#else
+#define SHUFFLE_FENCE16(x)
+#endif
 #define ROW1_TRANSPOSE(R, LOG2_2R)                                                              \
     {                                                                                          \
         float16 w[2 * R];                                                                      \
@@ -522,7 +532,10 @@ COL_CGAIN_V16(8)
                 w[2 * j] = shuffle2(v[j], v[j + R], ILV_LO16);                                 \
                 w[2 * j + 1] = shuffle2(v[j], v[j + R], ILV_HI16);                             \
             }                                                                                  \
-            _Pragma("unroll") for (int q = 0; q < 2 * R; q++) v[q] = w[q];                     \
+            _Pragma("unroll") for (int q = 0; q < 2 * R; q++) {                                \
+                SHUFFLE_FENCE16(w[q]);                                                         \
+                v[q] = w[q];                                                                   \
+            }                                                                                  \
         }                                                                                      \
     }
 #define ROW1_V16(R, LOG2_2R)                                                                    \
