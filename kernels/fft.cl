@@ -122,6 +122,26 @@ inline void store16c(__global float *restrict a, size_t e, float16 re, float16 i
     *(__global float16u *)(a + 2 * e) = shuffle2(re, im, ILV_LO16);
     *(__global float16u *)(a + 2 * e + 16) = shuffle2(re, im, ILV_HI16);
 }
+/* store16c to memory the stage will not read again soon: where the address allows (64-byte
+ * aligned), non-temporal stores, which write the lines without reading them first (a fused row
+ * stage's output, 71 MB at a 1920x1080 tile, is read back only after the whole stage, long
+ * after it has left the caches); NT_STORES_DONE() orders them before the launch ends. x86 only;
+ * elsewhere plain stores. */
+#if defined(__x86_64__)
+inline void store16nt(__global float *restrict a, size_t e, float16 re, float16 im)
+{
+    if (((size_t)(a + 2 * e) & 63) == 0) {
+        __builtin_nontemporal_store(shuffle2(re, im, ILV_LO16), (__global float16 *)(a + 2 * e));
+        __builtin_nontemporal_store(shuffle2(re, im, ILV_HI16), (__global float16 *)(a + 2 * e + 16));
+    } else {
+        store16c(a, e, re, im);
+    }
+}
+#define NT_STORES_DONE() __asm__ volatile("sfence" ::: "memory")
+#else
+#define store16nt store16c
+#define NT_STORES_DONE()
+#endif
 
 
 /* 16-point DFT as 4 x 4: input index q + 4 m, output s + 4 t:
@@ -798,7 +818,9 @@ __kernel void csi_fft_c2r_pre(__global const float *restrict X, __global float *
  * (the host checks; plan_radices gives radix 2 only where M has a single factor 2): the passes
  * are csi_fft_row1v_r* (p = 1), csi_fft_rowk8v_r* (p = 8) and the k-indexed form of
  * csi_fft_rowk_r* (p >= 16) on 16-wide vectors, then csi_fft_r2c_post16, with the same arithmetic
- * per element, so the same bits as the stages launched pass by pass. plan[0] = the number of
+ * per element, so the same bits as the stages launched pass by pass. The stages' writes to
+ * memory (the forward one's spectrum rows, the inverse one's output rows) are store16nt's, and
+ * their first pass asks for the next row's input ahead. plan[0] = the number of
  * passes, plan[1 + 2 j] = pass j's radix, plan[2 + 2 j] = its offset in the twiddles twp. */
 inline void load16l(__local const float *restrict a, size_t e, bool rev, float16 *re, float16 *im)
 {
@@ -818,9 +840,17 @@ inline void store16l(__local float *restrict a, size_t e, float16 re, float16 im
 }
 
 /* The pass at p = 1 of a row of L values, in -> out (csi_fft_row1v_r* without its scale, which
- * the filter's stages set to 1: exact), for input address space AS (LD: load16c or load16l). */
+ * the filter's stages set to 1: exact), for input address space AS (LD: load16c or load16l).
+ * A stage reads each row from memory once, and the first pass waits for it: the pass also asks
+ * for the pfn floats at pf (the stage's next row, NULL for none; a work-item's next row is most
+ * often the next one this core runs) a slice per iteration, one cache line at a time. */
 #define ROW_FIRST_R(R, LOG2_2R, LD)                                                             \
     for (size_t i0 = 0; i0 < T; i0 += 16) {                                                    \
+        if (pf) {                                                                              \
+            const size_t it_ = i0 / 16, nit_ = T / 16, end_ = (it_ + 1) * pfn / nit_;          \
+            for (size_t q_ = (it_ * pfn / nit_) & ~(size_t)15; q_ < end_; q_ += 16)            \
+                __builtin_prefetch(pf + q_);                                                   \
+        }                                                                                      \
         float16 xr[R], xi[R], v[2 * R];                                                        \
         _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
             LD(in, i0 + (size_t)r * T, false, &xr[r], &xi[r]);                                 \
@@ -832,7 +862,7 @@ inline void store16l(__local float *restrict a, size_t e, float16 re, float16 im
     }
 #define ROW_FIRST(AS, S, LD)                                                                    \
     inline void row_first_##S(AS const float *restrict in, __local float *restrict out, int R,  \
-                              size_t L, float sgn)                                             \
+                              size_t L, float sgn, __global const float *pf, size_t pfn)       \
     {                                                                                          \
         const size_t T = L / (size_t)R;                                                        \
         if (R == 8) {                                                                          \
@@ -902,7 +932,7 @@ inline void row_p8(__local const float *restrict in, __local float *restrict out
             ROW_PK_R(4, ST)                                                                    \
         }                                                                                      \
     }
-ROW_PK(__global, g, store16c)
+ROW_PK(__global, g, store16nt)
 ROW_PK(__local, l, store16l)
 
 /* Passes 1 .. np - 1 of a row from *a through b (ping-pong); the last one writes `last` when it
@@ -955,11 +985,13 @@ __kernel void csi_fft_rows_r2c(ROWS_STAGE_PARAMS(in, X))
     const size_t row = get_global_id(0), M = M_;
     __local float *a = A, *b = B;
     A[2 * M] = A[2 * M + 1] = B[2 * M] = B[2 * M + 1] = 0.0f;
-    row_first_g(in + 2 * row * M, b, (int)plan[1], M, -1.0f);
+    const bool next = row + 1 < get_global_size(0);
+    row_first_g(in + 2 * row * M, b, (int)plan[1], M, -1.0f, next ? in + 2 * (row + 1) * M : NULL, 2 * M);
     row_rest(&b, &a, NULL, plan, twp, M, -1.0f);
     /* csi_fft_r2c_post16 on the row in b */
     __global float *Xr = X + 2 * row * (size_t)hs;
-    MIRRORED_BINS16(load16l, b, r2c_unpack16, store16c, Xr)
+    MIRRORED_BINS16(load16l, b, r2c_unpack16, store16nt, Xr)
+    NT_STORES_DONE();
     const float z0r = b[0], z0i = b[1];
     Xr[0] = z0r + z0i;
     Xr[1] = 0.0f;
@@ -975,8 +1007,10 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
     /* csi_fft_c2r_pre16 into a */
     __global const float *Xr = X + 2 * row * (size_t)hs;
     MIRRORED_BINS16(load16c, Xr, c2r_pack16, store16l, a)
-    row_first_l(a, b, (int)plan[1], M, 1.0f);
+    const bool next = row + 1 < get_global_size(0);
+    row_first_l(a, b, (int)plan[1], M, 1.0f, next ? Xr + 2 * (size_t)hs : NULL, 2 * (M + 1));
     row_rest(&b, &a, out + 2 * row * M, plan, twp, M, 1.0f);
+    NT_STORES_DONE();
 }
 
 /* ------------------------------------------------------------------------------------------ */
