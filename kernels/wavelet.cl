@@ -446,10 +446,24 @@ inline int wrap(int i, int n)
  * wrapped windows and not stored. The host launches these only where input and output are
  * distinct buffers. */
 
-/* 16 lanes of v to p[0 .. cnt) (all 16 when cnt >= 16). */
+/* 16 lanes of v to p[0 .. cnt) (all 16 when cnt >= 16). A level's output is read back only
+ * after the whole launch, long after it has left the caches: on x86, a whole 64-byte aligned
+ * line is a non-temporal store, which writes the line without reading it first
+ * (NT_STORES_DONE() orders them before the launch ends). */
+#if defined(__x86_64__)
+#define NT_STORES_DONE() __asm__ volatile("sfence" ::: "memory")
+#else
+#define NT_STORES_DONE()
+#endif
 inline void store_lanes(const float16 v, __global float *p, const int cnt)
 {
     if (cnt >= 16) {
+#if defined(__x86_64__)
+        if (((size_t)p & 63) == 0) {
+            __builtin_nontemporal_store(v, (__global float16 *)p);
+            return;
+        }
+#endif
         vstore16(v, 0, p);
         return;
     }
@@ -527,6 +541,7 @@ inline void store_lanes(const float16 v, __global float *p, const int cnt)
                 }                                                                                  \
             }                                                                                      \
         }                                                                                          \
+        NT_STORES_DONE();                                                                          \
     }
 
 /* Synthesis of one level: the approximation band (approx: n/2 x m/2 at aoff, stride astride) and
@@ -599,6 +614,7 @@ inline void store_lanes(const float16 v, __global float *p, const int cnt)
                 store_lanes(od1, out + dstride + 16 * q + 16, n - 16 * q - 16);                    \
             }                                                                                      \
         }                                                                                          \
+        NT_STORES_DONE();                                                                          \
     }
 
 CSI_FWD_X(csi_wavelet_fwd_x_db4, 8, csi_db4_lo, csi_db4_hi, FWD_X_TAPS_8)
