@@ -34,11 +34,32 @@ inline float gather_wrap(__global const float *restrict c, const uint mx, const 
     return acc;
 }
 
+/* The 8 products wy[a] wx[b] c[...] of each tap column b of sample i (its window inside the
+ * grid), summed over the rows a: each tap row is one 8-wide load (the weights wt8[d 8 + b] are
+ * zero from b = IW on). */
+inline float8 gather_cols(__global const float *restrict c, __global const uint *restrict cell,
+                          __global const uint *restrict ph, __global const float *restrict wt8,
+                          const uint mw, const size_t i)
+{
+    const uint p = ph[i];
+    __global const float *wx = wt8 + (size_t)(p & 0xffu) * 8;
+    __global const float *wy = wt8 + (size_t)((p >> 8) & 0xffu) * 8;
+    __global const float *src = c + (size_t)cell[i] - IH * (size_t)mw - IH;
+    float8 acc = wy[0] * vload8(0, src);
+#pragma unroll
+    for (int a = 1; a < IW; a++)
+        acc += wy[a] * vload8(0, src + (size_t)a * mw);
+    return acc * vload8(0, wx);
+}
+
 /* y[perm[i]] = sum_ab wy[a] wx[b] c[(m_y + a - IH) mw + m_x + b - IH] (periodic) for the samples
- * [g chunk, (g + 1) chunk) of work-item g, one after another: each tap row of a sample away from
- * the border is one 8-wide load (the weights wt8[d 8 + b] are zero from b = IW on), so a sample
- * is IW vector multiply-adds. Work-groups of one item: the vector types are the SIMD lanes
- * (across work-items PoCL would turn every load into gathers). */
+ * [g chunk, (g + 1) chunk) of work-item g, one after another, so a sample away from the border
+ * is IW vector multiply-adds and the sum of their 8 lanes, (l0 + l4 + l2 + l6) + (l1 + l5 + l3 +
+ * l7) in that tree. Where 8 consecutive samples all lie away from the border, their 8 sums are
+ * made together: the same additions on the same pairs of lanes, 8 samples to a vector, so the
+ * same bits with fewer shuffles and no chain of dependent adds per sample. Work-groups of one
+ * item: the vector types are the SIMD lanes (across work-items PoCL would turn every load into
+ * gathers). */
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void csi_interp_gather(__global const float *restrict c, __global float *restrict y,
                        __global const uint *restrict cell, __global const uint *restrict ph,
@@ -47,17 +68,38 @@ void csi_interp_gather(__global const float *restrict c, __global float *restric
 {
     const size_t i0 = get_global_id(0) * (size_t)chunk, i1 = min(i0 + chunk, (size_t)n);
     for (size_t i = i0; i < i1; i++) {
+        if (i + 8 <= i1 && all((vload8(0, ph + i) & INSIDE) != 0u)) {
+            float8 s[8];
+#pragma unroll
+            for (int k = 0; k < 8; k++)
+                s[k] = gather_cols(c, cell, ph, wt8, mw, i + k);
+            /* per sample: h = lanes 0-3 + lanes 4-7, then q = h[0, 1] + h[2, 3], then q[0] + q[1] */
+            float8 h[4];
+#pragma unroll
+            for (int k = 0; k < 4; k++)
+                h[k] = (float8)(s[2 * k].lo, s[2 * k + 1].lo) + (float8)(s[2 * k].hi, s[2 * k + 1].hi);
+            const float8 q0 = (float8)(h[0].s01, h[0].s45, h[1].s01, h[1].s45) +
+                              (float8)(h[0].s23, h[0].s67, h[1].s23, h[1].s67);
+            const float8 q1 = (float8)(h[2].s01, h[2].s45, h[3].s01, h[3].s45) +
+                              (float8)(h[2].s23, h[2].s67, h[3].s23, h[3].s67);
+            const float8 v8 = (float8)(q0.even, q1.even) + (float8)(q0.odd, q1.odd);
+            y[perm[i]] = v8.s0;
+            y[perm[i + 1]] = v8.s1;
+            y[perm[i + 2]] = v8.s2;
+            y[perm[i + 3]] = v8.s3;
+            y[perm[i + 4]] = v8.s4;
+            y[perm[i + 5]] = v8.s5;
+            y[perm[i + 6]] = v8.s6;
+            y[perm[i + 7]] = v8.s7;
+            i += 7;
+            continue;
+        }
         const uint p = ph[i];
         __global const float *wx = wt8 + (size_t)(p & 0xffu) * 8;
         __global const float *wy = wt8 + (size_t)((p >> 8) & 0xffu) * 8;
         float v;
         if (p & INSIDE) {
-            __global const float *src = c + (size_t)cell[i] - IH * (size_t)mw - IH;
-            float8 acc = wy[0] * vload8(0, src);
-#pragma unroll
-            for (int a = 1; a < IW; a++)
-                acc += wy[a] * vload8(0, src + (size_t)a * mw);
-            acc *= vload8(0, wx);
+            const float8 acc = gather_cols(c, cell, ph, wt8, mw, i);
             const float4 h = acc.lo + acc.hi;
             const float2 q = h.lo + h.hi;
             v = q.x + q.y;

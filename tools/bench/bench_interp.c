@@ -6,8 +6,9 @@
  *   csi-bench-interp MW MH RUNS [shuffle]
  *
  * Prints the smallest process CPU time (all threads: PoCL's workers) of one spreading and of one
- * gather over RUNS runs, and a hash of the spreading's output, so that two builds can be checked
- * for the same bits on the same samples (the samples come from a fixed seed). */
+ * gather over RUNS runs, and hashes of the spreading's output and of the gather of that output,
+ * so that two builds can be checked for the same bits on the same samples (the samples come from
+ * a fixed seed). */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,6 +19,17 @@
 #include "csi/runtime.h"
 
 static double cpu_now(void) { return (double)clock() / CLOCKS_PER_SEC; }
+
+/* FNV-1a over n bytes */
+static uint64_t fnv1a(const void *p, size_t n)
+{
+    uint64_t h = 1469598103934665603ull;
+    for (size_t i = 0; i < n; i++) {
+        h ^= ((const unsigned char *)p)[i];
+        h *= 1099511628211ull;
+    }
+    return h;
+}
 
 static uint64_t state = 88172645463325252ull;
 static uint32_t next_random(void)
@@ -105,15 +117,14 @@ int main(int argc, char **argv)
     }
     if (csi_linop_adjoint(op, r, c) != CSI_OK || csi_read(ctx, c, 0, mw * mh * 4, cv) != CSI_OK)
         return fail("spreading");
-    uint64_t h = 1469598103934665603ull; /* FNV-1a over the spread grid's bytes */
-    for (size_t i = 0; i < mw * mh * 4; i++) {
-        h ^= ((const unsigned char *)cv)[i];
-        h *= 1099511628211ull;
-    }
+    /* the gather of that spread grid back at the samples */
+    if (csi_linop_apply(op, c, r) != CSI_OK || csi_read(ctx, r, 0, n * 4, rv) != CSI_OK)
+        return fail("gather");
+    const uint64_t h = fnv1a(cv, mw * mh * 4), hg = fnv1a(rv, n * 4);
     printf("interpolation %zu x %zu, D = %u, %zu samples (%s): spreading min %.2f ms CPU, gather min "
-           "%.2f ms CPU; spread hash %016llx\n",
+           "%.2f ms CPU; spread hash %016llx, gather hash %016llx\n",
            mw, mh, D, n, shuffle ? "shuffled" : "raster order", 1e3 * best_spread, 1e3 * best_gather,
-           (unsigned long long)h);
+           (unsigned long long)h, (unsigned long long)hg);
     csi_linop_free(op);
     csi_buffer_release(&c);
     csi_buffer_release(&r);
