@@ -16,7 +16,7 @@
 #include "csi/tiles.h"
 
 #define CSI_PARTIAL_MAGIC "CSIP"
-#define CSI_PARTIAL_VERSION 4u
+#define CSI_PARTIAL_VERSION 5u
 
 typedef struct csi_partial {
     char software[32];   /* "csi 0.1.0" */
@@ -24,6 +24,7 @@ typedef struct csi_partial {
     char input[128];     /* the input's file name (for messages) */
     uint64_t input_id;   /* content hash of the input (csi_hash64) */
     csi_recon_options options; /* as given to the tile (progress/user NULL) */
+    csi_recon_options reported; /* as the one-process run of the layout reports them (the merge's) */
     csi_tiling tiling;
     csi_tile_scope scope;
     csi_tile_result tile;

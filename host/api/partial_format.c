@@ -160,18 +160,20 @@ static void get_f32s(rbuf *r, float *a, size_t n)
     r->at += 4 * n;
 }
 
-static void put_options(wbuf *w, const csi_recon_options *o)
+/* The options as given (all: false; the partial's, without the tile options) or as reported
+ * (all: true, every option of the table). */
+static void put_options(wbuf *w, const csi_recon_options *o, bool all)
 {
     uint32_t count = 0;
     for (size_t i = 0; i < csi_option_count(); i++) {
         csi_option_info info;
-        count += csi_option_describe(i, &info) == CSI_OK && partial_option(info.name);
+        count += csi_option_describe(i, &info) == CSI_OK && (all || partial_option(info.name));
     }
     put_u32(w, count);
     for (size_t i = 0; i < csi_option_count(); i++) {
         csi_option_info info;
         char value[64];
-        if (csi_option_describe(i, &info) != CSI_OK || !partial_option(info.name))
+        if (csi_option_describe(i, &info) != CSI_OK || !(all || partial_option(info.name)))
             continue;
         if (csi_recon_option_get(o, info.name, value, sizeof value) != CSI_OK)
             value[0] = '\0';
@@ -180,7 +182,7 @@ static void put_options(wbuf *w, const csi_recon_options *o)
     }
 }
 
-static void get_options(rbuf *r, csi_recon_options *o)
+static void get_options(rbuf *r, csi_recon_options *o, bool all)
 {
     csi_recon_defaults(o);
     const uint32_t count = get_u32(r);
@@ -192,7 +194,7 @@ static void get_options(rbuf *r, csi_recon_options *o)
         char name[32], value[64];
         get_str(r, name, sizeof name);
         get_str(r, value, sizeof value);
-        if (!r->bad && (!partial_option(name) || csi_recon_option_set(o, name, value) != CSI_OK))
+        if (!r->bad && (!(all || partial_option(name)) || csi_recon_option_set(o, name, value) != CSI_OK))
             r->bad = true; /* an option this program does not know: another version's partial */
     }
 }
@@ -291,7 +293,8 @@ static void put_header(wbuf *w, const csi_partial *p)
     put_str(w, p->method, sizeof p->method);
     put_str(w, p->input, sizeof p->input);
     put_u64(w, p->input_id);
-    put_options(w, &p->options);
+    put_options(w, &p->options, false);
+    put_options(w, &p->reported, true);
     put_tiling(w, &p->tiling);
     const csi_tile_scope *s = &p->scope;
     put_u64(w, s->k);
@@ -401,7 +404,8 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
         get_str(&r, out->method, sizeof out->method);
         get_str(&r, out->input, sizeof out->input);
         out->input_id = get_u64(&r);
-        get_options(&r, &out->options);
+        get_options(&r, &out->options, false);
+        get_options(&r, &out->reported, true);
         get_tiling(&r, &out->tiling);
         csi_tile_scope *sc = &out->scope;
         sc->k = get_u64(&r);
@@ -495,8 +499,8 @@ const char *csi_partial_differs(const csi_partial *a, const csi_partial *b)
     if (a->input_id != b->input_id)
         return "the input";
     wbuf wa = {0}, wb = {0};
-    put_options(&wa, &a->options);
-    put_options(&wb, &b->options);
+    put_options(&wa, &a->options, false);
+    put_options(&wb, &b->options, false);
     const bool same = !wa.oom && !wb.oom && wa.n == wb.n && !memcmp(wa.b, wb.b, wa.n);
     free(wa.b);
     free(wb.b);

@@ -40,6 +40,7 @@ csi_status csi_partial_write(const char *path, const csi_result *tile, const cha
     snprintf(p.input, sizeof p.input, "%s", base ? base + 1 : input);
     p.input_id = input_id;
     p.options = tile->given;
+    p.reported = tile->reported;
     p.tiling = tile->tiling;
     p.scope = tile->scope;
     p.tile = tile->tile;
@@ -92,6 +93,7 @@ csi_status csi_partial_read(const char *path, csi_result **out, csi_partial_info
     r->tiling = p.tiling;
     r->scope = p.scope;
     r->given = p.options;
+    r->reported = p.reported;
     r->r = p.tile.r;
     r->tile = p.tile;
     memset(&r->tile.r, 0, sizeof r->tile.r); /* the pixels are r->r's */
@@ -223,9 +225,7 @@ csi_status csi_partials_merge(const char *const *paths, size_t count, bool frame
     csi_tiles_release(&b);
     if (st == CSI_OK) {
         r->r.n = first.scope.n;
-        const csi_solver_kind used = r->r.options.solver; /* the tiles' (their partials hold it) */
-        r->r.options = first.options;                     /* the options as the tiles were given them */
-        r->r.options.solver = used;
+        r->r.options = first.reported; /* what one process running the layout reports */
         const csi_grid image = csi_tiling_image_grid(&first.tiling);
         st = csi_result_finish(r, &image);
     }

@@ -21,6 +21,8 @@ struct csi_result {
     csi_tile_scope scope;
     csi_tile_result tile; /* index and window origin; tile.r is unused (the pixels are in r) */
     csi_recon_options given; /* the options the tile was given (its partial holds them) */
+    csi_recon_options reported; /* the options the one-process run of its layout reports
+                                   (csi_recon_reported): a merge's, and its partial's */
 };
 
 /* The text csi_result_info gives as the method. */

@@ -176,6 +176,8 @@ static csi_status reconstruct_tile(csi_device *dev, const csi_samples *s, size_t
     if (st == CSI_OK)
         st = csi_recon_tile(dev->ctx, g, s->channels, s->pos, s->values, s->count, &o, &r->tiling,
                             &r->scope, index, &t);
+    if (st == CSI_OK)
+        st = csi_recon_reported(&o, &r->tiling, whole, &t.r.options, &r->reported);
     if (st == CSI_OK) {
         r->is_tile = true;
         r->r = t.r;
@@ -268,7 +270,7 @@ csi_status csi_tiles_blend(const csi_result *const *tiles, size_t count, csi_res
     csi_tiles_release(&b);
     if (st == CSI_OK) {
         r->r.n = first->scope.n;
-        r->r.options = first->r.options; /* tile 0's, with the autos it resolved */
+        r->r.options = first->reported; /* what one process running the layout reports */
         const csi_grid image = csi_tiling_image_grid(&first->tiling);
         st = csi_result_finish(r, &image);
     }

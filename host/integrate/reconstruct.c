@@ -141,14 +141,13 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
     const float *v = scaled ? scaled : values;
     csi_status s;
-    if (tl.count > 1) {
-        /* Each tile resolves its own autos (csi_recon_resolve_scoped); the whole's are reported. */
+    /* Each tile resolves its own autos (csi_recon_resolve_scoped); the whole's are reported. */
+    if (tl.count > 1)
         s = csi_recon_tiled(ctx, grid, channels, pos, v, n, &opt, &tl, out);
-        if (s == CSI_OK)
-            s = csi_recon_resolve(&opt, grid, n, &out->options);
-    } else {
+    else
         s = csi_recon_scoped(ctx, grid, channels, pos, v, n, &opt, NULL, NULL, out);
-    }
+    if (s == CSI_OK && (s = csi_recon_reported(&opt, &tl, n, &out->options, &out->options)) != CSI_OK)
+        csi_recon_result_free(out);
     free(scaled);
     CSI_TRY(s);
     csi_recon_unscale_result(out, e);
@@ -156,8 +155,9 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
      * cross-validated choice (csi/cv_select.h), a volume's image chosen against binned solves'
      * (motion_image.c), then isolated peaks by the log fit (csi/peak_range.h), which comes after the
      * choice since the choice compares the blend with the mean and knows nothing of it. A tile (a
-     * job of its own, csi/tiles.h) sees its window only, so a tiled run goes without them. */
-    int cs = out->options.estimator == CSI_EST_CS, tiled = tl.count > 1;
+     * job of its own, csi/tiles.h) sees its window only, so a tiled run goes without them (its
+     * options say off: csi_recon_reported). */
+    int cs = out->options.estimator == CSI_EST_CS;
     const struct {
         whole_step fn;
         csi_switch *on;
@@ -168,8 +168,6 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         {csi_recon_peak_range, &out->options.peak_range, cs && grid->t == 1},
     };
     for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++) {
-        if (tiled && *steps[k].on == CSI_SWITCH_ON)
-            *steps[k].on = CSI_SWITCH_OFF;
         if (!steps[k].applies || *steps[k].on != CSI_SWITCH_ON)
             continue;
         s = steps[k].fn(ctx, grid, channels, pos, values, n, &opt, out);
@@ -200,16 +198,30 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
             return s;
         }
     }
-    out->options.sample_variance = NULL; /* the caller's array: not the result's */
-    /* The tiling's autos, as planned. */
-    csi_recon_options *r = &out->options;
-    r->mem_budget = tl.budget;
-    r->tiles = tl.count;
-    if (tl.count > 1) {
-        r->tile_margin = tl.margin[0];
-        if (grid->t > 1)
-            r->tile_margin_t = tl.margin[2];
+    return CSI_OK;
+}
+
+csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *tl, size_t n,
+                              const csi_recon_options *solved, csi_recon_options *out)
+{
+    if (tl->count > 1) {
+        CSI_TRY(csi_recon_resolve(given, &tl->grid, n, out));
+        /* the steps on the whole result: a tile sees its window only (csi_recon) */
+        csi_switch *steps[] = {&out->cv_select, &out->motion_image_cv, &out->peak_range};
+        for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++)
+            if (*steps[k] == CSI_SWITCH_ON)
+                *steps[k] = CSI_SWITCH_OFF;
+        out->tile_margin = tl->margin[0];
+        if (tl->grid.t > 1)
+            out->tile_margin_t = tl->margin[2];
+    } else if (out != solved) {
+        *out = *solved;
     }
+    out->sample_variance = NULL; /* the caller's array: not the result's */
+    out->shutter_frames = 0;     /* internal (padding.c) */
+    out->tiles_t = given->tiles_t;
+    out->mem_budget = tl->budget;
+    out->tiles = tl->count;
     return CSI_OK;
 }
 

@@ -2,8 +2,9 @@
 # Tiles on the command line (docs/tiles.md): a run tiled in one process, the same tiles run one
 # by one with --tile I/N (in any order, the scale given or computed) and blended by csi-merge,
 # and csi-render tracing only each tile's samples, all give the same pixels, bit for bit (image
-# hashes in the statistics, frame PNGs byte for byte), also for an image and a volume whose side
-# the FFT cannot take (solved padded, or in tiles of its own grid); csi-merge refuses a missing, repeated,
+# hashes in the statistics, frame PNGs byte for byte; csi-reconstruct's EXR and the merge's byte
+# for byte, attributes too), also for an image and a volume whose side or frame count the FFT
+# cannot take (solved padded, or in tiles of its own grid); csi-merge refuses a missing, repeated,
 # foreign (another dump, scene, options or layout), truncated, damaged, other-version or
 # non-partial input, and a layout csi does not make, with one line naming the file, exit 2 and
 # no output.
@@ -37,6 +38,7 @@ done
 "$B/csi-merge" "$T/p2.csip" "$T/p0.csip" "$T/p3.csip" "$T/p1.csip" -o "$T/m.exr" --png "$T/m.png" --stats "$T/m.json" -q
 check "[[ $? == 0 && -s '$T/m.exr' && -s '$T/m.png' ]]" "csi-merge outputs"
 check "[[ '$(json "$T/m.json" image_fnv1a64)' == '$ha' ]]" "merged tiles differ from the tiled run"
+check "cmp -s '$T/s2.exr' '$T/m.exr'" "the merged EXR is not csi-reconstruct --tiles 4's, byte for byte (attributes)"
 for i in 0 1 2 3; do
     "$B/csi-render" "$static" --tile $i/4 --tile-scale "$scale" -o "$T/r$i.csip" "${tiles[@]}"
     check "[[ $? == 0 ]]" "csi-render --tile $i/4"
@@ -78,6 +80,7 @@ padded() {
     check "[[ $? == 0 && '$(json "$T/$name.m.json" image_fnv1a64)' == '$(json "$T/$name.json" image_fnv1a64)' ]]" \
         "$name: the merged tiles differ from the one-process run"
     check "[[ '$(json "$T/$name.m.json" out_w)x$(json "$T/$name.m.json" out_h)' == 37x23 ]]" "$name: merged size"
+    check "cmp -s '$T/$name.exr' '$T/$name.m.exr'" "$name: the merged EXR is not the one-process run's, byte for byte"
 }
 padded pad_whole 40 --max-iter 40 -q                            # the padded whole: one tile
 padded pad_tiles 40 --tiles 2 --tile-margin 4 --max-iter 40 -q  # no 2 tiles of its own grid: of the padded one
@@ -102,8 +105,9 @@ done
 "$B/csi-merge" "$T"/padm?.csip -o "$T/padmm.exr" --frames "$T/pf2" --stats "$T/padmm.json" -q
 check "[[ $? == 0 && '$(json "$T/padm.info" solved_out_w)' == 40 && '$(json "$T/padmm.json" image_fnv1a64)' == '$(json "$T/padm.json" image_fnv1a64)' ]]" \
     "a padded volume's merged tiles differ: $(cat "$T/padm.info")"
-same=1; for f in "$T"/pf1/*.png; do cmp -s "$f" "$T/pf2/$(basename "$f")" || same=0; done
-check "[[ $same == 1 && -s '$T/pf2/frame_0007.png' ]]" "a padded volume's merged frames differ from the one-process run's"
+same=1; for f in "$T"/pf1/*.png "$T"/pf1/*.exr; do cmp -s "$f" "$T/pf2/$(basename "$f")" || same=0; done
+check "[[ $same == 1 && -s '$T/pf2/frame_0007.png' ]] && cmp -s '$T/padm.exr' '$T/padmm.exr'" \
+    "a padded volume's merged image or frames differ from the one-process run's (EXR bytes)"
 # a volume of 11 frames, a count the FFT cannot take: solved on 12 (the last holds no sample), its
 # image the mean over its own 11, in x/y tiles only (no time window over padding; 2 windows of 10
 # frames would be tiles of its own grid)
@@ -116,7 +120,8 @@ done
 "$B/csi-merge" "$T"/p11_?.csip -o "$T/p11m.exr" --frames "$T/pf4" --stats "$T/p11m.json" -q
 check "[[ $? == 0 && '$(json "$T/p11.info" solved_t)' == 12 && '$(json "$T/p11.info" tiles_t)' == 1 && '$(json "$T/p11m.json" image_fnv1a64)' == '$(json "$T/p11.json" image_fnv1a64)' ]]" \
     "11 frames in 2 tiles: the merged image differs or the layout is not over 12 frames: $(cat "$T/p11.info")"
-same=1; for f in "$T"/pf3/*.png; do cmp -s "$f" "$T/pf4/$(basename "$f")" || same=0; done
+same=1; for f in "$T"/pf3/*.png "$T"/pf3/*.exr; do cmp -s "$f" "$T/pf4/$(basename "$f")" || same=0; done
+cmp -s "$T/p11.exr" "$T/p11m.exr" || same=0
 check "[[ $same == 1 && -s '$T/pf4/frame_0010.png' && ! -e '$T/pf4/frame_0011.png' && ! -e '$T/pf3/frame_0011.png' ]]" \
     "11 frames: the merged frames differ from the one-process run's, or a padding frame was written"
 expect_fail "time windows over padded frames" "2 time windows asked for a volume whose 11 frames are solved as 12" \
@@ -159,9 +164,9 @@ expect_fail "truncated partial" "trunc.csip: checksum" "$B/csi-merge" "$T/p0.csi
 size=$(stat -c %s "$T/p2.csip")
 { head -c $((size - 64)) "$T/p2.csip"; printf 'Z'; tail -c 63 "$T/p2.csip"; } > "$T/damaged.csip"
 expect_fail "damaged partial" "damaged.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/damaged.csip" "$T/p3.csip" -o "$T/out.exr"
-# (version 3, before the image's own frame count was in the layout: a partial of the previous library)
-{ head -c 4 "$T/p2.csip"; printf '\x03'; tail -c +6 "$T/p2.csip"; } > "$T/v3.csip"
-expect_fail "another format version" "v3.csip: partial format version 3 (this program reads version 4)" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v3.csip" "$T/p3.csip" -o "$T/out.exr"
+# (version 4, before the options as reported were in it: a partial of the previous library)
+{ head -c 4 "$T/p2.csip"; printf '\x04'; tail -c +6 "$T/p2.csip"; } > "$T/v4.csip"
+expect_fail "another format version" "v4.csip: partial format version 4 (this program reads version 5)" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v4.csip" "$T/p3.csip" -o "$T/out.exr"
 expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
 # layouts written over a 2x2 tile with a valid checksum (tests/fuzz/make_seeds.py): the merge of
 # the file alone once allocated the 60000x60000 image (14 GB), or a path for each of 4.3e9 tiles

@@ -278,12 +278,12 @@ int main(void)
     fclose(f);
     copy_changed(part[2], trunc, -(size / 2), 0);
     copy_changed(part[2], damaged, size - 100, 0x5a); /* a pixel's byte */
-    copy_changed(part[2], version, 4, 3); /* the version before the image's own frame count was in it */
+    copy_changed(part[2], version, 4, 4); /* the version before the options as reported were in it */
     f = fopen(notpart, "wb");
     fputs("CSID this is not a partial\n", f);
     fclose(f);
     const char *bad[5] = {trunc, damaged, version, notpart, path_of("absent.csip")};
-    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 3 (this program reads version 4)",
+    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 4 (this program reads version 5)",
                           "not a csi tile partial", "cannot open"};
     for (int k = 0; k < 5; k++) {
         const char *set[4] = {part[0], part[1], bad[k], part[3]};

@@ -66,12 +66,20 @@ def hash64(h, data):
     return mix64(h ^ len(data))
 
 
+def options_end(b):
+    """Where a partial's layout starts: after its two option blocks, as given and as reported
+    (docs/partial-format.md), each a count and that many 96-byte name-value pairs."""
+    at = 272
+    for _ in range(2):
+        at += 8 + 96 * struct.unpack_from("<Q", b, at)[0]
+    return at
+
+
 def untimed_partial(b):
     """A partial with its seconds (the tile's 10, each channel report's 5) set to 0 and the
     checksum recomputed; the offsets follow docs/partial-format.md."""
     b = bytearray(b)
-    m = struct.unpack_from("<Q", b, 272)[0]
-    at = 280 + 96 * m + (5 * 8 + 3 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
+    at = options_end(b) + (5 * 8 + 3 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
     channels = struct.unpack_from("<Q", b, at + 48)[0]
     at += 8 * 8 + 8 + 8 + 3 * 8
     b[at:at + 80] = bytes(80)
@@ -88,7 +96,7 @@ def relaid_partial(b, size, n, window):
     of the given window, its checksum recomputed: layouts that a merge of that file alone once
     allocated for before it refused them (14 GB for the image, 34 GB for the tiles' paths)."""
     b = bytearray(b)
-    at = 280 + 96 * struct.unpack_from("<Q", b, 272)[0]
+    at = options_end(b)
     struct.pack_into("<8Q", b, at, size, size, 1, size, size, size, size, 1)  # the grid, the image's size
     for a, (length, tiles, win) in enumerate(((size, n, window), (size, n, window), (1, 1, 1))):
         struct.pack_into("<6Q", b, at + 64 + 48 * a, length, tiles, win, 0, 1, 1)

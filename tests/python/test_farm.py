@@ -15,12 +15,13 @@ Claims:
   5. an image whose sides the FFT cannot take (74 x 46 pixels: 37 and 23 are prime), which one
      process solves on a padded grid and crops: by default the padded whole (one task), with
      --tiles 2 tiles of the padded grid (its own has no layout of 2), with --tiles 4 tiles of its
-     own grid; each the pixels of csi-reconstruct in one process with the same options; and a
-     volume of 11 frames (a prime count), solved on 12, in 2 x/y tiles: the one-process bits.
+     own grid; each the EXR of csi-reconstruct in one process with the same options, byte for
+     byte; and a volume of 11 frames (a prime count), solved on 12, in 2 x/y tiles: the same.
 The dumps are written here from an analytic image (no renderer involved): a 128 x 128 image on a
 1024 x 1024 grid, 4 samples per pixel at distinct random cells, 8 tiles; and the same at 74 x 46.
 Run by ctest with CSI_BUILD_DIR set (the programs) and this tree's host/python on PYTHONPATH.
 """
+import filecmp
 import json
 import os
 import signal
@@ -118,6 +119,8 @@ def main():
         farm.reconstruct(dump, os.path.join(out1, "img.exr"), stats=os.path.join(out1, "img.json"), tiles=8,
                          options=opts, client=client, bin_dir=BUILD, quiet=True)
         check(image_hash(os.path.join(out1, "img.json")) == ref, "2 workers: the farm's image differs from --tiles 8")
+        check(filecmp.cmp(os.path.join(out1, "img.exr"), os.path.join(tmp, "ref.exr"), shallow=False),
+              "2 workers: the farm's EXR is not --tiles 8's, byte for byte")
 
         # 2. a worker killed mid-tile
         out2 = os.path.join(tmp, "out2")
@@ -209,6 +212,8 @@ def main():
         check(info11["solved_t"] == 12 and info11["tiles"] == 2 and
               image_hash(os.path.join(out4, "moving11.json")) == image_hash(ref11),
               f"11 frames in 2 tiles: the farm's image differs from one process's, or the layout is not over 12: {info11}")
+        check(filecmp.cmp(os.path.join(out4, "moving11.exr"), os.path.join(tmp, "moving11_ref.exr"), shallow=False),
+              "11 frames in 2 tiles: the farm's EXR is not one process's, byte for byte")
 
         # 5. sides the FFT cannot take: padded whole, tiles of the padded grid, tiles of its own
         pdump = os.path.join(tmp, "padded.csid")
@@ -230,6 +235,8 @@ def main():
             b = read_exr(os.path.join(tmp, name + ".exr"))
             check(image_hash(os.path.join(out5, name + ".json")) == image_hash(pref) and a.shape == b.shape and a.shape[:2] == (46, 74)
                   and np.array_equal(a, b), f"{name}: the farm's image differs from one process's ({a.shape}, {b.shape})")
+            check(filecmp.cmp(os.path.join(out5, name + ".exr"), os.path.join(tmp, name + ".exr"), shallow=False),
+                  f"{name}: the farm's EXR is not one process's, byte for byte (attributes)")
     finally:
         client.close()
         cluster.close()

@@ -112,6 +112,13 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
  * apart and merged are the one-process run's problem. */
 csi_status csi_tiling_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                              const csi_recon_options *opt, csi_tiling *out);
+/* The options a run of layout tl over n samples reports (its result's and its EXR's): `solved`,
+ * what its one solve resolved (a layout of one tile: that tile's), or for tiles the given options
+ * resolved on the whole grid with the steps on the whole result off; then the layout's autos.
+ * csi_recon reports these, and a tile run keeps them for the merge (its partial), so that the
+ * merged EXR is the one-process run's, attributes and all. solved may be out. */
+csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *tl, size_t n,
+                              const csi_recon_options *solved, csi_recon_options *out);
 /* The image's own grid of a layout (its grid cut to image_w x image_h pixels, image_t frames). */
 csi_grid csi_tiling_image_grid(const csi_tiling *tl);
 
