@@ -592,6 +592,16 @@ csi_status csi_copy(csi_ctx *ctx, cl_mem dst, size_t dst_off, cl_mem src, size_t
     return CSI_CL(clEnqueueCopyBuffer(ctx->queue, src, dst, src_off, dst_off, bytes, 0, NULL, NULL));
 }
 
+csi_status csi_copy_rows(csi_ctx *ctx, cl_mem dst, size_t dst_pitch, cl_mem src, size_t src_pitch,
+                         size_t row_bytes, size_t rows)
+{
+    if (row_bytes == 0 || rows == 0)
+        return CSI_OK;
+    const size_t origin[3] = {0, 0, 0}, region[3] = {row_bytes, rows, 1};
+    return CSI_CL(clEnqueueCopyBufferRect(ctx->queue, src, dst, origin, origin, region, src_pitch, 0,
+                                          dst_pitch, 0, 0, NULL, NULL));
+}
+
 csi_status csi_run(csi_ctx *ctx, cl_kernel k, cl_uint dims, const size_t *global, const size_t *local)
 {
     size_t loc[3] = {64, 1, 1}, glob[3];

@@ -145,6 +145,11 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     res->model_factor = D;
     res->unknowns = km;
     CSI_TRY(csi_solver_create(st->A, &st->solver));
+    if (opt->coarse_start == CSI_SWITCH_ON) {
+        csi_aa_shape sh;
+        CSI_TRY(csi_recon_aa_shape(g, n, opt, st, &sh));
+        CSI_TRY(csi_recon_coarse_create(ctx, &sh, opt, st->idx, n, st->solver, &st->coarse));
+    }
 
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));

@@ -8,6 +8,8 @@
 #include "csi/reconstruct.h"
 #include "csi/tiles.h"
 
+typedef struct csi_recon_coarse csi_recon_coarse;
+
 /* Everything one reconstruction allocates, released in one place (reconstruct.c). */
 typedef struct {
     csi_linop *S, *inner, *A, *Psi, *W;
@@ -26,6 +28,8 @@ typedef struct {
     bool warm;                  /* x holds the starting point of this solve (warm_channels) */
     /* A time window's fit at its samples (csi_recon_scoped); NULL otherwise. Borrowed. */
     struct csi_recon_fit *fit;
+    /* Alg. 1's continuation stages on a coarser grid (coarse_start.c), or NULL. */
+    csi_recon_coarse *coarse;
 } csi_recon_state;
 
 /* What a time window (csi/tiles.h) hands on for the correction of the whole shutter's image:
@@ -168,6 +172,23 @@ typedef struct {
 } csi_aa_shape;
 csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_options *opt,
                               const csi_recon_state *st, csi_aa_shape *out);
+
+/* The coarse start (coarse_start.c): the operator on the model grid of shape sh coarsened once
+ * more, for the samples at idx, its solver on the device buffers of the model grid's (fine);
+ * *out NULL (and CSI_OK) where that grid is not available. */
+csi_status csi_recon_coarse_create(csi_ctx *ctx, const csi_aa_shape *sh, const csi_recon_options *opt,
+                                   const uint32_t *idx, size_t n, const csi_solver *fine,
+                                   csi_recon_coarse **out);
+void csi_recon_coarse_free(csi_recon_coarse *c);
+/* The coarse grid's factor for a problem of shape sh (2 sh->D), or 0 where there is no coarse
+ * start (the option off, another solver, no continuation, no coarser grid); and the device
+ * buffers it adds, for the resource plan (plan.c). */
+unsigned csi_recon_coarse_factor(const csi_aa_shape *sh, const csi_recon_options *opt);
+void csi_recon_coarse_buffers(const csi_aa_shape *sh, const csi_recon_options *opt, size_t n, csi_mem_tally *t);
+/* SpaRSA's stages before the last (options o, an absolute tau) on the coarse grid, their result
+ * written into x, the model grid's fine_k coefficients, for the last stage to start from. */
+csi_status csi_recon_coarse_stages(csi_ctx *ctx, csi_recon_coarse *c, cl_mem y, const csi_sparsa_options *o,
+                                   cl_mem x, size_t fine_k, csi_solve_report *rep);
 
 /* Runs the solver opt->solver on st->A, st->y into st->x, with the resolved options
  * (csi_recon_resolve). tau_scale > 0: SpaRSA's tau is tau_rel * tau_scale (a tile following the

@@ -200,6 +200,9 @@ static const row table[] = {
      "the model grid: the coarsest grid (D a power of two) on which the Gaussian is at least C "
      "model cells wide (below 1.5 no longer the fine grid's operator: a band-limited model, "
      "cheaper, with the MSE within a few %)", "1.5 (the fine grid's operator to ~1e-5)"},
+    {"coarse-start", K_CHOICE, AT(coarse_start), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "Alg. 1 on a model grid: SpaRSA's continuation stages before the last on a grid twice as "
+     "coarse, the last on the model grid from their result (about a third of their cost)", "off"},
     /* Tiles (csi/tiles.h): bounded memory. */
     {"mem-budget", K_BYTES, AT(mem_budget), 1048576.0, 18446744073709551615.0, NULL, F_AUTO, "auto",
      "SIZE", "device memory one reconstruction may use, e.g. 512M, 2G (bytes, or K/M/G = "

@@ -155,6 +155,7 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
         transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
     }
     csi_solver_buffers(n, km, false, &m->dev);
+    csi_recon_coarse_buffers(&sh, opt, n, &m->dev);
     csi_mem_tally_add(&m->dev, n * 4, "the measurements");
     csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the wavelet coefficients");
     csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the fine image");

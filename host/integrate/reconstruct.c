@@ -21,6 +21,7 @@ void csi_recon_state_free(csi_recon_state *st)
     }
     csi_linop_free(st->Wbox);
     csi_linop_free(st->Ipix);
+    csi_recon_coarse_free(st->coarse);
     csi_buffer_release(&st->y);
     csi_buffer_release(&st->x);
     csi_buffer_release(&st->f);

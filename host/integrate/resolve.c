@@ -210,6 +210,8 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
      * docs/bench/cost.md), more than the 2% the defaults may move. Off unless asked for. */
     if (o->warm_channels == CSI_SWITCH_AUTO)
         o->warm_channels = CSI_SWITCH_OFF;
+    if (o->coarse_start == CSI_SWITCH_AUTO)
+        o->coarse_start = CSI_SWITCH_OFF;
     if (o->solver == CSI_SOLVER_ROMP) {
         image_romp(o, n, (size_t)g->w * g->h); /* each problem's own operator (tiles too) */
     } else {

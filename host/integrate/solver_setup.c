@@ -117,5 +117,28 @@ csi_status csi_recon_run_solver(csi_recon_state *st, const csi_recon_options *op
     }
     o.progress = progress;
     o.user = &cp;
-    return csi_sparsa_run(st->solver, st->y, st->x, &o, rep);
+    if (!st->coarse || st->warm || !o.continuation)
+        return csi_sparsa_run(st->solver, st->y, st->x, &o, rep);
+    /* The stages before the last on the coarser grid (coarse_start.c), at the absolute tau the
+     * model grid's solve would take; then the last stage from their result. */
+    if (!(o.tau > 0)) {
+        double hmax;
+        CSI_TRY(csi_solver_adjoint_amax(st->solver, st->y, &hmax));
+        o.tau = o.tau_rel * hmax;
+    }
+    csi_solve_report rc;
+    CSI_TRY(csi_recon_coarse_stages(st->A->ctx, st->coarse, st->y, &o, st->x, st->A->cols, &rc));
+    if (rc.iterations > 0) {
+        o.warm_start = true;
+        o.start_tau = rc.tau_next;
+        o.alpha0 = rc.alpha;
+    }
+    CSI_TRY(csi_sparsa_run(st->solver, st->y, st->x, &o, rep));
+    rep->iterations += rc.iterations;
+    rep->stages += rc.stages;
+    rep->applies += rc.applies;
+    rep->adjoints += rc.adjoints;
+    rep->t_total += rc.t_total;
+    rep->t_step += rc.t_step;
+    return CSI_OK;
 }

@@ -20,6 +20,7 @@ struct csi_solver {
     /* coefficient side (k) */
     cl_mem g, p, s, xn;
     cl_mem mask;        /* k bytes: support (ROMP) / non-zero set (debiasing) */
+    bool borrowed;      /* the buffers above are another workspace's (csi_solver_create_sharing) */
     /* ROMP selection: made on the first ROMP run (csi_solver_romp_buffers), so SpaRSA on a
      * large volume does not pay for them */
     cl_mem hist, count, cand_idx, cand_val, sel;

@@ -50,7 +50,7 @@ void csi_solver_free(csi_solver *S)
     if (!S)
         return;
     cl_mem *bufs[] = {&S->r, &S->q, &S->Ax, &S->Axn, &S->g, &S->p, &S->s, &S->xn, &S->mask, &S->hist, &S->count, &S->cand_idx, &S->cand_val, &S->sel};
-    for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
+    for (size_t i = S->borrowed ? 9 : 0; i < sizeof bufs / sizeof *bufs; i++)
         csi_buffer_release(bufs[i]);
     csi_vec_ws_free(S->ws);
     free(S->h_hist);
@@ -137,6 +137,48 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
     };
     for (size_t i = 0; st == CSI_OK && i < sizeof b / sizeof *b; i++)
         st = csi_buffer(S->ctx, b[i].bytes, CL_MEM_READ_WRITE, b[i].what, b[i].m);
+    if (st == CSI_OK) {
+        S->h_mask = calloc(S->k, 1);
+        if (!S->h_mask)
+            st = csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver over %zu unknowns", S->k);
+    }
+    if (st != CSI_OK) {
+        csi_solver_free(S);
+        return st;
+    }
+    *out = S;
+    return CSI_OK;
+}
+
+csi_status csi_solver_create_sharing(const csi_linop *A, const csi_solver *owner, csi_solver **out)
+{
+    *out = NULL;
+    if (!A || !A->apply || !A->adjoint || !A->ctx || !owner || owner->borrowed)
+        return csi_fail(CSI_ERR_ARG, "solver: no usable operator or owning workspace given");
+    if (A->rows != owner->N || A->cols == 0 || A->cols > owner->k || A->complex_valued != owner->cplx)
+        return csi_fail(CSI_ERR_ARG, "solver: operator %s (%zu x %zu) cannot share the buffers of a "
+                        "%zu x %zu workspace", A->name ? A->name : "?", A->rows, A->cols, owner->N, owner->k);
+    csi_solver *S = calloc(1, sizeof *S);
+    if (!S)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver");
+    S->A = A;
+    S->ctx = A->ctx;
+    S->N = A->rows;
+    S->k = A->cols;
+    S->cplx = A->complex_valued;
+    S->nfN = owner->nfN;
+    S->nfk = S->k * (S->cplx ? 2 : 1);
+    S->borrowed = true;
+    S->r = owner->r;
+    S->q = owner->q;
+    S->Ax = owner->Ax;
+    S->Axn = owner->Axn;
+    S->g = owner->g;
+    S->p = owner->p;
+    S->s = owner->s;
+    S->xn = owner->xn;
+    S->mask = owner->mask;
+    csi_status st = csi_vec_ws_create(S->ctx, &S->ws);
     if (st == CSI_OK) {
         S->h_mask = calloc(S->k, 1);
         if (!S->h_mask)

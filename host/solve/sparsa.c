@@ -142,8 +142,8 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
         CSI_TRY(csi_fill_zero(ctx, Acur, nfN * 4));
         CSI_TRY(csi_vec_copy(ctx, rcur, y, nfN));
     }
-    double tau_k = o.continuation ? fmax(o.cont_factor * hmax, tau) : tau;
-    double alpha = 1.0; /* WNF09's code starts from alpha = 1 */
+    double tau_k = !o.continuation ? tau : o.start_tau > 0 ? fmax(o.start_tau, tau) : fmax(o.cont_factor * hmax, tau);
+    double alpha = o.alpha0 > 0 ? o.alpha0 : 1.0; /* WNF09's code starts from alpha = 1 */
     if (alpha < o.alpha_min)
         alpha = o.alpha_min;
     if (alpha > o.alpha_max)
@@ -156,8 +156,12 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
     const double gap_floor = 32.0 * 0x1.0p-24 * ynorm * ynorm;
     const double ts = csi_solve_now();
     while (!done) {
-        rep->stages++;
         const bool last = tau_k <= tau;
+        if (o.stop_tau > 0 && tau_k <= o.stop_tau) {
+            rep->tau_next = tau_k;
+            break;
+        }
+        rep->stages++;
         const double stage_tol = last ? o.tol : fmax(o.cont_tol, o.tol);
         int nh = 1, hpos = 0;
         phi = 0.5 * rn2 + tau_k * l1;
@@ -293,6 +297,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
         }
     }
     rep->t_step = csi_solve_now() - ts;
+    rep->alpha = alpha;
     rep->iterations = it;
     rep->objective = phi;
     rep->rel_gap = gap_rel;

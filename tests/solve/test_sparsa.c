@@ -324,6 +324,67 @@ static void test_cont_step(test_rng *r, bool cplx, double step)
     problem_free(&P);
 }
 
+/* The last stage run apart, as Alg. 1's coarse start does (host/integrate/coarse_start.c): the
+ * stages before the last (stop_before_last), then the last from their result (warm start at the
+ * final tau, alpha0 their last alpha), on a workspace sharing the first one's buffers
+ * (csi_solver_create_sharing). The first part runs every stage of the whole run but the last,
+ * each at a tau above the final one; with a tight last stage both reach the same minimum (the
+ * problem is convex: the objective to 1e-4, as the warm start test below allows). A sharing
+ * workspace runs bit for bit like its owner, and refuses an operator of other rows. */
+static void test_last_stage_apart(test_rng *r)
+{
+    const size_t N = 120, k = 512;
+    for (int seed = 0; seed < 6; seed++) {
+        problem P = problem_make(r, N, k, 10, seed & 1, false, false);
+        const size_t nk = k * P.w;
+        csi_sparsa_options o = image_options();
+        o.tol = 1e-7;
+        csi_solver *S = NULL, *B = NULL;
+        CHECK_OK(csi_solver_create(P.op, &S));
+        CHECK_OK(csi_solver_create_sharing(P.op, S, &B));
+        csi_solve_report whole, first, last, own;
+        CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &o, &whole));
+        float *xw = malloc(nk * 4), *xb = malloc(nk * 4);
+        test_download(P.dx, xw, nk * 4);
+        CHECK_OK(csi_sparsa_run(B, P.dy, P.dx, &o, &own));
+        test_download(P.dx, xb, nk * 4);
+        CHECK(memcmp(xw, xb, nk * 4) == 0 && own.iterations == whole.iterations,
+              "seed %d: the sharing workspace differs from its owner", seed);
+        csi_sparsa_options a = o;
+        a.stop_tau = whole.tau;
+        tau_trace T = {0};
+        a.trace = on_tau;
+        a.user = &T;
+        CHECK_OK(csi_sparsa_run(B, P.dy, P.dx, &a, &first));
+        int above = 0;
+        for (int i = 0; i < T.n; i++)
+            above += T.tau[i] > first.tau;
+        CHECK(first.stages == whole.stages - 1 && above == T.n && T.n == first.iterations,
+              "seed %d: the first part ran %d stages (the whole %d), %d of its %d steps above tau", seed,
+              first.stages, whole.stages, above, T.n);
+        csi_sparsa_options b = o;
+        b.warm_start = true;
+        b.start_tau = first.tau_next;
+        b.tau = first.tau;
+        b.alpha0 = first.alpha;
+        CHECK_OK(csi_sparsa_run(S, P.dy, P.dx, &b, &last));
+        const double d = fabs(last.objective - whole.objective) / whole.objective;
+        printf("SpaRSA last stage apart, seed %d: %d + %d steps (whole %d), objective within %.2g\n", seed,
+               first.iterations, last.iterations, whole.iterations, d);
+        CHECK(last.converged && last.stages == 1 && d < 1e-4, "seed %d: objective %.9g apart, %.9g whole (%s)",
+              seed, last.objective, whole.objective, last.message);
+        csi_solver_free(B);
+        problem other = problem_make(r, N + 1, k, 10, seed & 1, false, false);
+        CHECK(csi_solver_create_sharing(other.op, S, &B) == CSI_ERR_ARG && !B,
+              "seed %d: a %zu-row operator shared a %zu-row workspace", seed, N + 1, N);
+        problem_free(&other);
+        csi_solver_free(S);
+        free(xw);
+        free(xb);
+        problem_free(&P);
+    }
+}
+
 static void test_properties(test_rng *r, int memory, bool cplx)
 {
     problem P = problem_make(r, 120, 400, 10, cplx, false, false);
@@ -461,6 +522,7 @@ int main(void)
     test_cont_step(&r, false, 0.5);
     test_objective_stop(&r);
     test_result_Ax(&r);
+    test_last_stage_apart(&r);
 
     test_rng_seed(&r, 12);
     test_properties(&r, 0, false);

@@ -176,6 +176,8 @@ typedef struct csi_recon_options {
                                      allows it (csi/model_grid.h) */
     double model_sigma_min;       /* the model grid's smallest Gaussian width in model cells; 0
                                      auto: CSI_MODEL_SIGMA_MIN */
+    csi_switch coarse_start;      /* Alg. 1 on a model grid with SpaRSA's continuation: the stages
+                                     before the last on a grid twice as coarse (coarse_start.c) */
     csi_recon_stop stop;
     csi_switch continuation;      /* SpaRSA continuation on tau */
     double cont_step;             /* SpaRSA continuation: each stage's tau this times the previous

@@ -99,6 +99,9 @@ csi_status csi_write(csi_ctx *ctx, cl_mem dst, size_t offset, size_t bytes, cons
 csi_status csi_read(csi_ctx *ctx, cl_mem src, size_t offset, size_t bytes, void *dst);
 csi_status csi_fill_zero(csi_ctx *ctx, cl_mem buf, size_t bytes);
 csi_status csi_copy(csi_ctx *ctx, cl_mem dst, size_t dst_off, cl_mem src, size_t src_off, size_t bytes);
+/* rows rows of row_bytes bytes each, from src (rows src_pitch bytes apart) to dst (dst_pitch). */
+csi_status csi_copy_rows(csi_ctx *ctx, cl_mem dst, size_t dst_pitch, cl_mem src, size_t src_pitch,
+                         size_t row_bytes, size_t rows);
 
 /* Enqueues a kernel over `global` work-items in 1, 2 or 3 dimensions with an explicit local
  * size (PoCL otherwise may run one huge group on one core). The global size is rounded up to a

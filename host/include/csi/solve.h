@@ -63,6 +63,8 @@ typedef struct csi_solve_report {
                                   at the end of the l1 phase (before debiasing) */
     double rel_gap;            /* SpaRSA: duality gap / objective at the end of the l1 phase */
     double tau;                /* SpaRSA: the tau used */
+    double alpha;              /* SpaRSA: the Barzilai-Borwein alpha the next step would take */
+    double tau_next;           /* SpaRSA ended by stop_tau: the tau of the stage it did not run */
     size_t support;            /* non-zeros of the returned x (ROMP: size of the support set) */
     /* seconds per phase (wall clock, device work included) */
     double t_total, t_select, t_lsq, t_step, t_debias;
@@ -71,6 +73,10 @@ typedef struct csi_solve_report {
 /* ---- workspace: all buffers for one operator, reused across solves and channels ---- */
 typedef struct csi_solver csi_solver;
 csi_status csi_solver_create(const csi_linop *A, csi_solver **out);
+/* A workspace for A on the device buffers of owner's (A with owner's rows, at most its columns,
+ * both real or both complex): no device memory of its own. Runs on the two must not interleave
+ * (each overwrites the other's state, and owner's csi_solver_result_Ax); owner must outlive it. */
+csi_status csi_solver_create_sharing(const csi_linop *A, const csi_solver *owner, csi_solver **out);
 void csi_solver_free(csi_solver *s);
 /* What a workspace for a rows x cols operator holds: the device buffers csi_solver_create
  * allocates, and those ROMP's first run adds (csi_solver_romp_tally), added to a tally
@@ -200,6 +206,12 @@ typedef struct csi_sparsa_options {
     double cont_step;        /* 0 (default): the adaptive rule; in (0, 1): each stage's tau is
                                 cont_step times the previous one's */
     double cont_tol;         /* tolerance of intermediate stages, default 1e-3 */
+    double stop_tau;         /* > 0: end before the first stage whose tau is at or below it (that
+                                tau in the report's tau_next): the caller runs the rest elsewhere
+                                (Alg. 1's coarse start); 0 (default): run every stage */
+    double start_tau;        /* with continuation, > 0: the first stage's tau (0, the default:
+                                cont_factor ||A^H y||_inf) */
+    double alpha0;           /* the first step's alpha; 0 (default): 1, as WNF09's code */
     bool debias;             /* default true */
     int debias_iter;         /* CG iterations, default 200 */
     double debias_tol;       /* CG relative tolerance, default 1e-6 */
