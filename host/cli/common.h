@@ -54,6 +54,11 @@ csi_status cli_write_stats(csi_outset *set, const char *path, csi_json *j);
 /* The grid as statistics: grid_w, grid_h, grid_t, out_w, out_h. */
 void cli_json_grid(csi_json *j, const csi_grid *g);
 
+/* Makes the process keep the memory it frees for its next allocations (glibc; elsewhere
+ * nothing): called first by the programs that reconstruct, which allocate the same large arrays
+ * once per tile and channel. */
+void cli_heap_keep_freed(void);
+
 /* Strict number parsing: the whole string must be a number in [lo, hi]. */
 bool cli_parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
 bool cli_parse_double(const char *s, double lo, double hi, double *out);
