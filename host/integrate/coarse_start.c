@@ -5,8 +5,10 @@
  * half of a solve's operator runs go to the stages before it. Those stages only carry the
  * iterate towards the last stage's start, so they are run on the model grid coarsened once more
  * (2D, the Gaussian then at least CSI_MODEL_SIGMA_MIN / 2 model cells wide: the band-limited
- * model of `--model-sigma-min 0.75`, csi/model_grid.h), whose operator costs about a third, and
- * the last stage runs on the model grid itself from there.
+ * model of `--model-sigma-min 0.75`, csi/model_grid.h), whose operator costs about half (the
+ * interpolation's work per sample does not shrink with the grid), and the last stage runs on the
+ * model grid itself from there. An option: the start moves where the last stage's objective stop
+ * ends, and with it single images' MSE by a few % either way (docs/bench/cost.md, session 17).
  *
  * The hand-over is exact: the coarse model is the model grid's wavelet with one level fewer
  * (Psi_m x_m = U Psi_c x_c, U one level of synthesis with zero details), so in csi/wavelet.h's
@@ -18,8 +20,8 @@
 
 #include "csi/interp.h"
 #include "csi/linop.h"
-#include "csi/vec.h"
 #include "csi/model_grid.h"
+#include "csi/vec.h"
 #include "csi/wavelet.h"
 
 struct csi_recon_coarse {
