@@ -102,7 +102,8 @@ void csi_column_norms_buffers(size_t rows, size_t cols, bool complex_valued, csi
     csi_mem_tally_add(t, cols * w * 4, "column-norm probe image");
 }
 
-csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
+/* A workspace for A: its device buffers its own, or owner's (csi_solver_create_sharing). */
+static csi_status solver_create(const csi_linop *A, const csi_solver *owner, csi_solver **out)
 {
     *out = NULL;
     if (!A || !A->apply || !A->adjoint || !A->ctx)
@@ -113,6 +114,10 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
     if (A->cols > 0x7fffffffu || A->rows > 0x7fffffffu)
         return csi_fail(CSI_ERR_ARG, "solver: operator %s (%zu x %zu) exceeds the 31-bit index range",
                         A->name ? A->name : "?", A->rows, A->cols);
+    if (owner && (owner->borrowed || A->rows != owner->N || A->cols > owner->k ||
+                  A->complex_valued != owner->cplx))
+        return csi_fail(CSI_ERR_ARG, "solver: operator %s (%zu x %zu) cannot share the buffers of a "
+                        "%zu x %zu workspace", A->name ? A->name : "?", A->rows, A->cols, owner->N, owner->k);
     csi_solver *S = calloc(1, sizeof *S);
     if (!S)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver");
@@ -135,7 +140,15 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
         {&S->s, S->nfk * 4, "solver coefficient scratch"}, {&S->xn, S->nfk * 4, "solver trial iterate"},
         {&S->mask, S->k, "solver support mask"},
     };
-    for (size_t i = 0; st == CSI_OK && i < sizeof b / sizeof *b; i++)
+    if (owner) {
+        /* the same fields of the owner, in the order of b */
+        const cl_mem mine[] = {owner->r, owner->q, owner->Ax, owner->Axn, owner->g, owner->p, owner->s, owner->xn,
+                               owner->mask};
+        for (size_t i = 0; i < sizeof b / sizeof *b; i++)
+            *b[i].m = mine[i];
+        S->borrowed = true;
+    }
+    for (size_t i = 0; !owner && st == CSI_OK && i < sizeof b / sizeof *b; i++)
         st = csi_buffer(S->ctx, b[i].bytes, CL_MEM_READ_WRITE, b[i].what, b[i].m);
     if (st == CSI_OK) {
         S->h_mask = calloc(S->k, 1);
@@ -150,46 +163,18 @@ csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
     return CSI_OK;
 }
 
+csi_status csi_solver_create(const csi_linop *A, csi_solver **out)
+{
+    return solver_create(A, NULL, out);
+}
+
 csi_status csi_solver_create_sharing(const csi_linop *A, const csi_solver *owner, csi_solver **out)
 {
-    *out = NULL;
-    if (!A || !A->apply || !A->adjoint || !A->ctx || !owner || owner->borrowed)
-        return csi_fail(CSI_ERR_ARG, "solver: no usable operator or owning workspace given");
-    if (A->rows != owner->N || A->cols == 0 || A->cols > owner->k || A->complex_valued != owner->cplx)
-        return csi_fail(CSI_ERR_ARG, "solver: operator %s (%zu x %zu) cannot share the buffers of a "
-                        "%zu x %zu workspace", A->name ? A->name : "?", A->rows, A->cols, owner->N, owner->k);
-    csi_solver *S = calloc(1, sizeof *S);
-    if (!S)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver");
-    S->A = A;
-    S->ctx = A->ctx;
-    S->N = A->rows;
-    S->k = A->cols;
-    S->cplx = A->complex_valued;
-    S->nfN = owner->nfN;
-    S->nfk = S->k * (S->cplx ? 2 : 1);
-    S->borrowed = true;
-    S->r = owner->r;
-    S->q = owner->q;
-    S->Ax = owner->Ax;
-    S->Axn = owner->Axn;
-    S->g = owner->g;
-    S->p = owner->p;
-    S->s = owner->s;
-    S->xn = owner->xn;
-    S->mask = owner->mask;
-    csi_status st = csi_vec_ws_create(S->ctx, &S->ws);
-    if (st == CSI_OK) {
-        S->h_mask = calloc(S->k, 1);
-        if (!S->h_mask)
-            st = csi_fail(CSI_ERR_NOMEM, "out of host memory for a solver over %zu unknowns", S->k);
+    if (!owner) {
+        *out = NULL;
+        return csi_fail(CSI_ERR_ARG, "solver: no workspace to share given");
     }
-    if (st != CSI_OK) {
-        csi_solver_free(S);
-        return st;
-    }
-    *out = S;
-    return CSI_OK;
+    return solver_create(A, owner, out);
 }
 
 static csi_status check_buf(cl_mem m, size_t need, const char *who, const char *what, size_t n)
