@@ -53,20 +53,18 @@ csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_optio
 /* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
  * borrowed from st->inner), on the model grid D times coarser when the filter allows it. opt is
  * resolved (csi_recon_resolve_scoped); the filter width follows the whole problem's cells per
- * sample when st is a tile's. *D_out: D; *km_out: the unknowns. */
+ * sample when st is a tile's. *shape: its shape (the model grid, D, the filter widths). */
 static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_recon_state *st, unsigned *D_out, size_t *km_out)
+                              csi_recon_state *st, csi_aa_shape *shape)
 {
     const size_t w = g->w, h = g->h, k = w * h;
     const size_t dims[3] = {w, h, 1};
-    csi_aa_shape sh;
-    CSI_TRY(csi_recon_aa_shape(g, n, opt, st, &sh));
+    CSI_TRY(csi_recon_aa_shape(g, n, opt, st, shape));
+    const csi_aa_shape sh = *shape;
     const double *sphi = sh.sphi;
     const unsigned D = sh.D;
     const size_t mw = sh.mw, mh = sh.mh;
     const int mlevels = sh.mlevels;
-    *D_out = D;
-    *km_out = mw * mh;
 
     /* A = S . (Phi^-1 . Psi); the compositions own their parts. */
     csi_linop *Psi = NULL, *W = NULL, *WPsi = NULL;
@@ -111,9 +109,9 @@ csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t c
                                      const float *values, size_t n, const csi_recon_options *opt,
                                      csi_recon_state *st, double scale[4])
 {
-    unsigned D;
-    size_t km;
-    CSI_TRY(aa_operator(ctx, g, n, opt, st, &D, &km));
+    csi_aa_shape sh;
+    CSI_TRY(aa_operator(ctx, g, n, opt, st, &sh));
+    const size_t km = sh.mw * sh.mh;
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
     csi_vec_ws *ws = NULL;
@@ -139,17 +137,14 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
                                csi_recon_state *st)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
-    unsigned D;
-    size_t km;
-    CSI_TRY(aa_operator(ctx, g, n, opt, st, &D, &km));
+    csi_aa_shape sh;
+    CSI_TRY(aa_operator(ctx, g, n, opt, st, &sh));
+    const unsigned D = sh.D;
+    const size_t km = sh.mw * sh.mh;
     res->model_factor = D;
     res->unknowns = km;
     CSI_TRY(csi_solver_create(st->A, &st->solver));
-    if (opt->coarse_start == CSI_SWITCH_ON) {
-        csi_aa_shape sh;
-        CSI_TRY(csi_recon_aa_shape(g, n, opt, st, &sh));
-        CSI_TRY(csi_recon_coarse_create(ctx, &sh, opt, st->idx, n, st->solver, &st->coarse));
-    }
+    CSI_TRY(csi_recon_coarse_create(ctx, &sh, opt, st->idx, n, st->solver, &st->coarse));
 
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
