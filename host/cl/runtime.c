@@ -415,6 +415,13 @@ cl_device_id csi_ctx_device(const csi_ctx *ctx) { return ctx->device; }
 const char *csi_ctx_device_name(const csi_ctx *ctx) { return ctx->name; }
 size_t csi_ctx_max_alloc(const csi_ctx *ctx) { return ctx->max_alloc; }
 uint64_t csi_ctx_global_mem(const csi_ctx *ctx) { return ctx->global_mem; }
+uint64_t csi_ctx_local_mem(const csi_ctx *ctx)
+{
+    cl_ulong local = 0;
+    if (clGetDeviceInfo(ctx->device, CL_DEVICE_LOCAL_MEM_SIZE, sizeof local, &local, NULL) != CL_SUCCESS)
+        return 0;
+    return local;
+}
 
 static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
 {

@@ -148,9 +148,10 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
 
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
-    CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the fine image", &st->f));
-    CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the sharpened image", &st->tmp));
     CSI_TRY(csi_buffer(ctx, np * sizeof(float), CL_MEM_READ_WRITE, "the output image", &st->out));
+    /* The integration's two images (km values each) live only between a channel's solve and the
+     * next: they are the solver's scratch, idle then (the solver keeps A x of its result apart). */
+    cl_mem const fine = csi_solver_coef_scratch(st->solver, 0), sharp = csi_solver_coef_scratch(st->solver, 1);
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
 
@@ -192,15 +193,15 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         if (opt->warm_channels == CSI_SWITCH_ON && opt->solver == CSI_SOLVER_SPARSA)
             warm_from = (int)c;
         CSI_TRY(csi_recon_progress_channel(opt, "integrate", c, channels));
-        CSI_TRY(csi_linop_apply(st->Psi, st->x, st->f)); /* f_b = Psi x */
-        cl_mem src = st->f;
+        CSI_TRY(csi_linop_apply(st->Psi, st->x, fine)); /* f_b = Psi x */
+        cl_mem src = fine;
         if (D > 1) {
-            CSI_TRY(csi_linop_apply(st->Wbox, st->f, st->tmp)); /* box means of Phi^-1 f_b */
-            CSI_TRY(csi_linop_apply(st->Ipix, st->tmp, st->out));
+            CSI_TRY(csi_linop_apply(st->Wbox, fine, sharp)); /* box means of Phi^-1 f_b */
+            CSI_TRY(csi_linop_apply(st->Ipix, sharp, st->out));
         } else {
             if (opt->output == CSI_AA_SHARP) {
-                CSI_TRY(csi_linop_apply(st->W, st->f, st->tmp)); /* Phi^-1 f_b */
-                src = st->tmp;
+                CSI_TRY(csi_linop_apply(st->W, fine, sharp)); /* Phi^-1 f_b */
+                src = sharp;
             }
             CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
         }

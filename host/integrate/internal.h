@@ -156,9 +156,11 @@ csi_status csi_recon_sample_mean(csi_ctx *ctx, const csi_grid *g, uint32_t chann
  * zero size, grid sides multiples of the output's, at most 2^32 cells, 1 <= n <= k. */
 csi_status csi_recon_check_sizes(const csi_grid *g, uint32_t channels, size_t n);
 /* The plan (csi/plan.h) of one problem solved whole (csi_reconstruct_scoped), no tiling, with
- * the checks of csi_recon_plan_make; scope: a tile's whole problem (NULL: this is the whole). */
-csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n, const csi_recon_options *opt,
-                                const csi_tile_scope *scope, csi_recon_plan *out);
+ * the checks of csi_recon_plan_make; scope: a tile's whole problem (NULL: this is the whole);
+ * ctx: the device it will run on, whose local memory decides some buffers (NULL: unknown, the
+ * plan then counts them). */
+csi_status csi_recon_plan_whole(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
+                                const csi_recon_options *opt, const csi_tile_scope *scope, csi_recon_plan *out);
 
 /* The shape of Alg. 1's operator (antialias.c): the Gaussian widths (fine cells), the wavelet
  * levels, and the model grid (mw x mh cells, D times coarser than the fine grid, mlevels levels;

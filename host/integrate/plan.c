@@ -135,6 +135,8 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
     const bool romp = solver == CSI_SOLVER_ROMP;
     p->method = sh.D > 1 ? "Alg. 1 (model grid)" : "Alg. 1";
     p->unknowns = km;
+    const size_t mdims[3] = {sh.mw, sh.mh, 1};
+    p->rows_unfused = !csi_filter_rows_fused(sh.D > 1 ? mdims : dims, m->dev.local_mem);
     csi_wavelet_buffers(sh.mw, sh.mh, &m->dev);
     if (sh.D > 1)
         csi_model_filter_buffers(sh.mw, sh.mh, &m->dev);
@@ -158,9 +160,7 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
     csi_recon_coarse_buffers(&sh, opt, n, &m->dev);
     csi_mem_tally_add(&m->dev, n * 4, "the measurements");
     csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the wavelet coefficients");
-    csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the fine image");
-    csi_mem_tally_add(&m->dev, (uint64_t)km * 4, "the sharpened image");
-    csi_mem_tally_add(&m->dev, np * 4, "the output image");
+    csi_mem_tally_add(&m->dev, np * 4, "the output image"); /* the fine and sharpened images: the solver's */
     m->host += csi_solver_host_bytes(n, km, false, romp);
     /* the per-pixel correction (cv_correct.c), per channel; the blend (blend.c) holds 80 bytes
      * per pixel more while it runs */
@@ -311,7 +311,7 @@ static void plan_mean(const csi_grid *g, uint32_t channels, size_t n, csi_recon_
 }
 
 /* The plan of one problem solved whole (csi_recon_scoped), or of a tile's (scope non-NULL). */
-csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n,
+csi_status csi_recon_plan_whole(const csi_ctx *ctx, const csi_grid *g, uint32_t channels, size_t n,
                                 const csi_recon_options *given, const csi_tile_scope *scope,
                                 csi_recon_plan *out)
 {
@@ -326,6 +326,7 @@ csi_status csi_recon_plan_whole(const csi_grid *g, uint32_t channels, size_t n,
     const uint64_t np = (uint64_t)g->out_w * g->out_h;
     model m;
     memset(&m, 0, sizeof m);
+    m.dev.local_mem = ctx ? csi_ctx_local_mem(ctx) : 0;
     /* The result (reconstruct.c) */
     m.host += np * channels * 4;
     if (g->t > 1 && opt->frames && opt->estimator != CSI_EST_MEAN)
@@ -376,7 +377,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     const csi_status ts = csi_tiling_layout(ctx, given, channels, n, &opt, &tl0);
     if (ts != CSI_OK)
         snprintf(layout_why, sizeof layout_why, "%s", csi_last_error());
-    const csi_status ws = csi_recon_plan_whole(g, channels, n, &opt, NULL, out);
+    const csi_status ws = csi_recon_plan_whole(ctx, g, channels, n, &opt, NULL, out);
     /* sides the transforms cannot take in the whole are no obstacle to tiles the planner laid
      * out (windows of lengths they take); any other refusal of the whole stands */
     csi_grid unused;
@@ -409,7 +410,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     csi_recon_plan tp;
     csi_tile_scope scope;
     csi_tile_scope_init(g, channels, n, &scope);
-    CSI_TRY(csi_recon_plan_whole(&tg, channels, tn, &to, &scope, &tp));
+    CSI_TRY(csi_recon_plan_whole(ctx, &tg, channels, tn, &to, &scope, &tp));
     const uint64_t whole_result = (uint64_t)g->out_w * g->out_h * channels * 4 *
                                   (g->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN ? 1 + (uint64_t)g->t : 1);
     out->tiles = tl.count;
@@ -418,6 +419,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     out->device_bytes = tp.device_bytes;
     out->largest_buffer = tp.largest_buffer;
     out->largest_what = tp.largest_what;
+    out->rows_unfused = tp.rows_unfused;
     /* the whole result, one tile's problem (its samples copied: 12 + 4 per channel bytes each)
      * and everything its reconstruction holds on the host */
     out->host_bytes = scaled_copy + whole_result + (uint64_t)tn * (12 + 4 * (uint64_t)channels) + tp.host_bytes;

@@ -155,11 +155,13 @@ typedef struct {
     uint32_t bw, bh, channels;
     int levels;
     csi_tile_scope scope; /* the whole's sizes, which a tile's defaults follow */
+    const csi_ctx *ctx;   /* the device the tiles will run on (NULL: unknown), for their plans */
 } plan_ctx;
 
 typedef struct {
     uint32_t n[3], window[3];
     uint64_t bytes, largest, work, samples;
+    bool rows_unfused; /* the windows' FFT rows run pass by pass (CSI_TILE_UNFUSED_COST) */
 } candidate;
 
 /* The layout of n[] tiles, and one tile's bytes: its resource plan (csi/plan.h) with its share
@@ -198,10 +200,11 @@ static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint
     to.frames = opt->frames || n[2] > 1; /* a time window keeps its frames for its share */
     to.tiles = 0;
     csi_recon_plan plan;
-    if (csi_recon_plan_whole(&tg, p->channels, (size_t)ns, &to, count > 1 ? &p->scope : NULL, &plan) != CSI_OK)
+    if (csi_recon_plan_whole(p->ctx, &tg, p->channels, (size_t)ns, &to, count > 1 ? &p->scope : NULL, &plan) != CSI_OK)
         return false;
     c->bytes = plan.device_bytes;
     c->largest = plan.largest_buffer;
+    c->rows_unfused = plan.rows_unfused;
     if (n[2] > 1 && p->m == M_MOTION && opt->tile_image_binned == CSI_SWITCH_ON) {
         /* The binned shutter (binned.c): the window's x/y cells over fewer frames, but with
          * the samples of its whole x/y column, merged where they share a binned cell. */
@@ -220,7 +223,7 @@ static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint
             bn = p->n;
         to.frames = false;
         csi_recon_plan bplan;
-        if (csi_recon_plan_whole(&bg, p->channels, (size_t)bn, &to, &p->scope, &bplan) != CSI_OK)
+        if (csi_recon_plan_whole(p->ctx, &bg, p->channels, (size_t)bn, &to, &p->scope, &bplan) != CSI_OK)
             return false;
         if (bplan.device_bytes > c->bytes)
             c->bytes = bplan.device_bytes;
@@ -242,10 +245,12 @@ static bool fits(const candidate *c, uint64_t budget, uint64_t max_alloc)
  * tile measured about equal: billiards 64x64 x 256 frames, 96 tiles covering 25x the volume's
  * cells took 18.5x the whole's CPU, 8 time windows covering 1.7x took 1.3x), times the error
  * the split is expected to add: an MSE a factor E above the whole's needs about E times the
- * samples for the same image, and the work grows with the samples. */
+ * samples for the same image, and the work grows with the samples; times CSI_TILE_UNFUSED_COST
+ * where the windows' FFT rows cannot run fused, each of their cells costing more. */
 static double price(const candidate *c)
 {
-    return (double)c->work * (1.0 + CSI_TILE_T_LOSS * (double)(c->n[2] - 1));
+    return (double)c->work * (1.0 + CSI_TILE_T_LOSS * (double)(c->n[2] - 1)) *
+           (c->rows_unfused ? CSI_TILE_UNFUSED_COST : 1.0);
 }
 
 static bool better(const candidate *a, const candidate *best, bool have)
@@ -289,6 +294,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
     p.bw = g->w / g->out_w;
     p.bh = g->h / g->out_h;
     p.channels = channels;
+    p.ctx = ctx;
     csi_tile_scope_init(g, channels, n, &p.scope);
     if (p.m == M_AA) {
         p.levels = opt->levels;
@@ -431,6 +437,19 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                     best = c;
                     have = true;
                 }
+                /* More, narrower windows cover more cells, but may price lower where their FFT
+                 * rows fuse and the fewest's do not (CSI_TILE_UNFUSED_COST): up to where even
+                 * fused cells would cost more than the best. */
+                for (uint32_t nx = lo + 1; have && nx <= maxn[0]; nx++) {
+                    const uint32_t nm[3] = {nx, ny, nt};
+                    candidate d;
+                    if (!evaluate(&p, opt, nm, &d))
+                        continue;
+                    if ((double)d.work * (1.0 + CSI_TILE_T_LOSS * (nt - 1)) >= price(&best))
+                        break;
+                    if (fits(&d, budget, max_alloc) && better(&d, &best, have))
+                        best = d;
+                }
                 if (lo == 1) {
                     alone = ny == 1;
                     break; /* more tiles along y only add overlap */
@@ -445,7 +464,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                             opt->tiles_t, g->t, p.auto_margin_t ? margin_t_auto(g->t, opt->tiles_t) : p.ax[2].margin);
         if (!have && !whole_ok) {
             csi_recon_plan pw;
-            return csi_recon_plan_whole(g, channels, n, opt, NULL, &pw); /* its message */
+            return csi_recon_plan_whole(ctx, g, channels, n, opt, NULL, &pw); /* its message */
         }
         if (!have)
             return csi_fail(CSI_ERR_ARG, "no tiling of the %ux%ux%u grid fits the device budget of "

@@ -266,6 +266,39 @@ static bool cols_fused_plan(const axis_plan *a)
     return true;
 }
 
+/* rows_fused_plan's plan (the x axis, length M) in `local` bytes of the device's local memory:
+ * two rows of M + 1 complex values. */
+static bool rows_fused_fit(const axis_plan *a, uint64_t local)
+{
+    return rows_fused_plan(a) && 2 * (a->L + 1) * 8 <= local;
+}
+
+/* cols_fused_plan's plan (a 2-D filter's y axis) in `local` bytes of the device's local memory:
+ * two volumes of L x 8 complex values. */
+static bool cols_fused_fit(const axis_plan *y, int nd, uint64_t local)
+{
+    return nd == 2 && cols_fused_plan(y) && 2 * y->L * 64 <= local;
+}
+
+/* Whether the spectrum's second volume (Q) is made: only the passes launched one by one
+ * ping-pong between P and Q; the fused row stages read and write P (and the caller's rows), and
+ * the fused column stage runs in place. A blocked row stage uses its own block scratch, so it
+ * would not need Q either, but whether the rows block depends on the device's cache, which the
+ * resource plan does not know: Q is kept there, so that the plan stays exact. */
+static bool second_volume(bool rows_fused, bool cols_fused, int nd)
+{
+    return !(rows_fused && (nd == 1 || cols_fused));
+}
+
+bool csi_fft_filter_rows_fused(size_t c0, uint64_t local_mem)
+{
+    if (c0 < 4 || c0 % 2)
+        return false;
+    axis_plan x = {.L = c0 / 2};
+    plan_radices(&x, 0);
+    return rows_fused_fit(&x, local_mem);
+}
+
 void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
 {
     const size_t M = c[0] / 2, hs = half_stride(M), rows = c[1] * c[2];
@@ -273,18 +306,19 @@ void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t)
     for (int a = 0; a < nd; a++)
         axis_buffers(L[a], a == 0, t);
     csi_mem_tally_add(t, (M + 1) * 8, "FFT twiddles");
-    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum");
-    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum scratch");
-    axis_plan x = {.L = M};
+    axis_plan x = {.L = M}, y = {.L = nd > 1 ? c[1] : 1};
     plan_radices(&x, 0);
-    if (rows_fused_plan(&x))
-        csi_mem_tally_add(t, ROW_PLAN_BYTES, "FFT plan");
-    if (nd == 2) {
-        axis_plan y = {.L = c[1]};
+    if (nd > 1)
         plan_radices(&y, hs);
-        if (cols_fused_plan(&y))
-            csi_mem_tally_add(t, COL_PLAN_BYTES, "FFT plan");
-    }
+    /* the device's local memory unknown (0): the fused stages' tables counted, and Q too */
+    const bool rows_fused = rows_fused_fit(&x, t->local_mem), cols_fused = cols_fused_fit(&y, nd, t->local_mem);
+    csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum");
+    if (second_volume(rows_fused, cols_fused, nd))
+        csi_mem_tally_add(t, spectrum_bytes(M, hs, rows), "the filter's spectrum scratch");
+    if (rows_fused || (!t->local_mem && rows_fused_plan(&x)))
+        csi_mem_tally_add(t, ROW_PLAN_BYTES, "FFT plan");
+    if (cols_fused || (!t->local_mem && nd == 2 && cols_fused_plan(&y)))
+        csi_mem_tally_add(t, COL_PLAN_BYTES, "FFT plan");
     /* the blocks whenever row_block blocks: build may run fused rows or find the volumes in the
      * device's cache instead (an upper bound then) */
     const size_t blk = row_block(M, rows);
@@ -461,27 +495,6 @@ static csi_status spectrum_blocks(csi_fft_filter *f)
     return CSI_OK;
 }
 
-/* rows_fused_plan's plan in the device's local memory: two rows of M + 1 complex values. */
-static bool rows_fused_fit(csi_ctx *ctx, const axis_plan *a)
-{
-    if (!rows_fused_plan(a))
-        return false;
-    cl_ulong local = 0;
-    return clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_LOCAL_MEM_SIZE, sizeof local, &local, NULL) == CL_SUCCESS &&
-           2 * (a->L + 1) * 8 <= local;
-}
-
-/* cols_fused_plan's plan (a 2-D filter's y axis) in the device's local memory: two volumes of
- * L x 8 complex values. */
-static bool cols_fused_fit(csi_ctx *ctx, const csi_fft_filter *f)
-{
-    if (f->nd != 2 || !cols_fused_plan(&f->ax[1]))
-        return false;
-    cl_ulong local = 0;
-    return clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_LOCAL_MEM_SIZE, sizeof local, &local, NULL) == CL_SUCCESS &&
-           2 * f->ax[1].L * 64 <= local;
-}
-
 /* The fused column stage's plan: the number of passes per direction, then each pass's radix. */
 static csi_status upload_col_plan(csi_fft_filter *f)
 {
@@ -515,9 +528,12 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
         CSI_TRY(prepare_axis(ctx, &f->ax[a], a == 0, f->hs, "row", true));
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
     const size_t bytes = spectrum_bytes(M, f->hs, f->rows);
+    const uint64_t local = csi_ctx_local_mem(ctx);
+    const bool rows_fused = rows_fused_fit(&f->ax[0], local), cols_fused = cols_fused_fit(&f->ax[1], f->nd, local);
     cl_kernel k;
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
-    CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
+    if (second_volume(rows_fused, cols_fused, f->nd))
+        CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum scratch", &f->Q));
     f->blk = row_block(M, f->rows);
     /* Blocks pay only when the two volumes outgrow the device's cache (PoCL: the last level):
      * below it the passes already find their input there, and the blocks only add launches
@@ -530,13 +546,13 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
         clGetDeviceInfo(csi_ctx_device(ctx), CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache, &cache, NULL) != CL_SUCCESS ||
         2 * bytes <= cache)
         f->blk = f->rows;
-    if (rows_fused_fit(ctx, &f->ax[0])) {
+    if (rows_fused) {
         f->blk = f->rows;
         CSI_TRY(upload_row_plan(f));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_rows_r2c", &k));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_rows_c2r", &k));
     }
-    if (cols_fused_fit(ctx, f)) {
+    if (cols_fused) {
         CSI_TRY(upload_col_plan(f));
         CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_cols_2d", &k));
     }

@@ -30,6 +30,9 @@ void csi_fft_filter_factor_buffers(const size_t c[3], csi_mem_tally *t); /* what
 csi_status csi_fft_filter_run_dir(csi_fft_filter *f, cl_mem x, cl_mem y, bool conj);
 /* Adds the device buffers csi_fft_filter_create allocates for this size (csi_mem_tally). */
 void csi_fft_filter_buffers(const size_t c[3], int nd, csi_mem_tally *t);
+/* Whether a filter whose first axis is c0 runs its row stages as one launch each (on a device
+ * with local_mem bytes of local memory): otherwise they run pass by pass, at more CPU per cell. */
+bool csi_fft_filter_rows_fused(size_t c0, uint64_t local_mem);
 void csi_fft_filter_free(csi_fft_filter *f);
 
 /* Complex-to-complex transform of c[0] x c[1] x c[2] interleaved complex values (nd axes

@@ -375,6 +375,14 @@ void csi_filter_buffers(const size_t dims[3], csi_mem_tally *t)
     clfft_buffers(c, 2, t); /* forward and backward plans */
 }
 
+bool csi_filter_rows_fused(const size_t dims[3], uint64_t local_mem)
+{
+    size_t c[3];
+    int map[3];
+    int nd = squeeze(dims, c, map);
+    return csi_fft_filter_supported(c, nd) && csi_fft_filter_rows_fused(c[0], local_mem);
+}
+
 void csi_filter_factor_buffers(const size_t dims[3], csi_mem_tally *t)
 {
     size_t c[3];

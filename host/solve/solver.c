@@ -208,6 +208,7 @@ csi_status csi_solver_adjoint_amax(csi_solver *S, cl_mem y, double *hmax)
 }
 
 cl_mem csi_solver_result_Ax(const csi_solver *S) { return S->result_Ax; }
+cl_mem csi_solver_coef_scratch(const csi_solver *S, int i) { return i == 0 ? S->g : i == 1 ? S->p : NULL; }
 
 csi_status csi_solver_romp_buffers(csi_solver *S)
 {

@@ -3,14 +3,16 @@
  * Alg. 1: the analytic texture (tests/support/analytic.h) on a 768 x 768 grid -> 96 x 96 pixels (8 x
  * 8 cells per pixel, csi-render's grid at 4 spp), 4 spp Poisson-disk, 3 seeds; truth: the box
  * average of the continuous image per pixel (midpoint rule, 4 x 4 points per cell, in double).
- * 4 tiles with 16-pixel margins (the layout covering the fewest cells: 4 strips). Claims:
+ * Tiles with 16-pixel margins, laid out by csi_recon itself from a budget: the bytes of the 4
+ * tiles asked for explicitly (the layout covering the fewest cells: 4 strips), which may also fit
+ * fewer, wider tiles whose FFT rows run fused and so need less memory. Claims:
  *   1. the tiled image's MSE against the truth is within 2% of the untiled one's, summed over
  *      the seeds (the issue's target; measured ratios are printed);
  *   2. seams: the tiled - untiled difference in the blend bands is no larger (RMS) than 1.5x
  *      the difference away from them, i.e. the tiles disagree with the whole no more where they
  *      meet than where they do not (the ratio is printed);
  *   3. a pixel outside every blend band is its tile's own value, bit for bit;
- *   4. determinism: csi_recon tiling by itself (a budget below the whole's bytes) gives
+ *   4. determinism: csi_recon tiling by itself (that budget, below the whole's bytes) gives
  *      the same bits as the tiles computed one by one in reverse order, one of them in a second
  *      OpenCL context, and blended in index order; blending out of order is refused; one tile
  *      gives the untiled bits.
@@ -144,19 +146,24 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
         csi_tiling tl;
         CHECK_OK(csi_tiling_plan(ctx, &g, 1, n, &o, &tl));
         CHECK(tl.count == 4, "4 tiles (%u)", tl.count);
-        /* The same layout chosen by csi_recon from a budget below the whole's bytes. */
+        /* A layout chosen by csi_recon from a budget below the whole's bytes: the 4 strips'
+         * bytes (another layout may fit them too: a window whose FFT rows run fused needs less
+         * than a narrower one whose rows do not). */
         csi_recon_options ob = o;
         ob.tiles = 0;
         ob.mem_budget = tl.tile_bytes;
         csi_tiling tb;
         CHECK_OK(csi_tiling_plan(ctx, &g, 1, n, &ob, &tb));
-        CHECK(csi_tiling_equal(&tb, &tl), "budget %llu gives the 4-tile layout (%u tiles)",
-              (unsigned long long)ob.mem_budget, tb.count);
+        CHECK(tb.count > 1 && tb.count <= 4 && tb.tile_bytes <= ob.mem_budget,
+              "budget %llu gives a tiled layout within it (%u tiles of %llu bytes)",
+              (unsigned long long)ob.mem_budget, tb.count, (unsigned long long)tb.tile_bytes);
         CHECK_OK(csi_recon(ctx, &g, 1, pos, val, n, &ob, &tiled));
-        CHECK(tiled.tiles == 4, "csi_recon tiled by itself (%u tiles)", tiled.tiles);
+        CHECK(tiled.tiles == tb.count, "csi_recon tiled by itself (%u tiles, planned %u)", tiled.tiles, tb.count);
         csi_tile_result tiles[4];
         memset(tiles, 0, sizeof tiles);
-        CHECK_OK(by_hand(ctx, ctx2, &g, pos, val, n, &o, &tl, &hand, tiles));
+        csi_recon_options oh = o;
+        oh.tiles = tb.count;
+        CHECK_OK(by_hand(ctx, ctx2, &g, pos, val, n, &oh, &tb, &hand, tiles));
         if (tiled.image && hand.image)
             CHECK(!memcmp(tiled.image, hand.image, np * sizeof(float)),
                   "seed %llu: tiles by hand (reverse order, two contexts) = csi_recon's bits",
@@ -170,7 +177,7 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
             for (uint32_t y = 0; y < OW; y++)
                 for (uint32_t x = 0; x < OW; x++) {
                     const double d = tiled.image[y * OW + x] - whole.image[y * OW + x];
-                    const bool band = in_band(&tl, 0, x) || in_band(&tl, 1, y);
+                    const bool band = in_band(&tb, 0, x) || in_band(&tb, 1, y);
                     if (band) {
                         band2 += d * d;
                         nband++;
@@ -179,13 +186,13 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
                     far2 += d * d;
                     nfar++;
                     /* The pixel's tile: the one whose core holds it. */
-                    for (uint32_t i = 0; i < 4; i++) {
+                    for (uint32_t i = 0; i < tb.count; i++) {
                         csi_tile t;
-                        csi_tiling_tile(&tl, i, &t);
+                        csi_tiling_tile(&tb, i, &t);
                         if (x >= t.core0[0] && x < t.core1[0] && y >= t.core0[1] && y < t.core1[1] && tiles[i].r.image) {
                             far++;
                             same += tiled.image[y * OW + x] ==
-                                    tiles[i].r.image[(y - t.win0[1]) * tl.window[0] + x - t.win0[0]];
+                                    tiles[i].r.image[(y - t.win0[1]) * tb.window[0] + x - t.win0[0]];
                         }
                     }
                 }

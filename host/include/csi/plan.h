@@ -57,6 +57,8 @@ typedef struct csi_recon_plan {
     uint64_t largest_buffer;   /* the largest single device buffer */
     const char *largest_what;  /* what it holds */
     uint64_t host_bytes;       /* the most host bytes csi_recon holds at once */
+    bool rows_unfused;         /* Alg. 1's filter runs its FFT rows pass by pass, not fused
+                                  (csi_filter_rows_fused): more CPU per cell (csi/tiles.h) */
 } csi_recon_plan;
 
 /* The plan for csi_recon(ctx, g, channels, pos, values, n, opt, ...) (opt NULL: the

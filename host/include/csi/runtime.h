@@ -45,6 +45,7 @@ cl_device_id csi_ctx_device(const csi_ctx *ctx);
 const char *csi_ctx_device_name(const csi_ctx *ctx); /* "platform / device" */
 size_t csi_ctx_max_alloc(const csi_ctx *ctx);        /* CL_DEVICE_MAX_MEM_ALLOC_SIZE */
 uint64_t csi_ctx_global_mem(const csi_ctx *ctx);     /* CL_DEVICE_GLOBAL_MEM_SIZE */
+uint64_t csi_ctx_local_mem(const csi_ctx *ctx);      /* CL_DEVICE_LOCAL_MEM_SIZE (0 when unknown) */
 
 /* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(-NN)". */
 const char *csi_cl_error_name(cl_int err);
@@ -91,6 +92,9 @@ typedef struct csi_mem_tally {
     uint64_t total;           /* bytes of all buffers */
     uint64_t largest;         /* bytes of the largest one */
     const char *largest_what; /* what it holds (NULL when empty) */
+    uint64_t local_mem;       /* set by the caller: the device's local memory (csi_ctx_local_mem),
+                                 which decides whether the fused FFT stages run and so which
+                                 buffers are made; 0 (unknown) counts what the unfused ones need */
 } csi_mem_tally;
 /* Adds one buffer of `bytes` (0 counts as CSI_BUFFER_MIN_BYTES, as csi_buffer allocates). */
 void csi_mem_tally_add(csi_mem_tally *t, uint64_t bytes, const char *what);

@@ -94,6 +94,11 @@ csi_status csi_solver_adjoint_amax(csi_solver *s, cl_mem y, double *hmax);
  * result (the image correction's estimate at the samples) reads it here instead of applying A
  * again: the same operator on the same x, so the same bits. Valid until the next run. */
 cl_mem csi_solver_result_Ax(const csi_solver *s);
+/* One of two coefficient buffers of the workspace (i = 0, 1: cols floats, complex interleaved;
+ * neither the one csi_solver_result_Ax returns) that a run uses only while it runs: between runs
+ * a caller may use them as its own scratch (Alg. 1's integration images), and the next run
+ * overwrites them. NULL for any other i. */
+cl_mem csi_solver_coef_scratch(const csi_solver *s, int i);
 
 /* ---- ROMP ---------------------------------------------------------------------------------
  * Each iteration: u = A^H r; J = the s largest |u_i| among indices not yet in the support I

@@ -65,6 +65,9 @@ csi_status csi_filter_create_factor(csi_ctx *ctx, const size_t dims[3], const do
                                     const double *fy, csi_linop **out);
 /* The device buffers csi_filter_create_factor allocates (csi/runtime.h's tally). */
 void csi_filter_factor_buffers(const size_t dims[3], csi_mem_tally *t);
+/* Whether a filter over dims on csi's FFT kernels runs its row stages fused (one launch each, in
+ * the device's local memory of local_mem bytes; 0: unknown, so not), the cheaper form per cell. */
+bool csi_filter_rows_fused(const size_t dims[3], uint64_t local_mem);
 
 /* Orthonormal Fourier basis over dims (1-D, 2-D or 3-D; complex operator, rows = cols =
  * product): apply = F^H (coefficients -> signal, unitary inverse DFT), adjoint = F (unitary

@@ -62,6 +62,14 @@ uint64_t csi_tile_default_budget(const csi_ctx *ctx);
  * times 1 + CSI_TILE_T_LOSS (windows - 1) and takes the cheapest that fits. */
 #define CSI_TILE_T_LOSS 0.02
 
+/* The planner's cost of a cell whose model grid's FFT rows run pass by pass rather than fused
+ * (csi_recon_plan.rows_unfused: a row length the fused kernels do not take), against one whose
+ * rows fuse: 1920x1080 at 4 spp solved whole on a 7680-wide model grid took 1.6x the CPU per
+ * solve step and cell of its two 4096-wide tiles (docs/bench/cost.md, session 18). A layout's
+ * price is multiplied by it where its windows' rows do not fuse, so that fewer but wider windows
+ * are not taken where they would cost more. */
+#define CSI_TILE_UNFUSED_COST 1.5
+
 /* A layout of tiles over one problem (see the top of this file). Axis 0 = x and 1 = y in output
  * pixels, 2 = t in frames (length 1 when grid.t == 1). */
 typedef struct csi_tiling {
@@ -97,7 +105,7 @@ typedef struct csi_tile {
  * .tiles_t, .tile_margin, .tile_margin_t; ctx gives the device's limits and may be NULL, then
  * only the budget counts). opt->tiles == 0: count 1 when the whole problem fits, else among the
  * layouts that fit (x/y tiles, time windows or both; only opt->tiles_t windows when given) the
- * lowest price (CSI_TILE_T_LOSS), the fewest tiles on a tie; N > 0: exactly N tiles (the
+ * lowest price (CSI_TILE_T_LOSS, CSI_TILE_UNFUSED_COST), the fewest tiles on a tie; N > 0: exactly N tiles (the
  * factorisation n[0] n[1] n[2] = N that fits at the lowest price). CSI_ERR_ARG when no
  * layout fits (the message names the budget and the smallest tile's bytes) or when N tiles
  * cannot be laid out on the image (fewer pixels than tiles along every factorisation). A tile's
