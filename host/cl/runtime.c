@@ -14,6 +14,8 @@
 #include <time.h>
 #include <sys/stat.h>
 
+#include "csi/buffer_keep.h"
+
 struct csi_embedded_kernel {
     const char *name;
     const char *source;
@@ -543,8 +545,10 @@ csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char
         return csi_fail(CSI_ERR_DEVICE, "%s needs a %s buffer, but %s of the device's %s are in use (%s)",
                         what ? what : "an operation", a, b, c, ctx->name);
     }
-    cl_int err;
-    cl_mem m = clCreateBuffer(ctx->context, flags, bytes, NULL, &err);
+    cl_int err = CL_SUCCESS;
+    cl_mem m = NULL;
+    if (!csi_buffer_keep_take(ctx->context, bytes, flags, &m))
+        m = clCreateBuffer(ctx->context, flags, bytes, NULL, &err);
     if (err != CL_SUCCESS) {
         char a[32];
         human_bytes(a, sizeof a, (double)bytes);
@@ -562,7 +566,8 @@ void csi_buffer_release(cl_mem *buf)
         size_t bytes = 0;
         if (clGetMemObjectInfo(*buf, CL_MEM_SIZE, sizeof bytes, &bytes, NULL) == CL_SUCCESS)
             atomic_fetch_sub(&csi_dev_live, (uint64_t)bytes);
-        clReleaseMemObject(*buf);
+        if (!csi_buffer_keep_put(*buf, bytes))
+            clReleaseMemObject(*buf);
         *buf = NULL;
     }
 }

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/buffer_keep.h"
 #include "csi/empty_pixels.h"
 #include "csi/peak_noise.h"
 #include "csi/tiles.h"
@@ -660,12 +661,11 @@ static bool on_tile_progress(void *user, const char *phase, int iter, double res
     return tp->opt->progress(tp->opt->user, name, iter, res);
 }
 
-csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
-                                 const csi_sample_pos *pos, const float *values, size_t n,
-                                 const csi_recon_options *opt, const csi_tiling *tl,
-                                 csi_recon_result *out)
+/* csi_recon_tiled's tiles, solved and blended in index order. */
+static csi_status tiled_run(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                            const float *values, size_t n, const csi_recon_options *opt, const csi_tiling *tl,
+                            csi_recon_result *out)
 {
-    memset(out, 0, sizeof *out);
     csi_tile_scope scope;
     CSI_TRY(csi_recon_progress(opt, "tile scale"));
     CSI_TRY(csi_tile_scope_make(ctx, g, channels, pos, values, n, opt, tl, &scope));
@@ -694,5 +694,19 @@ csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     out->n = n;
     if (s != CSI_OK)
         csi_recon_result_free(out);
+    return s;
+}
+
+csi_status csi_recon_tiled(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
+                                 const csi_sample_pos *pos, const float *values, size_t n,
+                                 const csi_recon_options *opt, const csi_tiling *tl,
+                                 csi_recon_result *out)
+{
+    memset(out, 0, sizeof *out);
+    /* Every tile's scale pass and solve make the same volumes again (one window size): keep
+     * them from one to the next rather than fault in fresh pages each time. */
+    csi_buffer_keep_begin(ctx);
+    csi_status s = tiled_run(ctx, g, channels, pos, values, n, opt, tl, out);
+    csi_buffer_keep_end(ctx);
     return s;
 }

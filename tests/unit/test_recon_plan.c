@@ -17,8 +17,6 @@
  * Limits: budgets and csi_ctx_limit_memory set by the test, so nothing depends on how much
  * memory the machine happens to have free: an oversized grid is refused in microseconds with no
  * device allocation, and a buffer over a lowered single-buffer limit is refused by csi_buffer. */
-#define _GNU_SOURCE
-#include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,51 +26,8 @@
 #include "csi/positions.h"
 #include "csi/reconstruct.h"
 #include "csi/wavelet.h"
+#include "cl_count.h"
 #include "testlib.h"
-
-/* ---- every device allocation in the process ------------------------------------------------ */
-
-/* Live buffers by handle: released exactly once by their owner (csi, clFFT), whatever
- * references the OpenCL implementation still holds for queued commands. */
-#define IC_MAX 4096
-static struct { cl_mem m; size_t size; } ic_tab[IC_MAX];
-static int ic_n;
-static uint64_t ic_live, ic_peak;
-
-cl_mem clCreateBuffer(cl_context context, cl_mem_flags flags, size_t size, void *host_ptr, cl_int *err)
-{
-    typedef cl_mem (*fn_t)(cl_context, cl_mem_flags, size_t, void *, cl_int *);
-    static fn_t real;
-    if (!real)
-        real = (fn_t)dlsym(RTLD_NEXT, "clCreateBuffer");
-    cl_int e = CL_SUCCESS;
-    cl_mem m = real(context, flags, size, host_ptr, &e);
-    if (err)
-        *err = e;
-    if (e == CL_SUCCESS && m && ic_n < IC_MAX) {
-        ic_tab[ic_n].m = m;
-        ic_tab[ic_n++].size = size;
-        ic_live += size;
-        if (ic_live > ic_peak)
-            ic_peak = ic_live;
-    }
-    return m;
-}
-
-cl_int clReleaseMemObject(cl_mem m)
-{
-    typedef cl_int (*fn_t)(cl_mem);
-    static fn_t real;
-    if (!real)
-        real = (fn_t)dlsym(RTLD_NEXT, "clReleaseMemObject");
-    for (int i = 0; i < ic_n; i++)
-        if (ic_tab[i].m == m) {
-            ic_live -= ic_tab[i].size;
-            ic_tab[i] = ic_tab[--ic_n];
-            break;
-        }
-    return real(m);
-}
 
 /* ---- runs ------------------------------------------------------------------------------------ */
 
@@ -104,13 +59,13 @@ static void one(const run_case *rc)
     CHECK_OK(csi_recon_plan_make(ctx, &rc->g, rc->channels, n, &rc->opt, &plan));
 
     csi_finish(ctx);
-    const uint64_t live0 = csi_device_bytes_live(), ic0 = ic_live;
+    const uint64_t live0 = csi_device_bytes_live(), ic0 = test_cl_live();
     csi_device_bytes_reset_peak();
-    ic_peak = ic_live;
+    test_cl_reset_peak();
     csi_recon_result res;
     csi_status st = csi_recon(ctx, &rc->g, rc->channels, pos, val, n, &rc->opt, &res);
     CHECK(st == CSI_OK, "%s: %s", rc->name, csi_last_error());
-    const uint64_t peak = csi_device_bytes_peak() - live0, ipeak = ic_peak - ic0;
+    const uint64_t peak = csi_device_bytes_peak() - live0, ipeak = test_cl_peak() - ic0;
     printf("%-34s k %7llu n %6zu  tiles %2u  plan %9llu  peak %9llu  (interposed %9llu)  host plan %8llu  %s\n",
            rc->name, (unsigned long long)k, n, plan.tiles, (unsigned long long)plan.device_bytes, (unsigned long long)peak,
            (unsigned long long)ipeak, (unsigned long long)plan.host_bytes, plan.method);
@@ -132,7 +87,7 @@ static void one(const run_case *rc)
     else
         CHECK(plan.device_bytes - ipeak <= slack, "%s: plan %llu exceeds the peak %llu by more than %llu", rc->name,
               (unsigned long long)plan.device_bytes, (unsigned long long)ipeak, (unsigned long long)slack);
-    CHECK(csi_device_bytes_live() == live0 && ic_live == ic0, "%s: %llu device bytes left after the run", rc->name,
+    CHECK(csi_device_bytes_live() == live0 && test_cl_live() == ic0, "%s: %llu device bytes left after the run", rc->name,
           (unsigned long long)(csi_device_bytes_live() - live0));
     /* the host model holds at least the result the caller receives */
     CHECK(plan.host_bytes >= (uint64_t)rc->g.out_w * rc->g.out_h * rc->channels * 4 * (res.nframes ? 1 + res.nframes : 1),

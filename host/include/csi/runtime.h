@@ -75,7 +75,8 @@ csi_status csi_ctx_limit_memory(csi_ctx *ctx, uint64_t max_alloc, uint64_t globa
 
 /* Buffers. Refuses (CSI_ERR_DEVICE, naming the size, the limit and `what`) a buffer over the
  * single-allocation limit, and one that would take the bytes live through csi_buffer over the
- * global limit; zero-size requests allocate CSI_BUFFER_MIN_BYTES so callers need no cases. */
+ * global limit; zero-size requests allocate CSI_BUFFER_MIN_BYTES so callers need no cases. A
+ * large buffer may be one released earlier and kept for reuse (csi/buffer_keep.h). */
 #define CSI_BUFFER_MIN_BYTES 16u
 csi_status csi_buffer(csi_ctx *ctx, size_t bytes, cl_mem_flags flags, const char *what, cl_mem *out);
 void csi_buffer_release(cl_mem *buf); /* releases and sets to NULL; NULL is fine */
