@@ -257,8 +257,11 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                 done = true;
                 break;
             }
-            double hr;
-            CSI_TRY(csi_vec_amax(S->ws, S->k, S->cplx, h, &hr, NULL));
+            /* ||A^H r||_inf, a pass over h: only the gap stop and the adaptive continuation
+             * read it */
+            double hr = 0;
+            if (o.stop != CSI_SPARSA_STOP_OBJECTIVE || o.cont_step <= 0)
+                CSI_TRY(csi_vec_amax(S->ws, S->k, S->cplx, h, &hr, NULL));
             if (o.stop == CSI_SPARSA_STOP_OBJECTIVE) {
                 stage_done = obj_done;
             } else {
