@@ -110,6 +110,34 @@ void csi_interp_gather(__global const float *restrict c, __global float *restric
     }
 }
 
+/* c[0 .. n) = 0 before the spreading, ZERO_LINES 64-byte lines per work-item: the lines are
+ * written whole, so on x86 as non-temporal stores, which do not read them first (PoCL's fill
+ * reads each line, on one thread); STREAM_STORES_DONE() orders them before the launch ends, and
+ * the spreading then reads them back. */
+#define ZERO_LINES 1024
+#if defined(__x86_64__)
+#define STREAM_STORES_DONE() __asm__ volatile("sfence" ::: "memory")
+#else
+#define STREAM_STORES_DONE()
+#endif
+__kernel __attribute__((reqd_work_group_size(1, 1, 1)))
+void csi_interp_zero(__global float *restrict c, const uint n)
+{
+    const size_t i0 = get_global_id(0) * (size_t)ZERO_LINES * 16,
+                 i1 = min(i0 + (size_t)ZERO_LINES * 16, (size_t)n);
+    size_t i = i0;
+#if defined(__x86_64__)
+    /* the lines whole and aligned: the first aligned one to the last whole one */
+    for (; i < i1 && ((size_t)(c + i) & 63) != 0; i++)
+        c[i] = 0.0f;
+    for (; i + 16 <= i1; i += 16)
+        __builtin_nontemporal_store((float16)(0.0f), (__global float16 *)(c + i));
+    STREAM_STORES_DONE();
+#endif
+    for (; i < i1; i++)
+        c[i] = 0.0f;
+}
+
 /* c += the spread of r over the samples of the rows of tiles rows[roff .. roff + nrows): each
  * work-item takes one row of tiles, its tiles in the order rows[xoff .. xoff + Tx) (the tile
  * columns by colour along x), and adds each tile's samples one after another, in their internal

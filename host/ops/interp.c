@@ -26,6 +26,9 @@
  * contiguous rows. */
 #define TILE_W 64
 #define TILE_H 8
+/* Cells per work-item of the zeroing before the spreading (kernels/interp.cl, ZERO_LINES lines
+ * of 16). */
+#define ZERO_CELLS (1024 * 16)
 /* Samples per work-item of the gather. */
 #define GATHER_CHUNK 256
 
@@ -103,8 +106,12 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
 {
     interp_state *s = op->state;
     csi_ctx *ctx = op->ctx;
-    CSI_TRY(csi_fill_zero(ctx, c, s->mw * s->mh * sizeof(float)));
     cl_kernel k;
+    CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_zero", &k));
+    const cl_uint cells = (cl_uint)(s->mw * s->mh);
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_ARG(cells)));
+    size_t zl = 1, zg = (s->mw * s->mh + ZERO_CELLS - 1) / ZERO_CELLS;
+    CSI_TRY(csi_run(ctx, k, 1, &zg, &zl));
     CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_spread", &k));
     cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh, Tx = (cl_uint)s->Tx, xoff = (cl_uint)s->Ty;
     for (int col = 0; col < 3; col++) {
@@ -256,8 +263,8 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
     free(perm);
     free(key);
     free(rows);
-    static const char *names[] = {"csi_interp_gather", "csi_interp_spread"};
-    for (int i = 0; i < 2 && st == CSI_OK; i++) {
+    static const char *names[] = {"csi_interp_gather", "csi_interp_spread", "csi_interp_zero"};
+    for (int i = 0; i < 3 && st == CSI_OK; i++) {
         cl_kernel k;
         st = csi_kernel(ctx, "interp", names[i], &k);
     }
