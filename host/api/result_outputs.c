@@ -158,8 +158,17 @@ void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, do
     for (uint32_t c = 0; c < res->channels && c < 4; c++)
         csi_json_num(j, names[c], res->t_channel_integrate[c]);
     csi_json_end(j);
+    /* the steps on the whole image, where they ran (their solves are in solve_s and integrate_s) */
+    if (r->options.o.cv_select == CSI_SWITCH_ON)
+        csi_json_num(j, "cross_validation_s", res->t_cv);
     csi_json_num(j, "write_s", write_s);
     csi_json_end(j);
+    if (r->options.o.cv_select == CSI_SWITCH_ON)
+        csi_json_int(j, "cv_switched_pixels", (int64_t)res->cv_switched);
+    if (r->options.o.peak_range == CSI_SWITCH_ON)
+        csi_json_int(j, "peak_range_pixels", (int64_t)res->peak_range_pixels);
+    if (r->options.o.motion_image_cv == CSI_SWITCH_ON)
+        csi_json_int(j, "motion_image_switched_pixels", (int64_t)res->motion_image_switched);
     csi_json_num(j, "fixed_s", read_s + device_s + res->t_setup);
     csi_json_num(j, "per_sample_us", res->n ? 1e6 * (res->t_solve + res->t_integrate) / (double)res->n : 0);
     csi_json_num(j, "cpu_setup_s", res->cpu_setup);

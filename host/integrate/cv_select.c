@@ -188,6 +188,7 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
      * about the whole's (docs/bench/mitsuba.md: Poisson-disk cells at 1 spp); nothing is done. */
     if (n < 2 * (size_t)g->out_w * g->out_h)
         return CSI_OK;
+    const double t0 = csi_recon_now();
     uint8_t *fold = malloc(n ? n : 1);
     if (!fold)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
@@ -206,5 +207,6 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     free(a);
     free(b);
     free(fold);
+    out->t_cv = csi_recon_now() - t0;
     return s;
 }

@@ -63,6 +63,11 @@ for f in static.r static.c moving.c; do
     check "grep -q '\"phases\": {' '$T/$f.json' && grep -q '\"read_s\": ' '$T/$f.json' && grep -q '\"write_s\": ' '$T/$f.json' && grep -q '\"fixed_s\": ' '$T/$f.json' && grep -q '\"per_sample_us\": ' '$T/$f.json'" "$f.json: phases missing"
     check "sed -n '/\"solve_s\": {/,/}/p' '$T/$f.json' | grep -q '\"2\": '" "$f.json: no solve time of the third channel"
 done
+# the cross-validated choice's folds (noisy samples: the AO dump) are a phase of their own, with
+# the pixels it gave their mean; exact samples (static) take no folds and report none
+check "[[ '$(json "$T/ao.c.json" cv_select)' == on ]]" "ao.c.json: cv_select $(json "$T/ao.c.json" cv_select), not on"
+check "grep -q '\"cross_validation_s\": ' '$T/ao.c.json' && grep -q '\"cv_switched_pixels\": ' '$T/ao.c.json'" "ao.c.json: no cross-validation phase"
+check "! grep -q '\"cross_validation_s\"\\|\"cv_switched_pixels\"' '$T/static.c.json'" "static.c.json: a cross-validation phase without folds"
 # static scenes trace no time; moving ones do
 check "grep -q '\"timed\": 0,' '$T/static.r.json'" "static render traced rays with time"
 check "! grep -q '\"timed\": 0,' '$T/moving.r.json'" "moving render traced no rays with time"

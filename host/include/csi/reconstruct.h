@@ -288,6 +288,9 @@ typedef struct csi_recon_result {
     size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
     double t_setup, t_solve, t_integrate; /* seconds */
+    double t_cv;            /* the cross-validated choice (cv_select): its two folds' reconstructions,
+                               whose solves and integration t_solve and t_integrate count, and the
+                               choice itself */
     double t_programs;      /* of t_setup: building the kernel programs (csi_ctx_build_seconds) */
     double t_channel_integrate[4]; /* t_integrate per channel (the solves: report[c].t_total) */
     double cpu_setup, cpu_work;    /* process CPU seconds (every thread) of the setup and of the
