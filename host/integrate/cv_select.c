@@ -132,8 +132,8 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
     return s;
 }
 
-/* The reconstruction from the samples of one fold alone (the same options but the choice off and
- * the folds' model grid, CSI_CV_FOLD_SIGMA_MIN). */
+/* The reconstruction from the samples of one fold alone (the same options but the choice off, the
+ * folds' model grid, CSI_CV_FOLD_SIGMA_MIN, and their stop, CSI_CV_FOLD_TOL). */
 static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                              const float *values, size_t n, const uint8_t *fold, uint8_t f,
                              const csi_recon_options *opt, csi_recon_result *main, float **image)
@@ -162,6 +162,9 @@ static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     /* The folds measure the blend against the mean; the peaks' test (csi/peak_noise.h) comes
      * after the choice, on the whole image only (and a fold's indexing is not the whole's). */
     o.sample_variance = NULL;
+    /* SpaRSA's objective stop (auto resolves to both for an image); an auto tol is 0 here */
+    if (o.solver != CSI_SOLVER_ROMP && o.stop != CSI_STOP_GAP && !(o.tol >= CSI_CV_FOLD_TOL))
+        o.tol = CSI_CV_FOLD_TOL;
     csi_recon_result r;
     csi_status s = csi_recon_progress(opt, f ? "cross-validation 2/2" : "cross-validation 1/2");
     if (s == CSI_OK)

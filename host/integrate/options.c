@@ -95,7 +95,7 @@ static const row table[] = {
      "images: per region of 8 x 8 or 16 x 16 pixels, the image or each pixel's mean of its samples, "
      "whichever the two folds of the samples (each pixel's split in two) say is closer to the "
      "held-out pixel means (two more reconstructions, each from half the samples, on a coarser "
-     "model grid where the filter allows it)",
+     "model grid where the filter allows it and to a looser stop, --tol at least 0.02)",
      "on with the blend (noisy samples, not flagged exact) on an image reconstructed whole, "
      "where it acts from 2 samples per pixel on average; off otherwise (another correction, "
      "tiled runs, volumes, the baselines)"},
