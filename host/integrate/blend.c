@@ -113,6 +113,25 @@
  * chi^2 with 3 degrees of freedom above 12, p ~ 0.007. */
 #define CSI_BLEND_SPREAD 4.0
 
+/* fmin and fmax inlined (the library's are calls), with their results for every argument: the
+ * argument that is not NaN, and of two equal ones (+0 and -0) the second, as glibc's. */
+static inline double lesser(double a, double b)
+{
+    return a < b ? a : isnan(b) ? a : b;
+}
+static inline double greater(double a, double b)
+{
+    return a > b ? a : isnan(b) ? a : b;
+}
+static inline float lesserf(float a, float b)
+{
+    return a < b ? a : isnan(b) ? a : b;
+}
+static inline float greaterf(float a, float b)
+{
+    return a > b ? a : isnan(b) ? a : b;
+}
+
 /* Ascending order of the at most 9 values of a window, in place (an insertion sort: qsort's
  * calls through a comparator were most of the blend's time at 1920x1080). The values are never
  * NaN, so the order, and every median taken from it, is the one any sort gives. */
@@ -127,6 +146,33 @@ static void sort_window(double *w, int m)
     }
 }
 
+/* The median of three values that are not NaN. */
+static inline double median3(double a, double b, double c)
+{
+    const double lo = a < b ? a : b, hi = a < b ? b : a;
+    return c < lo ? lo : c > hi ? hi : c;
+}
+
+/* The median of 9 values that are not NaN, without sorting them: of the rows of a 3 x 3 array,
+ * the median lies between the largest of the rows' least values and the least of their largest,
+ * and is the median of those two and the median of the rows' medians. Every value it returns is
+ * one of the inputs, the one a sort puts in the middle (the values the blend takes medians of are
+ * never -0, the only value equal to another with other bits). */
+static double median9(const double *w)
+{
+    double lo[3], mid[3], hi[3];
+    for (int r = 0; r < 3; r++) {
+        const double a = w[3 * r], b = w[3 * r + 1], c = w[3 * r + 2];
+        const double l = a < b ? a : b, h = a < b ? b : a;
+        lo[r] = c < l ? c : l;
+        hi[r] = c > h ? c : h;
+        mid[r] = c < l ? l : c > h ? h : c;
+    }
+    const double lmax = lo[0] > lo[1] ? (lo[0] > lo[2] ? lo[0] : lo[2]) : (lo[1] > lo[2] ? lo[1] : lo[2]);
+    const double hmin = hi[0] < hi[1] ? (hi[0] < hi[2] ? hi[0] : hi[2]) : (hi[1] < hi[2] ? hi[1] : hi[2]);
+    return median3(lmax, median3(mid[0], mid[1], mid[2]), hmin);
+}
+
 /* The median of the non-NaN values among a[nb[0..k)]; INFINITY if there is none. */
 static double window_median(const double *a, const size_t *nb, int k)
 {
@@ -137,6 +183,8 @@ static double window_median(const double *a, const size_t *nb, int k)
             w[m++] = a[nb[i]];
     if (!m)
         return INFINITY;
+    if (m == 9)
+        return median9(w);
     sort_window(w, m);
     return m % 2 ? w[m / 2] : 0.5 * (w[m / 2 - 1] + w[m / 2]);
 }
@@ -180,8 +228,8 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         V[p] = INFINITY, q[p] = -INFINITY;
     for (size_t i = 0; i < n; i++) {
         const size_t p = pix[i];
-        V[p] = fmin(V[p], values[i * channels + c]);
-        q[p] = fmax(q[p], values[i * channels + c]);
+        V[p] = lesser(V[p], values[i * channels + c]);
+        q[p] = greater(q[p], values[i * channels + c]);
     }
     /* The pixels' means and (two passes, in sample order: deterministic) sums of squares. */
     for (size_t i = 0; i < n; i++) {
@@ -206,17 +254,17 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         double l = INFINITY, h = -INFINITY;
         int k = csi_recon_window3(p, ow, oh, nb);
         for (int j = 0; j < k; j++) {
-            l = fmin(l, V[nb[j]]);
-            h = fmax(h, q[nb[j]]);
+            l = lesser(l, V[nb[j]]);
+            h = greater(h, q[nb[j]]);
         }
         lo[p] = l <= h ? (float)l : -INFINITY; /* no sample around: nothing to project onto */
         hi[p] = l <= h ? (float)h : INFINITY;
-        plane[p] = fminf(fmaxf(plane[p], lo[p]), hi[p]);
+        plane[p] = lesserf(greaterf(plane[p], lo[p]), hi[p]);
     }
     BLEND_PASS_DONE();
     for (size_t i = 0; i < n; i++) {
         const size_t p = pix[i];
-        gbar[p] += fminf(fmaxf(fine_at[i], lo[p]), hi[p]);
+        gbar[p] += lesserf(greaterf(fine_at[i], lo[p]), hi[p]);
     }
     for (size_t p = 0; p < np; p++)
         if (cnt[p])
@@ -230,7 +278,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     }
     BLEND_PASS_DONE();
     const bool by_pixel = 2 * multi >= np;
-    const double eps = fmax(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
+    const double eps = greater(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
     for (size_t p = 0; p < np; p++) {
         const double b = plane[p], mm = cnt[p] ? m[p] : b;
         sc[p] = 0.5 * (mm * mm + b * b) + eps;
@@ -258,7 +306,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         rel[p] = s2 / sc[p];
         /* the pixel's brightest sample (V and q still hold the least and largest of its
          * samples here) */
-        top[p] = fmax(fabs(V[p]), fabs(q[p]));
+        top[p] = greater(fabs(V[p]), fabs(q[p]));
     }
     BLEND_PASS_DONE();
     /* V, relative to the pixel's magnitude: the window's median per-sample variance over n_p
@@ -272,22 +320,22 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         double fpc = 1.0 - (double)cnt[p] / cells;
         double med = window_median(rel, nb, csi_recon_window3(p, ow, oh, nb));
         if (!by_pixel && !isnan(rel[p]))
-            med = fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
+            med = lesser(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
         double noise = fpc > 0 && isfinite(med) ? med / (double)cnt[p] * fpc : 0.0;
         if (by_pixel && cnt[p] >= 2) {
             /* b only up to a few times the pixel's brightest sample (the header) */
-            double bc = fmin(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
+            double bc = lesser(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
             noise *= (0.5 * (m[p] * m[p] + bc * bc) + eps) / sc[p];
             const double s2 = ss[p] / (double)(cnt[p] - 1);
             if (opt->blend_spread == CSI_SWITCH_ON && opt->sample_variance &&
                 s2 > CSI_BLEND_SPREAD * vsum[p] / (double)cnt[p]) {
                 /* a spread beyond the records' noise: at least the mean's own error (the header) */
-                const double strat = fmin(1.0, 2.0 / sqrt((double)cnt[p]));
-                noise = fmax(noise, s2 / sc[p] / (double)cnt[p] * fpc * strat);
+                const double strat = lesser(1.0, 2.0 / sqrt((double)cnt[p]));
+                noise = greater(noise, s2 / sc[p] / (double)cnt[p] * fpc * strat);
             }
         }
         double pe = gbar[p] - plane[p], mf = gbar[p] - m[p];
-        V[p] = noise + fmin(fmax(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
+        V[p] = noise + lesser(greater(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
     }
     BLEND_PASS_DONE();
     /* The relative bias of b seen at each pixel: d signed, q squared less noise, clipped at 0. */
@@ -313,7 +361,7 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
             }
         }
         double dbar = ds / kf;
-        double B2 = fmax(fmax(qs / k, q[p]), dbar * dbar - vs / kf / kf);
+        double B2 = greater(greater(qs / k, q[p]), dbar * dbar - vs / kf / kf);
         rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
     }
     BLEND_PASS_DONE();
@@ -324,11 +372,11 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
         int k = csi_recon_window3(p, ow, oh, nb);
         for (int j = 0; j < k; j++)
             if (cnt[nb[j]]) {
-                ml = fmin(ml, m[nb[j]]);
-                mh = fmax(mh, m[nb[j]]);
+                ml = lesser(ml, m[nb[j]]);
+                mh = greater(mh, m[nb[j]]);
             }
         if (ml <= mh)
-            plane[p] = (float)fmin(fmax(plane[p], ml), mh);
+            plane[p] = (float)lesser(greater(plane[p], ml), mh);
     }
     BLEND_PASS_DONE();
     for (size_t p = 0; p < np; p++) {

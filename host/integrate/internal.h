@@ -251,6 +251,15 @@ static inline size_t csi_recon_pixel_of(csi_sample_pos p, uint32_t bw, uint32_t 
 static inline int csi_recon_window3(size_t p, size_t ow, size_t oh, size_t nb[9])
 {
     long px = (long)(p % ow), py = (long)(p / ow);
+    if (px > 0 && py > 0 && px + 1 < (long)ow && py + 1 < (long)oh) {
+        /* inside the image (most pixels): the same 9 indices in the same order, without the
+         * bounds tests */
+        for (int j = 0; j < 3; j++) {
+            const size_t row = p + (size_t)(j - 1) * ow; /* wraps for j = 0, then adds back */
+            nb[3 * j] = row - 1, nb[3 * j + 1] = row, nb[3 * j + 2] = row + 1;
+        }
+        return 9;
+    }
     int k = 0;
     for (long dy = -1; dy <= 1; dy++)
         for (long dx = -1; dx <= 1; dx++) {

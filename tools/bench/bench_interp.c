@@ -17,19 +17,9 @@
 #include "csi/interp.h"
 #include "csi/linop.h"
 #include "csi/runtime.h"
+#include "fnv1a.h"
 
 static double cpu_now(void) { return (double)clock() / CLOCKS_PER_SEC; }
-
-/* FNV-1a over n bytes */
-static uint64_t fnv1a(const void *p, size_t n)
-{
-    uint64_t h = 1469598103934665603ull;
-    for (size_t i = 0; i < n; i++) {
-        h ^= ((const unsigned char *)p)[i];
-        h *= 1099511628211ull;
-    }
-    return h;
-}
 
 static uint64_t state = 88172645463325252ull;
 static uint32_t next_random(void)

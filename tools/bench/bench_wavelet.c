@@ -19,6 +19,7 @@
 
 #include "csi/runtime.h"
 #include "csi/wavelet.h"
+#include "fnv1a.h"
 
 static double now(void)
 {
@@ -47,16 +48,6 @@ static double median(double *v, int n)
 {
     qsort(v, (size_t)n, sizeof *v, cmp_double);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-/* FNV-1a over the bytes. */
-static uint64_t hash_bytes(const void *p, size_t n)
-{
-    const unsigned char *b = p;
-    uint64_t h = 1469598103934665603ull;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ b[i]) * 1099511628211ull;
-    return h;
 }
 
 static void die(const char *what)
@@ -193,10 +184,10 @@ int main(int argc, char **argv)
             double tf = median(t, reps), ti = median(t2, reps);
             if (csi_read(ctx, b, 0, bytes, back) != CSI_OK)
                 die("download");
-            const uint64_t hf = hash_bytes(back, bytes);
+            const uint64_t hf = fnv1a(back, bytes);
             if (csi_read(ctx, c, 0, bytes, back) != CSI_OK)
                 die("download");
-            const uint64_t hi = hash_bytes(back, bytes);
+            const uint64_t hi = fnv1a(back, bytes);
             double err = 0;
             for (size_t i = 0; i < n; i++)
                 err = fmax(err, fabs((double)back[i] - (double)host[i]));
