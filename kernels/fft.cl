@@ -1020,9 +1020,10 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
  * passes reads and writes the whole spectrum (71 MB at a 1920x1080 tile), which has long left the
  * caches when the next pass reads it; here the strip's L values (64 bytes a row) live in two
  * __local volumes of L x 8 complex values (the core's L2), so the stage reads the spectrum once
- * and writes it once. 8 columns, not the 16 of csi_fft_col1v_r*: two 16-column volumes of a
- * tile's 4320 rows do not fit PoCL's 1 MiB of local memory, and one row of the strip is then one
- * cache line. The passes are csi_fft_col_r* / col1v_r* / col_gain_r* / col_cgain_r* on 8 lanes:
+ * and writes it once. 8 columns, not the 16 of csi_fft_col1v_r*: one row of the strip is then one
+ * cache line, and the volumes fit local memory at twice the rows; where three 8-column volumes
+ * fit, csi_fft_cols_2d_pair takes two adjacent strips and runs their first and last passes
+ * together. The passes are csi_fft_col_r* / col1v_r* / col_gain_r* / col_cgain_r* on 8 lanes:
  * the same arithmetic per element, so the same bits as the passes launched one by one. Local
  * layout: row q of the strip at v[2 q] (its 8 real parts) and v[2 q + 1] (imaginary parts).
  * plan[0] = the number of passes per direction (>= 2), plan[1 + j] = pass j's radix (2, 3, 4,
@@ -1096,6 +1097,83 @@ __kernel void csi_fft_rows_c2r(ROWS_STAGE_PARAMS(X, out))
 #define COLS_PF_G(a, q) __builtin_prefetch(a + 2 * ((q) * hs + c0))
 #define COLS_PF_L(a, q)
 COLS_PASS(cols_pass_gl, __global, float, COLS_LD_G, __local, float8, COLS_ST_L, COLS_PF_G)
+/* The first pass (p = 1) of two adjacent strips at c0 and c0 + 8 together, in -> out0 and out1:
+ * a row of the two is the 128 bytes of an adjacent-line pair, so each visit to a row's page reads
+ * both lines, where two strips run one after the other walk the 4320 pages twice (by then the
+ * second lines have left the caches and the translations the TLB). The second strip's butterfly
+ * reads the lines the first one's has just brought in. Each strip's arithmetic is cols_pass_gl's. */
+#define COLS_FIRST_PAIR_R(R)                                                                    \
+    inline void cols_first_pair_r##R(__global const float *restrict in,                        \
+                                     __local float8 *restrict out0,                            \
+                                     __local float8 *restrict out1, size_t c0, size_t hs,      \
+                                     size_t L, float sgn)                                      \
+    {                                                                                          \
+        const size_t T = L / R;                                                                \
+        for (size_t i = 0; i < T; i++) {                                                       \
+            {                                                                                  \
+                float8 xr[R], xi[R];                                                           \
+                _Pragma("unroll") for (int r = 0; r < R; r++) {                                \
+                    COLS_LD_G(in, i + (size_t)r * T, xr[r], xi[r])                             \
+                    COLS_PF_G(in, i + 16 + (size_t)r * T);                                     \
+                    __builtin_prefetch(in + 2 * ((i + 16 + (size_t)r * T) * hs + c0) + 16);    \
+                }                                                                              \
+                dft##R##_v8(xr, xi, sgn);                                                      \
+                _Pragma("unroll") for (int r = 0; r < R; r++)                                  \
+                    COLS_ST_L(out0, i * R + (size_t)r, xr[r], xi[r])                           \
+            }                                                                                  \
+            {                                                                                  \
+                const size_t c1 = c0 + 8;                                                      \
+                float8 xr[R], xi[R];                                                           \
+                _Pragma("unroll") for (int r = 0; r < R; r++) {                                \
+                    const float16 v_ =                                                         \
+                        *(__global const float16 *)(in + 2 * ((i + (size_t)r * T) * hs + c1)); \
+                    xr[r] = shuffle(v_, EVEN8);                                                \
+                    xi[r] = shuffle(v_, ODD8);                                                 \
+                }                                                                              \
+                dft##R##_v8(xr, xi, sgn);                                                      \
+                _Pragma("unroll") for (int r = 0; r < R; r++)                                  \
+                    COLS_ST_L(out1, i * R + (size_t)r, xr[r], xi[r])                           \
+            }                                                                                  \
+        }                                                                                      \
+    }
+COLS_FIRST_PAIR_R(2)
+COLS_FIRST_PAIR_R(3)
+COLS_FIRST_PAIR_R(4)
+COLS_FIRST_PAIR_R(5)
+COLS_FIRST_PAIR_R(8)
+COLS_FIRST_PAIR_R(9)
+/* The last inverse pass (at p) of the two strips together, in0 and in1 -> out's columns c0 ..
+ * c0 + 15: each row's two lines written in one visit to its page. cols_pass_lg's arithmetic. */
+#define COLS_LAST_PAIR_STRIP(R, IN, C)                                                          \
+    {                                                                                          \
+        float8 xr[R], xi[R];                                                                   \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            COLS_LD_L(IN, i + (size_t)r * T, xr[r], xi[r])                                     \
+        PASS_TWIDDLES(R, CMUL8)                                                                \
+        dft##R##_v8(xr, xi, sgn);                                                              \
+        const size_t j = (i - k) * R + k;                                                      \
+        _Pragma("unroll") for (int r = 0; r < R; r++)                                          \
+            *(__global float16 *)(out + 2 * ((j + (size_t)r * p) * hs + (C))) =                 \
+                shuffle2(xr[r], xi[r], ILV8);                                                  \
+    }
+#define COLS_LAST_PAIR_R(R)                                                                     \
+    inline void cols_last_pair_r##R(__local const float8 *restrict in0,                        \
+                                    __local const float8 *restrict in1, __global float *out,   \
+                                    __global const float *restrict tw, size_t c0, size_t hs,   \
+                                    size_t L, size_t p, float sgn)                             \
+    {                                                                                          \
+        const size_t T = L / R, ts = L / (p * R);                                              \
+        for (size_t i = 0; i < T; i++) {                                                       \
+            COLS_LAST_PAIR_STRIP(R, in0, c0)                                                   \
+            COLS_LAST_PAIR_STRIP(R, in1, c0 + 8)                                               \
+        }                                                                                      \
+    }
+COLS_LAST_PAIR_R(2)
+COLS_LAST_PAIR_R(3)
+COLS_LAST_PAIR_R(4)
+COLS_LAST_PAIR_R(5)
+COLS_LAST_PAIR_R(8)
+COLS_LAST_PAIR_R(9)
 COLS_PASS(cols_pass_ll, __local, float8, COLS_LD_L, __local, float8, COLS_ST_L, COLS_PF_L)
 COLS_PASS(cols_pass_lg, __local, float8, COLS_LD_L, __global, float, COLS_ST_G, COLS_PF_L)
 
@@ -1138,26 +1216,23 @@ COLS_GAIN_R(5)
 COLS_GAIN_R(8)
 COLS_GAIN_R(9)
 
-/* Spectrum in -> out (rows of hs values, L rows), strip of columns 8 get_global_id(0) .. + 7.
- * in and out may be the same buffer (not restrict): a work-item reads its whole strip in the first
- * pass before its last pass writes it, and the strips are disjoint. In place, the last pass writes
- * rows the first one brought into the caches, where a second volume would first be read from
- * memory for its writes.
- * The gain is gx[c] ga[q] (Gaussian or Wiener, times scale) as in csi_fft_col_gain_r*, with
- * the complex factor when cplx != 0. A and B: L x 8 complex values each. */
-__kernel void csi_fft_cols_2d(__global const float *in, __global float *out,
-                              __global const float *restrict tw, __global const uint *restrict plan,
-                              const uint L_, const uint hs_, __global const float *restrict gx,
-                              __global const float *restrict ga, const uint wiener,
-                              const float lambda, const float scale, const uint cplx,
-                              __global const float *restrict fc, __global const float *restrict fa,
-                              const float csgn, __local float8 *A, __local float8 *B)
+/* One strip's stage between its first and last passes (the first's output in a): the other
+ * forward passes, the gain pass, the inverse passes but the last. a and b: L x 8 complex values
+ * each; returns the one that holds the result (the other is free). The gain is gx[c] ga[q]
+ * (Gaussian or Wiener, times scale) as in csi_fft_col_gain_r*, with the complex factor when
+ * cplx != 0. */
+inline __local float8 *cols_strip_mid(__local float8 *a, __local float8 *b,
+                                      __global const float *restrict tw,
+                                      __global const uint *restrict plan, size_t c0, size_t L,
+                                      size_t hs, __global const float *restrict gx,
+                                      __global const float *restrict ga, uint wiener,
+                                      float lambda, float scale, uint cplx,
+                                      __global const float *restrict fc,
+                                      __global const float *restrict fa, float csgn)
 {
-    const size_t c0 = 8 * get_global_id(0), L = L_, hs = hs_;
     const uint np = plan[0];
-    __local float8 *a = A, *b = B, *t;
-    /* forward: in -> a, then a -> b (swapped after each pass) */
-    cols_pass_gl(in, a, tw, c0, hs, L, (int)plan[1], 1, -1.0f);
+    __local float8 *t;
+    /* forward: a -> b (swapped after each pass) */
     size_t p = plan[1];
     for (uint j = 1; j < np; j++) {
         cols_pass_ll(a, b, tw, c0, hs, L, (int)plan[1 + j], p, -1.0f);
@@ -1191,7 +1266,69 @@ __kernel void csi_fft_cols_2d(__global const float *in, __global float *out,
         t = a, a = b, b = t;
         p *= plan[1 + j];
     }
-    cols_pass_lg(a, out, tw, c0, hs, L, (int)plan[np], p, 1.0f);
+    return a;
+}
+
+/* The last inverse pass's p: the product of the radices before it. */
+inline size_t cols_last_p(__global const uint *restrict plan)
+{
+    size_t p = 1;
+    for (uint j = 0; j + 1 < plan[0]; j++)
+        p *= plan[1 + j];
+    return p;
+}
+
+#define COLS_2D_PARAMS                                                                          \
+    __global const float *in, __global float *out, __global const float *restrict tw,          \
+        __global const uint *restrict plan, const uint L_, const uint hs_,                      \
+        __global const float *restrict gx, __global const float *restrict ga, const uint wiener, \
+        const float lambda, const float scale, const uint cplx, __global const float *restrict fc, \
+        __global const float *restrict fa, const float csgn
+#define COLS_MID(a, b, c0)                                                                      \
+    cols_strip_mid(a, b, tw, plan, c0, L, hs, gx, ga, wiener, lambda, scale, cplx, fc, fa, csgn)
+
+/* Spectrum in -> out (rows of hs values, L rows), strip of columns 8 get_global_id(0) .. + 7.
+ * in and out may be the same buffer (not restrict): a work-item reads its whole strip in the first
+ * pass before its last pass writes it, and the strips are disjoint. In place, the last pass writes
+ * rows the first one brought into the caches, where a second volume would first be read from
+ * memory for its writes. A and B: L x 8 complex values each. */
+__kernel void csi_fft_cols_2d(COLS_2D_PARAMS, __local float8 *A, __local float8 *B)
+{
+    const size_t c0 = 8 * get_global_id(0), L = L_, hs = hs_;
+    cols_pass_gl(in, A, tw, c0, hs, L, (int)plan[1], 1, -1.0f);
+    cols_pass_lg(COLS_MID(A, B, c0), out, tw, c0, hs, L, (int)plan[plan[0]], cols_last_p(plan), 1.0f);
+}
+
+/* csi_fft_cols_2d on two adjacent strips per work-item, columns 16 get_global_id(0) .. + 15 (hs
+ * a multiple of 16): their first passes together (cols_first_pair_r*, into A and C), the passes
+ * between of one strip and then of the other (A's with B as scratch, C's with whichever of A
+ * and B the first left free), their last passes together (cols_last_pair_r*), so the stage
+ * visits each row's page once to read and once to write its 128 bytes. In place as
+ * csi_fft_cols_2d: both strips are read before either is written. A, B, C: L x 8 complex values
+ * each. The same arithmetic per element, so the same bits. */
+__kernel void csi_fft_cols_2d_pair(COLS_2D_PARAMS, __local float8 *A, __local float8 *B,
+                                   __local float8 *C)
+{
+    const size_t c0 = 16 * get_global_id(0), L = L_, hs = hs_;
+    switch (plan[1]) {
+    case 2: cols_first_pair_r2(in, A, C, c0, hs, L, -1.0f); break;
+    case 3: cols_first_pair_r3(in, A, C, c0, hs, L, -1.0f); break;
+    case 4: cols_first_pair_r4(in, A, C, c0, hs, L, -1.0f); break;
+    case 5: cols_first_pair_r5(in, A, C, c0, hs, L, -1.0f); break;
+    case 8: cols_first_pair_r8(in, A, C, c0, hs, L, -1.0f); break;
+    default: cols_first_pair_r9(in, A, C, c0, hs, L, -1.0f); break;
+    }
+    __local float8 *a = COLS_MID(A, B, c0), *spare = a == A ? B : A;
+    __local float8 *b = COLS_MID(C, spare, c0 + 8);
+    const size_t p = cols_last_p(plan);
+    switch (plan[plan[0]]) {
+    case 2: cols_last_pair_r2(a, b, out, tw, c0, hs, L, p, 1.0f); break;
+    case 3: cols_last_pair_r3(a, b, out, tw, c0, hs, L, p, 1.0f); break;
+    case 4: cols_last_pair_r4(a, b, out, tw, c0, hs, L, p, 1.0f); break;
+    case 5: cols_last_pair_r5(a, b, out, tw, c0, hs, L, p, 1.0f); break;
+    case 8: cols_last_pair_r8(a, b, out, tw, c0, hs, L, p, 1.0f); break;
+    default: cols_last_pair_r9(a, b, out, tw, c0, hs, L, p, 1.0f); break;
+    }
 }
 
 /* Gain on a half spectrum of rows of hs values (1-D filters, which have no column pass to fuse

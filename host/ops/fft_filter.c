@@ -280,6 +280,14 @@ static bool cols_fused_fit(const axis_plan *y, int nd, uint64_t local)
     return nd == 2 && cols_fused_plan(y) && 2 * y->L * 64 <= local;
 }
 
+/* Whether the fused column stage (cols_fused_fit) takes two adjacent strips per work-item
+ * (csi_fft_cols_2d_pair: their first and last passes read and write each row's 128 bytes in one
+ * visit to its page),
+ * which needs three volumes of L x 8 complex values in the device's local memory (a 1920x1080
+ * tile's 4320 rows: 0.83 MB; PoCL's CPU device reports 2 MiB here). hs is a multiple of 16, so
+ * the strips pair up. */
+static bool cols_pair_fit(const axis_plan *y, uint64_t local) { return 3 * y->L * 64 <= local; }
+
 /* Whether the spectrum's second volume (Q) is made: only the passes launched one by one
  * ping-pong between P and Q; the fused row stages read and write P (and the caller's rows), and
  * the fused column stage runs in place. A blocked row stage uses its own block scratch, so it
@@ -554,7 +562,8 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     }
     if (cols_fused) {
         CSI_TRY(upload_col_plan(f));
-        CSI_TRY(csi_kernel(ctx, "fft", "csi_fft_cols_2d", &k));
+        const char *cols = cols_pair_fit(&f->ax[1], local) ? "csi_fft_cols_2d_pair" : "csi_fft_cols_2d";
+        CSI_TRY(csi_kernel(ctx, "fft", cols, &k));
     }
     if (f->blk < f->rows) {
         /* zeroed: csi_fft_r2c_post reads the element past a block's last row (and discards it) */
@@ -914,21 +923,27 @@ static csi_status rows_fused(csi_fft_filter *f, const char *kernel, cl_mem in, c
 /* The fused column stage (cols_fused_fit) of a 2-D filter, spectrum in -> out (the same buffer
  * is allowed; the filter runs it in place): the forward passes along y, the gain pass (with the
  * complex factor, conjugated when conj), the inverse passes; one work-item per strip of 8
- * columns, with its two __local volumes. */
+ * columns with its two __local volumes, or per two strips with three (cols_pair_fit). */
 static csi_status cols_fused(csi_fft_filter *f, cl_mem in, cl_mem out, bool conj)
 {
     cl_kernel k;
-    CSI_TRY(csi_kernel(f->ctx, "fft", "csi_fft_cols_2d", &k));
+    const bool pair = cols_pair_fit(&f->ax[1], csi_ctx_local_mem(f->ctx));
+    CSI_TRY(csi_kernel(f->ctx, "fft", pair ? "csi_fft_cols_2d_pair" : "csi_fft_cols_2d", &k));
     const cl_uint L = (cl_uint)f->c[1], hs = (cl_uint)f->hs, cplx = f->fc != NULL;
     const float csgn = conj ? -1.0f : 1.0f;
     /* without a factor the kernel reads neither table: any buffer will do */
     cl_mem fc = cplx ? f->fc : f->one, fa = cplx ? f->fa : f->one;
     const size_t strip_bytes = f->c[1] * 64;
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(in), CSI_MEM(out), CSI_MEM(f->ax[1].tw), CSI_MEM(f->cplan), CSI_ARG(L),
-                     CSI_ARG(hs), CSI_MEM(f->gx), CSI_MEM(f->g1), CSI_ARG(f->wiener), CSI_ARG(f->lambda),
-                     CSI_ARG(f->scale), CSI_ARG(cplx), CSI_MEM(fc), CSI_MEM(fa), CSI_ARG(csgn),
-                     CSI_LOCAL(strip_bytes), CSI_LOCAL(strip_bytes)));
-    const size_t global[1] = {f->hs / 8}, local[1] = {1};
+#define COLS_ARGS                                                                                 \
+    CSI_MEM(in), CSI_MEM(out), CSI_MEM(f->ax[1].tw), CSI_MEM(f->cplan), CSI_ARG(L), CSI_ARG(hs), CSI_MEM(f->gx), \
+        CSI_MEM(f->g1), CSI_ARG(f->wiener), CSI_ARG(f->lambda), CSI_ARG(f->scale), CSI_ARG(cplx), CSI_MEM(fc), \
+        CSI_MEM(fa), CSI_ARG(csgn), CSI_LOCAL(strip_bytes), CSI_LOCAL(strip_bytes)
+    if (pair)
+        CSI_TRY(CSI_ARGS(k, COLS_ARGS, CSI_LOCAL(strip_bytes)));
+    else
+        CSI_TRY(CSI_ARGS(k, COLS_ARGS));
+#undef COLS_ARGS
+    const size_t global[1] = {pair ? f->hs / 16 : f->hs / 8}, local[1] = {1};
     return csi_run(f->ctx, k, 1, global, local);
 }
 

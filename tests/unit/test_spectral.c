@@ -258,8 +258,15 @@ static void test_rows_fused(csi_ctx *ctx)
 /* A 2-D filter's column stage runs as one launch, a strip of 8 columns per work-item in local
  * memory, where its plan allows (host/ops/fft_filter.c, cols_fused_fit): along y 300 is passes
  * 4, 3, 5, 5, 96 is 8, 4, 3 (above), 90 is 2, 9, 5 (here); 44100 (above) runs pass by pass (two
- * strip volumes of 5.6 MB, more than PoCL's 1 MiB of local memory). */
-static void test_cols_fused(csi_ctx *ctx) { plane_wave_filters(ctx, 256, 90, "fused columns"); }
+ * strip volumes of 5.6 MB, more than the 2 MiB of local memory PoCL's CPU device reports here).
+ * Where three strip volumes fit, a work-item takes two adjacent strips (cols_pair_fit: 300, 96
+ * and 90 rows); at 12000 rows (8, 4, 3, 5, 5, 5) three volumes (2.30 MB) exceed those 2 MiB and
+ * two (1.54 MB) do not, so that filter runs the one-strip kernel. */
+static void test_cols_fused(csi_ctx *ctx)
+{
+    plane_wave_filters(ctx, 256, 90, "fused columns");
+    plane_wave_filters(ctx, 32, 12000, "fused columns, one strip a work-item");
+}
 
 static void test_sigmas(void)
 {
