@@ -183,7 +183,7 @@ inline void dft16(float *xr, float *xi, float sgn)
 
 /* Odd radices: x'[q] = sum_r x[r] exp(sgn 2 pi i q r / R), with a_r = x_r + x_(R-r),
  * b_r = x_r - x_(R-r): x'[q], x'[R-q] = x0 + sum a_r cos(2 pi q r/R) +- sgn i sum b_r sin(...).
- * dft3 and dft5 also on 8 lanes (S = _v8), by the same expressions. */
+ * dft3 and dft5 also on 16 and 8 lanes (S = _v16, _v8), by the same expressions. */
 #define DFT_3_5(T, S)                                                                          \
 inline void dft3##S(T *xr, T *xi, float sgn)                                                   \
 {                                                                                              \
@@ -221,6 +221,7 @@ inline void dft5##S(T *xr, T *xi, float sgn)                                    
     xi[3] = m2i - r2i;                                                                         \
 }
 DFT_3_5(float, )
+DFT_3_5(float16, _v16)
 DFT_3_5(float8, _v8)
 
 inline void dft7(float *xr, float *xi, float sgn)
@@ -814,11 +815,13 @@ __kernel void csi_fft_c2r_pre(__global const float *restrict X, __global float *
  * block (host/ops/fft_filter.c), a stage costs a launch per pass and block, and a launch's fixed
  * cost on PoCL is a sizeable share of a block's work (docs/bench/cost.md); here a row's
  * intermediate passes live in two __local rows of M + 1 complex values (in L1 / L2) and the stage
- * reads its input and writes its output once. For M a power of two whose plan is radix 8 first, then radices 4 and 8
- * (the host checks; plan_radices gives radix 2 only where M has a single factor 2): the passes
- * are csi_fft_row1v_r* (p = 1), csi_fft_rowk8v_r* (p = 8) and the k-indexed form of
- * csi_fft_rowk_r* (p >= 16) on 16-wide vectors, then csi_fft_r2c_post16, with the same arithmetic
- * per element, so the same bits as the stages launched pass by pass. The stages' writes to
+ * reads its input and writes its output once. For M whose plan is radix 8 first, then radices 4
+ * and 8 (at least 3 of them: M a multiple of 128), then optionally radices 9, 3 and 5 (the host
+ * checks; plan_radices gives radix 2 only where M has a single factor 2): the passes are
+ * csi_fft_row1v_r* (p = 1), csi_fft_rowk8v_r* (p = 8) and the k-indexed form of csi_fft_rowk_r*
+ * (p >= 16, a multiple of 16; csi_fft_rowkv_r9 for radix 9) on 16-wide vectors, then
+ * csi_fft_r2c_post16, with the same arithmetic per element, so the same bits as the stages
+ * launched pass by pass. The stages' writes to
  * memory (the forward one's spectrum rows, the inverse one's output rows) are store16nt's, and
  * their first pass asks for the next row's input ahead. plan[0] = the number of
  * passes, plan[1 + 2 j] = pass j's radix, plan[2 + 2 j] = its offset in the twiddles twp. */
@@ -902,8 +905,8 @@ inline void row_p8(__local const float *restrict in, __local float *restrict out
     }
 }
 
-/* A pass at p >= 16 (a multiple of 16), 16 consecutive k at a time (csi_fft_rowk_r*'s arithmetic),
- * into output address space AS (ST: store16c or store16l). */
+/* A pass at p >= 16 (a multiple of 16), 16 consecutive k at a time (csi_fft_rowk_r*'s arithmetic,
+ * csi_fft_rowkv_r9's for radix 9), into output address space AS (ST: store16c or store16l). */
 #define ROW_PK_R(R, ST)                                                                         \
     for (size_t g = 0; g < T / p; g++)                                                         \
         for (size_t k = 0; k < p; k += 16) {                                                   \
@@ -926,10 +929,21 @@ inline void row_p8(__local const float *restrict in, __local float *restrict out
                            size_t p, float sgn)                                                \
     {                                                                                          \
         const size_t T = L / (size_t)R;                                                        \
-        if (R == 8) {                                                                          \
+        switch (R) {                                                                           \
+        case 8:                                                                                \
             ROW_PK_R(8, ST)                                                                    \
-        } else {                                                                               \
+            break;                                                                             \
+        case 4:                                                                                \
             ROW_PK_R(4, ST)                                                                    \
+            break;                                                                             \
+        case 3:                                                                                \
+            ROW_PK_R(3, ST)                                                                    \
+            break;                                                                             \
+        case 5:                                                                                \
+            ROW_PK_R(5, ST)                                                                    \
+            break;                                                                             \
+        default:                                                                               \
+            ROW_PK_R(9, ST)                                                                    \
         }                                                                                      \
     }
 ROW_PK(__global, g, store16nt)

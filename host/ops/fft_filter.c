@@ -233,17 +233,21 @@ static size_t row_block(size_t M, size_t rows)
 /* Whether the row stages run as one launch each (csi_fft_rows_r2c / csi_fft_rows_c2r in
  * kernels/fft.cl: a work-item per row, its passes in two __local rows of M + 1 complex values),
  * which saves the launches of the passes one by one (a fixed cost each on PoCL, per block where
- * the stages run in blocks) and keeps a row's intermediate passes in the core's caches: a
- * power-of-two M whose plan is radix 8 first, then radices 4 and 8, at least 3 passes (so every
- * pass runs in the 16-wide forms those kernels take: p = 1, p = 8, then multiples of 16), and two
- * rows in the device's local memory. The same arithmetic per element as the passes launched one
- * by one, so the same bits. */
+ * the stages run in blocks) and keeps a row's intermediate passes in the core's caches: M whose
+ * plan is radix 8 first, then radices 4 and 8, at least 3 such passes (so every pass runs in the
+ * 16-wide forms those kernels take: p = 1, p = 8, then multiples of 16), then any passes of
+ * radix 9, 3 and 5 (a model grid 7680 cells wide: M = 3840, passes 8, 8, 4, 3, 5), and two rows
+ * in the device's local memory. The same arithmetic per element as the passes launched one by
+ * one, so the same bits. */
 static bool rows_fused_plan(const axis_plan *a)
 {
-    if (a->np < 3 || a->radix[0] != 8)
+    int pow2 = 0;
+    while (pow2 < a->np && (a->radix[pow2] == 4 || a->radix[pow2] == 8))
+        pow2++;
+    if (pow2 < 3 || a->radix[0] != 8)
         return false;
-    for (int i = 0; i < a->np; i++)
-        if (a->radix[i] != 4 && a->radix[i] != 8)
+    for (int i = pow2; i < a->np; i++)
+        if (a->radix[i] != 3 && a->radix[i] != 5 && a->radix[i] != 9)
             return false;
     return true;
 }
@@ -525,7 +529,7 @@ static csi_status upload_row_plan(csi_fft_filter *f)
     return upload_table(f->ctx, t, sizeof t, "FFT plan", &f->plan);
 }
 
-static csi_status build(csi_fft_filter *f, const double sigma[3])
+static csi_status build(csi_fft_filter *f, const double sigma[3], bool fuse_rows)
 {
     csi_ctx *ctx = f->ctx;
     size_t M = f->M;
@@ -537,7 +541,8 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
     CSI_TRY(twiddles(ctx, 2 * M, M + 1, &f->wn));
     const size_t bytes = spectrum_bytes(M, f->hs, f->rows);
     const uint64_t local = csi_ctx_local_mem(ctx);
-    const bool rows_fused = rows_fused_fit(&f->ax[0], local), cols_fused = cols_fused_fit(&f->ax[1], f->nd, local);
+    const bool rows_fused = fuse_rows && rows_fused_fit(&f->ax[0], local);
+    const bool cols_fused = cols_fused_fit(&f->ax[1], f->nd, local);
     cl_kernel k;
     CSI_TRY(csi_buffer(ctx, bytes, CL_MEM_READ_WRITE, "the filter's spectrum", &f->P));
     if (second_volume(rows_fused, cols_fused, f->nd))
@@ -591,6 +596,12 @@ static csi_status build(csi_fft_filter *f, const double sigma[3])
 csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const double sigma[3],
                                  bool wiener, float lambda, csi_fft_filter **out)
 {
+    return csi_fft_filter_create_rows(ctx, c, nd, sigma, wiener, lambda, true, out);
+}
+
+csi_status csi_fft_filter_create_rows(csi_ctx *ctx, const size_t c[3], int nd, const double sigma[3],
+                                      bool wiener, float lambda, bool fuse_rows, csi_fft_filter **out)
+{
     *out = NULL;
     if (!csi_fft_filter_supported(c, nd))
         return csi_fail(CSI_ERR_ARG, "FFT filter: size %zu x %zu x %zu not supported by csi's FFT",
@@ -609,7 +620,7 @@ csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const 
     /* Unnormalised transforms both ways; the inverse along x works on M complex values, so
      * the round trip multiplies by M c1 c2 = N / 2. */
     f->scale = (float)(2.0 / ((double)c[0] * (double)c[1] * (double)c[2]));
-    csi_status st = build(f, sigma);
+    csi_status st = build(f, sigma, fuse_rows);
     if (st != CSI_OK) {
         csi_fft_filter_free(f);
         return st;

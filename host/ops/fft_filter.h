@@ -19,6 +19,10 @@ bool csi_fft_filter_supported(const size_t c[3], int nd);
 /* sigma[a] is the spatial sigma along squeezed axis a (0 = no filtering along it). */
 csi_status csi_fft_filter_create(csi_ctx *ctx, const size_t c[3], int nd, const double sigma[3],
                                  bool wiener, float lambda, csi_fft_filter **out);
+/* The same filter with its row stages launched pass by pass when fuse_rows is false, even where
+ * they could run as one launch each: the reference the fused stages' bits are tested against. */
+csi_status csi_fft_filter_create_rows(csi_ctx *ctx, const size_t c[3], int nd, const double sigma[3],
+                                      bool wiener, float lambda, bool fuse_rows, csi_fft_filter **out);
 csi_status csi_fft_filter_run(csi_fft_filter *f, cl_mem x, cl_mem y);
 /* Multiplies the gain by a separable complex factor fc[kx] fa[ky] (2-D filters only): fc holds
  * c[0]/2 + 1 interleaved complex values (kx = 0 .. c[0]/2), fa c[1] (ky in DFT order). The

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../../host/ops/fft_filter.h"
 #include "csi/spectral.h"
 #include "testlib.h"
 
@@ -247,12 +248,53 @@ static void plane_wave_filters(csi_ctx *ctx, size_t n0, size_t n1, const char *w
  * as PoCL's 32 MiB here; M = 64 has two row passes, so no fused stage). */
 static void test_row_blocks(csi_ctx *ctx) { plane_wave_filters(ctx, 128, 44100, "row blocks"); }
 
-/* The fused row stages (one launch per stage, a work-item per row: rows_fused_fit) take powers of
- * two M >= 128: M = 128 (passes 8, 4, 4), M = 2048 (8, 8, 8, 4: the 1920x1080 default's tiles). */
+/* The Wiener filter on a random n0 x n1 image with its row stages fused (they must be, or the
+ * comparison proves nothing) and launched pass by pass: the fused stages do each element's
+ * arithmetic as the passes do, so the two outputs must have the same bits. */
+static void fused_rows_same_bits(csi_ctx *ctx, size_t n0, size_t n1)
+{
+    const size_t n = n0 * n1, c[3] = {n0, n1, 1};
+    const double sig[3] = {3.2, 3.2, 0.0};
+    CHECK(csi_fft_filter_rows_fused(n0, csi_ctx_local_mem(ctx)), "%zu-wide rows run fused", n0);
+    float *x = malloc(n * sizeof *x), *y[2] = {malloc(n * sizeof(float)), malloc(n * sizeof(float))};
+    test_rng rng;
+    test_rng_seed(&rng, 19);
+    for (size_t i = 0; i < n; i++)
+        x[i] = (float)test_rng_normal(&rng);
+    cl_mem dx = test_upload(x, n * sizeof *x), dy = test_alloc(n * sizeof(float));
+    for (int fuse = 0; fuse < 2; fuse++) {
+        csi_fft_filter *f = NULL;
+        CHECK_OK(csi_fft_filter_create_rows(ctx, c, 2, sig, true, 0.3f, fuse == 1, &f));
+        if (f) {
+            CHECK_OK(csi_fft_filter_run(f, dx, dy));
+            test_download(dy, y[fuse], n * sizeof(float));
+        }
+        csi_fft_filter_free(f);
+    }
+    size_t differ = 0;
+    for (size_t i = 0; i < n; i++)
+        differ += memcmp(&y[0][i], &y[1][i], sizeof(float)) != 0;
+    CHECK(differ == 0, "%zu x %zu: fused rows and passes one by one differ at %zu of %zu values", n0, n1, differ, n);
+    clReleaseMemObject(dx);
+    clReleaseMemObject(dy);
+    free(x);
+    free(y[0]);
+    free(y[1]);
+}
+
+/* The fused row stages (one launch per stage, a work-item per row: rows_fused_fit) take M a
+ * multiple of 128 whose plan is radices 8, then 4 and 8, then 9, 3 and 5: M = 128 (passes 8, 4,
+ * 4), M = 2048 (8, 8, 8, 4: the 1920x1080 default's tiles), M = 3840 (8, 8, 4, 3, 5: a model grid
+ * 7680 wide, the whole 1920x1080 image), M = 5760 (8, 4, 4, 9, 5). */
 static void test_rows_fused(csi_ctx *ctx)
 {
     plane_wave_filters(ctx, 256, 300, "fused rows");
     plane_wave_filters(ctx, 4096, 96, "fused rows");
+    plane_wave_filters(ctx, 7680, 80, "fused rows");
+    plane_wave_filters(ctx, 11520, 80, "fused rows");
+    fused_rows_same_bits(ctx, 4096, 48);
+    fused_rows_same_bits(ctx, 7680, 40);
+    fused_rows_same_bits(ctx, 11520, 36);
 }
 
 /* A 2-D filter's column stage runs as one launch, a strip of 8 columns per work-item in local
