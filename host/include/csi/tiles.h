@@ -64,8 +64,9 @@ uint64_t csi_tile_default_budget(const csi_ctx *ctx);
 
 /* The planner's cost of a cell whose model grid's FFT rows run pass by pass rather than fused
  * (csi_recon_plan.rows_unfused: a row length the fused kernels do not take), against one whose
- * rows fuse: 1920x1080 at 4 spp solved whole on a 7680-wide model grid took 1.6x the CPU per
- * solve step and cell of its two 4096-wide tiles (docs/bench/cost.md, session 18). A layout's
+ * rows fuse: 1920x1080 at 4 spp solved whole on a 7680-wide model grid, whose rows ran pass by
+ * pass before the fused kernels took radices 3 and 5, took 1.6x the CPU per solve step and cell
+ * of its two 4096-wide tiles (docs/bench/cost.md, session 18). A layout's
  * price is multiplied by it where its windows' rows do not fuse, so that fewer but wider windows
  * are not taken where they would cost more. */
 #define CSI_TILE_UNFUSED_COST 1.5
