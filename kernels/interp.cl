@@ -9,13 +9,28 @@
  *
  * Per sample (in the operator's internal order, grouped by tile of the model grid):
  *   cell[i] = m_y mw + m_x,  ph[i] = d_x | d_y << 8 | INSIDE (when the window rows, read 8 wide,
- *   stay inside the grid),  perm[i] = the caller's index of the sample.
+ *   stay inside the grid) | ROW_END (when the aligned 8-cell block that holds the window's first
+ *   cell is its row's last),  perm[i] = the caller's index of the sample.
  * The few samples whose window crosses the grid's border take a scalar path with periodic wrap. */
 
 #define IW 6
 #define IH 2
 /* ph bit: the sample's 8-wide window rows lie inside the grid (no wrap). */
 #define INSIDE 0x10000u
+/* ph bit: the aligned 8-cell block of the window's first cell ends its row (the spreading's blocks). */
+#define ROW_END 0x20000u
+
+/* (m + o) mod n for a cell m < n and an offset o in [-IH, IW - 1 - IH]: one conditional add or
+ * subtract where the grid is at least a window wide (a division costs the border samples more
+ * than all their arithmetic), the remainder on smaller grids. */
+inline uint wrap_cell(const uint m, const int o, const uint n)
+{
+    if (n >= IW) {
+        const int v = (int)m + o;
+        return v < 0 ? (uint)(v + (int)n) : (uint)v >= n ? (uint)v - n : (uint)v;
+    }
+    return (m + n * IW + (uint)o) % n;
+}
 
 /* The taps of a sample whose window wraps around the grid's border (or a grid smaller than the
  * window, where a cell may be read twice), one by one. */
@@ -23,12 +38,15 @@ inline float gather_wrap(__global const float *restrict c, const uint mx, const 
                          __global const float *restrict wx, __global const float *restrict wy,
                          const uint mw, const uint mh)
 {
+    uint rx[IW];
+    for (int b = 0; b < IW; b++)
+        rx[b] = wrap_cell(mx, b - IH, mw);
     float acc = 0.0f;
     for (int a = 0; a < IW; a++) {
-        const uint ry = (my + mh * IW + (uint)a - IH) % mh;
+        const size_t ry = wrap_cell(my, a - IH, mh);
         float s = 0.0f;
         for (int b = 0; b < IW; b++)
-            s += wx[b] * c[(size_t)ry * mw + (mx + mw * IW + (uint)b - IH) % mw];
+            s += wx[b] * c[ry * mw + rx[b]];
         acc += wy[a] * s;
     }
     return acc;
@@ -110,10 +128,12 @@ void csi_interp_gather(__global const float *restrict c, __global float *restric
     }
 }
 
-/* c[0 .. n) = 0 before the spreading, ZERO_LINES 64-byte lines per work-item: the lines are
- * written whole, so on x86 as non-temporal stores, which do not read them first (PoCL's fill
- * reads each line, on one thread); STREAM_STORES_DONE() orders them before the launch ends, and
- * the spreading then reads them back. */
+/* c[0 .. n) = 0 before the spreading, ZERO_LINES 64-byte lines per work-item. Where `stream` is
+ * set (a grid larger than the cache holds, the host's choice), the lines are written whole, so on
+ * x86 as non-temporal stores, which do not read them first (PoCL's fill reads each line, on one
+ * thread); STREAM_STORES_DONE() orders them before the launch ends, and the spreading then reads
+ * them back. A smaller grid is written with plain stores: it stays in the cache for the
+ * spreading, where non-temporal stores would send it to memory first. */
 #define ZERO_LINES 1024
 #if defined(__x86_64__)
 #define STREAM_STORES_DONE() __asm__ volatile("sfence" ::: "memory")
@@ -121,19 +141,23 @@ void csi_interp_gather(__global const float *restrict c, __global float *restric
 #define STREAM_STORES_DONE()
 #endif
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
-void csi_interp_zero(__global float *restrict c, const uint n)
+void csi_interp_zero(__global float *restrict c, const uint n, const uint stream)
 {
     const size_t i0 = get_global_id(0) * (size_t)ZERO_LINES * 16,
                  i1 = min(i0 + (size_t)ZERO_LINES * 16, (size_t)n);
     size_t i = i0;
 #if defined(__x86_64__)
-    /* the lines whole and aligned: the first aligned one to the last whole one */
-    for (; i < i1 && ((size_t)(c + i) & 63) != 0; i++)
-        c[i] = 0.0f;
-    for (; i + 16 <= i1; i += 16)
-        __builtin_nontemporal_store((float16)(0.0f), (__global float16 *)(c + i));
-    STREAM_STORES_DONE();
+    if (stream) {
+        /* the lines whole and aligned: the first aligned one to the last whole one */
+        for (; i < i1 && ((size_t)(c + i) & 63) != 0; i++)
+            c[i] = 0.0f;
+        for (; i + 16 <= i1; i += 16)
+            __builtin_nontemporal_store((float16)(0.0f), (__global float16 *)(c + i));
+        STREAM_STORES_DONE();
+    }
 #endif
+    for (; i + 16 <= i1; i += 16)
+        vstore16((float16)(0.0f), 0, c + i);
     for (; i < i1; i++)
         c[i] = 0.0f;
 }
@@ -153,8 +177,11 @@ void csi_interp_zero(__global float *restrict c, const uint n)
  * forwards a store to a later load of the same address and size, but a load that only partly
  * overlaps an earlier unaligned store waits for that store to reach the cache, which the
  * unaligned 8-wide rows hit on almost every sample. Every cell receives the same non-zero terms in
- * the same order either way. The blocks reach 7 cells left and 12 right of the window's first cell,
- * within the tile's margin (see the host). */
+ * the same order either way. Both blocks are added whether or not the window reaches the second
+ * (it then gets + 0 throughout): whether it does depends on the sample's position, a branch the
+ * CPU cannot predict; only where the first block ends the row (ROW_END) is the second left out.
+ * The blocks reach 7 cells left and 15 right of the window's first cell, within the tile's margin
+ * (see the host). */
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void csi_interp_spread(__global float *restrict c, __global const float *restrict r,
                        __global const uint *restrict cell, __global const uint *restrict ph,
@@ -181,14 +208,21 @@ void csi_interp_spread(__global float *restrict c, __global const float *restric
                 __global const float *wp = wpad + (size_t)(p & 0xffu) * 24 + 8 - s;
                 const float8 wlo = vload8(0, wp), whi = vload8(0, wp + 8);
                 const size_t rs = mw / 8;
-                /* for s <= 8 - IW the window ends inside the first block (whi is all zeros) */
+                if (!(p & ROW_END)) {
 #pragma unroll
-                for (int a = 0; a < IW; a++) {
-                    __global float8 *row = dst + (size_t)a * rs;
-                    const float ta = v * wy[a];
-                    row[0] = row[0] + ta * wlo;
-                    if (s > 8 - IW)
+                    for (int a = 0; a < IW; a++) {
+                        __global float8 *row = dst + (size_t)a * rs;
+                        const float ta = v * wy[a];
+                        row[0] = row[0] + ta * wlo;
                         row[1] = row[1] + ta * whi;
+                    }
+                } else {
+                    /* the block ends the row: the window starts it (s = 0, whi all zeros) */
+#pragma unroll
+                    for (int a = 0; a < IW; a++) {
+                        __global float8 *row = dst + (size_t)a * rs;
+                        row[0] = row[0] + (v * wy[a]) * wlo;
+                    }
                 }
             } else if (p & INSIDE) {
                 /* 8-wide rows (two extra cells get + 0: within the tile's margin, see the host). */
@@ -201,13 +235,14 @@ void csi_interp_spread(__global float *restrict c, __global const float *restric
                 }
             } else {
                 const uint mx = cell[i] % mw, my = cell[i] / mw;
+                uint rx[IW];
+                for (int b = 0; b < IW; b++)
+                    rx[b] = wrap_cell(mx, b - IH, mw);
                 for (int a = 0; a < IW; a++) {
-                    const uint ry = (my + mh * IW + (uint)a - IH) % mh;
+                    const size_t ry = wrap_cell(my, a - IH, mh);
                     const float va = v * wy[a];
-                    for (int b = 0; b < IW; b++) {
-                        const uint rx = (mx + mw * IW + (uint)b - IH) % mw;
-                        c[(size_t)ry * mw + rx] += va * wx[b];
-                    }
+                    for (int b = 0; b < IW; b++)
+                        c[ry * mw + rx[b]] += va * wx[b];
                 }
             }
         }

@@ -21,7 +21,7 @@
 #define BETA (2.1 * CSI_INTERP_TAPS)
 #define IH (CSI_INTERP_TAPS / 2 - 1)
 /* Tile size: larger than the kernel's reach on either side (IH left, w - 1 - IH right; the
- * spreading's aligned blocks reach 7 cells further left and 12 - (w - 1 - IH) further right,
+ * spreading's aligned blocks reach 7 cells further left and 15 - (w - 1 - IH) further right,
  * kernels/interp.cl), so that tiles two apart never touch the same cell; wide along x for
  * contiguous rows. */
 #define TILE_W 64
@@ -29,6 +29,10 @@
 /* Cells per work-item of the zeroing before the spreading (kernels/interp.cl, ZERO_LINES lines
  * of 16). */
 #define ZERO_CELLS (1024 * 16)
+/* The largest grid zeroed with plain stores before the spreading, which then finds it in the
+ * cache; a larger one is zeroed with non-temporal stores (kernels/interp.cl): measured between
+ * the two (docs/bench/cost.md, session 19). */
+#define ZERO_CACHED_BYTES ((size_t)8 << 20)
 /* Samples per work-item of the gather. */
 #define GATHER_CHUNK 256
 
@@ -108,8 +112,8 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
     csi_ctx *ctx = op->ctx;
     cl_kernel k;
     CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_zero", &k));
-    const cl_uint cells = (cl_uint)(s->mw * s->mh);
-    CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_ARG(cells)));
+    const cl_uint cells = (cl_uint)(s->mw * s->mh), stream = s->mw * s->mh * sizeof(float) > ZERO_CACHED_BYTES;
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_ARG(cells), CSI_ARG(stream)));
     size_t zl = 1, zg = (s->mw * s->mh + ZERO_CELLS - 1) / ZERO_CELLS;
     CSI_TRY(csi_run(ctx, k, 1, &zg, &zl));
     CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_spread", &k));
@@ -207,8 +211,11 @@ static csi_status build(csi_ctx *ctx, interp_state *s, unsigned D, const uint32_
                 const size_t mx = px / D, my = py / D;
                 /* kernels/interp.cl's INSIDE: rows of 8 from mx - IH, IW rows from my - IH */
                 const bool inside = mx >= IH && mx + 8 - IH <= mw && my >= IH && my + CSI_INTERP_TAPS - IH <= mh;
+                /* kernels/interp.cl's ROW_END: the aligned block of cell mx - IH ends the row */
+                const bool row_end = inside && (mx - IH) / 8 * 8 + 16 > mw;
                 cell[o] = (uint32_t)(my * mw + mx);
-                ph[o] = (uint32_t)((px % D) | (py % D) << 8 | (inside ? 0x10000u : 0u));
+                ph[o] = (uint32_t)((px % D) | (py % D) << 8 | (inside ? 0x10000u : 0u) |
+                                   (row_end ? 0x20000u : 0u));
                 perm[o] = (uint32_t)i;
             }
             free(next);

@@ -126,6 +126,63 @@ static void test_case(csi_ctx *ctx, const struct icase *ic)
         test_npy_free(arrs[i]);
 }
 
+/* The spreading at the grid's last rows and columns, where its aligned blocks meet the row's end:
+ * every fine cell of the last 8 model rows and columns a sample (the windows that end the grid,
+ * those that wrap, those whose block is the row's last), against the taps summed in double here
+ * (csi_interp_kernel, explicit wrap), within the 1e-5 above; and nothing written past the grid:
+ * the buffer's 16 cells after it hold -0, which an added +0 would turn into +0. */
+static void test_grid_end(csi_ctx *ctx)
+{
+    enum { MW = 64, MH = 16, D = 2, TAIL = 16 };
+    const size_t k = MW * MH, fw = MW * D;
+    uint32_t idx[8 * D * 8 * D];
+    float r[8 * D * 8 * D];
+    size_t n = 0;
+    for (size_t py = (MH - 8) * D; py < MH * D; py++)
+        for (size_t px = (MW - 8) * D; px < MW * D; px++) {
+            idx[n] = (uint32_t)(py * fw + px);
+            r[n] = 0.25f + (float)((n * 37) % 11) / 8.0f; /* positive: each term's + 0 is + 0 */
+            n++;
+        }
+    double *ref = calloc(k, sizeof *ref);
+    for (size_t i = 0; i < n; i++) {
+        const size_t px = idx[i] % fw, py = idx[i] / fw;
+        for (size_t jy = 0; jy < MH; jy++)
+            for (size_t jx = 0; jx < MW; jx++) {
+                /* the nearest periodic image of the cell to the sample */
+                double dx = (double)px / D - (double)jx, dy = (double)py / D - (double)jy;
+                dx -= MW * round(dx / MW);
+                dy -= MH * round(dy / MH);
+                ref[jy * MW + jx] += r[i] * csi_interp_kernel(dx) * csi_interp_kernel(dy);
+            }
+    }
+    float *s = malloc((k + TAIL) * sizeof *s), *refs = malloc(k * sizeof *refs);
+    for (size_t j = 0; j < k + TAIL; j++)
+        s[j] = -0.0f;
+    for (size_t j = 0; j < k; j++)
+        refs[j] = (float)ref[j];
+    csi_linop *op = NULL;
+    CHECK_OK(csi_interp_create(ctx, MW, MH, D, idx, n, &op));
+    if (op) {
+        cl_mem dr = test_upload(r, n * 4), ds = test_upload(s, (k + TAIL) * 4);
+        CHECK_OK(csi_linop_adjoint(op, dr, ds));
+        test_download(ds, s, (k + TAIL) * 4);
+        double es = test_max_abs_diff(s, refs, k) / test_max_abs(refs, k);
+        CHECK(es < 1e-5, "grid end: spread within 1e-5 of max |ref| (%.2e)", es);
+        bool untouched = true;
+        for (size_t j = k; j < k + TAIL; j++)
+            untouched = untouched && signbit(s[j]) && s[j] == 0.0f;
+        CHECK(untouched, "grid end: the cells after the grid are not written");
+        printf("grid end: %zu samples, spread err %.2e\n", n, es);
+        csi_buffer_release(&dr);
+        csi_buffer_release(&ds);
+        csi_linop_free(op);
+    }
+    free(ref);
+    free(refs);
+    free(s);
+}
+
 static void test_errors(csi_ctx *ctx)
 {
     uint32_t idx[2] = {0, 400};
@@ -143,6 +200,7 @@ int main(void)
     test_kernel();
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         test_case(ctx, &cases[i]);
+    test_grid_end(ctx);
     test_errors(ctx);
     return test_done();
 }
