@@ -209,20 +209,19 @@ void csi_interp_spread(__global float *restrict c, __global const float *restric
                 const float8 wlo = vload8(0, wp), whi = vload8(0, wp + 8);
                 const size_t rs = mw / 8;
                 if (!(p & ROW_END)) {
+                    __global float8 *row = dst;
 #pragma unroll
-                    for (int a = 0; a < IW; a++) {
-                        __global float8 *row = dst + (size_t)a * rs;
+                    for (int a = 0; a < IW; a++, row += rs) {
                         const float ta = v * wy[a];
                         row[0] = row[0] + ta * wlo;
                         row[1] = row[1] + ta * whi;
                     }
                 } else {
                     /* the block ends the row: the window starts it (s = 0, whi all zeros) */
+                    __global float8 *row = dst;
 #pragma unroll
-                    for (int a = 0; a < IW; a++) {
-                        __global float8 *row = dst + (size_t)a * rs;
+                    for (int a = 0; a < IW; a++, row += rs)
                         row[0] = row[0] + (v * wy[a]) * wlo;
-                    }
                 }
             } else if (p & INSIDE) {
                 /* 8-wide rows (two extra cells get + 0: within the tile's margin, see the host). */
