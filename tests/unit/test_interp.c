@@ -86,7 +86,12 @@ static void test_case(csi_ctx *ctx, const struct icase *ic)
     CHECK_OK(csi_interp_create(ctx, ic->mw, ic->mh, ic->D, idx, n, &op));
     if (op) {
         cl_mem dc = test_upload(c, k * 4), dr = test_upload(r, n * 4);
-        cl_mem dy = test_alloc(n * 4), ds = test_alloc(k * 4), ds2 = test_alloc(k * 4);
+        /* the second spreading onto a buffer of 1e30: every cell must first be set to 0 */
+        float *big = malloc(k * 4);
+        for (size_t j = 0; j < k; j++)
+            big[j] = 1e30f;
+        cl_mem dy = test_alloc(n * 4), ds = test_alloc(k * 4), ds2 = test_upload(big, k * 4);
+        free(big);
         CHECK_OK(csi_linop_apply(op, dc, dy));
         CHECK_OK(csi_linop_adjoint(op, dr, ds));
         CHECK_OK(csi_linop_adjoint(op, dr, ds2));
@@ -129,8 +134,9 @@ static void test_case(csi_ctx *ctx, const struct icase *ic)
 /* The spreading at the grid's last rows and columns, where its aligned blocks meet the row's end:
  * every fine cell of the last 8 model rows and columns a sample (the windows that end the grid,
  * those that wrap, those whose block is the row's last), against the taps summed in double here
- * (csi_interp_kernel, explicit wrap), within the 1e-5 above; and nothing written past the grid:
- * the buffer's 16 cells after it hold -0, which an added +0 would turn into +0. */
+ * (csi_interp_kernel, explicit wrap), within the 1e-5 above, on a buffer that held 1e30 in every
+ * cell; and nothing written past the grid: the buffer's 16 cells after it hold -0, which an added
+ * +0 would turn into +0. */
 static void test_grid_end(csi_ctx *ctx)
 {
     enum { MW = 64, MH = 16, D = 2, TAIL = 16 };
@@ -158,7 +164,7 @@ static void test_grid_end(csi_ctx *ctx)
     }
     float *s = malloc((k + TAIL) * sizeof *s), *refs = malloc(k * sizeof *refs);
     for (size_t j = 0; j < k + TAIL; j++)
-        s[j] = -0.0f;
+        s[j] = j < k ? 1e30f : -0.0f; /* the grid's cells: what the spreading must first set to 0 */
     for (size_t j = 0; j < k; j++)
         refs[j] = (float)ref[j];
     csi_linop *op = NULL;
