@@ -48,6 +48,7 @@ struct csi_ctx {
     int nkernels;
     bool clfft;
     double t_build; /* seconds spent building programs and creating kernels */
+    _Atomic(csi_row_pool *) row_pool; /* the host passes' workers, started on first use */
 };
 
 /* Device bytes held through csi_buffer by this process (every context): live now, and the
@@ -398,6 +399,7 @@ void csi_ctx_release(csi_ctx *ctx)
         return;
     if (ctx->queue)
         clFinish(ctx->queue);
+    csi_row_pool_free(atomic_load(&ctx->row_pool));
     for (int i = 0; i < ctx->nkernels; i++)
         clReleaseKernel(ctx->kernels[i].kernel);
     for (int i = 0; i < ctx->nprograms; i++)
@@ -511,6 +513,20 @@ static void human_bytes(char *buf, size_t len, double b)
         i++;
     }
     snprintf(buf, len, "%.1f %s", b, u[i]);
+}
+
+csi_row_pool *csi_ctx_row_pool(csi_ctx *ctx)
+{
+    csi_row_pool *p = atomic_load(&ctx->row_pool);
+    if (p)
+        return p;
+    p = csi_row_pool_new(csi_row_pool_threads_for_host());
+    csi_row_pool *none = NULL;
+    if (p && !atomic_compare_exchange_strong(&ctx->row_pool, &none, p)) {
+        csi_row_pool_free(p); /* another thread's came first */
+        p = none;
+    }
+    return p;
 }
 
 csi_status csi_ctx_limit_memory(csi_ctx *ctx, uint64_t max_alloc, uint64_t global)

@@ -94,6 +94,8 @@
  * towards the median of its neighbours' means by the mean of their betas (and, beside an HDR
  * step, once all channels are done, possibly to its dark side: csi/empty_pixels.h). */
 #include <math.h>
+#include <stdatomic.h>
+#include <stdbool.h>
 #include <stdlib.h>
 
 #include "internal.h"
@@ -112,39 +114,6 @@
  * times the mean of their given variances (the header): for four samples of Gaussian noise,
  * chi^2 with 3 degrees of freedom above 12, p ~ 0.007. */
 #define CSI_BLEND_SPREAD 4.0
-
-/* fmin and fmax inlined (the library's are calls), with their results for every argument: the
- * argument that is not NaN, and of two equal ones (+0 and -0) the second, as glibc's. */
-static inline double lesser(double a, double b)
-{
-    return a < b ? a : isnan(b) ? a : b;
-}
-static inline double greater(double a, double b)
-{
-    return a > b ? a : isnan(b) ? a : b;
-}
-static inline float lesserf(float a, float b)
-{
-    return a < b ? a : isnan(b) ? a : b;
-}
-static inline float greaterf(float a, float b)
-{
-    return a > b ? a : isnan(b) ? a : b;
-}
-
-/* Ascending order of the at most 9 values of a window, in place (an insertion sort: qsort's
- * calls through a comparator were most of the blend's time at 1920x1080). The values are never
- * NaN, so the order, and every median taken from it, is the one any sort gives. */
-static void sort_window(double *w, int m)
-{
-    for (int i = 1; i < m; i++) {
-        const double v = w[i];
-        int j = i;
-        for (; j > 0 && w[j - 1] > v; j--)
-            w[j] = w[j - 1];
-        w[j] = v;
-    }
-}
 
 /* The median of three values that are not NaN. */
 static inline double median3(double a, double b, double c)
@@ -173,6 +142,33 @@ static double median9(const double *w)
     return median3(lmax, median3(mid[0], mid[1], mid[2]), hmin);
 }
 
+/* The k-th smallest (from 1) of m <= 9 values that are not NaN: median9 of them with 5 - k
+ * values of -INFINITY and 4 - m + k of +INFINITY beside them, which puts the k-th in the middle
+ * (an infinite value among the m is the same bits as the padding, so ties do not matter). */
+static double kth_of9(const double *w, int m, int k)
+{
+    double a[9];
+    int j = 0;
+    for (int i = 0; i < 5 - k; i++)
+        a[j++] = -INFINITY;
+    for (int i = 0; i < m; i++)
+        a[j++] = w[i];
+    while (j < 9)
+        a[j++] = INFINITY;
+    return median9(a);
+}
+
+/* The median of m values (1 <= m <= 9, none NaN): the middle one, or the mean of the two in the
+ * middle (what a sort's w[m / 2] or 0.5 (w[m / 2 - 1] + w[m / 2]) gives). */
+static double median_upto9(const double *w, int m)
+{
+    if (m == 9)
+        return median9(w);
+    if (m % 2)
+        return kth_of9(w, m, m / 2 + 1);
+    return 0.5 * (kth_of9(w, m, m / 2) + kth_of9(w, m, m / 2 + 1));
+}
+
 /* The median of the non-NaN values among a[nb[0..k)]; INFINITY if there is none. */
 static double window_median(const double *a, const size_t *nb, int k)
 {
@@ -181,12 +177,313 @@ static double window_median(const double *a, const size_t *nb, int k)
     for (int i = 0; i < k; i++)
         if (!isnan(a[nb[i]]))
             w[m++] = a[nb[i]];
-    if (!m)
-        return INFINITY;
-    if (m == 9)
-        return median9(w);
-    sort_window(w, m);
-    return m % 2 ? w[m / 2] : 0.5 * (w[m / 2 - 1] + w[m / 2]);
+    return m ? median_upto9(w, m) : INFINITY;
+}
+
+/* One blend's inputs, its per-pixel arrays and the whole image's figures, for its passes over
+ * bands of rows (csi/row_pool.h). Each pass writes only its band's pixels and reads its
+ * neighbours' values from passes before it, so bands give the same bits in any split. */
+typedef struct blend_state {
+    const csi_recon_options *opt;
+    const float *values, *fine_at;
+    const csi_sample_pos *pos;
+    const size_t *start; /* each row's samples (csi_recon_sample_rows) */
+    uint32_t channels, c;
+    csi_pixel_map map;
+    size_t n, ow, oh;
+    double cells, eps;
+    bool by_pixel, spread, clamp;
+    float *plane;
+    size_t *cnt;
+    uint32_t *pix; /* each sample's pixel, divided out once */
+    double *m, *ss, *gbar, *sc, *rel, *top, *V, *q, *d, *vsum;
+    float *lo, *hi;
+    atomic_bool unordered; /* a band's samples were not in row order */
+} blend_state;
+
+/* Each pixel's samples i0 .. i1 - 1: their pixels, least and largest values (in V and q), counts
+ * and sums. A band of rows [r0, r1) (check) stops, false, at a sample outside its rows' order
+ * before writing anything of it (csi_recon_band_pixel). */
+static bool blend_samples_first(blend_state *b, size_t i0, size_t i1, size_t r0, size_t r1, bool check)
+{
+    const float *values = b->values;
+    const csi_sample_pos *pos = b->pos;
+    const uint32_t channels = b->channels, c = b->c;
+    const csi_pixel_map map = b->map;
+    uint32_t *pix = b->pix;
+    size_t *cnt = b->cnt;
+    double *V = b->V, *q = b->q, *m = b->m;
+    size_t last = r0;
+    for (size_t i = i0; i < i1; i++) {
+        const size_t p = check ? csi_recon_band_pixel(&map, pos[i], r1, &last)
+                               : csi_recon_pixel_at(&map, pos[i]);
+        if (p == SIZE_MAX)
+            return false;
+        const double v = values[i * channels + c];
+        pix[i] = (uint32_t)p;
+        V[p] = csi_fmin(V[p], v);
+        q[p] = csi_fmax(q[p], v);
+        cnt[p]++;
+        m[p] += v;
+    }
+    return true;
+}
+
+static void blend_pixels_clear(blend_state *b, size_t p0, size_t p1)
+{
+    for (size_t p = p0; p < p1; p++)
+        b->V[p] = INFINITY, b->q[p] = -INFINITY, b->cnt[p] = 0, b->m[p] = 0;
+}
+
+/* Sums over pixels p0 .. p1 - 1's samples made means (pixels without a sample keep 0). */
+static void sums_to_means(double *sum, const size_t *cnt, size_t p0, size_t p1)
+{
+    for (size_t p = p0; p < p1; p++)
+        if (cnt[p])
+            sum[p] /= (double)cnt[p];
+}
+
+/* Pass 1 over a band: the pixels' sample statistics and means. */
+static void blend_pass1(void *arg, size_t r0, size_t r1)
+{
+    blend_state *b = arg;
+    blend_pixels_clear(b, r0 * b->ow, r1 * b->ow);
+    if (!blend_samples_first(b, b->start[r0], b->start[r1], r0, r1, true)) {
+        atomic_store(&b->unordered, true);
+        return;
+    }
+    sums_to_means(b->m, b->cnt, r0 * b->ow, r1 * b->ow);
+}
+
+/* b onto the range of the samples in the pixel and its 8 neighbours. */
+static void blend_range(blend_state *b, size_t r0, size_t r1)
+{
+    const size_t ow = b->ow, oh = b->oh;
+    const double *V = b->V, *q = b->q;
+    float *lo = b->lo, *hi = b->hi, *plane = b->plane;
+    size_t nb[9];
+    for (size_t y = r0; y < r1; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t p = y * ow + x;
+            double l = INFINITY, h = -INFINITY;
+            const int k = csi_recon_window3_at(x, y, ow, oh, nb);
+            for (int j = 0; j < k; j++) {
+                l = csi_fmin(l, V[nb[j]]);
+                h = csi_fmax(h, q[nb[j]]);
+            }
+            lo[p] = l <= h ? (float)l : -INFINITY; /* no sample around: nothing to project onto */
+            hi[p] = l <= h ? (float)h : INFINITY;
+            plane[p] = csi_fminf(csi_fmaxf(plane[p], lo[p]), hi[p]);
+        }
+}
+
+/* The mean of the fine estimate at each pixel's samples (onto the range above) and the sums of
+ * the samples' squared distances from their mean (and of their given variances). */
+static void blend_samples_second(blend_state *b, size_t i0, size_t i1)
+{
+    const float *values = b->values, *fine_at = b->fine_at, *lo = b->lo, *hi = b->hi;
+    const uint32_t channels = b->channels, c = b->c, *pix = b->pix;
+    const float *var = b->spread ? b->opt->sample_variance : NULL;
+    const double *m = b->m;
+    double *gbar = b->gbar, *ss = b->ss, *vsum = b->vsum;
+    for (size_t i = i0; i < i1; i++) {
+        const size_t p = pix[i];
+        gbar[p] += csi_fminf(csi_fmaxf(fine_at[i], lo[p]), hi[p]);
+        const double e = values[i * channels + c] - m[p];
+        ss[p] += e * e;
+        if (var)
+            vsum[p] += var[i * channels + c];
+    }
+}
+
+static void blend_pixels_second_clear(blend_state *b, size_t p0, size_t p1)
+{
+    for (size_t p = p0; p < p1; p++)
+        b->gbar[p] = 0, b->ss[p] = 0, b->vsum[p] = 0;
+}
+
+/* Pass 2 over a band whose samples are in row order: the range, then the samples' second pass. */
+static void blend_pass2(void *arg, size_t r0, size_t r1)
+{
+    blend_state *b = arg;
+    blend_range(b, r0, r1);
+    blend_pixels_second_clear(b, r0 * b->ow, r1 * b->ow);
+    blend_samples_second(b, b->start[r0], b->start[r1]);
+    sums_to_means(b->gbar, b->cnt, r0 * b->ow, r1 * b->ow);
+}
+
+/* Pass 2 where the samples are not in row order: the range alone (the samples after it, on the
+ * calling thread). */
+static void blend_pass2_range(void *arg, size_t r0, size_t r1)
+{
+    blend_range(arg, r0, r1);
+}
+
+/* Pass 3: each pixel's magnitude, its relative per-sample variance and its brightest sample. */
+static void blend_pass3(void *arg, size_t r0, size_t r1)
+{
+    blend_state *b = arg;
+    const size_t ow = b->ow, oh = b->oh, *cnt = b->cnt;
+    const bool by_pixel = b->by_pixel;
+    const double eps = b->eps, *m = b->m, *ss = b->ss, *V = b->V, *q = b->q;
+    const float *plane = b->plane;
+    double *sc = b->sc, *rel = b->rel, *top = b->top;
+    size_t nb[9];
+    for (size_t y = r0; y < r1; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t p = y * ow + x;
+            const double bb = plane[p], mm = cnt[p] ? m[p] : bb;
+            sc[p] = 0.5 * (mm * mm + bb * bb) + eps;
+            double s2 = NAN;
+            if (by_pixel) {
+                if (cnt[p] >= 2)
+                    s2 = ss[p] / (double)(cnt[p] - 1);
+            } else if (cnt[p]) {
+                double d1 = INFINITY, d2 = INFINITY; /* the two smallest neighbour differences */
+                const int k = csi_recon_window3_at(x, y, ow, oh, nb);
+                for (int j = 0; j < k; j++) {
+                    if (nb[j] == p || !cnt[nb[j]])
+                        continue;
+                    double e = 0.5 * (m[p] - m[nb[j]]) * (m[p] - m[nb[j]]);
+                    if (e < d1) {
+                        d2 = d1;
+                        d1 = e;
+                    } else if (e < d2) {
+                        d2 = e;
+                    }
+                }
+                if (isfinite(d2))
+                    s2 = d2 / CSI_BLEND_NBR_CAL;
+            }
+            rel[p] = s2 / sc[p];
+            /* the pixel's brightest sample (V and q still hold the least and largest of its
+             * samples here) */
+            top[p] = csi_fmax(fabs(V[p]), fabs(q[p]));
+        }
+}
+
+/* Pass 4: V, relative to the pixel's magnitude: the window's median per-sample variance over n_p
+ * (0 where no pixel around has a variance: m is then taken as it is), plus the error that the
+ * positions explain; then the relative bias of b seen at the pixel: d signed, q squared less
+ * noise, clipped at 0. */
+static void blend_pass4(void *arg, size_t r0, size_t r1)
+{
+    blend_state *b = arg;
+    const size_t ow = b->ow, oh = b->oh, *cnt = b->cnt;
+    const bool by_pixel = b->by_pixel, spread = b->spread;
+    const double eps = b->eps, cells = b->cells, *m = b->m, *ss = b->ss, *rel = b->rel, *top = b->top;
+    const double *sc = b->sc, *gbar = b->gbar, *vsum = b->vsum;
+    const float *plane = b->plane;
+    double *V = b->V, *q = b->q, *d = b->d;
+    size_t nb[9];
+    for (size_t y = r0; y < r1; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t p = y * ow + x, cp = cnt[p];
+            if (!cp) {
+                V[p] = INFINITY;
+            } else {
+                double fpc = 1.0 - (double)cp / cells;
+                double med = window_median(rel, nb, csi_recon_window3_at(x, y, ow, oh, nb));
+                if (!by_pixel && !isnan(rel[p]))
+                    med = csi_fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
+                double noise = fpc > 0 && isfinite(med) ? med / (double)cp * fpc : 0.0;
+                if (by_pixel && cp >= 2) {
+                    /* b only up to a few times the pixel's brightest sample (the header) */
+                    double bc = csi_fmin(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
+                    noise *= (0.5 * (m[p] * m[p] + bc * bc) + eps) / sc[p];
+                    const double s2 = ss[p] / (double)(cp - 1);
+                    if (spread && s2 > CSI_BLEND_SPREAD * vsum[p] / (double)cp) {
+                        /* a spread beyond the records' noise: at least the mean's own error (the
+                         * header) */
+                        const double strat = csi_fmin(1.0, 2.0 / sqrt((double)cp));
+                        noise = csi_fmax(noise, s2 / sc[p] / (double)cp * fpc * strat);
+                    }
+                }
+                double pe = gbar[p] - plane[p], mf = gbar[p] - m[p];
+                V[p] = noise + csi_fmin(csi_fmax(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
+            }
+            double diff = cp ? m[p] - plane[p] : 0.0;
+            d[p] = diff / sqrt(sc[p]);
+            double e = cp && isfinite(V[p]) ? d[p] * d[p] - V[p] : 0.0;
+            q[p] = e > 0 ? e : 0.0;
+        }
+}
+
+/* Pass 5: beta per pixel with samples (kept in rel, no longer needed). */
+static void blend_pass5(void *arg, size_t r0, size_t r1)
+{
+    blend_state *b = arg;
+    const size_t ow = b->ow, oh = b->oh, *cnt = b->cnt;
+    const double *V = b->V, *q = b->q, *d = b->d;
+    double *rel = b->rel;
+    size_t nb[9];
+    for (size_t y = r0; y < r1; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t p = y * ow + x;
+            rel[p] = NAN;
+            if (!cnt[p])
+                continue;
+            int k = csi_recon_window3_at(x, y, ow, oh, nb), kf = 0;
+            double qs = 0, ds = 0, vs = 0;
+            for (int j = 0; j < k; j++) {
+                qs += q[nb[j]];
+                if (cnt[nb[j]]) {
+                    ds += d[nb[j]];
+                    vs += isfinite(V[nb[j]]) ? V[nb[j]] : 0.0;
+                    kf++;
+                }
+            }
+            double dbar = ds / kf;
+            double B2 = csi_fmax(csi_fmax(qs / k, q[p]), dbar * dbar - vs / kf / kf);
+            rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
+        }
+}
+
+/* Pass 6: b onto the range of the 3 x 3 pixels' means (after the weights, which see b's distance
+ * from m before it), then the blend. */
+static void blend_pass6(void *arg, size_t r0, size_t r1)
+{
+    blend_state *b = arg;
+    const size_t ow = b->ow, oh = b->oh, *cnt = b->cnt;
+    const double cells = b->cells, *m = b->m, *rel = b->rel;
+    const bool clamp = b->clamp;
+    float *plane = b->plane;
+    size_t nb[9];
+    for (size_t y = r0; y < r1; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t p = y * ow + x;
+            const int k = csi_recon_window3_at(x, y, ow, oh, nb);
+            double ml = INFINITY, mh = -INFINITY;
+            for (int j = 0; j < k; j++)
+                if (cnt[nb[j]]) {
+                    ml = csi_fmin(ml, m[nb[j]]);
+                    mh = csi_fmax(mh, m[nb[j]]);
+                }
+            if (ml <= mh)
+                plane[p] = (float)csi_fmin(csi_fmax(plane[p], ml), mh);
+            double out = plane[p];
+            if (cnt[p] && (double)cnt[p] >= cells) {
+                out = m[p]; /* every cell sampled: the exact cell mean (beta is 1 here anyway) */
+            } else if (cnt[p]) {
+                out = plane[p] + rel[p] * (m[p] - plane[p]);
+            } else {
+                /* No sample of its own: the median of the neighbours' means, trusted as much as
+                 * the neighbours trust their own (b alone leaks a bright neighbour's light into an
+                 * unsampled dark pixel as readily as into a sampled one). */
+                double w[9], bs = 0;
+                int kf = 0;
+                for (int j = 0; j < k; j++)
+                    if (cnt[nb[j]]) {
+                        w[kf++] = m[nb[j]];
+                        bs += rel[nb[j]];
+                    }
+                if (kf)
+                    out = plane[p] + bs / kf * (median_upto9(w, kf) - plane[p]);
+            }
+            if (clamp && out < 0)
+                out = 0;
+            plane[p] = (float)out;
+        }
 }
 
 /* After each pass over the image or the samples: the caller hears of it, and may stop here (a
@@ -199,216 +496,76 @@ static double window_median(const double *a, const size_t *nb, int k)
 
 csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, const float *values,
                            uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                           const float *fine_at, size_t n, bool clamp, float *plane)
+                           const float *fine_at, size_t n, bool clamp, csi_row_pool *pool, float *plane)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
-    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const double cells = (double)bw * bh * g->t;
-    size_t *cnt = calloc(np, sizeof *cnt);
-    double *m = calloc(np, sizeof *m), *ss = calloc(np, sizeof *ss), *gbar = calloc(np, sizeof *gbar);
-    double *sc = malloc(np * sizeof *sc), *rel = malloc(np * sizeof *rel);
-    double *top = malloc(np * sizeof *top);
-    double *V = malloc(np * sizeof *V), *q = malloc(np * sizeof *q), *d = malloc(np * sizeof *d);
-    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
-    uint32_t *pix = malloc((n ? n : 1) * sizeof *pix); /* each sample's pixel, divided out once */
-    /* the sum of each pixel's given sample variances (calloc: 0, unused, when none is given) */
-    double *vsum = calloc(np, sizeof *vsum);
+    blend_state b = {
+        .opt = opt, .values = values, .fine_at = fine_at, .pos = pos, .channels = channels, .c = c,
+        .map = csi_recon_pixel_map(g), .n = n, .ow = ow, .oh = oh,
+        .cells = (double)(g->w / g->out_w) * (g->h / g->out_h) * g->t, .clamp = clamp, .plane = plane,
+        .spread = opt->blend_spread == CSI_SWITCH_ON && opt->sample_variance,
+    };
+    atomic_init(&b.unordered, false);
+    size_t *start = malloc((oh + 1) * sizeof *start);
+    b.start = start;
+    b.cnt = malloc(np * sizeof *b.cnt);
+    b.m = malloc(np * sizeof *b.m), b.ss = malloc(np * sizeof *b.ss), b.gbar = malloc(np * sizeof *b.gbar);
+    b.sc = malloc(np * sizeof *b.sc), b.rel = malloc(np * sizeof *b.rel), b.top = malloc(np * sizeof *b.top);
+    b.V = malloc(np * sizeof *b.V), b.q = malloc(np * sizeof *b.q), b.d = malloc(np * sizeof *b.d);
+    b.lo = malloc(np * sizeof *b.lo), b.hi = malloc(np * sizeof *b.hi);
+    b.pix = malloc((n ? n : 1) * sizeof *b.pix);
+    /* the sum of each pixel's given sample variances (0, unused, when none is given) */
+    b.vsum = malloc(np * sizeof *b.vsum);
     csi_status s = CSI_OK;
     int passes = 0;
-    if (!cnt || !m || !ss || !gbar || !sc || !rel || !top || !V || !q || !d || !lo || !hi || !pix ||
-        !vsum) {
+    if (!start || !b.cnt || !b.m || !b.ss || !b.gbar || !b.sc || !b.rel || !b.top || !b.V || !b.q || !b.d ||
+        !b.lo || !b.hi || !b.pix || !b.vsum) {
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel blend");
         goto done;
     }
-    for (size_t i = 0; i < n; i++)
-        pix[i] = (uint32_t)csi_recon_pixel_of(pos[i], bw, bh, ow);
-    /* The range of the samples in each pixel and its 8 neighbours (in V, q as scratch first):
-     * b and the fine estimate at the samples are projected onto it. */
-    for (size_t p = 0; p < np; p++)
-        V[p] = INFINITY, q[p] = -INFINITY;
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = pix[i];
-        V[p] = lesser(V[p], values[i * channels + c]);
-        q[p] = greater(q[p], values[i * channels + c]);
-    }
-    /* The pixels' means and (two passes, in sample order: deterministic) sums of squares. */
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = pix[i];
-        cnt[p]++;
-        m[p] += values[i * channels + c];
+    /* The pixels' sample ranges, means and counts: in bands of rows where the samples are in row
+     * order (each pixel's sums in sample order either way: deterministic), else in one pass. */
+    csi_recon_sample_rows(g, pos, n, start);
+    csi_row_pool_run(pool, oh, ow, blend_pass1, &b);
+    const bool ordered = !atomic_load(&b.unordered);
+    if (!ordered) {
+        blend_pixels_clear(&b, 0, np);
+        blend_samples_first(&b, 0, n, 0, oh, false);
+        sums_to_means(b.m, b.cnt, 0, np);
     }
     size_t multi = 0, filled = 0;
     double mabs = 0;
-    for (size_t p = 0; p < np; p++) {
-        if (cnt[p]) {
-            m[p] /= (double)cnt[p];
-            mabs += fabs(m[p]);
+    for (size_t p = 0; p < np; p++) { /* in pixel order, on this thread: the same sum */
+        if (b.cnt[p]) {
+            mabs += fabs(b.m[p]);
             filled++;
         }
-        multi += cnt[p] >= 2;
+        multi += b.cnt[p] >= 2;
     }
     BLEND_PASS_DONE();
-    /* b onto the samples' range. */
-    size_t nb[9];
-    for (size_t p = 0; p < np; p++) {
-        double l = INFINITY, h = -INFINITY;
-        int k = csi_recon_window3(p, ow, oh, nb);
-        for (int j = 0; j < k; j++) {
-            l = lesser(l, V[nb[j]]);
-            h = greater(h, q[nb[j]]);
-        }
-        lo[p] = l <= h ? (float)l : -INFINITY; /* no sample around: nothing to project onto */
-        hi[p] = l <= h ? (float)h : INFINITY;
-        plane[p] = lesserf(greaterf(plane[p], lo[p]), hi[p]);
+    if (ordered) {
+        csi_row_pool_run(pool, oh, ow, blend_pass2, &b);
+    } else {
+        csi_row_pool_run(pool, oh, ow, blend_pass2_range, &b);
+        blend_pixels_second_clear(&b, 0, np);
+        blend_samples_second(&b, 0, n);
+        sums_to_means(b.gbar, b.cnt, 0, np);
     }
     BLEND_PASS_DONE();
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = pix[i];
-        gbar[p] += lesserf(greaterf(fine_at[i], lo[p]), hi[p]);
-    }
-    for (size_t p = 0; p < np; p++)
-        if (cnt[p])
-            gbar[p] /= (double)cnt[p];
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = pix[i];
-        double e = values[i * channels + c] - m[p];
-        ss[p] += e * e;
-        if (opt->blend_spread == CSI_SWITCH_ON && opt->sample_variance)
-            vsum[p] += opt->sample_variance[i * channels + c];
-    }
     BLEND_PASS_DONE();
-    const bool by_pixel = 2 * multi >= np;
-    const double eps = greater(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
-    for (size_t p = 0; p < np; p++) {
-        const double b = plane[p], mm = cnt[p] ? m[p] : b;
-        sc[p] = 0.5 * (mm * mm + b * b) + eps;
-        double s2 = NAN;
-        if (by_pixel) {
-            if (cnt[p] >= 2)
-                s2 = ss[p] / (double)(cnt[p] - 1);
-        } else if (cnt[p]) {
-            double d1 = INFINITY, d2 = INFINITY; /* the two smallest neighbour differences */
-            int k = csi_recon_window3(p, ow, oh, nb);
-            for (int j = 0; j < k; j++) {
-                if (nb[j] == p || !cnt[nb[j]])
-                    continue;
-                double e = 0.5 * (m[p] - m[nb[j]]) * (m[p] - m[nb[j]]);
-                if (e < d1) {
-                    d2 = d1;
-                    d1 = e;
-                } else if (e < d2) {
-                    d2 = e;
-                }
-            }
-            if (isfinite(d2))
-                s2 = d2 / CSI_BLEND_NBR_CAL;
-        }
-        rel[p] = s2 / sc[p];
-        /* the pixel's brightest sample (V and q still hold the least and largest of its
-         * samples here) */
-        top[p] = greater(fabs(V[p]), fabs(q[p]));
-    }
+    b.by_pixel = 2 * multi >= np;
+    b.eps = csi_fmax(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
+    csi_row_pool_run(pool, oh, ow, blend_pass3, &b);
     BLEND_PASS_DONE();
-    /* V, relative to the pixel's magnitude: the window's median per-sample variance over n_p
-     * (0 where no pixel around has a variance: m is then taken as it is), plus the error that
-     * the positions explain. */
-    for (size_t p = 0; p < np; p++) {
-        if (!cnt[p]) {
-            V[p] = INFINITY;
-            continue;
-        }
-        double fpc = 1.0 - (double)cnt[p] / cells;
-        double med = window_median(rel, nb, csi_recon_window3(p, ow, oh, nb));
-        if (!by_pixel && !isnan(rel[p]))
-            med = lesser(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
-        double noise = fpc > 0 && isfinite(med) ? med / (double)cnt[p] * fpc : 0.0;
-        if (by_pixel && cnt[p] >= 2) {
-            /* b only up to a few times the pixel's brightest sample (the header) */
-            double bc = lesser(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
-            noise *= (0.5 * (m[p] * m[p] + bc * bc) + eps) / sc[p];
-            const double s2 = ss[p] / (double)(cnt[p] - 1);
-            if (opt->blend_spread == CSI_SWITCH_ON && opt->sample_variance &&
-                s2 > CSI_BLEND_SPREAD * vsum[p] / (double)cnt[p]) {
-                /* a spread beyond the records' noise: at least the mean's own error (the header) */
-                const double strat = lesser(1.0, 2.0 / sqrt((double)cnt[p]));
-                noise = greater(noise, s2 / sc[p] / (double)cnt[p] * fpc * strat);
-            }
-        }
-        double pe = gbar[p] - plane[p], mf = gbar[p] - m[p];
-        V[p] = noise + lesser(greater(pe * pe - mf * mf, 0.0), 0.25 * m[p] * m[p]) / sc[p];
-    }
+    csi_row_pool_run(pool, oh, ow, blend_pass4, &b);
     BLEND_PASS_DONE();
-    /* The relative bias of b seen at each pixel: d signed, q squared less noise, clipped at 0. */
-    for (size_t p = 0; p < np; p++) {
-        double diff = cnt[p] ? m[p] - plane[p] : 0.0;
-        d[p] = diff / sqrt(sc[p]);
-        double e = cnt[p] && isfinite(V[p]) ? d[p] * d[p] - V[p] : 0.0;
-        q[p] = e > 0 ? e : 0.0;
-    }
-    /* beta per pixel with samples (kept in rel, no longer needed), then the blend. */
-    for (size_t p = 0; p < np; p++) {
-        rel[p] = NAN;
-        if (!cnt[p])
-            continue;
-        int k = csi_recon_window3(p, ow, oh, nb), kf = 0;
-        double qs = 0, ds = 0, vs = 0;
-        for (int j = 0; j < k; j++) {
-            qs += q[nb[j]];
-            if (cnt[nb[j]]) {
-                ds += d[nb[j]];
-                vs += isfinite(V[nb[j]]) ? V[nb[j]] : 0.0;
-                kf++;
-            }
-        }
-        double dbar = ds / kf;
-        double B2 = greater(greater(qs / k, q[p]), dbar * dbar - vs / kf / kf);
-        rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
-    }
+    csi_row_pool_run(pool, oh, ow, blend_pass5, &b);
     BLEND_PASS_DONE();
-    /* b onto the range of the 3 x 3 pixels' means (after the weights, which see b's distance
-     * from m before it), then the blend. */
-    for (size_t p = 0; p < np; p++) {
-        double ml = INFINITY, mh = -INFINITY;
-        int k = csi_recon_window3(p, ow, oh, nb);
-        for (int j = 0; j < k; j++)
-            if (cnt[nb[j]]) {
-                ml = lesser(ml, m[nb[j]]);
-                mh = greater(mh, m[nb[j]]);
-            }
-        if (ml <= mh)
-            plane[p] = (float)lesser(greater(plane[p], ml), mh);
-    }
+    csi_row_pool_run(pool, oh, ow, blend_pass6, &b);
     BLEND_PASS_DONE();
-    for (size_t p = 0; p < np; p++) {
-        double out = plane[p];
-        if (cnt[p] && (double)cnt[p] >= cells) {
-            out = m[p]; /* every cell sampled: the exact cell mean (beta is 1 here anyway) */
-        } else if (cnt[p]) {
-            out = plane[p] + rel[p] * (m[p] - plane[p]);
-        } else {
-            /* No sample of its own: the median of the neighbours' means, trusted as much as
-             * the neighbours trust their own (b alone leaks a bright neighbour's light into an
-             * unsampled dark pixel as readily as into a sampled one). */
-            double w[9], bs = 0;
-            int k = csi_recon_window3(p, ow, oh, nb), kf = 0;
-            for (int j = 0; j < k; j++)
-                if (cnt[nb[j]]) {
-                    w[kf++] = m[nb[j]];
-                    bs += rel[nb[j]];
-                }
-            if (kf) {
-                sort_window(w, kf);
-                double med = kf % 2 ? w[kf / 2] : 0.5 * (w[kf / 2 - 1] + w[kf / 2]);
-                out = plane[p] + bs / kf * (med - plane[p]);
-            }
-        }
-        if (clamp && out < 0)
-            out = 0;
-        plane[p] = (float)out;
-    }
 done:
-    free(cnt), free(m), free(ss), free(gbar), free(sc), free(rel), free(V), free(q), free(d);
-    free(top), free(lo), free(hi), free(pix), free(vsum);
+    free(start), free(b.cnt), free(b.m), free(b.ss), free(b.gbar), free(b.sc), free(b.rel), free(b.V);
+    free(b.q), free(b.d), free(b.top), free(b.lo), free(b.hi), free(b.pix), free(b.vsum);
     return s;
 }
 #undef BLEND_PASS_DONE

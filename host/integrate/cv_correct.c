@@ -50,12 +50,13 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
         if (box)
             memcpy(box, plane, np * sizeof *box);
         if (s == CSI_OK)
-            s = csi_recon_blend(g, opt, values, channels, c, pos, gs, n, clamp, plane);
+            s = csi_recon_blend(g, opt, values, channels, c, pos, gs, n, clamp, csi_ctx_row_pool(ctx), plane);
         /* a second host pass over every pixel and sample */
         if (s == CSI_OK && box)
             s = csi_recon_progress_channel(opt, "fit trust", c, channels);
         if (s == CSI_OK && box)
-            s = csi_recon_fit_trust(g, values, channels, c, pos, gs, n, opt->cv_n0, box, plane);
+            s = csi_recon_fit_trust(g, values, channels, c, pos, gs, n, opt->cv_n0, box, csi_ctx_row_pool(ctx),
+                                    plane);
         free(box);
     } else if (s == CSI_OK)
         cv_correct(g, opt->cv_n0, values, channels, c, pos, gs, n, sum, cnt, plane);

@@ -72,6 +72,7 @@
 
 #include <limits.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -113,7 +114,7 @@
 
 static double ramp(double x, double lo, double hi)
 {
-    return fmin(fmax((x - lo) / (hi - lo), 0.0), 1.0);
+    return csi_fmin(csi_fmax((x - lo) / (hi - lo), 0.0), 1.0);
 }
 
 /* How far the bright side beside pixel p goes on past it: over p's sampled neighbours q at or
@@ -146,7 +147,7 @@ static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const 
             continue;
         const size_t r = (size_t)ry * ow + (size_t)rx;
         if (cnt[r])
-            most = fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
+            most = csi_fmax(most, (b[r] - lo) / (b[nb[i]] - lo));
     }
     return most;
 }
@@ -261,88 +262,174 @@ static double channel_mean(const float *image, size_t np, uint32_t channels, siz
     return v / channels;
 }
 
-csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
-                            const float *values, size_t n, float *image)
+/* One call's inputs and per-pixel arrays, for its passes over bands of rows (csi/row_pool.h). */
+typedef struct empty_state {
+    const float *values;
+    const csi_sample_pos *pos;
+    const size_t *start; /* each row's samples (csi_recon_sample_rows) */
+    uint32_t channels;
+    csi_pixel_map map;
+    size_t ow, oh, np;
+    double e;
+    uint32_t *cnt;
+    double *m, *b;
+    float *image;
+    atomic_bool unordered; /* a band's samples were not in row order */
+} empty_state;
+
+/* Each pixel's count and sums of samples i0 .. i1 - 1, per channel; a band of rows [r0, r1)
+ * (check) stops, false, at a sample outside its rows' order before writing anything of it
+ * (csi_recon_band_pixel). */
+static bool empty_samples(empty_state *t, size_t i0, size_t i1, size_t r0, size_t r1, bool check)
 {
-    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
-    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    uint32_t *cnt = calloc(np, sizeof *cnt);
-    double *m = calloc(np * channels, sizeof *m), *b = calloc(np, sizeof *b);
-    if (!cnt || !m || !b) {
-        free(cnt), free(m), free(b);
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
-    }
-    double sabs = 0;
-    for (size_t i = 0; i < n; i++) { /* in sample order: deterministic */
-        size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
+    const float *values = t->values;
+    const uint32_t channels = t->channels;
+    const size_t np = t->np;
+    const csi_pixel_map map = t->map;
+    uint32_t *cnt = t->cnt;
+    double *m = t->m;
+    size_t last = r0;
+    for (size_t i = i0; i < i1; i++) { /* in sample order: deterministic */
+        const size_t p = check ? csi_recon_band_pixel(&map, t->pos[i], r1, &last)
+                               : csi_recon_pixel_at(&map, t->pos[i]);
+        if (p == SIZE_MAX)
+            return false;
         cnt[p]++;
-        for (uint32_t c = 0; c < channels; c++) {
+        for (uint32_t c = 0; c < channels; c++)
             m[(size_t)c * np + p] += values[i * channels + c];
-            sabs += fabs((double)values[i * channels + c]);
-        }
     }
-    for (size_t p = 0; p < np; p++) {
-        if (!cnt[p])
+    return true;
+}
+
+static void empty_clear(empty_state *t, size_t p0, size_t p1)
+{
+    for (size_t p = p0; p < p1; p++) {
+        t->cnt[p] = 0, t->b[p] = 0;
+        for (uint32_t c = 0; c < t->channels; c++)
+            t->m[(size_t)c * t->np + p] = 0;
+    }
+}
+
+static void empty_pass_samples(void *arg, size_t r0, size_t r1)
+{
+    empty_state *t = arg;
+    empty_clear(t, r0 * t->ow, r1 * t->ow);
+    if (!empty_samples(t, t->start[r0], t->start[r1], r0, r1, true))
+        atomic_store(&t->unordered, true);
+}
+
+/* The pixels' means, and their mean over the channels. */
+static void empty_pass_means(void *arg, size_t r0, size_t r1)
+{
+    empty_state *t = arg;
+    const uint32_t channels = t->channels;
+    const size_t np = t->np;
+    for (size_t p = r0 * t->ow; p < r1 * t->ow; p++) {
+        if (!t->cnt[p])
             continue;
         for (uint32_t c = 0; c < channels; c++) {
-            m[(size_t)c * np + p] /= cnt[p];
-            b[p] += m[(size_t)c * np + p];
+            t->m[(size_t)c * np + p] /= t->cnt[p];
+            t->b[p] += t->m[(size_t)c * np + p];
         }
-        b[p] = fmax(b[p] / channels, 0.0);
+        t->b[p] = csi_fmax(t->b[p] / channels, 0.0);
     }
-    const double e = EMPTY_EPS_REL * (n ? sabs / (double)n / channels : 0.0);
-    for (size_t p = 0; p < np; p++) {
-        if (cnt[p])
-            continue;
-        size_t nb[9];
-        const int k = csi_recon_window3(p, ow, oh, nb);
-        double lo = INFINITY, hi = -INFINITY;
-        for (int j = 0; j < k; j++)
-            if (cnt[nb[j]])
-                lo = fmin(lo, b[nb[j]]), hi = fmax(hi, b[nb[j]]);
-        if (!(hi > lo))
-            continue;
-        const double f = (channel_mean(image, np, channels, p) - lo) / (hi - lo);
-        const double ratio = log((hi + e) / (lo + e));
-        const double step = ramp(ratio, log(EMPTY_R0), log(EMPTY_R1));
-        if (step <= 0)
-            continue;
-        const double bt = sqrt((lo + e) * (hi + e)) - e; /* bright: above the step's geometric midpoint */
-        const double alone = 1.0 - ramp(beyond(p, ow, oh, cnt, b, lo, bt), EMPTY_BEYOND0, EMPTY_BEYOND1);
-        const double F = EMPTY_F + (EMPTY_F_ALONE - EMPTY_F) * alone;
-        const double w = step * (1.0 - ramp(f, 0.5 * F, F));
-        for (uint32_t c = 0; c < channels && w > 0; c++) {
-            double d = INFINITY;
+}
+
+/* The rule at each pixel of the band without a sample: it reads its neighbours' means and writes
+ * its own pixel only. */
+static void empty_pass_pixels(void *arg, size_t r0, size_t r1)
+{
+    empty_state *t = arg;
+    const uint32_t channels = t->channels, *cnt = t->cnt;
+    const size_t ow = t->ow, oh = t->oh, np = t->np;
+    const double e = t->e, *m = t->m, *b = t->b;
+    float *image = t->image;
+    for (size_t py = r0; py < r1; py++)
+        for (size_t px = 0; px < ow; px++) {
+            const size_t p = py * ow + px;
+            if (cnt[p])
+                continue;
+            size_t nb[9];
+            const int k = csi_recon_window3_at(px, py, ow, oh, nb);
+            double lo = INFINITY, hi = -INFINITY;
             for (int j = 0; j < k; j++)
                 if (cnt[nb[j]])
-                    d = fmin(d, m[(size_t)c * np + nb[j]]);
-            float *x = image + (size_t)c * np + p;
-            if (*x > d)
-                *x = (float)(*x - w * (*x - d));
-        }
-        /* then the line the pixel lies on, from the value the fraction's rule left */
-        const double split = sqrt(fmax(lo, EMPTY_SIDE_FLOOR * hi) * hi);
-        const int d = dark_line(p, ow, oh, cnt, b, split, channel_mean(image, np, channels, p));
-        if (d >= 0) {
-            const size_t a = sampled_at(p, DIRS[d].pair[0][0], DIRS[d].pair[0][1], ow, oh, cnt);
-            const size_t z = sampled_at(p, DIRS[d].pair[1][0], DIRS[d].pair[1][1], ow, oh, cnt);
-            for (uint32_t c = 0; c < channels; c++) {
-                const double t = 0.5 * (m[(size_t)c * np + a] + m[(size_t)c * np + z]);
+                    lo = csi_fmin(lo, b[nb[j]]), hi = csi_fmax(hi, b[nb[j]]);
+            if (!(hi > lo))
+                continue;
+            const double f = (channel_mean(image, np, channels, p) - lo) / (hi - lo);
+            const double ratio = log((hi + e) / (lo + e));
+            const double step = ramp(ratio, log(EMPTY_R0), log(EMPTY_R1));
+            if (step <= 0)
+                continue;
+            const double bt = sqrt((lo + e) * (hi + e)) - e; /* bright: above the step's geometric midpoint */
+            const double alone = 1.0 - ramp(beyond(p, ow, oh, cnt, b, lo, bt), EMPTY_BEYOND0, EMPTY_BEYOND1);
+            const double F = EMPTY_F + (EMPTY_F_ALONE - EMPTY_F) * alone;
+            const double w = step * (1.0 - ramp(f, 0.5 * F, F));
+            for (uint32_t c = 0; c < channels && w > 0; c++) {
+                double d = INFINITY;
+                for (int j = 0; j < k; j++)
+                    if (cnt[nb[j]])
+                        d = csi_fmin(d, m[(size_t)c * np + nb[j]]);
                 float *x = image + (size_t)c * np + p;
-                if (*x > t)
-                    *x = (float)(*x - step * (*x - t));
+                if (*x > d)
+                    *x = (float)(*x - w * (*x - d));
             }
+            /* then the line the pixel lies on, from the value the fraction's rule left */
+            const double split = sqrt(csi_fmax(lo, EMPTY_SIDE_FLOOR * hi) * hi);
+            const int d = dark_line(p, ow, oh, cnt, b, split, channel_mean(image, np, channels, p));
+            if (d >= 0) {
+                const size_t a = sampled_at(p, DIRS[d].pair[0][0], DIRS[d].pair[0][1], ow, oh, cnt);
+                const size_t z = sampled_at(p, DIRS[d].pair[1][0], DIRS[d].pair[1][1], ow, oh, cnt);
+                for (uint32_t c = 0; c < channels; c++) {
+                    const double mid = 0.5 * (m[(size_t)c * np + a] + m[(size_t)c * np + z]);
+                    float *x = image + (size_t)c * np + p;
+                    if (*x > mid)
+                        *x = (float)(*x - step * (*x - mid));
+                }
+            }
+            /* last, the cap at the step's geometric midpoint bt where the row and the column do not
+             * both place the pixel inside the bright side */
+            const double capw = ramp(ratio, log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
+            const double here = channel_mean(image, np, channels, p);
+            if (capw <= 0 || here <= bt ||
+                inside_bright(p, ow, oh, cnt, b, sqrt(csi_fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi)))
+                continue;
+            const double scale = 1.0 - capw * (1.0 - bt / here);
+            for (uint32_t c = 0; c < channels; c++)
+                image[(size_t)c * np + p] *= (float)scale;
         }
-        /* last, the cap at the step's geometric midpoint bt where the row and the column do not
-         * both place the pixel inside the bright side */
-        const double capw = ramp(ratio, log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
-        const double here = channel_mean(image, np, channels, p);
-        if (capw <= 0 || here <= bt || inside_bright(p, ow, oh, cnt, b, sqrt(fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi)))
-            continue;
-        const double scale = 1.0 - capw * (1.0 - bt / here);
-        for (uint32_t c = 0; c < channels; c++)
-            image[(size_t)c * np + p] *= (float)scale;
+}
+
+csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                            const float *values, size_t n, csi_row_pool *pool, float *image)
+{
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    empty_state t = {
+        .values = values, .pos = pos, .channels = channels, .map = csi_recon_pixel_map(g), .ow = ow,
+        .oh = oh, .np = np, .image = image,
+    };
+    atomic_init(&t.unordered, false);
+    size_t *start = malloc((oh + 1) * sizeof *start);
+    t.start = start;
+    t.cnt = malloc(np * sizeof *t.cnt);
+    t.m = malloc(np * channels * sizeof *t.m), t.b = malloc(np * sizeof *t.b);
+    if (!start || !t.cnt || !t.m || !t.b) {
+        free(start), free(t.cnt), free(t.m), free(t.b);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    free(cnt), free(m), free(b);
+    csi_recon_sample_rows(g, pos, n, start);
+    csi_row_pool_run(pool, oh, ow, empty_pass_samples, &t);
+    if (atomic_load(&t.unordered)) {
+        empty_clear(&t, 0, np);
+        empty_samples(&t, 0, n, 0, oh, false);
+    }
+    double sabs = 0;
+    for (size_t i = 0; i < n * channels; i++) /* in sample order: the same sum */
+        sabs += fabs((double)values[i]);
+    csi_row_pool_run(pool, oh, ow, empty_pass_means, &t);
+    t.e = EMPTY_EPS_REL * (n ? sabs / (double)n / channels : 0.0);
+    csi_row_pool_run(pool, oh, ow, empty_pass_pixels, &t);
+    free(start), free(t.cnt), free(t.m), free(t.b);
     return CSI_OK;
 }

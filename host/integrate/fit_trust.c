@@ -34,6 +34,7 @@
  * for non-negative samples; pixels with no sample or more than one are untouched, and so is a
  * pixel of a single cell (its one sample is its exact mean). */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 
 #include "internal.h"
@@ -56,81 +57,139 @@
 /* 1 up to a ratio of R0, 0 from R1, linear in log(ratio) between. */
 static double ratio_weight(double ratio)
 {
-    return fmin(fmax(log(TRUST_R1 / ratio) / log(TRUST_R1 / TRUST_R0), 0.0), 1.0);
+    return csi_fmin(csi_fmax(log(TRUST_R1 / ratio) / log(TRUST_R1 / TRUST_R0), 0.0), 1.0);
+}
+
+/* One call's inputs and per-pixel arrays, for its passes over bands of rows (csi/row_pool.h). */
+typedef struct trust_state {
+    const float *values, *fine_at, *box;
+    const csi_sample_pos *pos;
+    const size_t *start; /* each row's samples (csi_recon_sample_rows) */
+    uint32_t channels, c;
+    csi_pixel_map map;
+    size_t ow, oh;
+    double n0, e, eps;
+    uint32_t *cnt;
+    double *y, *gx;
+    float *lo, *hi, *plane;
+    atomic_bool unordered; /* a band's samples were not in row order */
+} trust_state;
+
+static void trust_clear(trust_state *t, size_t p0, size_t p1)
+{
+    for (size_t p = p0; p < p1; p++)
+        t->cnt[p] = 0, t->y[p] = 0, t->gx[p] = 0, t->lo[p] = INFINITY, t->hi[p] = -INFINITY;
+}
+
+/* Each pixel's count, sums of values and of the fit at them, least and largest value, over
+ * samples i0 .. i1 - 1; a band of rows [r0, r1) (check) stops, false, at a sample outside its
+ * rows' order before writing anything of it (csi_recon_band_pixel). */
+static bool trust_samples(trust_state *t, size_t i0, size_t i1, size_t r0, size_t r1, bool check)
+{
+    size_t last = r0;
+    for (size_t i = i0; i < i1; i++) { /* in sample order: deterministic */
+        const size_t p = check ? csi_recon_band_pixel(&t->map, t->pos[i], r1, &last)
+                               : csi_recon_pixel_at(&t->map, t->pos[i]);
+        if (p == SIZE_MAX)
+            return false;
+        const float v = t->values[i * t->channels + t->c];
+        t->cnt[p]++;
+        t->y[p] += v;
+        t->gx[p] += t->fine_at[i];
+        t->lo[p] = csi_fminf(t->lo[p], v);
+        t->hi[p] = csi_fmaxf(t->hi[p], v);
+    }
+    return true;
+}
+
+static void trust_pass_samples(void *arg, size_t r0, size_t r1)
+{
+    trust_state *t = arg;
+    trust_clear(t, r0 * t->ow, r1 * t->ow);
+    if (!trust_samples(t, t->start[r0], t->start[r1], r0, r1, true))
+        atomic_store(&t->unordered, true);
+}
+
+/* The fit's trust at each single-sample pixel, and the move towards the control variate. */
+static void trust_pass_pixels(void *arg, size_t r0, size_t r1)
+{
+    trust_state *t = arg;
+    const size_t ow = t->ow, oh = t->oh;
+    size_t nb[9];
+    for (size_t py = r0; py < r1; py++)
+        for (size_t px = 0; px < ow; px++) {
+            const size_t p = py * ow + px;
+            if (t->cnt[p] != 1)
+                continue;
+            float l = INFINITY, h = -INFINITY, ho = -INFINITY; /* ho: the 8 neighbours' maximum */
+            const int k = csi_recon_window3_at(px, py, ow, oh, nb);
+            for (int j = 0; j < k; j++) {
+                l = csi_fminf(l, t->lo[nb[j]]);
+                h = csi_fmaxf(h, t->hi[nb[j]]);
+                if (nb[j] != p)
+                    ho = csi_fmaxf(ho, t->hi[nb[j]]);
+            }
+            /* CV with one sample, as cv_correct computes it, then onto the samples' range. */
+            float cv = (float)((double)t->box[p] + (t->y[p] - t->gx[p]) / (1.0 + t->n0));
+            cv = csi_fminf(csi_fmaxf(cv, l), h);
+            const double e = t->e;
+            double w_dark = ratio_weight((h + e) / (csi_fmax(t->lo[p], 0.0) + e));
+            double w_peak = ratio_weight((csi_fmax(t->lo[p], 0.0) + e) / (csi_fmax(ho, 0.0) + e));
+            double r = t->y[p] - t->gx[p], e2 = r * r / (t->y[p] * t->y[p] + t->eps);
+            double w = w_dark * w_peak * (1.0 / (1.0 + e2 / (TRUST_TAU * TRUST_TAU)));
+            t->plane[p] = (float)((1.0 - w) * t->plane[p] + w * cv);
+        }
 }
 
 csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t channels,
                                uint32_t c, const csi_sample_pos *pos, const float *fine_at,
-                               size_t n, double n0, const float *box, float *plane)
+                               size_t n, double n0, const float *box, csi_row_pool *pool, float *plane)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
-    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    uint32_t *cnt = calloc(np, sizeof *cnt);
-    double *y = calloc(np, sizeof *y), *gx = calloc(np, sizeof *gx);
-    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
-    if (!cnt || !y || !gx || !lo || !hi) {
-        free(cnt), free(y), free(gx), free(lo), free(hi);
+    trust_state t = {
+        .values = values, .fine_at = fine_at, .box = box, .pos = pos, .channels = channels, .c = c,
+        .map = csi_recon_pixel_map(g), .ow = ow, .oh = oh, .n0 = n0, .plane = plane,
+    };
+    atomic_init(&t.unordered, false);
+    size_t *start = malloc((oh + 1) * sizeof *start);
+    t.start = start;
+    t.cnt = malloc(np * sizeof *t.cnt);
+    t.y = malloc(np * sizeof *t.y), t.gx = malloc(np * sizeof *t.gx);
+    t.lo = malloc(np * sizeof *t.lo), t.hi = malloc(np * sizeof *t.hi);
+    if (!start || !t.cnt || !t.y || !t.gx || !t.lo || !t.hi) {
+        free(start), free(t.cnt), free(t.y), free(t.gx), free(t.lo), free(t.hi);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the fit's trust");
     }
-    double sabs = 0;
-    for (size_t p = 0; p < np; p++)
-        lo[p] = INFINITY, hi[p] = -INFINITY;
-    for (size_t i = 0; i < n; i++) { /* in sample order: deterministic */
-        size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
-        float v = values[i * channels + c];
-        cnt[p]++;
-        y[p] += v;
-        gx[p] += fine_at[i];
-        lo[p] = fminf(lo[p], v);
-        hi[p] = fmaxf(hi[p], v);
-        sabs += fabs((double)v);
+    csi_recon_sample_rows(g, pos, n, start);
+    csi_row_pool_run(pool, oh, ow, trust_pass_samples, &t);
+    if (atomic_load(&t.unordered)) {
+        trust_clear(&t, 0, np);
+        trust_samples(&t, 0, n, 0, oh, false);
     }
     /* Where most pixels hold two samples or more the blend has measured its noise within the
      * pixels (blend.c), and the few single-sample pixels among them are its business: moving
      * them changed the Mitsuba dumps' Poisson-disk 4-spp cells by < 0.1%, in both directions. */
     size_t multi = 0;
     for (size_t p = 0; p < np; p++)
-        multi += cnt[p] >= 2;
-    if (2 * multi >= np) {
-        free(cnt), free(y), free(gx), free(lo), free(hi);
-        return CSI_OK;
-    }
-    double mabs = 0;
-    size_t filled = 0;
-    for (size_t p = 0; p < np; p++)
-        if (cnt[p]) {
-            y[p] /= cnt[p];
-            gx[p] /= cnt[p];
-            mabs += fabs(y[p]);
-            filled++;
-        }
-    const double e = TRUST_EPS_REL * (n ? sabs / (double)n : 0.0);
-    const double eps = pow(filled ? TRUST_EPS_REL * mabs / (double)filled : 0.0, 2);
-    const bool full = (uint64_t)bw * bh * g->t <= 1; /* one cell per pixel: the sample is exact */
-    for (size_t p = 0; p < np; p++) {
-        if (cnt[p] != 1 || full)
-            continue;
-        long px = (long)(p % ow), py = (long)(p / ow);
-        float l = INFINITY, h = -INFINITY, ho = -INFINITY; /* ho: the 8 neighbours' maximum */
-        for (long dy = -1; dy <= 1; dy++)
-            for (long dx = -1; dx <= 1; dx++) {
-                long x = px + dx, yy = py + dy;
-                if (x < 0 || yy < 0 || x >= (long)ow || yy >= (long)oh)
-                    continue;
-                l = fminf(l, lo[(size_t)yy * ow + (size_t)x]);
-                h = fmaxf(h, hi[(size_t)yy * ow + (size_t)x]);
-                if (dx || dy)
-                    ho = fmaxf(ho, hi[(size_t)yy * ow + (size_t)x]);
+        multi += t.cnt[p] >= 2;
+    const bool full = (uint64_t)t.map.bw * t.map.bh * g->t <= 1; /* one cell per pixel: the sample is exact */
+    if (2 * multi < np && !full) {
+        double sabs = 0;
+        for (size_t i = 0; i < n; i++) /* in sample order: the same sum */
+            sabs += fabs((double)values[i * channels + c]);
+        double mabs = 0;
+        size_t filled = 0;
+        for (size_t p = 0; p < np; p++)
+            if (t.cnt[p]) {
+                t.y[p] /= t.cnt[p];
+                t.gx[p] /= t.cnt[p];
+                mabs += fabs(t.y[p]);
+                filled++;
             }
-        /* CV with one sample, as cv_correct computes it, then onto the samples' range. */
-        float cv = (float)((double)box[p] + (y[p] - gx[p]) / (1.0 + n0));
-        cv = fminf(fmaxf(cv, l), h);
-        double w_dark = ratio_weight((h + e) / (fmax(lo[p], 0.0) + e));
-        double w_peak = ratio_weight((fmax(lo[p], 0.0) + e) / (fmax(ho, 0.0) + e));
-        double r = y[p] - gx[p], e2 = r * r / (y[p] * y[p] + eps);
-        double w = w_dark * w_peak * (1.0 / (1.0 + e2 / (TRUST_TAU * TRUST_TAU)));
-        plane[p] = (float)((1.0 - w) * plane[p] + w * cv);
+        t.e = TRUST_EPS_REL * (n ? sabs / (double)n : 0.0);
+        t.eps = pow(filled ? TRUST_EPS_REL * mabs / (double)filled : 0.0, 2);
+        csi_row_pool_run(pool, oh, ow, trust_pass_pixels, &t);
     }
-    free(cnt), free(y), free(gx), free(lo), free(hi);
+    free(start), free(t.cnt), free(t.y), free(t.gx), free(t.lo), free(t.hi);
     return CSI_OK;
 }

@@ -3,6 +3,10 @@
 #ifndef CSI_INTEGRATE_INTERNAL_H
 #define CSI_INTEGRATE_INTERNAL_H
 
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+
 #include "csi/linop.h"
 #include "csi/plan.h"
 #include "csi/reconstruct.h"
@@ -246,12 +250,31 @@ static inline size_t csi_recon_pixel_of(csi_sample_pos p, uint32_t bw, uint32_t 
     return (size_t)(p.y / bh) * ow + p.x / bw;
 }
 
-/* The 3 x 3 neighbourhood of pixel p (row-major, ow x oh) clipped to the image: its pixel indices
- * in row order, p among them, and their count. */
-static inline int csi_recon_window3(size_t p, size_t ow, size_t oh, size_t nb[9])
+/* fmin and fmax inlined (the library's are calls), with their results for every argument: the
+ * argument that is not NaN, and of two equal ones (+0 and -0) the second, as glibc's. */
+static inline double csi_fmin(double a, double b)
 {
-    long px = (long)(p % ow), py = (long)(p / ow);
-    if (px > 0 && py > 0 && px + 1 < (long)ow && py + 1 < (long)oh) {
+    return a < b ? a : isnan(b) ? a : b;
+}
+static inline double csi_fmax(double a, double b)
+{
+    return a > b ? a : isnan(b) ? a : b;
+}
+static inline float csi_fminf(float a, float b)
+{
+    return a < b ? a : isnan(b) ? a : b;
+}
+static inline float csi_fmaxf(float a, float b)
+{
+    return a > b ? a : isnan(b) ? a : b;
+}
+
+/* The 3 x 3 neighbourhood of the pixel at column x, row y (row-major, ow x oh) clipped to the
+ * image: its pixel indices in row order, the pixel among them, and their count. */
+static inline int csi_recon_window3_at(size_t x, size_t y, size_t ow, size_t oh, size_t nb[9])
+{
+    const size_t p = y * ow + x;
+    if (x > 0 && y > 0 && x + 1 < ow && y + 1 < oh) {
         /* inside the image (most pixels): the same 9 indices in the same order, without the
          * bounds tests */
         for (int j = 0; j < 3; j++) {
@@ -260,14 +283,81 @@ static inline int csi_recon_window3(size_t p, size_t ow, size_t oh, size_t nb[9]
         }
         return 9;
     }
+    const long px = (long)x, py = (long)y;
     int k = 0;
     for (long dy = -1; dy <= 1; dy++)
         for (long dx = -1; dx <= 1; dx++) {
-            long x = px + dx, y = py + dy;
-            if (x >= 0 && y >= 0 && x < (long)ow && y < (long)oh)
-                nb[k++] = (size_t)y * ow + (size_t)x;
+            long xx = px + dx, yy = py + dy;
+            if (xx >= 0 && yy >= 0 && xx < (long)ow && yy < (long)oh)
+                nb[k++] = (size_t)yy * ow + (size_t)xx;
         }
     return k;
+}
+
+/* The same of pixel p. */
+static inline int csi_recon_window3(size_t p, size_t ow, size_t oh, size_t nb[9])
+{
+    return csi_recon_window3_at(p % ow, p / ow, ow, oh, nb);
+}
+
+/* The samples of each row of output pixels, for passes over bands of rows (csi/row_pool.h).
+ * start[0 .. oh] (oh + 1 entries): start[r] the first sample whose pixel row is r or more if the
+ * samples are in row order (sorted by csi_grid_index on a still image), found by bisection;
+ * monotone, start[0] = 0 and start[oh] = n whatever the order, so the rows' runs cover the
+ * samples once. Whether they are in row order is checked where the runs are read
+ * (csi_recon_band_pixel). */
+void csi_recon_sample_rows(const csi_grid *g, const csi_sample_pos *pos, size_t n, size_t *start);
+/* A sample's output pixel, the divisions by the cells per pixel done as shifts where those are
+ * a power of two (the default grids'): the same pixel as csi_recon_pixel_of. */
+typedef struct csi_pixel_map {
+    uint32_t bw, bh;
+    int sx, sy; /* log2 of bw, bh; -1 where not a power of two */
+    size_t ow;
+} csi_pixel_map;
+
+static inline int csi_recon_log2_exact(uint32_t v)
+{
+    if (!v || (v & (v - 1)))
+        return -1;
+    int k = 0;
+    while (v >>= 1)
+        k++;
+    return k;
+}
+
+static inline csi_pixel_map csi_recon_pixel_map(const csi_grid *g)
+{
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    return (csi_pixel_map){bw, bh, csi_recon_log2_exact(bw), csi_recon_log2_exact(bh), g->out_w};
+}
+
+static inline size_t csi_recon_pixel_row(const csi_pixel_map *m, csi_sample_pos p)
+{
+    return m->sy >= 0 ? p.y >> m->sy : p.y / m->bh;
+}
+
+static inline size_t csi_recon_pixel_col(const csi_pixel_map *m, csi_sample_pos p)
+{
+    return m->sx >= 0 ? p.x >> m->sx : p.x / m->bw;
+}
+
+static inline size_t csi_recon_pixel_at(const csi_pixel_map *m, csi_sample_pos p)
+{
+    return csi_recon_pixel_row(m, p) * m->ow + csi_recon_pixel_col(m, p);
+}
+
+/* The pixel of sample i of a band of rows [r0, r1) read in sample order, `last` the row of the
+ * band's sample before it (r0 before the first); SIZE_MAX where the sample is outside the band or
+ * before that row. A band that meets no SIZE_MAX holds its own rows' samples in row order; when
+ * every band does, the whole is in row order, and each band's pass over its run sees each of its
+ * pixels' samples, in sample order. */
+static inline size_t csi_recon_band_pixel(const csi_pixel_map *m, csi_sample_pos p, size_t r1, size_t *last)
+{
+    const size_t r = csi_recon_pixel_row(m, p);
+    if (r < *last || r >= r1)
+        return SIZE_MAX;
+    *last = r;
+    return r * m->ow + csi_recon_pixel_col(m, p);
 }
 
 /* The per-pixel correction of one channel (csi_aa_correct in csi/reconstruct.h; `how` is CV or
@@ -282,17 +372,18 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
                              const csi_sample_pos *pos, size_t n, bool clamp, float *plane);
 /* The blend of the fine estimate's box integral (plane, in and out) with each pixel's sample
  * mean (blend.c). fine_at: the fine estimate at the n samples. Pixels span all t. opt's progress
- * hears "correct c/C" with the passes over the image done so far, after each of them. */
+ * hears "correct c/C" with the passes over the image done so far, after each of them. Its passes
+ * run in bands of rows on pool (NULL: on the calling thread), the same bits either way. */
 csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, const float *values,
                            uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                           const float *fine_at, size_t n, bool clamp, float *plane);
+                           const float *fine_at, size_t n, bool clamp, csi_row_pool *pool, float *plane);
 /* The blend's last step on a still image (fit_trust.c): each pixel of plane (the blend's
  * output, in and out) that holds one sample moves towards the control variate made from box
  * (b, the fine estimate's box integral before the blend) by how far the fit can be trusted
  * there. n0: the control variate's shrinkage (csi_recon_options.cv_n0). */
 csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t channels,
                                uint32_t c, const csi_sample_pos *pos, const float *fine_at,
-                               size_t n, double n0, const float *box, float *plane);
+                               size_t n, double n0, const float *box, csi_row_pool *pool, float *plane);
 /* Projects the fine estimate `fine` (the grid's w x h x t cells, on the device) onto the range
  * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
  * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame

@@ -3,6 +3,7 @@
 #include "csi/peak_noise.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 
 #include "internal.h"
@@ -17,59 +18,68 @@
  * power, d^2 its total). One path carrying the whole sample has v ~ y^2 >= d^2, w 0: dropped. */
 static float peak_shrink(double r, double x, double d, double v)
 {
-    const double w = d > 0 ? fmax(0.0, 1.0 - v / (d * d)) : 0.0;
+    const double w = d > 0 ? csi_fmax(0.0, 1.0 - v / (d * d)) : 0.0;
     return (float)(r + w * (x - r));
 }
 
-csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
-                          const float *values, const float *variance, size_t n, float *image,
-                          size_t *changed)
+/* The median of k <= 8 values, sorted in place (insertion sort). */
+static double median_of(double *w, int k)
 {
-    if (changed)
-        *changed = 0;
-    if (g->t != 1)
-        return csi_fail(CSI_ERR_ARG, "peaks against their noise: a volume (%u frames) is not an image", g->t);
-    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
-    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    if ((uint64_t)bw * bh <= 1)
-        return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
-    uint32_t *cnt = calloc(np, sizeof *cnt);
-    size_t *start = malloc((np + 1) * sizeof *start), *idx = malloc((n ? n : 1) * sizeof *idx);
-    double *m = malloc(np * sizeof *m), *hi = malloc(np * sizeof *hi);
-    if (!cnt || !start || !idx || !m || !hi) {
-        free(cnt), free(start), free(idx), free(m), free(hi);
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    for (int i = 1; i < k; i++) {
+        const double v = w[i];
+        int j = i;
+        for (; j > 0 && w[j - 1] > v; j--)
+            w[j] = w[j - 1];
+        w[j] = v;
     }
-    /* Each pixel's samples, in sample order (a counting sort: deterministic). */
-    for (size_t i = 0; i < n; i++)
-        cnt[csi_recon_pixel_of(pos[i], bw, bh, ow)]++;
-    start[0] = 0;
-    for (size_t p = 0; p < np; p++)
-        start[p + 1] = start[p] + cnt[p];
-    for (size_t p = 0; p < np; p++)
-        cnt[p] = 0;
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
-        idx[start[p] + cnt[p]++] = i;
-    }
-    size_t set = 0;
-    for (uint32_t c = 0; c < channels; c++) {
-        double sabs = 0;
-        for (size_t p = 0; p < np; p++)
-            m[p] = 0, hi[p] = -INFINITY;
-        for (size_t i = 0; i < n; i++) {
-            const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
-            const double v = values[i * channels + c];
-            m[p] += v;
-            hi[p] = fmax(hi[p], v);
-            sabs += fabs(v);
+    return k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]);
+}
+
+/* One call's inputs and per-pixel arrays, for its passes over bands of rows (csi/row_pool.h). */
+typedef struct peak_state {
+    const float *values, *variance;
+    const uint32_t *cnt;
+    const size_t *start, *idx; /* each pixel's samples, in sample order: idx[start[p] ..] */
+    uint32_t channels, c;
+    size_t ow, oh, np;
+    double e;
+    double *m, *hi;
+    float *plane;
+    atomic_size_t set;
+} peak_state;
+
+/* Each pixel's mean and brightest sample in channel c, its samples summed in sample order. */
+static void peak_pass_means(void *arg, size_t r0, size_t r1)
+{
+    peak_state *t = arg;
+    const float *values = t->values;
+    const uint32_t channels = t->channels, c = t->c, *cnt = t->cnt;
+    const size_t *start = t->start, *idx = t->idx;
+    for (size_t p = r0 * t->ow; p < r1 * t->ow; p++) {
+        double m = 0, hi = -INFINITY;
+        for (size_t k = start[p]; k < start[p + 1]; k++) {
+            const double v = values[idx[k] * channels + c];
+            m += v;
+            hi = csi_fmax(hi, v);
         }
-        for (size_t p = 0; p < np; p++)
-            if (cnt[p])
-                m[p] /= cnt[p];
-        const double e = PEAK_EPS_REL * (n ? sabs / (double)n : 0.0);
-        float *plane = image + (size_t)c * np;
-        for (size_t p = 0; p < np; p++) {
+        t->m[p] = cnt[p] ? m / cnt[p] : m;
+        t->hi[p] = hi;
+    }
+}
+
+/* The rule at each pixel of the band. */
+static void peak_pass_pixels(void *arg, size_t r0, size_t r1)
+{
+    peak_state *t = arg;
+    const float *values = t->values, *variance = t->variance;
+    const uint32_t channels = t->channels, c = t->c, *cnt = t->cnt;
+    const size_t *start = t->start, *idx = t->idx, ow = t->ow, oh = t->oh;
+    const double e = t->e, *m = t->m, *hi = t->hi;
+    float *plane = t->plane;
+    size_t set = 0, nb[9];
+    for (size_t py = r0; py < r1; py++)
+        for (size_t px = 0; px < ow; px++) {
+            const size_t p = py * ow + px;
             if (cnt[p] >= 2) {
                 /* The pixel's brightest sample against the others of the pixel. */
                 size_t top = idx[start[p]];
@@ -82,8 +92,8 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
                 }
                 for (size_t k = start[p]; k < start[p + 1]; k++)
                     if (idx[k] != top)
-                        h = fmax(h, values[idx[k] * channels + c]);
-                const double y = values[top * channels + c], hp = fmax(h, 0.0);
+                        h = csi_fmax(h, values[idx[k] * channels + c]);
+                const double y = values[top * channels + c], hp = csi_fmax(h, 0.0);
                 if (y + e < CSI_PEAK_RATIO * (hp + e) ||
                     y - hp >= CSI_PEAK_Z * sqrt((double)variance[top * channels + c]))
                     continue;
@@ -95,41 +105,78 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
             }
             if (cnt[p] != 1)
                 continue;
-            const long px = (long)(p % ow), py = (long)(p / ow);
             double h = -INFINITY, w[8];
             int k = 0;
-            for (long dy = -1; dy <= 1; dy++)
-                for (long dx = -1; dx <= 1; dx++) {
-                    const long x = px + dx, y = py + dy;
-                    if ((!dx && !dy) || x < 0 || y < 0 || x >= (long)ow || y >= (long)oh)
-                        continue;
-                    const size_t q = (size_t)y * ow + (size_t)x;
-                    if (!cnt[q])
-                        continue;
-                    h = fmax(h, hi[q]);
-                    w[k++] = m[q];
-                }
+            const int kn = csi_recon_window3_at(px, py, ow, oh, nb);
+            for (int j = 0; j < kn; j++) {
+                const size_t q = nb[j];
+                if (q == p || !cnt[q])
+                    continue;
+                h = csi_fmax(h, hi[q]);
+                w[k++] = m[q];
+            }
             if (!k)
                 continue; /* no neighbour sampled: nothing to call the sample a peak against */
-            const double y = m[p], hp = fmax(h, 0.0);
+            const double y = m[p], hp = csi_fmax(h, 0.0);
             if (y + e < CSI_PEAK_RATIO * (hp + e))
                 continue;
             if (y - hp >= CSI_PEAK_Z * sqrt((double)variance[idx[start[p]] * channels + c]))
                 continue; /* the image's peak: the reconstruction's value stays */
-            for (int i = 1; i < k; i++) { /* the neighbours' median (insertion sort: k <= 8) */
-                const double v = w[i];
-                int j = i;
-                for (; j > 0 && w[j - 1] > v; j--)
-                    w[j] = w[j - 1];
-                w[j] = v;
-            }
-            plane[p] = peak_shrink(k % 2 ? w[k / 2] : 0.5 * (w[k / 2 - 1] + w[k / 2]), plane[p], y - hp,
+            plane[p] = peak_shrink(median_of(w, k), plane[p], y - hp,
                                    variance[idx[start[p]] * channels + c]); /* towards the neighbours' median */
             set++;
         }
+    atomic_fetch_add(&t->set, set);
+}
+
+csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                          const float *values, const float *variance, size_t n, csi_row_pool *pool,
+                          float *image, size_t *changed)
+{
+    if (changed)
+        *changed = 0;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "peaks against their noise: a volume (%u frames) is not an image", g->t);
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    const csi_pixel_map map = csi_recon_pixel_map(g);
+    if ((uint64_t)map.bw * map.bh <= 1)
+        return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
+    uint32_t *cnt = calloc(np, sizeof *cnt), *fill = calloc(np, sizeof *fill);
+    size_t *start = malloc((np + 1) * sizeof *start), *idx = malloc((n ? n : 1) * sizeof *idx);
+    double *m = malloc(np * sizeof *m), *hi = malloc(np * sizeof *hi);
+    double *sabs = calloc(channels, sizeof *sabs);
+    if (!cnt || !fill || !start || !idx || !m || !hi || !sabs) {
+        free(cnt), free(fill), free(start), free(idx), free(m), free(hi), free(sabs);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    /* Each pixel's samples, in sample order (a counting sort: deterministic), and each channel's
+     * sum of absolute values, in sample order. */
+    for (size_t i = 0; i < n; i++) {
+        cnt[csi_recon_pixel_at(&map, pos[i])]++;
+        for (uint32_t c = 0; c < channels; c++)
+            sabs[c] += fabs((double)values[i * channels + c]);
+    }
+    start[0] = 0;
+    for (size_t p = 0; p < np; p++)
+        start[p + 1] = start[p] + cnt[p];
+    for (size_t i = 0; i < n; i++) {
+        const size_t p = csi_recon_pixel_at(&map, pos[i]);
+        idx[start[p] + fill[p]++] = i;
+    }
+    peak_state t = {
+        .values = values, .variance = variance, .cnt = cnt, .start = start, .idx = idx,
+        .channels = channels, .ow = ow, .oh = oh, .np = np, .m = m, .hi = hi,
+    };
+    atomic_init(&t.set, 0);
+    for (uint32_t c = 0; c < channels; c++) {
+        t.c = c;
+        t.e = PEAK_EPS_REL * (n ? sabs[c] / (double)n : 0.0);
+        t.plane = image + (size_t)c * np;
+        csi_row_pool_run(pool, oh, ow, peak_pass_means, &t);
+        csi_row_pool_run(pool, oh, ow, peak_pass_pixels, &t);
     }
     if (changed)
-        *changed = set;
-    free(cnt), free(start), free(idx), free(m), free(hi);
+        *changed = atomic_load(&t.set);
+    free(cnt), free(fill), free(start), free(idx), free(m), free(hi), free(sabs);
     return CSI_OK;
 }

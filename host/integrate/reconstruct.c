@@ -182,7 +182,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
      * windows (tiled.c), before the blend, as a tile run alone does. */
     if (grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
         out->options.correct == CSI_CORRECT_BLEND) {
-        s = csi_empty_pixels(grid, channels, pos, values, n, out->image);
+        s = csi_empty_pixels(grid, channels, pos, values, n, csi_ctx_row_pool(ctx), out->image);
         if (s != CSI_OK) {
             csi_recon_result_free(out);
             return s;
@@ -193,7 +193,8 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
      * (tiled.c), before the blend, as a tile run alone does. */
     if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
         out->options.correct == CSI_CORRECT_BLEND) {
-        s = csi_peak_noise(grid, channels, pos, values, opt.sample_variance, n, out->image, NULL);
+        s = csi_peak_noise(grid, channels, pos, values, opt.sample_variance, n, csi_ctx_row_pool(ctx), out->image,
+                           NULL);
         if (s != CSI_OK) {
             csi_recon_result_free(out);
             return s;

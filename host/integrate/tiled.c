@@ -173,13 +173,14 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
  * judged as the whole image's would be; tiles run alone (--tile I/N) and merged give the same
  * bits as csi_recon's own tiles. */
 static csi_status tile_peaks(const csi_tiling *tl, uint32_t index, uint32_t channels, const csi_sample_pos *pos,
-                             const float *values, const float *variance, size_t n, csi_recon_result *r)
+                             const float *values, const float *variance, size_t n, csi_row_pool *pool,
+                             csi_recon_result *r)
 {
     if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.correct != CSI_CORRECT_BLEND)
         return CSI_OK;
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, variance, n, &p));
-    const csi_status s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, r->image, NULL);
+    const csi_status s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, pool, r->image, NULL);
     tile_problem_free(&p);
     return s;
 }
@@ -193,13 +194,13 @@ static csi_status tile_peaks(const csi_tiling *tl, uint32_t index, uint32_t chan
  * run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
 static csi_status tile_empty_pixels(const csi_tiling *tl, uint32_t index, uint32_t channels,
                                     const csi_sample_pos *pos, const float *values, size_t n,
-                                    csi_recon_result *r)
+                                    csi_row_pool *pool, csi_recon_result *r)
 {
     if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.correct != CSI_CORRECT_BLEND)
         return CSI_OK;
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
-    const csi_status s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, r->image);
+    const csi_status s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, pool, r->image);
     tile_problem_free(&p);
     return s;
 }
@@ -217,10 +218,12 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
-    if (s == CSI_OK && (s = tile_empty_pixels(tl, index, channels, pos, values, n, &out->r)) != CSI_OK)
+    if (s == CSI_OK &&
+        (s = tile_empty_pixels(tl, index, channels, pos, values, n, csi_ctx_row_pool(ctx), &out->r)) != CSI_OK)
         csi_tile_result_free(out);
-    if (s == CSI_OK && opt->sample_variance && (s = tile_peaks(tl, index, channels, pos, values,
-                                                               opt->sample_variance, n, &out->r)) != CSI_OK)
+    if (s == CSI_OK && opt->sample_variance &&
+        (s = tile_peaks(tl, index, channels, pos, values, opt->sample_variance, n, csi_ctx_row_pool(ctx),
+                        &out->r)) != CSI_OK)
         csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)

@@ -153,7 +153,7 @@ static void run(int shape, double bright, double f, const char *what, int expect
     const double e = 1e-2 * sabs / (double)n / C;
     const double cap = sqrt((lo + e) * (hi + e)) - e;
     const double centre = 0.5 * (before[2 * OW + 2] + before[NP + 2 * OW + 2]);
-    CHECK_OK(csi_empty_pixels(&g, C, pos, val, n, img));
+    CHECK_OK(csi_empty_pixels(&g, C, pos, val, n, NULL, img));
     int changed = 0, raised = 0;
     for (int i = 0; i < NP * C; i++) {
         changed += (i % NP != 2 * OW + 2) && memcmp(&img[i], &before[i], sizeof(float));

@@ -125,7 +125,7 @@ int main(void)
     /* 1 */
     size_t n = make(pos, val, var), changed = 0;
     float *im = half_image();
-    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
+    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, NULL, im, &changed));
     size_t other = 0;
     for (int c = 0; c < 2; c++)
         for (int p = 0; p < NP; p++) {
@@ -147,7 +147,7 @@ int main(void)
     /* 2 */
     n = make3(pos, val, var);
     im = half_image();
-    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, im, &changed));
+    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, NULL, im, &changed));
     other = 0;
     for (int c = 0; c < 2; c++)
         for (int p = 0; p < NP; p++) {
@@ -172,7 +172,7 @@ int main(void)
         pos[i].x /= F, pos[i].y /= F;
     const csi_grid g1 = {OW, OW, 1, OW, OW};
     im = half_image();
-    CHECK_OK(csi_peak_noise(&g1, 2, pos, val, var, n, im, &changed));
+    CHECK_OK(csi_peak_noise(&g1, 2, pos, val, var, n, NULL, im, &changed));
     other = 0;
     for (int i = 0; i < 2 * NP; i++)
         other += im[i] != 0.5f;

@@ -3,10 +3,11 @@
  * at 4 spp; at random cells of their pixel, in raster order of the pixels), HDR values over
  * three decades, a fine estimate that overshoots them.
  *
- *   csi-bench-blend OW RUNS
+ *   csi-bench-blend OW RUNS [THREADS]
  *
  * Prints the smallest wall time and the smallest process CPU time of one blend over RUNS runs,
- * and a hash of the output, so that two builds can be checked for the same bits (the samples come
+ * its passes on THREADS threads (csi/row_pool.h; default 1: the calling thread alone), and a
+ * hash of the output, so that two builds can be checked for the same bits (the samples come
  * from a fixed seed). */
 #include <stdint.h>
 #include <stdio.h>
@@ -27,12 +28,13 @@ static double clock_s(clockid_t id)
 
 int main(int argc, char **argv)
 {
-    if (argc != 3 || atoi(argv[1]) < 1 || atoi(argv[2]) < 1) {
-        fprintf(stderr, "usage: csi-bench-blend OW RUNS\n");
+    if ((argc != 3 && argc != 4) || atoi(argv[1]) < 1 || atoi(argv[2]) < 1) {
+        fprintf(stderr, "usage: csi-bench-blend OW RUNS [THREADS]\n");
         return 2;
     }
     const uint32_t ow = (uint32_t)atoi(argv[1]), F = 8, spp = 4;
-    const int runs = atoi(argv[2]);
+    const int runs = atoi(argv[2]), threads = argc == 4 ? atoi(argv[3]) : 1;
+    csi_row_pool *pool = csi_row_pool_new(threads);
     const size_t np = (size_t)ow * ow, n = np * spp;
     csi_sample_pos *pos = malloc(n * sizeof *pos);
     float *val = malloc(n * sizeof *val), *fine = malloc(n * sizeof *fine);
@@ -60,7 +62,7 @@ int main(int argc, char **argv)
     for (int r = 0; r < runs; r++) {
         memcpy(plane, box, np * sizeof *plane);
         const double w0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
-        if (csi_recon_blend(&g, &opt, val, 1, 0, pos, fine, n, true, plane) != CSI_OK) {
+        if (csi_recon_blend(&g, &opt, val, 1, 0, pos, fine, n, true, pool, plane) != CSI_OK) {
             fprintf(stderr, "%s\n", csi_last_error());
             return 1;
         }
@@ -68,8 +70,10 @@ int main(int argc, char **argv)
         wall = w < wall ? w : wall;
         cpu = c < cpu ? c : cpu;
     }
-    printf("%ux%u: wall %.2f ms, CPU %.2f ms (least of %d), output %016llx\n", ow, ow, 1e3 * wall,
-           1e3 * cpu, runs, (unsigned long long)fnv1a(plane, np * sizeof *plane));
+    printf("%ux%u, %d threads: wall %.2f ms, CPU %.2f ms (least of %d), output %016llx\n", ow, ow,
+           csi_row_pool_threads(pool), 1e3 * wall, 1e3 * cpu, runs,
+           (unsigned long long)fnv1a(plane, np * sizeof *plane));
+    csi_row_pool_free(pool);
     free(pos), free(val), free(fine), free(box), free(plane);
     return 0;
 }

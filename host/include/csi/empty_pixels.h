@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "csi/row_pool.h"
 #include "csi/samples.h"
 #include "csi/status.h"
 
@@ -24,8 +25,9 @@
  * or unknown (a neighbour without a sample stood in for by the pixel beyond it), or both cross
  * the step with most of its 8 neighbours bright, it is capped at the step's geometric midpoint,
  * all channels scaled together. g->t must be 1.
- * Used on the whole image, or in each tile's window in a tiled run (tiled.c). */
+ * Used on the whole image, or in each tile's window in a tiled run (tiled.c). The passes run in
+ * bands of rows on pool (NULL: on the calling thread), the same bits either way. */
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
-                            const float *values, size_t n, float *image);
+                            const float *values, size_t n, csi_row_pool *pool, float *image);
 
 #endif

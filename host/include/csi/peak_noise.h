@@ -41,6 +41,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "csi/row_pool.h"
 #include "csi/samples.h"
 #include "csi/status.h"
 
@@ -54,9 +55,10 @@
 
 /* The rule above on a planar image (channel c's pixel p at c * out_w * out_h + p), in place.
  * values and variance: sample-major, `channels` per sample; variance >= 0. grid.t must be 1.
- * *changed (may be NULL): the pixel-channels set. */
+ * The passes over the pixels run in bands of rows on pool (NULL: on the calling thread), the
+ * same bits either way. *changed (may be NULL): the pixel-channels set. */
 csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
-                          const float *values, const float *variance, size_t n, float *image,
-                          size_t *changed);
+                          const float *values, const float *variance, size_t n, csi_row_pool *pool,
+                          float *image, size_t *changed);
 
 #endif

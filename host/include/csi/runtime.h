@@ -13,6 +13,7 @@
 
 #include <CL/cl.h>
 
+#include "csi/row_pool.h"
 #include "csi/status.h"
 
 #ifdef __cplusplus
@@ -65,6 +66,11 @@ csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_
 /* Seconds this context has spent building its programs and creating kernels (PoCL compiles
  * or loads cached binaries on first use): the part of a run's fixed cost the programs take. */
 double csi_ctx_build_seconds(const csi_ctx *ctx);
+
+/* The pool of worker threads for the host's passes between the device's work (csi/row_pool.h):
+ * one per context, started on the first call, stopped by csi_ctx_release. NULL on a host of one
+ * core or when no worker could be started (the passes then run on the calling thread). */
+csi_row_pool *csi_ctx_row_pool(csi_ctx *ctx);
 
 /* Lowers the memory limits this context enforces and reports (csi_ctx_max_alloc,
  * csi_ctx_global_mem) to at most max_alloc bytes per buffer and global bytes in all; 0 keeps the
