@@ -77,32 +77,45 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
                          const float *values, size_t n, const uint8_t *fold, const float *cA,
                          const float *cB, uint32_t region, float *image, size_t *switched)
 {
+    return csi_cv_choose_on(g, pos, n, fold, channels, values, cA, cB, region, channels, values, image,
+                            switched);
+}
+
+csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t n, const uint8_t *fold,
+                            uint32_t fold_channels, const float *fold_values, const float *cA,
+                            const float *cB, uint32_t region, uint32_t channels, const float *values,
+                            float *image, size_t *switched)
+{
     if (switched)
         *switched = 0;
     if (region < 1)
         return csi_fail(CSI_ERR_ARG, "cross-validated choice: a region of %u pixels", region);
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     const size_t np = (size_t)g->out_w * g->out_h;
-    /* per pixel and fold: count, and the sums per channel */
-    double *sum = calloc(np * 2 * channels, sizeof *sum);
+    const uint32_t fc = fold_channels;
+    /* per pixel and fold: count, and the sums per channel of the folds' values and of the image's */
+    double *sum = calloc(np * 2 * fc, sizeof *sum);
+    double *isum = calloc(np * 2 * channels, sizeof *isum);
     uint32_t *cnt = calloc(np * 2, sizeof *cnt);
     double *d = calloc(np * 2, sizeof *d); /* per pixel: D in squared and in relative error */
     uint8_t *lose = calloc(np, 1);
     csi_status s = CSI_OK;
-    if (!sum || !cnt || !d || !lose)
+    if (!sum || !isum || !cnt || !d || !lose)
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     for (size_t i = 0; i < n && s == CSI_OK; i++) {
         const size_t p = csi_recon_pixel_of(pos[i], bw, bh, g->out_w), f = fold[i] & 1;
         cnt[p * 2 + f]++;
+        for (uint32_t c = 0; c < fc; c++)
+            sum[(p * 2 + f) * fc + c] += fold_values[i * fc + c];
         for (uint32_t c = 0; c < channels; c++)
-            sum[(p * 2 + f) * channels + c] += values[i * channels + c];
+            isum[(p * 2 + f) * channels + c] += values[i * channels + c];
     }
     for (size_t p = 0; p < np && s == CSI_OK; p++) {
         const uint32_t na = cnt[p * 2], nb = cnt[p * 2 + 1];
         if (!na || !nb)
             continue;
-        for (uint32_t c = 0; c < channels; c++) {
-            const double sa = sum[(p * 2) * channels + c], sb = sum[(p * 2 + 1) * channels + c];
+        for (uint32_t c = 0; c < fc; c++) {
+            const double sa = sum[(p * 2) * fc + c], sb = sum[(p * 2 + 1) * fc + c];
             const double ma = sa / na, mb = sb / nb, m = (sa + sb) / (na + nb);
             const double a = cA[(size_t)c * np + p], b = cB[(size_t)c * np + p];
             const double e = (a - mb) * (a - mb) + (b - ma) * (b - ma) - 2 * (ma - mb) * (ma - mb);
@@ -120,12 +133,13 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
         if (!lose[p] || !nt)
             continue;
         for (uint32_t c = 0; c < channels; c++)
-            image[(size_t)c * np + p] = (float)((sum[(p * 2) * channels + c] + sum[(p * 2 + 1) * channels + c]) / nt);
+            image[(size_t)c * np + p] = (float)((isum[(p * 2) * channels + c] + isum[(p * 2 + 1) * channels + c]) / nt);
         sw++;
     }
     if (switched)
         *switched = sw;
     free(sum);
+    free(isum);
     free(cnt);
     free(d);
     free(lose);
@@ -199,14 +213,30 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     csi_status s = csi_cv_folds(g, pos, n, fold, &pairs);
     float *a = NULL, *b = NULL;
     /* no pixel with a held-out pair: nothing to decide on, the reconstruction stays */
-    if (s == CSI_OK && pairs) {
-        s = fold_image(ctx, g, channels, pos, values, n, fold, 0, opt, out, &a);
-        if (s == CSI_OK)
-            s = fold_image(ctx, g, channels, pos, values, n, fold, 1, opt, out, &b);
-        if (s == CSI_OK)
-            s = csi_cv_choose(g, channels, pos, values, n, fold, a, b, CSI_CV_REGION, out->image,
-                              &out->cv_switched);
+    /* the folds' values: the channels' mean (sample by sample, in double) or the samples' own */
+    const int on_mean = channels > 1 && opt->cv_channels != CSI_CV_CHANNELS_EACH;
+    const uint32_t fc = on_mean ? 1 : channels;
+    float *mean = NULL;
+    if (s == CSI_OK && pairs && on_mean) {
+        if (!(mean = malloc(n * sizeof *mean)))
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+        for (size_t i = 0; i < n && s == CSI_OK; i++) {
+            double t = 0;
+            for (uint32_t c = 0; c < channels; c++)
+                t += values[i * channels + c];
+            mean[i] = (float)(t / channels);
+        }
     }
+    const float *fv = on_mean ? mean : values;
+    if (s == CSI_OK && pairs) {
+        s = fold_image(ctx, g, fc, pos, fv, n, fold, 0, opt, out, &a);
+        if (s == CSI_OK)
+            s = fold_image(ctx, g, fc, pos, fv, n, fold, 1, opt, out, &b);
+        if (s == CSI_OK)
+            s = csi_cv_choose_on(g, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values,
+                                 out->image, &out->cv_switched);
+    }
+    free(mean);
     free(a);
     free(b);
     free(fold);

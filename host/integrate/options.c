@@ -14,6 +14,7 @@
 #include <strings.h>
 
 _Static_assert(sizeof(csi_solver_kind) == sizeof(int) && sizeof(csi_switch) == sizeof(int) &&
+               sizeof(csi_cv_channels) == sizeof(int) &&
                sizeof(csi_wavelet_family) == sizeof(int), "choice options are stored as int");
 
 /* K_BYTES: a uint64_t byte count, read with an optional K, M, G or T (powers of 1024). */
@@ -53,6 +54,8 @@ static const choice corrects[] = {{"auto", CSI_CORRECT_AUTO}, {"none", CSI_CORRE
                                   {"blend", CSI_CORRECT_BLEND}, {0}};
 static const choice stops[] = {{"auto", CSI_STOP_AUTO}, {"gap", CSI_STOP_GAP}, {"objective", CSI_STOP_OBJECTIVE}, {0}};
 static const choice switches[] = {{"auto", CSI_SWITCH_AUTO}, {"on", CSI_SWITCH_ON}, {"off", CSI_SWITCH_OFF}, {0}};
+static const choice cv_channels[] = {{"auto", CSI_CV_CHANNELS_AUTO}, {"mean", CSI_CV_CHANNELS_MEAN},
+                                     {"each", CSI_CV_CHANNELS_EACH}, {0}};
 static const choice presets[] = {{"csi", CSI_ROMP_PRESET_CSI}, {"published", CSI_ROMP_PRESET_PUBLISHED}, {0}};
 static const choice times[] = {{"auto", CSI_MOTION_TIME_AUTO}, {"dft", CSI_MOTION_TIME_DFT}, {"dct", CSI_MOTION_TIME_DCT}, {0}};
 static const choice velocities[] = {{"estimate", CSI_VELOCITY_ESTIMATE}, {"none", CSI_VELOCITY_NONE}, {"given", CSI_VELOCITY_GIVEN}, {0}};
@@ -99,6 +102,11 @@ static const row table[] = {
      "on with the blend (noisy samples, not flagged exact) on an image reconstructed whole, "
      "where it acts from 2 samples per pixel on average; off otherwise (another correction, "
      "tiled runs, volumes, the baselines)"},
+    {"cv-channels", K_CHOICE, AT(cv_channels), 0, 0, cv_channels, F_AUTO, "auto", "mean|each|auto",
+     "samples of several channels: what the cross-validated choice's folds reconstruct, the mean "
+     "of the channels (one solve per fold, the choice made on it) or each channel (a solve per "
+     "channel and fold, the choice made on the sum of the channels' losses)",
+     "mean"},
     {"peak-range", K_CHOICE, AT(peak_range), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "images with the blend: a pixel of several samples whose brightest is at least 4 times all "
      "its others takes the mean over its cells of a fit of log(1 + y / s) on the fine grid, "

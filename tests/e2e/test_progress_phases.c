@@ -111,8 +111,12 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
             }
         }
         const size_t np = 16 * 16;
-        CHECK((memcmp(r.image, r.image + 2 * np, np * sizeof(float)) == 0) == copy_equal,
-              "T = %u: channels 0 and 2 %s", T, copy_equal ? "have the same bits" : "differ");
+        /* one ulp at one sample need not show in the image (the cross-validated choice's folds
+         * see the channels' mean): channel 2 is told apart by its own solve's time */
+        if (copy_equal)
+            CHECK(memcmp(r.image, r.image + 2 * np, np * sizeof(float)) == 0, "T = %u: channels 0 and 2 have the same bits", T);
+        else
+            CHECK(r.report[2].t_total > 0, "T = %u: channel 2 (one ulp off channel 0) is solved on its own", T);
         if (copy_equal)
             CHECK(r.report[2].iterations == r.report[0].iterations && r.report[2].t_total == 0,
                   "T = %u: the repeated channel reports the first one's solve, no time", T);

@@ -18,6 +18,11 @@
  *      otherwise exact region is kept (S / sqrt(sum D_p^2) <= 1 for one pixel).
  *   3. One sample per pixel: no held-out pair, nothing switched even where the reconstruction is
  *      far off (the choice does not guess).
+ *   4. The choice made on other values than the image's (csi_cv_choose_on, as for the folds on
+ *      the mean of RGB channels): property 2's samples as the decision's values, an RGB image
+ *      whose channels are other functions of the pixel, sampled with their own noise. The
+ *      regions that switch are those of property 2 (the decision sees only its values), and a
+ *      switched pixel holds in each channel exactly the double mean of that channel's samples.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -126,6 +131,62 @@ static void choice(uint32_t spp)
     free(mean);
 }
 
+/* Property 4 on property 2's layout, 4 spp. */
+static void choice_on_other_values(void)
+{
+    const uint32_t ow = 32, F = 4, R = CSI_CV_REGION, C = 3;
+    const csi_grid g = {ow * F, ow * F, 1, ow, ow};
+    const size_t np = (size_t)ow * ow, n = np * 4;
+    csi_sample_pos *pos = malloc(n * sizeof *pos);
+    float *dv = malloc(n * sizeof *dv), *val = malloc(n * C * sizeof *val);
+    float *a = malloc(np * sizeof *a), *img = malloc(np * C * sizeof *img), *orig = malloc(np * C * sizeof *orig);
+    double *mean = calloc(np * C, sizeof *mean);
+    test_rng r;
+    test_rng_seed(&r, 9);
+    for (size_t p = 0; p < np; p++) {
+        const uint32_t px = (uint32_t)(p % ow), py = (uint32_t)(p / ow);
+        const double I = 2.0 + 8.0 * test_rng_uniform(&r);
+        const bool off = ((px / (2 * R)) + (py / (2 * R))) % 2 == 1;
+        a[p] = (float)(I + (off ? 3.0 : 0.0));
+        for (uint32_t c = 0; c < C; c++)
+            img[c * np + p] = orig[c * np + p] = (float)(0.5 * c + (double)((px + 3 * py + c) % 11));
+        for (uint32_t j = 0; j < 4; j++) {
+            const size_t i = p * 4 + j;
+            pos[i].x = px * F + (j & 1) * 2 + (uint32_t)(test_rng_uniform(&r) * 2);
+            pos[i].y = py * F + (j >> 1) * 2 + (uint32_t)(test_rng_uniform(&r) * 2);
+            pos[i].t = 0;
+            dv[i] = (float)(I + gauss(&r));
+            for (uint32_t c = 0; c < C; c++) {
+                val[i * C + c] = (float)(orig[c * np + p] + 0.7 * gauss(&r));
+                mean[p * C + c] += val[i * C + c];
+            }
+        }
+        for (uint32_t c = 0; c < C; c++)
+            mean[p * C + c] /= 4;
+    }
+    uint8_t *fold = malloc(n);
+    size_t switched = 99;
+    CHECK_OK(csi_cv_folds(&g, pos, n, fold, NULL));
+    CHECK_OK(csi_cv_choose_on(&g, pos, n, fold, 1, dv, a, a, R, C, val, img, &switched));
+    size_t wrong = 0;
+    for (size_t p = 0; p < np; p++) {
+        const uint32_t px = (uint32_t)(p % ow), py = (uint32_t)(p / ow);
+        const bool off = ((px / (2 * R)) + (py / (2 * R))) % 2 == 1;
+        for (uint32_t c = 0; c < C; c++)
+            wrong += img[c * np + p] != (off ? (float)mean[p * C + c] : orig[c * np + p]);
+    }
+    CHECK(wrong == 0, "on other values: %zu pixel channels not as chosen", wrong);
+    CHECK(switched == np / 2, "on other values: %zu pixels switched", switched);
+    free(fold);
+    free(pos);
+    free(dv);
+    free(val);
+    free(a);
+    free(img);
+    free(orig);
+    free(mean);
+}
+
 /* Property 2b: 4 samples per pixel without noise (the mean exact), the reconstruction exact but
  * in one pixel, off by 100 there. */
 static void lone_pixel(void)
@@ -163,6 +224,7 @@ int main(void)
     stratified_folds(64, 16);
     choice(4);
     choice(1);
+    choice_on_other_values();
     lone_pixel();
     /* a volume is refused */
     const csi_grid v = {8, 8, 2, 2, 2};

@@ -40,7 +40,14 @@
  * held-out pair and adds nothing: where no pixel of a region has two, the region keeps the
  * reconstruction (every pixel at 1 spp on stratified positions). A reconstruction from fewer
  * than 2 samples per pixel on average is left as it is (csi_recon_cv_select): each fold would
- * hold under one sample per pixel. */
+ * hold under one sample per pixel.
+ *
+ * The channels. For samples of several channels the folds reconstruct, by default, the mean of
+ * the channels (--cv-channels mean): one solve per fold instead of one per channel and fold, and
+ * D is that mean's. A region that loses takes the mean of its samples in every channel. A loss
+ * only in the difference of channels (a colour error the grey mean does not see) is missed; on
+ * Mitsuba's dumps the choices were those of folds per channel but in one cell of 228
+ * (docs/bench/mitsuba.md, session 19). */
 #ifndef CSI_CV_SELECT_H
 #define CSI_CV_SELECT_H
 
@@ -86,5 +93,14 @@ csi_status csi_cv_folds(const csi_grid *g, const csi_sample_pos *pos, size_t n, 
 csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                          const float *values, size_t n, const uint8_t *fold, const float *cA,
                          const float *cB, uint32_t region, float *image, size_t *switched);
+
+/* The same choice made on other values than the image's: the folds' reconstructions cA, cB hold
+ * fold_channels channels of fold_values (sample-major, as values), e.g. the mean of the image's
+ * channels; a pixel that loses takes the mean of its samples of `values` in all `channels` of the
+ * image. csi_cv_choose is this with the folds' values the image's own. */
+csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t n, const uint8_t *fold,
+                            uint32_t fold_channels, const float *fold_values, const float *cA,
+                            const float *cB, uint32_t region, uint32_t channels, const float *values,
+                            float *image, size_t *switched);
 
 #endif

@@ -107,6 +107,10 @@ typedef enum { CSI_SWITCH_OFF = -1, CSI_SWITCH_AUTO = 0, CSI_SWITCH_ON = 1 } csi
 /* SpaRSA's stopping rule as a reconstruction option: AUTO lets the method choose. */
 typedef enum { CSI_STOP_AUTO = 0, CSI_STOP_GAP, CSI_STOP_OBJECTIVE } csi_recon_stop;
 
+/* What the cross-validated choice's folds reconstruct from samples of several channels: the
+ * mean of the channels (one solve per fold; auto) or every channel (csi/cv_select.h). */
+typedef enum { CSI_CV_CHANNELS_AUTO = 0, CSI_CV_CHANNELS_MEAN, CSI_CV_CHANNELS_EACH } csi_cv_channels;
+
 /* The estimator: csi's compressive method, or one of the baselines it is measured against. */
 typedef enum {
     CSI_EST_CS = 0, /* compressive: Alg. 1 (grid.t = 1) or Alg. 2 (grid.t > 1) */
@@ -161,6 +165,7 @@ typedef struct csi_recon_options {
     double cv_n0;                 /* CV shrinkage (see csi_aa_correct) */
     csi_switch cv_select;         /* images: per region, the image or the per-pixel mean, chosen
                                      by two-fold cross-validation (csi/cv_select.h) */
+    csi_cv_channels cv_channels;  /* what its folds reconstruct (above) */
     csi_switch peak_range;        /* images with the blend: a pixel whose samples hold one isolated
                                      peak takes a fit of the samples' logarithm
                                      (csi/peak_range.h); auto: off */
