@@ -93,6 +93,8 @@ void csi_result_stats(const csi_result *r, csi_json *j)
         csi_json_int(j, "tile", r->tile.index);
     csi_json_int(j, "unknowns", (int64_t)res->unknowns);
     csi_json_int(j, "model_grid_factor", res->model_factor);
+    if (res->chroma_model_factor) /* "channels" then holds the solves of Y, C1, C2 */
+        csi_json_int(j, "chroma_model_grid_factor", res->chroma_model_factor);
     /* Every option, as used: the autos that apply resolved, the others "auto". */
     csi_json_begin(j, "options");
     for (size_t i = 0; i < csi_option_count(); i++) {

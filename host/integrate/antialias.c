@@ -50,12 +50,8 @@ csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_optio
     return CSI_OK;
 }
 
-/* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
- * borrowed from st->inner), on the model grid D times coarser when the filter allows it. opt is
- * resolved (csi_recon_resolve_scoped); the filter width follows the whole problem's cells per
- * sample when st is a tile's. *shape: its shape (the model grid, D, the filter widths). */
-static csi_status aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
-                              csi_recon_state *st, csi_aa_shape *shape)
+csi_status csi_recon_aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
+                                 csi_recon_state *st, csi_aa_shape *shape)
 {
     const size_t w = g->w, h = g->h, k = w * h;
     const size_t dims[3] = {w, h, 1};
@@ -109,25 +105,70 @@ csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t c
                                      const float *values, size_t n, const csi_recon_options *opt,
                                      csi_recon_state *st, double scale[4])
 {
+    const bool chroma = csi_recon_chroma_on(g, channels, opt);
     csi_aa_shape sh;
-    CSI_TRY(aa_operator(ctx, g, n, opt, st, &sh));
+    CSI_TRY(csi_recon_aa_operator(ctx, g, n, opt, st, &sh));
     const size_t km = sh.mw * sh.mh;
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
     csi_vec_ws *ws = NULL;
     CSI_TRY(csi_vec_ws_create(ctx, &ws));
     csi_status s = CSI_OK;
-    for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
-        for (size_t i = 0; i < n; i++)
-            st->plane[i] = values[i * channels + c];
+    for (uint32_t c = 0; c < (chroma ? 1 : channels) && s == CSI_OK; c++) {
+        if (chroma)
+            csi_recon_opponent(values, n, 0, st->plane);
+        else
+            for (size_t i = 0; i < n; i++)
+                st->plane[i] = values[i * channels + c];
         s = csi_write(ctx, st->y, 0, n * sizeof(float), st->plane);
         if (s == CSI_OK)
             s = csi_linop_adjoint(st->A, st->y, st->x);
         if (s == CSI_OK)
             s = csi_vec_amax(ws, km, false, st->x, &scale[c], NULL);
     }
+    if (chroma)
+        scale[1] = scale[2] = csi_recon_chroma_tau_scale(scale[0]);
     csi_vec_ws_free(ws);
     return s;
+}
+
+csi_aa_correct csi_recon_aa_correction(const csi_recon_options *opt)
+{
+    return opt->correct != CSI_CORRECT_AUTO          ? opt->correct
+           : opt->sample_flags & CSI_SAMPLES_EXACT ? CSI_CORRECT_CV
+                                                   : CSI_CORRECT_BLEND;
+}
+
+csi_status csi_recon_aa_integrate(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                                  csi_recon_state *st, unsigned D, float *plane, const csi_linop **S,
+                                  cl_mem *at)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    /* The integration's two images (the model grid's values each) live only between a solve and
+     * the next: they are the solver's scratch, idle then (the solver keeps A x of its result
+     * apart). */
+    cl_mem const fine = csi_solver_coef_scratch(st->solver, 0), sharp = csi_solver_coef_scratch(st->solver, 1);
+    CSI_TRY(csi_linop_apply(st->Psi, st->x, fine)); /* f_b = Psi x */
+    cl_mem src = fine;
+    if (D > 1) {
+        CSI_TRY(csi_linop_apply(st->Wbox, fine, sharp)); /* box means of Phi^-1 f_b */
+        CSI_TRY(csi_linop_apply(st->Ipix, sharp, st->out));
+    } else {
+        if (opt->output == CSI_AA_SHARP) {
+            CSI_TRY(csi_linop_apply(st->W, fine, sharp)); /* Phi^-1 f_b */
+            src = sharp;
+        }
+        CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
+    }
+    CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), plane));
+    /* The correction reads the estimate at the samples: S src, which on the model grid is
+     * A x (the same for the sharp estimate on the fine grid, where A x = S Phi^-1 Psi x).
+     * SpaRSA left A x of its result in its workspace (csi_solver_result_Ax): read there, not
+     * applied again (one operator run per channel, the same bits). */
+    cl_mem Ax = D > 1 ? csi_solver_result_Ax(st->solver) : NULL;
+    *S = Ax ? NULL : D > 1 ? st->A : st->S;
+    *at = Ax ? Ax : D > 1 ? st->x : src;
+    return CSI_OK;
 }
 
 /* Alg. 1. */
@@ -136,9 +177,11 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
                                const csi_recon_options *opt, csi_recon_result *res,
                                csi_recon_state *st)
 {
+    if (csi_recon_chroma_on(g, channels, opt))
+        return csi_recon_antialias_chroma(ctx, g, pos, values, n, opt, res, st);
     const size_t np = (size_t)g->out_w * g->out_h;
     csi_aa_shape sh;
-    CSI_TRY(aa_operator(ctx, g, n, opt, st, &sh));
+    CSI_TRY(csi_recon_aa_operator(ctx, g, n, opt, st, &sh));
     const unsigned D = sh.D;
     const size_t km = sh.mw * sh.mh;
     res->model_factor = D;
@@ -149,15 +192,10 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
     CSI_TRY(csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y));
     CSI_TRY(csi_buffer(ctx, km * sizeof(float), CL_MEM_READ_WRITE, "the wavelet coefficients", &st->x));
     CSI_TRY(csi_buffer(ctx, np * sizeof(float), CL_MEM_READ_WRITE, "the output image", &st->out));
-    /* The integration's two images (km values each) live only between a channel's solve and the
-     * next: they are the solver's scratch, idle then (the solver keeps A x of its result apart). */
-    cl_mem const fine = csi_solver_coef_scratch(st->solver, 0), sharp = csi_solver_coef_scratch(st->solver, 1);
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
 
-    const csi_aa_correct how = opt->correct != CSI_CORRECT_AUTO          ? opt->correct
-                               : opt->sample_flags & CSI_SAMPLES_EXACT ? CSI_CORRECT_CV
-                                                                       : CSI_CORRECT_BLEND;
+    const csi_aa_correct how = csi_recon_aa_correction(opt);
     double t_solve = 0, t_int = 0;
     int warm_from = -1; /* the last channel solved, whose x the next one may start from */
     for (uint32_t c = 0; c < channels; c++) {
@@ -193,27 +231,11 @@ csi_status csi_recon_antialias(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         if (opt->warm_channels == CSI_SWITCH_ON && opt->solver == CSI_SOLVER_SPARSA)
             warm_from = (int)c;
         CSI_TRY(csi_recon_progress_channel(opt, "integrate", c, channels));
-        CSI_TRY(csi_linop_apply(st->Psi, st->x, fine)); /* f_b = Psi x */
-        cl_mem src = fine;
-        if (D > 1) {
-            CSI_TRY(csi_linop_apply(st->Wbox, fine, sharp)); /* box means of Phi^-1 f_b */
-            CSI_TRY(csi_linop_apply(st->Ipix, sharp, st->out));
-        } else {
-            if (opt->output == CSI_AA_SHARP) {
-                CSI_TRY(csi_linop_apply(st->W, fine, sharp)); /* Phi^-1 f_b */
-                src = sharp;
-            }
-            CSI_TRY(csi_box_integrate(ctx, src, g->w, g->h, 1, g->out_w, g->out_h, st->out));
-        }
-        CSI_TRY(csi_read(ctx, st->out, 0, np * sizeof(float), res->image + (size_t)c * np));
-        /* The correction reads the estimate at the samples: S src, which on the model grid is
-         * A x (the same for the sharp estimate on the fine grid, where A x = S Phi^-1 Psi x).
-         * SpaRSA left A x of its result in its workspace (csi_solver_result_Ax): read there, not
-         * applied again (one operator run per channel, the same bits). */
-        cl_mem Ax = D > 1 ? csi_solver_result_Ax(st->solver) : NULL;
+        const csi_linop *S;
+        cl_mem at;
+        CSI_TRY(csi_recon_aa_integrate(ctx, g, opt, st, D, res->image + (size_t)c * np, &S, &at));
         if (how != CSI_CORRECT_NONE)
-            CSI_TRY(csi_recon_correct(ctx, g, opt, how, Ax ? NULL : D > 1 ? st->A : st->S,
-                                      Ax ? Ax : D > 1 ? st->x : src, st->y, values, channels, c, pos, n,
+            CSI_TRY(csi_recon_correct(ctx, g, opt, how, S, at, st->y, values, channels, c, pos, n,
                                       how == CSI_CORRECT_BLEND && csi_recon_nonneg(values, channels, c, n),
                                       res->image + (size_t)c * np));
         res->t_channel_integrate[c] = csi_recon_now() - t1;

@@ -123,7 +123,8 @@ csi_status csi_recon_scoped(csi_ctx *ctx, const csi_grid *grid, uint32_t channel
                             csi_recon_fit *fit, csi_recon_result *out);
 
 /* Alg. 1's tau scale of one problem: ||A^H y||_inf per channel, A built as csi_recon_antialias
- * builds it (st->idx and st->plane filled by the caller; st freed by the caller). */
+ * builds it (st->idx and st->plane filled by the caller; st freed by the caller); RGB solved as
+ * luma and chroma (chroma.c): luma's, and the chroma channels' from it. */
 csi_status csi_recon_antialias_scale(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                      const float *values, size_t n, const csi_recon_options *opt,
                                      csi_recon_state *st, double scale[4]);
@@ -179,6 +180,34 @@ typedef struct {
 csi_status csi_recon_aa_shape(const csi_grid *g, size_t n, const csi_recon_options *opt,
                               const csi_recon_state *st, csi_aa_shape *out);
 
+/* A = S . (Phi^-1 . Psi) into st (the compositions own their parts; st->Psi and st->W are
+ * borrowed from st->inner), on the model grid D times coarser when the filter allows it. opt is
+ * resolved (csi_recon_resolve_scoped); the filter width follows the whole problem's cells per
+ * sample when st is a tile's. *shape: its shape (the model grid, D, the filter widths). */
+csi_status csi_recon_aa_operator(csi_ctx *ctx, const csi_grid *g, size_t n, const csi_recon_options *opt,
+                                 csi_recon_state *st, csi_aa_shape *shape);
+/* After a solve of st's operator (model grid factor D): the box integral of the estimate into
+ * plane (the output's pixels, host), and where the estimate at the samples is for
+ * csi_recon_correct: its (S, fine) pair in *S, *at (S NULL: *at holds it; valid until the next
+ * solve on st's workspace). */
+csi_status csi_recon_aa_integrate(csi_ctx *ctx, const csi_grid *g, const csi_recon_options *opt,
+                                  csi_recon_state *st, unsigned D, float *plane, const csi_linop **S,
+                                  cl_mem *at);
+/* Alg. 1's per-pixel correction for resolved options: the option, or by the samples' kind. */
+csi_aa_correct csi_recon_aa_correction(const csi_recon_options *opt);
+
+/* RGB solved as luma and chroma (chroma.c): whether a problem is (three channels of a still
+ * image, SpaRSA's sharp estimate on a model grid, the option on); Alg. 1 in that form
+ * (csi_recon_antialias hands it over); opponent channel k (0: Y, 1: C1, 2: C2) of n RGB samples
+ * (sample-major, 3 per sample) into plane; and a chroma channel's tau scale from luma's
+ * ||A^H Y||_inf (a tile's scope takes the whole problem's, csi_recon_antialias_scale). */
+bool csi_recon_chroma_on(const csi_grid *g, uint32_t channels, const csi_recon_options *opt);
+csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi_sample_pos *pos,
+                                      const float *values, size_t n, const csi_recon_options *opt,
+                                      csi_recon_result *res, csi_recon_state *st);
+void csi_recon_opponent(const float *rgb, size_t n, uint32_t k, float *plane);
+double csi_recon_chroma_tau_scale(double luma);
+
 /* The coarse start (coarse_start.c): the operator on the model grid of shape sh coarsened once
  * more, for the samples at idx, its solver on the device buffers of the model grid's (fine);
  * *out NULL (and CSI_OK) where that grid is not available. */
@@ -214,10 +243,19 @@ csi_status csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options 
                                    uint32_t channels, uint32_t c, bool *copied);
 
 /* Any finite float32 reconstructs (result.c): per channel, e[c] = 0 when its largest magnitude
- * is within [2^-32, 2^32], else the exponent that brings it into [0.5, 1); *scaled is a copy of
- * the values times 2^-e[c] (NULL when every e[c] is 0). After the solve, the result's image and
- * frames are multiplied back by 2^e[c], saturating at +-FLT_MAX. */
-csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, int e[4], float **scaled);
+ * is within [2^-32, 2^32], else the exponent that brings it into [0.5, 1); common: one e for all
+ * channels, by the largest magnitude of any (channels solved as mixtures of each other: RGB as
+ * luma and chroma, chroma.c); *scaled is a copy of the values times 2^-e[c] (NULL when every
+ * e[c] is 0). After the solve, the result's image and frames are multiplied back by 2^e[c],
+ * saturating at +-FLT_MAX. */
+csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, bool common, int e[4],
+                                  float **scaled);
+/* Whether csi_recon_scale_values scales the channels in common for options opt (as given or
+ * resolved; auto is off): RGB that may be solved as luma and chroma. */
+static inline bool csi_recon_scale_common(uint32_t channels, const csi_recon_options *opt)
+{
+    return channels == 3 && opt->chroma == CSI_SWITCH_ON;
+}
 void csi_recon_unscale_result(csi_recon_result *r, const int e[4]);
 
 /* Monotonic clock in seconds. */

@@ -139,7 +139,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
      * scaled by a power of two (exact), its result scaled back. */
     int e[4];
     float *scaled = NULL;
-    CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
+    CSI_TRY(csi_recon_scale_values(values, n, channels, csi_recon_scale_common(channels, &opt), e, &scaled));
     const float *v = scaled ? scaled : values;
     csi_status s;
     /* Each tile resolves its own autos (csi_recon_resolve_scoped); the whole's are reported. */

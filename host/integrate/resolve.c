@@ -216,6 +216,11 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->warm_channels = CSI_SWITCH_OFF;
     if (o->coarse_start == CSI_SWITCH_AUTO)
         o->coarse_start = CSI_SWITCH_OFF;
+    /* RGB as luma and chroma (chroma.c): 0.6x the CPU of an RGB solve, but the MSE moved by
+     * -3%..+2.3% on the bundled checkerboard at 1 spp (the coarser grid's bias and the early
+     * stop), more than the 2% the defaults may move (docs/bench/cost.md, session 20). */
+    if (o->chroma == CSI_SWITCH_AUTO)
+        o->chroma = CSI_SWITCH_OFF;
     if (o->solver == CSI_SOLVER_ROMP) {
         image_romp(o, n, (size_t)g->w * g->h); /* each problem's own operator (tiles too) */
     } else {

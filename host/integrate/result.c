@@ -68,19 +68,30 @@ double csi_recon_cpu_now(void)
  * is scaled so that its largest magnitude lies in [0.5, 1). */
 #define SCALE_FREE 32
 
-csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, int e[4], float **scaled)
+csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, bool common, int e[4],
+                                  float **scaled)
 {
     *scaled = NULL;
     bool any = false;
+    float all = 0;
     for (uint32_t c = 0; c < channels; c++) {
         float m = 0;
         for (size_t i = 0; i < n; i++)
             m = fmaxf(m, fabsf(values[i * channels + c]));
+        all = fmaxf(all, m);
         int ex = 0;
         if (m > 0)
             frexpf(m, &ex);
         e[c] = m > 0 && (ex > SCALE_FREE || ex < -SCALE_FREE) ? ex : 0;
         any = any || e[c] != 0;
+    }
+    if (common) {
+        int ex = 0;
+        if (all > 0)
+            frexpf(all, &ex);
+        any = all > 0 && (ex > SCALE_FREE || ex < -SCALE_FREE);
+        for (uint32_t c = 0; c < channels; c++)
+            e[c] = any ? ex : 0;
     }
     if (!any)
         return CSI_OK;

@@ -103,7 +103,7 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
 {
     int e[4];
     float *scaled = NULL;
-    CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
+    CSI_TRY(csi_recon_scale_values(values, n, channels, csi_recon_scale_common(channels, opt), e, &scaled));
     csi_status s = scope_make(ctx, g, channels, pos, scaled ? scaled : values, n, opt, tl, out);
     free(scaled);
     return s;
@@ -213,7 +213,7 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     int e[4];
     float *scaled = NULL;
     memset(out, 0, sizeof *out);
-    CSI_TRY(csi_recon_scale_values(values, n, channels, e, &scaled));
+    CSI_TRY(csi_recon_scale_values(values, n, channels, csi_recon_scale_common(channels, opt), e, &scaled));
     csi_status s = reconstruct_tile(ctx, g, channels, pos, scaled ? scaled : values, n, opt, tl, scope, index, out);
     free(scaled);
     if (s == CSI_OK)
@@ -581,6 +581,7 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     if (t->index == 0) {
         out->options = r->options;
         out->model_factor = r->model_factor;
+        out->chroma_model_factor = r->chroma_model_factor;
     }
     out->unknowns += r->unknowns;
     for (uint32_t c = 0; c < C; c++) {

@@ -183,6 +183,9 @@ typedef struct csi_recon_options {
                                      auto: CSI_MODEL_SIGMA_MIN */
     csi_switch coarse_start;      /* Alg. 1 on a model grid with SpaRSA's continuation: the stages
                                      before the last on a grid twice as coarse (coarse_start.c) */
+    csi_switch chroma;            /* Alg. 1 on 3 channels (RGB): solved as luma and two chroma
+                                     channels, the chroma on a coarser model grid (chroma.c);
+                                     auto: off */
     csi_recon_stop stop;
     csi_switch continuation;      /* SpaRSA continuation on tau */
     double cont_step;             /* SpaRSA continuation: each stage's tau this times the previous
@@ -304,6 +307,8 @@ typedef struct csi_recon_result {
     size_t k, n;            /* grid cells and measurements per channel (the whole problem's) */
     size_t unknowns;        /* the solver's unknowns per channel: k, or fewer on a model grid */
     uint32_t model_factor;  /* Alg. 1: the model grid's coarsening D (csi/model_grid.h), else 1 */
+    uint32_t chroma_model_factor; /* Alg. 1 on RGB as luma and chroma: the chroma channels' D
+                                     (the channels' reports are then Y, C1, C2); else 0 */
     uint32_t tiles;         /* tiles it was solved in (1: the whole at once) */
     double t_velocity;      /* Alg. 2: of t_setup, the seconds spent estimating the basis's
                                velocity (options.motion_vx, motion_vy hold it) */
