@@ -27,6 +27,15 @@ static void usage(FILE *f)
 "      --png FILE.png        8-bit sRGB preview\n"
 "      --frames DIR          grid_t > 1: also every reconstructed frame (DIR/frame_NNNN.exr/.png)\n"
 "      --stats FILE.json     timings, iterations and residuals as JSON\n"
+"      --refine-request REQ.csid\n"
+"                            images: also where to sample next, a positions request (csi-positions'\n"
+"                            format) of every cell without a sample of the pixels where the image and\n"
+"                            the mean of the pixel's own samples disagree by at least --refine-share\n"
+"                            of their disagreement over the whole image (an HDR highlight that one of\n"
+"                            a pixel's few samples hit). Have the renderer evaluate it, append the\n"
+"                            records to the dump and reconstruct again (csi-mitsuba --refine does\n"
+"                            this); not written when no pixel is picked (the summary says so)\n"
+"      --refine-share S      the share, 0 < S <= 1 [default: 0.005]\n"
 );
     cli_recon_usage(f);
     cli_tile_usage(f);
@@ -111,10 +120,31 @@ static csi_status read_variance(const char *path, const char *in, const csi_dump
     return CSI_OK;
 }
 
+/* The cells to sample next (--refine-request), written as a positions request when there are any. */
+static csi_status write_refinement(csi_outset *set, const char *path, const csi_samples *samples,
+                                   const csi_result *r, double share, size_t *cells, size_t *pixels)
+{
+    csi_image img;
+    CSI_TRY(csi_result_image(r, &img));
+    csi_sample_pos *pos = NULL;
+    CSI_TRY(csi_refine_positions(samples, &img, share, &pos, cells, pixels));
+    if (!*cells)
+        return CSI_OK;
+    const char *tmp;
+    csi_status s = csi_outset_tmp(set, path, &tmp);
+    if (s == CSI_OK) {
+        const csi_dump req = {samples->grid, 0, 0, *cells, pos, NULL, 0};
+        s = csi_dump_write(tmp, &req);
+    }
+    csi_free(pos);
+    return s;
+}
+
 /* The statistics of a whole run. */
 static csi_status write_stats(csi_outset *set, const char *path, const char *in, const char *varfile,
                               const csi_device *dev, const csi_dump *d, const csi_dump_report *rep,
-                              const csi_result *r, const double phase[3], double t0)
+                              const csi_result *r, const double phase[3], double t0, const char *refine,
+                              size_t refine_cells, size_t refine_pixels)
 {
     csi_json *j = NULL;
     CSI_TRY(csi_json_new(&j));
@@ -131,6 +161,10 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
     csi_result_stats_phases(r, j, phase[0], phase[1], phase[2]);
     csi_json_num(j, "t_wall_s", cli_now() - t0);
     csi_json_int(j, "device_peak_bytes", (int64_t)csi_device_bytes_peak());
+    if (refine) { /* the request's size, also when none was written (0 cells) */
+        csi_json_int(j, "refine_cells", (int64_t)refine_cells);
+        csi_json_int(j, "refine_pixels", (int64_t)refine_pixels);
+    }
     const csi_status s = cli_write_stats(set, path, j);
     csi_json_free(j);
     return s;
@@ -138,12 +172,13 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE, O_REFINE, O_REFINE_SHARE };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
         {"drop-invalid", no_argument, 0, O_DROP}, {"variance", required_argument, 0, O_VARIANCE},
-        {"device", required_argument, 0, O_DEVICE},
+        {"device", required_argument, 0, O_DEVICE}, {"refine-request", required_argument, 0, O_REFINE},
+        {"refine-share", required_argument, 0, O_REFINE_SHARE},
         {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
         {0, 0, 0, 0}};
@@ -154,7 +189,8 @@ int main(int argc, char **argv)
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
     bool quiet = false, drop = false, seed_given = false;
-    const char *device = NULL, *varfile = NULL;
+    const char *device = NULL, *varfile = NULL, *refine = NULL;
+    double refine_share = csi_refine_share_default();
     int c, rc = 0;
     opterr = 0;
     struct option *all_opts = cli_longopts_with_recon(longopts);
@@ -170,6 +206,14 @@ int main(int argc, char **argv)
         case O_STATS: outs.stats = optarg; break;
         case O_DROP: drop = true; break;
         case O_VARIANCE: varfile = optarg; break;
+        case O_REFINE: refine = optarg; break;
+        case O_REFINE_SHARE: {
+            char *end;
+            refine_share = strtod(optarg, &end);
+            if (end == optarg || *end || !(refine_share > 0 && refine_share <= 1))
+                rc = cli_error(prog, CSI_ERR_ARG, "--refine-share: '%s' is not a number with 0 < S <= 1", optarg);
+            break;
+        }
         case O_SEED: {
             uint64_t v;
             if (!cli_parse_u64(optarg, 0, UINT64_MAX, &v))
@@ -221,6 +265,8 @@ int main(int argc, char **argv)
         varfile = found;
     if (!rc && !outs.exr && !outs.png && !tile.info)
         rc = cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
+    if (!rc && refine && (tile.one || tile.info))
+        rc = cli_error(prog, CSI_ERR_ARG, "--refine-request needs the whole image, not --tile");
     if (rc) {
         csi_options_free(opt);
         free(found);
@@ -257,6 +303,11 @@ int main(int argc, char **argv)
         s = csi_outset_input(set, varfile);
     if (s == CSI_OK)
         s = cli_outputs_stage(&outs, set, frames && !mean && hdr.grid.t > 1 ? hdr.grid.t : 0);
+    if (s == CSI_OK && refine && hdr.grid.t > 1)
+        s = cli_fail(CSI_ERR_ARG, "%s: --refine-request picks pixels of an image; this dump is a volume "
+                     "(grid_t = %u)", in, hdr.grid.t);
+    if (s == CSI_OK && refine)
+        s = csi_outset_file(set, refine, "the refinement request (--refine-request)");
     if (s == CSI_OK)
         s = csi_device_new(device, &dev);
     phase[1] = cli_now() - tp;
@@ -314,10 +365,15 @@ int main(int argc, char **argv)
         goto done;
     }
     tp = cli_now();
-    s = cli_write_images(&outs, set, res, NULL, &bar);
+    size_t refine_cells = 0, refine_pixels = 0;
+    if (refine)
+        s = write_refinement(set, refine, &samples, res, refine_share, &refine_cells, &refine_pixels);
+    if (s == CSI_OK)
+        s = cli_write_images(&outs, set, res, NULL, &bar);
     phase[2] = cli_now() - tp;
     if (s == CSI_OK && outs.stats)
-        s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0);
+        s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0, refine, refine_cells,
+                        refine_pixels);
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK) {
@@ -332,6 +388,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: %ux%u from %zu samples of a %ux%ux%u grid (%s) in %.2f s%s\n", prog, dump.grid.out_w,
                 dump.grid.out_h, info.n, dump.grid.w, dump.grid.h, dump.grid.t,
                 cli_solver_or_estimator(res, used, sizeof used), cli_now() - t0, all ? "" : " (not converged)");
+        if (refine && refine_cells)
+            fprintf(stderr, "%s: refine: %zu cells of %zu pixels to sample next in %s\n", prog, refine_cells,
+                    refine_pixels, refine);
+        else if (refine)
+            fprintf(stderr, "%s: refine: no pixel to refine; %s not written\n", prog, refine);
     }
 done:
     csi_result_free(res);

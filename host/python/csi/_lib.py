@@ -170,6 +170,10 @@ def _bind(L):
         "csi_device_name": (ctypes.c_char_p, [P]),
         "csi_default_grid_factor": (u32, [u32, u32, u32, ctypes.c_uint64]),
         "csi_pos_method_parse": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]),
+        "csi_refine_positions": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Image), ctypes.c_double,
+                                                ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size),
+                                                ctypes.POINTER(c_size)]),
+        "csi_refine_share_default": (ctypes.c_double, []),
         "csi_positions": (ctypes.c_int, [ctypes.POINTER(Grid), ctypes.POINTER(_PosOpts),
                                          ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size), P]),
         "csi_dump_read": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.POINTER(_Dump), P]),
@@ -518,6 +522,36 @@ def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fracti
         return np.ctypeslib.as_array(p, shape=(n.value, 3)).copy()
     finally:
         L.csi_free(p)
+
+
+def refine_positions(positions, values, grid, image, share: Optional[float] = None):
+    """Where to sample next (csi_refine_positions): the cells without a sample of the pixels where
+    image, the (H, W, C) reconstruction of these samples, and the mean of the pixel's own samples
+    disagree by at least `share` (default 0.005) of their disagreement, (image - mean)^2 summed
+    over the channels, over the whole image. Returns ((M, 3) uint32 cells, pixels picked); M = 0
+    when none is. Images only (grid t = 1)."""
+    L = lib()
+    pos = np.ascontiguousarray(positions, dtype=np.uint32)
+    val = np.asarray(values, dtype=np.float32)
+    val = np.ascontiguousarray(val[:, None] if val.ndim == 1 else val)
+    img = np.asarray(image, dtype=np.float32)
+    img = img[:, :, None] if img.ndim == 2 else img
+    if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0] or img.ndim != 3:
+        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape}, values {val.shape}, image {img.shape}: expected "
+                       "(N, 3), (N, C) and (H, W, C)")
+    planar = np.ascontiguousarray(np.moveaxis(img, 2, 0))
+    samples = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0], pos.ctypes.data_as(ctypes.POINTER(u32)),
+                       val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
+    view = _Image(img.shape[1], img.shape[0], img.shape[2], planar.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+    out, n, px = ctypes.POINTER(u32)(), c_size(), c_size()
+    _check(L.csi_refine_positions(ctypes.byref(samples), ctypes.byref(view),
+                                  float(L.csi_refine_share_default() if share is None else share),
+                                  ctypes.byref(out), ctypes.byref(n), ctypes.byref(px)))
+    try:
+        cells = np.ctypeslib.as_array(out, shape=(n.value, 3)).copy() if n.value else np.zeros((0, 3), np.uint32)
+    finally:
+        L.csi_free(out)
+    return cells, int(px.value)
 
 
 class Dump:

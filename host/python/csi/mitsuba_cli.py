@@ -34,6 +34,7 @@ also --seed and --device)."""
 EPILOG = """\
 examples:
   csi-mitsuba cornell --out 128x128 --spp 4 -o cornell.exr --dump cornell.csid
+  csi-mitsuba scene.xml --spp 4 --paths 64 --refine -o out.exr
   csi-mitsuba scene.xml --spp 4 --paths 64 -o out.exr -- --estimator mean
   csi-mitsuba cornell --out 128x128 --reference 4096 -o ref.exr
   csi-positions --out 128x128 --spp 4 -o req.csid && csi-mitsuba cornell --request req.csid --dump s.csid
@@ -102,6 +103,14 @@ def parser():
     s.add_argument("--seed", type=_int_range(0, (1 << 64) - 1), default=1, help="seed of the positions and of Mitsuba's sampler (default 1)")
     s.add_argument("--request", metavar="REQ.csid", help="evaluate this positions request (csi-positions) instead; "
                    "the size, grid and positions are its own")
+    s.add_argument("--refine", action="store_true",
+                   help="a second pass: every cell of the pixels csi cannot decide (where its image and the "
+                        "pixel's mean disagree by a large share of their disagreement over the image: an HDR "
+                        "highlight one of a pixel's few samples hit) is rendered too, then the image "
+                        "reconstructed from all the samples (csi-reconstruct --refine-request; "
+                        "docs/bench/mitsuba.md). Images only")
+    s.add_argument("--refine-share", type=float, metavar="S",
+                   help="with --refine: the share, 0 < S <= 1 (default 0.005)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
                    "with SPP samples per pixel instead of samples")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
@@ -165,9 +174,27 @@ def reconstruction_options(args):
 
 
 def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None):
+    """reconstruct_result, then its image written to output (EXR) and png; returns the statistics."""
+    import csi
+
+    t0 = time.perf_counter()
+    res = reconstruct_result(d, extra, variance)
+    try:
+        if output:
+            res.write_exr(output)
+        if png:
+            res.write_png(png)
+    except csi.CsiError as e:
+        raise ReconstructError(e) from None
+    stats = dict(res.stats)
+    stats["t_wall_s"] = time.perf_counter() - t0
+    return stats
+
+
+def reconstruct_result(d: csid.Dump, extra=(), variance=None):
     """Reconstructs the samples d with csi's library in this process (the same bits as
     csi-reconstruct on their dump, with --variance when `variance`, the samples' variances, is
-    given), writes output (EXR) and png; returns the statistics. Positions in csi's order (sorted
+    given); returns csi's Result. Positions in csi's order (sorted
     by cell, each once: csi-positions' requests) go straight in; any others through the library's
     dump reader, which sorts them and averages repeats as csi-reconstruct does, without the
     variances (the variance of an averaged repeat is not their mean)."""
@@ -176,7 +203,6 @@ def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None):
     import csi
 
     kw, device = reconstruction_options(extra)
-    t0 = time.perf_counter()
     w, h, t = d.grid
     xyt = np.asarray(d.xyt, dtype=np.int64)
     idx = (xyt[:, 2] * h + xyt[:, 1]) * w + xyt[:, 0]
@@ -192,15 +218,47 @@ def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None):
                 path = os.path.join(tmp, "samples.csid")
                 csid.write(path, d)
                 res = csi.reconstruct_dump(path, device=dev, **kw)
-        if output:
-            res.write_exr(output)
-        if png:
-            res.write_png(png)
     except csi.CsiError as e:
         raise ReconstructError(e) from None
-    stats = dict(res.stats)
-    stats["t_wall_s"] = time.perf_counter() - t0
-    return stats
+    return res
+
+
+def refine_seed(seed: int) -> int:
+    """The refinement's paths' seed: one of their own, mixed with the run's, so that they are not
+    the first pass's paths again in the same batches."""
+    return (int(seed) ^ 0x72656669_6E650000) % (1 << 64)
+
+
+def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
+    """The second pass of --refine: the cells csi_refine_positions picks from the first pass's
+    reconstruction, rendered as the first ones were, merged with them in csi's cell order.
+    Returns (request, samples, statistics) of all the samples."""
+    import numpy as np
+
+    import csi
+
+    t0 = time.perf_counter()
+    first = reconstruct_result(req.with_values(s.values), extra, s.variance if a.variance_peaks else None)
+    t_first = time.perf_counter() - t0
+    try:
+        cells, pixels = csi.refine_positions(req.xyt, s.values, (*req.grid, *req.out), first.image, a.refine_share)
+    except csi.CsiError as e:
+        raise ReconstructError(e) from None
+    info = {"pixels": pixels, "cells": int(len(cells)), "t_first_reconstruction_s": t_first}
+    if not len(cells):
+        return req, s, info
+    more = csid.Dump(grid=req.grid, out=req.out, xyt=cells, values=None, seed=req.seed)
+    s2 = mb.render_request(scene, more, paths=a.paths, seed=refine_seed(req.seed), aov=a.aov,
+                           progress=lambda d, n: prog("refinement samples", d, n))
+    info["mitsuba"] = s2.timing
+    w, h, _ = req.grid
+    xyt = np.concatenate([req.xyt, cells])
+    order = np.argsort((xyt[:, 2].astype(np.int64) * h + xyt[:, 1]) * w + xyt[:, 0], kind="stable")
+    join = lambda u, v: None if u is None or v is None else np.concatenate([u, v])[order]
+    merged = mb.Samples(values=join(s.values, s2.values), variance=join(s.variance, s2.variance),
+                        albedo=join(s.albedo, s2.albedo), normal=join(s.normal, s2.normal), paths=s.paths,
+                        nonfinite=s.nonfinite + s2.nonfinite, timing=s.timing)
+    return csid.Dump(grid=req.grid, out=req.out, xyt=xyt[order], values=None, seed=req.seed), merged, info
 
 
 class ReconstructError(Exception):
@@ -235,6 +293,13 @@ def run(a, extra):
         a.variance_peaks = a.paths > 1
     if a.variance_peaks and a.paths < 2:
         raise UsageError("--variance-peaks needs --paths above 1 (one path has no sample variance)")
+    if a.refine_share is not None and not a.refine:
+        raise UsageError("--refine-share needs --refine")
+    if a.refine_share is not None and not 0 < a.refine_share <= 1:
+        raise UsageError(f"--refine-share: {a.refine_share:g} is not a share with 0 < S <= 1")
+    if a.refine and (a.reference or a.time_steps > 1):
+        raise UsageError("--refine picks pixels of an image: not with " + ("--reference" if a.reference else
+                                                                           "--time-steps above 1"))
     if not (a.output or a.png or a.dump or a.npy):
         raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
     outs = [(a.output, "image"), (a.png, "preview"), (a.dump, "dump"), (a.npy, "array"), (a.stats, "statistics")]
@@ -256,6 +321,8 @@ def run(a, extra):
         size = req.out
         if a.out and a.out != size:
             raise UsageError(f"--out {a.out[0]}x{a.out[1]} differs from the request's {size[0]}x{size[1]}")
+        if a.refine and req.grid[2] > 1:
+            raise UsageError(f"--refine picks pixels of an image: {a.request} is a volume (grid_t = {req.grid[2]})")
     t_load = time.perf_counter()
     scene = mb.load_scene(a.scene, size=a.out, box_filter=bool(a.reference))
     if req is not None and scene.size != req.out:
@@ -290,10 +357,16 @@ def run(a, extra):
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
                           progress=lambda d, n: prog("samples", d, n))
     prog.end()
+    refined = None
+    if a.refine:
+        req, s, refined = refine(scene, req, s, a, extra, prog)
+        prog.end()
     dump = req.with_values(s.values)
     stats = {"tool": PROG, "scene": a.scene, "out": list(req.out), "grid": list(req.grid), "seed": seed,
              "samples": len(req.xyt), "paths_per_sample": a.paths, "nonfinite_paths": s.nonfinite,
              "t_load_s": t_load, "mitsuba": s.timing}
+    if refined is not None:
+        stats["refine"] = refined
     t_recon = None
     if a.output or a.png:
         t0 = time.perf_counter()
@@ -316,6 +389,9 @@ def run(a, extra):
                f"{'s' if a.paths > 1 else ''} on a {req.grid[0]}x{req.grid[1]}x{req.grid[2]} grid; Mitsuba "
                f"{t['render_s']:.2f} s ({t['per_sample_us']:.2f} us/sample, {t['per_path_us']:.3f} us/path; "
                f"first call {t['jit_s']:.2f} s apart)")
+        if refined is not None:
+            msg += (f"; refine: {refined['cells']} more samples at {refined['pixels']} pixels"
+                    + (f" (Mitsuba {refined['mitsuba']['render_s']:.2f} s)" if "mitsuba" in refined else ""))
         if t_recon is not None:
             msg += f", csi {t_recon:.2f} s"
         if s.nonfinite:

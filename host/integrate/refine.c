@@ -1,0 +1,156 @@
+/* Where to sample next (csi_refine_positions in csi/csi.h): every cell not yet sampled of the
+ * pixels on which the image and the mean of the pixel's own samples disagree so much that the
+ * pixel alone holds a given share of their disagreement over the whole image.
+ *
+ * Why those pixels. On a renderer's HDR samples (a sun, a lamp, an emitter's edge) at a few
+ * samples per pixel, one to three pixels carry most of an image's error, whichever estimator
+ * is used: a sub-pixel light that one of the pixel's four samples hit is a coin flip on how much
+ * of the pixel it covers, and neither the fit nor the mean can tell from those samples
+ * (docs/bench/mitsuba.md, sessions 15 and 20). Where the two estimates disagree by a large share
+ * of the image's total disagreement is where one of them is that wrong; sampling the pixel's
+ * every cell settles it for both: the mean becomes the pixel's exact box mean (up to the paths'
+ * noise) and the blend takes it (csi_aa_correct: a fully sampled pixel's mean has no sampling
+ * error). A few pixels' cells are a small part of the samples; the image's error drops by far
+ * more than that part would buy spread evenly.
+ *
+ * Everything in double, in sample order: the same inputs give the same cells. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/csi.h"
+#include "csi/status.h"
+
+/* The share's default (csi-reconstruct --refine-share, csi-mitsuba --refine-share): a pixel
+ * that holds 0.5% of the disagreement. At most 1 / share pixels can, so the request is bounded
+ * by 200 pixels' cells whatever the image's size. */
+#define CSI_REFINE_SHARE_DEFAULT 0.005
+
+double csi_refine_share_default(void)
+{
+    return CSI_REFINE_SHARE_DEFAULT;
+}
+
+csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, double share,
+                                csi_sample_pos **out, size_t *count, size_t *pixels)
+{
+    if (!s || !image || !out || !count)
+        return csi_fail(CSI_ERR_ARG, "csi_refine_positions: %s is NULL",
+                        !s ? "the samples" : !image ? "the image" : !out ? "out" : "count");
+    *out = NULL;
+    *count = 0;
+    if (pixels)
+        *pixels = 0;
+    const csi_grid *g = &s->grid;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "refinement: the samples are a volume (%u frames); it picks pixels of an image",
+                        g->t);
+    if (!(share > 0 && share <= 1))
+        return csi_fail(CSI_ERR_ARG, "refinement: a share of %g (it is a fraction, 0 < share <= 1)", share);
+    if (!g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
+        return csi_fail(CSI_ERR_ARG, "refinement: a grid of %ux%u cells for a %ux%u image", g->w, g->h, g->out_w,
+                        g->out_h);
+    if (image->w != g->out_w || image->h != g->out_h || image->channels != s->channels || !image->data)
+        return csi_fail(CSI_ERR_ARG, "refinement: a %ux%u image of %u channels for %ux%u samples of %u", image->w,
+                        image->h, image->channels, g->out_w, g->out_h, s->channels);
+    if (s->count && (!s->pos || !s->values))
+        return csi_fail(CSI_ERR_ARG, "refinement: %zu samples without their positions or values", s->count);
+    const uint32_t C = s->channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h, cells = (size_t)bw * bh;
+    for (size_t i = 0; i < s->count; i++) {
+        const csi_sample_pos p = s->pos[i];
+        if (p.x >= g->w || p.y >= g->h || p.t)
+            return csi_fail(CSI_ERR_ARG, "refinement: sample %zu at (%u, %u, %u) is outside the %ux%u grid", i, p.x,
+                            p.y, p.t, g->w, g->h);
+        for (uint32_t c = 0; c < C; c++)
+            if (!isfinite(s->values[i * C + c]))
+                return csi_fail(CSI_ERR_ARG, "refinement: sample %zu's value is not finite", i);
+    }
+    for (size_t i = 0; i < np * C; i++)
+        if (!isfinite(image->data[i]))
+            return csi_fail(CSI_ERR_ARG, "refinement: the image's value %zu is not finite", i);
+
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    double *sum = calloc(np * C, sizeof *sum);
+    double *d2 = calloc(np, sizeof *d2);
+    if (!cnt || !sum || !d2) {
+        free(cnt);
+        free(sum);
+        free(d2);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    for (size_t i = 0; i < s->count; i++) {
+        const size_t p = (size_t)(s->pos[i].y / bh) * g->out_w + s->pos[i].x / bw;
+        cnt[p]++;
+        for (uint32_t c = 0; c < C; c++)
+            sum[p * C + c] += s->values[i * C + c];
+    }
+    /* Each pixel's disagreement, summed over the channels; pixels without a sample have no mean
+     * to disagree with, and pixels already sampled in every cell nothing left to sample. */
+    double total = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (!cnt[p])
+            continue;
+        double d = 0;
+        for (uint32_t c = 0; c < C; c++) {
+            const double e = image->data[(size_t)c * np + p] - sum[p * C + c] / cnt[p];
+            d += e * e;
+        }
+        d2[p] = d;
+        total += d;
+    }
+    size_t flagged = 0, n = 0;
+    for (size_t p = 0; p < np; p++)
+        if (cnt[p] && cnt[p] < cells && total > 0 && d2[p] >= share * total) {
+            flagged++;
+            n += cells - cnt[p];
+        }
+    /* the flagged pixels' sampled cells, one bit each (a pixel's block in row order) */
+    size_t *slot = NULL;
+    unsigned char *taken = NULL;
+    csi_sample_pos *cellv = NULL;
+    csi_status st = CSI_OK;
+    if (flagged) {
+        slot = malloc(np * sizeof *slot);
+        taken = calloc(flagged * cells, 1);
+        cellv = malloc(flagged * cells * sizeof *cellv);
+        if (!slot || !taken || !cellv)
+            st = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu cells to request", n);
+    }
+    if (st == CSI_OK && flagged) {
+        size_t k = 0;
+        for (size_t p = 0; p < np; p++)
+            slot[p] = cnt[p] && cnt[p] < cells && d2[p] >= share * total ? k++ : SIZE_MAX;
+        for (size_t i = 0; i < s->count; i++) {
+            const csi_sample_pos q = s->pos[i];
+            const size_t p = (size_t)(q.y / bh) * g->out_w + q.x / bw;
+            if (slot[p] != SIZE_MAX)
+                taken[slot[p] * cells + (size_t)(q.y % bh) * bw + q.x % bw] = 1;
+        }
+        size_t j = 0;
+        for (size_t p = 0; p < np; p++) {
+            if (slot[p] == SIZE_MAX)
+                continue;
+            const uint32_t x0 = (uint32_t)(p % g->out_w) * bw, y0 = (uint32_t)(p / g->out_w) * bh;
+            for (uint32_t y = 0; y < bh; y++)
+                for (uint32_t x = 0; x < bw; x++)
+                    if (!taken[slot[p] * cells + (size_t)y * bw + x])
+                        cellv[j++] = (csi_sample_pos){x0 + x, y0 + y, 0};
+        }
+        n = j; /* cells - cnt each, unless the samples repeat a cell (csi_samples forbids it) */
+    }
+    free(cnt);
+    free(sum);
+    free(d2);
+    free(slot);
+    free(taken);
+    if (st != CSI_OK) {
+        free(cellv);
+        return st;
+    }
+    *out = cellv;
+    *count = n;
+    if (pixels)
+        *pixels = flagged;
+    return CSI_OK;
+}

@@ -1,0 +1,100 @@
+"""csi-mitsuba --refine end to end: the first pass's samples, the cells csi asks for next
+(csi_refine_positions on the first pass's reconstruction), Mitsuba rendering them, and the image
+from all the samples; bad arguments refused before any rendering.
+
+Scene: data/mitsuba/horizon.py (a textured plane to the horizon, a sun glinting on a glossy
+sphere: a few pixels hold most of the image's error) at 48x48, 4 samples per pixel of 4 paths
+(csi's default grid for 4 spp: 8x, 384x384 cells).
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, "..", "..")
+PYDIR = os.path.join(ROOT, "host", "python")
+sys.path.insert(0, PYDIR)
+sys.path.insert(0, HERE)
+from checks import check, done  # noqa: E402
+import csi  # noqa: E402
+from csi import dump as csid  # noqa: E402
+from csi import exr  # noqa: E402
+from csi import programs  # noqa: E402
+
+SCENE = os.path.join(ROOT, "data", "mitsuba", "horizon.py")
+
+
+def cli(*args):
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR))
+    return subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", *map(str, args)], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, env=env)
+
+
+def main():
+    with tempfile.TemporaryDirectory() as T:
+        p = lambda name: os.path.join(T, name)  # noqa: E731
+        common = [SCENE, "--out", "48x48", "--spp", 4, "--paths", 4, "--seed", 3, "-q"]
+        r = cli(*common, "--refine", "--dump", p("r.csid"), "-o", p("r.exr"), "--stats", p("r.json"))
+        check(r.returncode == 0, f"--refine: exit {r.returncode}: {r.stderr.strip()}")
+        r1 = cli(*common, "--dump", p("one.csid"), "-o", p("one.exr"))
+        check(r1.returncode == 0, f"one pass: exit {r1.returncode}: {r1.stderr.strip()}")
+        if r.returncode or r1.returncode:
+            return
+        st = json.load(open(p("r.json")))["refine"]
+        d, d1 = csid.read(p("r.csid")), csid.read(p("one.csid"))
+        v1 = csid.read(p("one.variance.csid")).values
+        grid = (*d.grid, *d.out)
+        # The first pass is the one-pass run's samples (same positions and seed); what the
+        # refinement adds is exactly what csi asks for on that pass's reconstruction (the library
+        # in this process, the run's reconstruction options: the variances beside the dump).
+        first = csi.reconstruct(d1.xyt, d1.values, grid, variance=v1, seed=d1.seed)
+        cells, pixels = csi.refine_positions(d1.xyt, d1.values, grid, first.image)
+        check(st["cells"] == len(cells) > 0 and st["pixels"] == pixels > 0,
+              f"stats say {st['cells']} cells at {st['pixels']} pixels; the library {len(cells)} at {pixels}")
+        both = np.concatenate([d1.xyt, cells])
+        key = lambda a: (a[:, 1].astype(np.int64) * d.grid[0] + a[:, 0])  # noqa: E731
+        check(len(d.xyt) == len(both) and np.array_equal(np.sort(key(d.xyt)), np.sort(key(both))),
+              f"the dump holds {len(d.xyt)} samples, not the first pass's {len(d1.xyt)} and the {len(cells)} asked for")
+        check((np.diff(key(d.xyt)) > 0).all(), "the dump's positions are not in csi's cell order")
+        old = np.isin(key(d.xyt), key(d1.xyt))
+        check(np.array_equal(d.values[old], d1.values), "the first pass's values changed in the refined dump")
+        # Every picked pixel is now sampled in every cell, so its mean has no sampling error and
+        # the blend returns it (the mean of its 64 samples, in float32: a relative 1e-6 covers
+        # the summation's rounding).
+        f = d.grid[0] // d.out[0]
+        pix = (d.xyt[:, 1] // f) * d.out[0] + d.xyt[:, 0] // f
+        cnt = np.bincount(pix, minlength=d.out[0] * d.out[1])
+        picked = np.unique((cells[:, 1] // f) * d.out[0] + cells[:, 0] // f)
+        check(len(picked) == pixels and (cnt[picked] == f * f).all(), f"picked pixels not sampled in every cell: "
+              f"{cnt[picked]}")
+        img = exr.read(p("r.exr")).reshape(-1, 3).astype(np.float64)
+        m = d.pixel_means().reshape(-1, 3)
+        err = np.abs(img[picked] - m[picked]).max() / max(1.0, np.abs(m[picked]).max())
+        check(err <= 1e-6, f"a fully sampled pixel is not its samples' mean: relative {err:.3g}")
+        # The image is csi-reconstruct's on the dump it wrote (with the variances beside it).
+        subprocess.run([programs.find("csi-reconstruct"), p("r.csid"), "-o", p("c.exr"), "-q"], check=True)
+        check(np.array_equal(exr.read(p("c.exr")), exr.read(p("r.exr"))),
+              "csi-mitsuba --refine's image != csi-reconstruct's on its dump")
+        # Deterministic: the same run twice, the same bytes.
+        r2 = cli(*common, "--refine", "--dump", p("r2.csid"))
+        check(r2.returncode == 0 and open(p("r2.csid"), "rb").read() == open(p("r.csid"), "rb").read(),
+              "--refine twice gave different samples")
+
+        # Refused before any rendering: one line, exit 2, nothing written.
+        for args, what in (((SCENE, "--refine-share", "0.01", "-o", p("x.exr")), "--refine-share without --refine"),
+                           ((SCENE, "--refine", "--refine-share", "0", "-o", p("x.exr")), "share 0"),
+                           ((SCENE, "--refine", "--refine-share", "1.5", "-o", p("x.exr")), "share 1.5"),
+                           ((SCENE, "--refine", "--reference", "16", "-o", p("x.exr")), "with --reference"),
+                           ((SCENE, "--refine", "--time-steps", "4", "-o", p("x.exr")), "a volume")):
+            e = cli(*args)
+            check(e.returncode == 2 and len(e.stderr.strip().splitlines()) == 1 and not os.path.exists(p("x.exr")),
+                  f"{what}: exit {e.returncode}, stderr {e.stderr!r}")
+
+
+if __name__ == "__main__":
+    main()
+    sys.exit(done())

@@ -1,0 +1,146 @@
+/* Where to sample next (csi_refine_positions), on hand-made samples whose disagreements are
+ * small integers, so that every sum is exact and the pixels picked follow from the rule alone:
+ * a pixel is picked when (image - its samples' mean)^2, summed over the channels, is at least
+ * `share` of that sum over the image; the request is every cell of the picked pixels without a
+ * sample, pixels in row order, each block's cells in row order.
+ *
+ *   8 x 8 pixels on a 4x grid (16 cells a pixel), 2 channels, every pixel sampled at cells (0, 0)
+ *   and (3, 2) of its block with values 1 (channel 0) and 2 (channel 1), so each pixel's mean is
+ *   (1, 2); the image is (1, 2) everywhere except:
+ *     - (2, 5): (4, 2), disagreement 9;
+ *     - (6, 1): (1, 6), disagreement 16;
+ *     - (0, 7): (3, 3), disagreement 4 + 1 = 5;
+ *     - (4, 4): (2, 2), disagreement 1, and its block sampled in every cell (all 1, 2): never
+ *       picked, nothing is left to sample there;
+ *     - (7, 7): no sample at all, image (9, 9): no mean to disagree with, not counted either.
+ *   The total is 9 + 16 + 5 + 1 = 31: a share just below 5/31 picks the three, just above it
+ *   the two largest, 16/31 only (6, 1), and 1 every pixel only if one holds all of it (none).
+ * Also: the same call twice gives the same cells; a volume, a share outside (0, 1], an image of
+ * another size and a NaN value are refused with CSI_ERR_ARG. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/csi.h"
+#include "testlib.h"
+
+enum { OW = 8, F = 4, NP = OW * OW, C = 2 };
+
+typedef struct {
+    csi_sample_pos pos[NP * 2 + F * F];
+    float val[(NP * 2 + F * F) * C];
+    size_t n;
+    float img[C * NP];
+} scene;
+
+static void add(scene *s, uint32_t x, uint32_t y, float a, float b)
+{
+    s->pos[s->n] = (csi_sample_pos){x, y, 0};
+    s->val[s->n * C] = a;
+    s->val[s->n * C + 1] = b;
+    s->n++;
+}
+
+static void set_px(scene *s, int x, int y, float a, float b)
+{
+    s->img[y * OW + x] = a;
+    s->img[NP + y * OW + x] = b;
+}
+
+static void make(scene *s)
+{
+    memset(s, 0, sizeof *s);
+    for (int p = 0; p < NP; p++) {
+        const uint32_t x = (uint32_t)(p % OW), y = (uint32_t)(p / OW);
+        s->img[p] = 1, s->img[NP + p] = 2;
+        if (x == 7 && y == 7)
+            continue; /* no sample */
+        if (x == 4 && y == 4) {
+            for (uint32_t cy = 0; cy < F; cy++)
+                for (uint32_t cx = 0; cx < F; cx++)
+                    add(s, x * F + cx, y * F + cy, 1, 2);
+            continue;
+        }
+        add(s, x * F, y * F, 1, 2);
+        add(s, x * F + 3, y * F + 2, 1, 2);
+    }
+    set_px(s, 2, 5, 4, 2);
+    set_px(s, 6, 1, 1, 6);
+    set_px(s, 0, 7, 3, 3);
+    set_px(s, 4, 4, 2, 2);
+    set_px(s, 7, 7, 9, 9);
+}
+
+/* The request the rule gives for the picked pixels `px` (in row order): each block's 14 cells
+ * without a sample, in row order. */
+static size_t expected(const int (*px)[2], int k, csi_sample_pos *out)
+{
+    size_t n = 0;
+    for (int i = 0; i < k; i++)
+        for (uint32_t cy = 0; cy < F; cy++)
+            for (uint32_t cx = 0; cx < F; cx++)
+                if (!(cx == 0 && cy == 0) && !(cx == 3 && cy == 2))
+                    out[n++] = (csi_sample_pos){(uint32_t)px[i][0] * F + cx, (uint32_t)px[i][1] * F + cy, 0};
+    return n;
+}
+
+static void check_share(const csi_samples *smp, const csi_image *img, double share, const int (*px)[2], int k,
+                        const char *what)
+{
+    csi_sample_pos want[3 * F * F];
+    const size_t nw = expected(px, k, want);
+    csi_sample_pos *got = NULL;
+    size_t n = 0, pixels = 0;
+    CHECK_OK(csi_refine_positions(smp, img, share, &got, &n, &pixels));
+    CHECK(pixels == (size_t)k && n == nw, "%s: %zu pixels and %zu cells, want %d and %zu", what, pixels, n, k, nw);
+    if (n == nw && nw)
+        CHECK(got && !memcmp(got, want, nw * sizeof *want), "%s: the cells differ from the rule's", what);
+    CHECK(nw || !got, "%s: no cell, but a request array", what);
+    csi_free(got);
+}
+
+int main(void)
+{
+    scene *s = malloc(sizeof *s);
+    if (!s)
+        return 1;
+    make(s);
+    const csi_grid g = {OW * F, OW * F, 1, OW, OW};
+    csi_samples smp = {g, C, s->n, s->pos, s->val, 0, NULL};
+    csi_image img = {OW, OW, C, s->img};
+
+    static const int three[][2] = {{6, 1}, {2, 5}, {0, 7}}, two[][2] = {{6, 1}, {2, 5}}, one[][2] = {{6, 1}};
+    check_share(&smp, &img, 5.0 / 31 * (1 - 1e-9), three, 3, "share just below 5/31");
+    check_share(&smp, &img, 5.0 / 31 * (1 + 1e-9), two, 2, "share just above 5/31");
+    check_share(&smp, &img, 16.0 / 31, one, 1, "share 16/31");
+    check_share(&smp, &img, 1, NULL, 0, "share 1");
+    /* a share small enough for the fully sampled pixel still leaves it out */
+    check_share(&smp, &img, 1.0 / 31, three, 3, "share 1/31 (the full pixel has nothing to sample)");
+
+    /* deterministic */
+    csi_sample_pos *a = NULL, *b = NULL;
+    size_t na = 0, nb = 0;
+    CHECK_OK(csi_refine_positions(&smp, &img, 0.01, &a, &na, NULL));
+    CHECK_OK(csi_refine_positions(&smp, &img, 0.01, &b, &nb, NULL));
+    CHECK(na == nb && na && !memcmp(a, b, na * sizeof *a), "two calls gave different requests");
+    csi_free(a);
+    csi_free(b);
+
+    /* refused */
+    csi_sample_pos *r = NULL;
+    size_t nr = 0;
+    csi_samples vol = smp;
+    vol.grid.t = 2;
+    CHECK(csi_refine_positions(&vol, &img, 0.01, &r, &nr, NULL) == CSI_ERR_ARG, "a volume was not refused");
+    CHECK(csi_refine_positions(&smp, &img, 0, &r, &nr, NULL) == CSI_ERR_ARG, "share 0 was not refused");
+    CHECK(csi_refine_positions(&smp, &img, 1.5, &r, &nr, NULL) == CSI_ERR_ARG, "share 1.5 was not refused");
+    CHECK(csi_refine_positions(&smp, &img, NAN, &r, &nr, NULL) == CSI_ERR_ARG, "share NaN was not refused");
+    csi_image small = img;
+    small.w = OW - 1;
+    CHECK(csi_refine_positions(&smp, &small, 0.01, &r, &nr, NULL) == CSI_ERR_ARG, "a 7-wide image was not refused");
+    s->val[5] = NAN;
+    CHECK(csi_refine_positions(&smp, &img, 0.01, &r, &nr, NULL) == CSI_ERR_ARG, "a NaN sample was not refused");
+    CHECK(!r && !nr, "a refused call left a request");
+    free(s);
+    return test_done();
+}

@@ -1,0 +1,171 @@
+#!/usr/bin/env python3
+"""csi's second pass on a path tracer's samples (csi-reconstruct --refine-request, csi-mitsuba
+--refine; docs/bench/mitsuba.md): for each cached Mitsuba dump, the cells csi asks for next
+rendered by Mitsuba as csi-mitsuba --refine renders them, appended, and the image reconstructed
+again; errors against Mitsuba's reference before and after, for csi and for the mean of the
+very same samples.
+
+    .venv/bin/python tools/bench/bench_refine.py --data DIR[,DIR2...] --json out.json --md out.md
+
+DIR is a directory of tools/bench/mitsuba_data.py (its seed is read from each dump's .json). Per
+(scene, spp, paths, positions) cell: csi's MSE and relMSE over the mean's on the first pass's
+samples ("before"), the same on all samples ("after": csi and the mean both given the extra
+samples), csi's after over the mean's before (what the extra samples bought), and how many cells
+and pixels the request held. Each renders only the requested cells (a few hundred paths'
+batches): a cell costs seconds.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(ROOT, "host", "python"))
+from bench_common import binaries, default_env, read_exr  # noqa: E402
+import mitsuba_data as md  # noqa: E402
+from csi import dump as csid  # noqa: E402
+from csi import mitsuba_bridge as mb  # noqa: E402
+from csi.mitsuba_cli import refine_seed  # noqa: E402
+
+
+def errors(img, ref):
+    d = (img.astype(np.float64) - ref) ** 2
+    return float(d.mean()), float((d / (ref.astype(np.float64) ** 2 + 0.01)).mean())
+
+
+def recon(bins, dump, out, args, env):
+    subprocess.run([bins["csi-reconstruct"], dump, "-o", out, "-q"] + args, check=True, env=env)
+    return read_exr(out)
+
+
+def cell(bins, env, tmp, d, scene, stem, share, scenes_cache):
+    dump = os.path.join(d, scene, stem + ".csid")
+    info = json.load(open(os.path.join(d, scene, stem + ".json")))
+    ref = np.load(os.path.join(d, scene, "reference_4096.npy"))
+    req_path = os.path.join(tmp, "req.csid")
+    if os.path.exists(req_path):
+        os.remove(req_path)
+    st_path = os.path.join(tmp, "st.json")
+    c0 = recon(bins, dump, os.path.join(tmp, "c0.exr"), ["--refine-request", req_path, "--refine-share", str(share),
+                                                         "--stats", st_path], env)
+    st = json.load(open(st_path))
+    m0 = recon(bins, dump, os.path.join(tmp, "m0.exr"), ["--estimator", "mean"], env)
+    row = {"cells": st["refine_cells"], "pixels": st["refine_pixels"], "samples": st["records"],
+           "csi_before": errors(c0, ref), "mean_before": errors(m0, ref)}
+    if row["cells"]:
+        D = csid.read(dump)
+        req = csid.read(req_path, want="request")
+        key = (scene, D.out)
+        if key not in scenes_cache:
+            scenes_cache.clear()
+            scenes_cache[key] = mb.load_scene(md.SCENES[scene], size=D.out)
+        s = mb.render_request(scenes_cache[key], req, paths=info["paths"], seed=refine_seed(D.seed))
+        row["mitsuba_s"] = s.timing["render_s"]
+        xyt = np.concatenate([D.xyt, req.xyt])
+        w, h, _ = D.grid
+        order = np.argsort((xyt[:, 2].astype(np.int64) * h + xyt[:, 1]) * w + xyt[:, 0], kind="stable")
+        aug = os.path.join(tmp, "aug.csid")
+        csid.write(aug, csid.Dump(grid=D.grid, out=D.out, xyt=xyt[order], values=np.concatenate([D.values, s.values])[order],
+                                  seed=D.seed))
+        vp = os.path.join(d, scene, stem + ".variance.csid")
+        args = ["--variance", "none"]
+        if os.path.exists(vp) and s.variance is not None:
+            V = csid.read(vp)
+            csid.write(os.path.join(tmp, "aug.variance.csid"),
+                       csid.Dump(grid=D.grid, out=D.out, xyt=xyt[order],
+                                 values=np.concatenate([V.values, s.variance])[order], seed=D.seed))
+            args = ["--variance", os.path.join(tmp, "aug.variance.csid")]
+        c1 = recon(bins, aug, os.path.join(tmp, "c1.exr"), args, env)
+        m1 = recon(bins, aug, os.path.join(tmp, "m1.exr"), ["--estimator", "mean", "--variance", "none"], env)
+        row["csi_after"], row["mean_after"] = errors(c1, ref), errors(m1, ref)
+    else:
+        row["csi_after"], row["mean_after"] = row["csi_before"], row["mean_before"]
+    return row
+
+
+def summary(rows):
+    r = lambda k, a, b, i: np.array([v[a][i] / v[b][i] for v in rows.values()])
+    above = lambda a, b: sum(1 for v in rows.values() if v[a][0] > v[b][0] or v[a][1] > v[b][1])
+    gm = lambda x: float(np.exp(np.log(x).mean()))
+    ex = np.array([v["cells"] / v["samples"] for v in rows.values()])
+    return {"cells": len(rows), "above_before": above("csi_before", "mean_before"),
+            "above_after": above("csi_after", "mean_after"),
+            "mse_before_gm": gm(r(0, "csi_before", "mean_before", 0)), "mse_after_gm": gm(r(0, "csi_after", "mean_after", 0)),
+            "mse_after_over_mean_before_gm": gm(r(0, "csi_after", "mean_before", 0)),
+            "rel_before_gm": gm(r(0, "csi_before", "mean_before", 1)), "rel_after_gm": gm(r(0, "csi_after", "mean_after", 1)),
+            "mse_before_max": float(r(0, "csi_before", "mean_before", 0).max()),
+            "mse_after_max": float(r(0, "csi_after", "mean_after", 0).max()),
+            "extra_mean": float(ex.mean()), "extra_max": float(ex.max())}
+
+
+def markdown(rows, s):
+    out = ["| cell | picked pixels | extra samples | csi / mean before (MSE, relMSE) | after | csi after / mean before (MSE) |",
+           "| --- | ---: | ---: | --- | --- | ---: |"]
+    for k, v in rows.items():
+        f = lambda a, b: f"{v[a][0] / v[b][0]:.3f}, {v[a][1] / v[b][1]:.3f}"
+        out.append(f"| {k} | {v['pixels']} | {100 * v['cells'] / v['samples']:.2f}% | {f('csi_before', 'mean_before')} | "
+                   f"{f('csi_after', 'mean_after')} | {v['csi_after'][0] / v['mean_before'][0]:.3f} |")
+    out.append("")
+    out.append(f"{s['cells']} cells; above the mean in MSE or relMSE: {s['above_before']} before, {s['above_after']} after; "
+               f"MSE over the mean's (geometric mean): {s['mse_before_gm']:.3f} before, {s['mse_after_gm']:.3f} after "
+               f"(worst {s['mse_before_max']:.3f} -> {s['mse_after_max']:.3f}); csi after over the mean before "
+               f"{s['mse_after_over_mean_before_gm']:.3f}; extra samples {100 * s['extra_mean']:.2f}% on average, "
+               f"{100 * s['extra_max']:.2f}% at most")
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", required=True, help="mitsuba_data.py directories, comma-separated")
+    ap.add_argument("--build", default=None, help="csi build directory (default: ./build)")
+    ap.add_argument("--scenes", default=",".join(md.SCENES))
+    ap.add_argument("--spp", default="4", help="comma-separated, e.g. 4,16")
+    ap.add_argument("--paths", default="1,64")
+    ap.add_argument("--methods", default="stratified,poisson")
+    ap.add_argument("--share", type=float, default=0.005, help="csi-reconstruct --refine-share")
+    ap.add_argument("--json", help="rows and summary (resumed if it exists)")
+    ap.add_argument("--md")
+    a = ap.parse_args(argv)
+    bins, env = binaries(a.build), default_env()
+    rows = json.load(open(a.json))["rows"] if a.json and os.path.exists(a.json) else {}
+    cache = {}
+    with tempfile.TemporaryDirectory(prefix="bench_refine-") as tmp:
+        for d in a.data.split(","):
+            for scene in a.scenes.split(","):
+                for spp in a.spp.split(","):
+                    for paths in a.paths.split(","):
+                        for meth in a.methods.split(","):
+                            stem = f"s{spp}_p{paths}" + ("" if meth == "stratified" else f"_{meth}")
+                            key = f"{os.path.basename(d.rstrip('/'))} {scene} {spp}x{paths} {meth}"
+                            if key in rows or not os.path.exists(os.path.join(d, scene, stem + ".csid")):
+                                continue
+                            rows[key] = cell(bins, env, tmp, d, scene, stem, a.share, cache)
+                            v = rows[key]
+                            print(f"{key}: {v['pixels']} px, {v['cells']} cells; csi/mean MSE "
+                                  f"{v['csi_before'][0] / v['mean_before'][0]:.3f} -> {v['csi_after'][0] / v['mean_after'][0]:.3f}",
+                                  flush=True)
+                            if a.json:
+                                with open(a.json + ".tmp", "w") as f:
+                                    json.dump({"rows": rows}, f)
+                                os.replace(a.json + ".tmp", a.json)
+    s = summary(rows)
+    if a.json:
+        with open(a.json + ".tmp", "w") as f:
+            json.dump({"rows": rows, "summary": s}, f, indent=1)
+        os.replace(a.json + ".tmp", a.json)
+    text = markdown(rows, s)
+    if a.md:
+        with open(a.md, "w") as f:
+            f.write(text)
+    print(text.splitlines()[-1])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
