@@ -6,6 +6,7 @@ again; errors against Mitsuba's reference before and after, for csi and for the 
 very same samples.
 
     .venv/bin/python tools/bench/bench_refine.py --data DIR[,DIR2...] --json out.json --md out.md
+    .venv/bin/python tools/bench/bench_refine.py --data DIR --figure refine.png --figure-cells horizon/s4_p64_poisson
 
 DIR is a directory of tools/bench/mitsuba_data.py (its seed is read from each dump's .json). Per
 (scene, spp, paths, positions) cell: csi's MSE and relMSE over the mean's on the first pass's
@@ -44,7 +45,7 @@ def recon(bins, dump, out, args, env):
     return read_exr(out)
 
 
-def cell(bins, env, tmp, d, scene, stem, share, scenes_cache):
+def cell(bins, env, tmp, d, scene, stem, share, scenes_cache, images=None):
     dump = os.path.join(d, scene, stem + ".csid")
     info = json.load(open(os.path.join(d, scene, stem + ".json")))
     ref = np.load(os.path.join(d, scene, "reference_4096.npy"))
@@ -85,8 +86,52 @@ def cell(bins, env, tmp, d, scene, stem, share, scenes_cache):
         m1 = recon(bins, aug, os.path.join(tmp, "m1.exr"), ["--estimator", "mean", "--variance", "none"], env)
         row["csi_after"], row["mean_after"] = errors(c1, ref), errors(m1, ref)
     else:
-        row["csi_after"], row["mean_after"] = row["csi_before"], row["mean_before"]
+        row["csi_after"], row["mean_after"], c1, m1 = row["csi_before"], row["mean_before"], c0, m0
+    if images is not None:
+        images.update(reference=ref, mean=m0, csi=c0, mean_after=m1, csi_after=c1,
+                      picked=csid.read(req_path, want="request").xyt if row["cells"] else np.zeros((0, 3), np.uint32),
+                      factor=D.grid[0] // D.out[0] if row["cells"] else 1)
     return row
+
+
+HALF, ZOOM = 7, 8  # a crop is 15 x 15 pixels, each shown as 8 x 8
+
+
+def figure(bins, env, tmp, d, specs, share, out):
+    """One column per cell (SCENE/STEM), a crop around its brightest picked pixel: the reference, the
+    mean and csi of the first pass, the mean and csi of all the samples; each crop tone-mapped
+    on its own, log(1 + x / a) / log(1 + max / a), a the median and max the largest value of its
+    reference, so that a sun and the ground beside it both show."""
+    from PIL import Image, ImageDraw
+
+    names = ["reference", "mean", "csi", "mean, refined", "csi, refined"]
+    keys = ["reference", "mean", "csi", "mean_after", "csi_after"]
+    side, pad, label_w, head = (2 * HALF + 1) * ZOOM, 4, 100, 16
+    sheet = Image.new("RGB", (label_w + len(specs) * (side + pad), head + len(keys) * (side + pad)), "white")
+    draw = ImageDraw.Draw(sheet)
+    for r, name in enumerate(names):
+        draw.text((4, head + r * (side + pad) + side // 2), name, fill="black")
+    for col, spec in enumerate(specs):
+        scene, stem = spec.split("/")
+        im = {}
+        cell(bins, env, tmp, d, scene, stem, share, {}, im)
+        h, w, _ = im["reference"].shape
+        if len(im["picked"]):  # the brightest picked pixel (by the reference)
+            px = np.unique((im["picked"][:, 1] // im["factor"]) * w + im["picked"][:, 0] // im["factor"])
+            y, x = divmod(int(px[np.argmax(im["reference"].mean(-1).ravel()[px])]), w)
+        else:
+            y, x = np.unravel_index(np.argmax(im["reference"].mean(-1)), (h, w))
+        y0, x0 = min(max(y - HALF, 0), h - 2 * HALF - 1), min(max(x - HALF, 0), w - 2 * HALF - 1)
+        crops = [np.asarray(im[k], np.float64)[y0:y0 + 2 * HALF + 1, x0:x0 + 2 * HALF + 1] for k in keys]
+        scale = max(float(np.median(crops[0])), 1e-6)
+        top = np.log1p(max(float(crops[0].max()), scale) / scale)
+        cx = label_w + col * (side + pad)
+        draw.text((cx, 2), f"{scene} {stem}", fill="black")
+        for r, c in enumerate(crops):
+            v = np.clip(np.log1p(np.clip(c, 0, None) / scale) / top, 0, 1)
+            tile = Image.fromarray((255 * v ** (1 / 2.2)).astype(np.uint8)).resize((side, side), Image.NEAREST)
+            sheet.paste(tile, (cx, head + r * (side + pad)))
+    sheet.save(out)
 
 
 def summary(rows):
@@ -131,8 +176,14 @@ def main(argv=None):
     ap.add_argument("--share", type=float, default=0.005, help="csi-reconstruct --refine-share")
     ap.add_argument("--json", help="rows and summary (resumed if it exists)")
     ap.add_argument("--md")
+    ap.add_argument("--figure", metavar="OUT.png", help="crops of --figure-cells (of the first --data) instead")
+    ap.add_argument("--figure-cells", default="horizon/s4_p64_poisson", help="SCENE/STEM, comma-separated")
     a = ap.parse_args(argv)
     bins, env = binaries(a.build), default_env()
+    if a.figure:
+        with tempfile.TemporaryDirectory(prefix="bench_refine-") as tmp:
+            figure(bins, env, tmp, a.data.split(",")[0], a.figure_cells.split(","), a.share, a.figure)
+        return 0
     rows = json.load(open(a.json))["rows"] if a.json and os.path.exists(a.json) else {}
     cache = {}
     with tempfile.TemporaryDirectory(prefix="bench_refine-") as tmp:
