@@ -26,6 +26,10 @@
  * by 200 pixels' cells whatever the image's size. */
 #define CSI_REFINE_SHARE_DEFAULT 0.005
 
+/* A relative difference this small between the image and the mean is float32's rounding of the
+ * same value (2^-24 per operation, a few operations), not a disagreement. */
+#define CSI_REFINE_ROUNDING 1e-5
+
 double csi_refine_share_default(void)
 {
     return CSI_REFINE_SHARE_DEFAULT;
@@ -93,8 +97,11 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
             continue;
         double d = 0;
         for (uint32_t c = 0; c < C; c++) {
-            const double e = image->data[(size_t)c * np + p] - sum[p * C + c] / cnt[p];
-            d += e * e;
+            const double x = image->data[(size_t)c * np + p], m = sum[p * C + c] / cnt[p], e = x - m;
+            /* an image that is the mean in float32 (the mean estimator, a pixel the blend gave its
+             * mean) differs from the mean in double by its rounding: no disagreement */
+            if (fabs(e) > CSI_REFINE_ROUNDING * (fabs(x) + fabs(m)))
+                d += e * e;
         }
         d2[p] = d;
         total += d;

@@ -89,7 +89,8 @@ def main():
                            ((SCENE, "--refine", "--refine-share", "0", "-o", p("x.exr")), "share 0"),
                            ((SCENE, "--refine", "--refine-share", "1.5", "-o", p("x.exr")), "share 1.5"),
                            ((SCENE, "--refine", "--reference", "16", "-o", p("x.exr")), "with --reference"),
-                           ((SCENE, "--refine", "--time-steps", "4", "-o", p("x.exr")), "a volume")):
+                           ((SCENE, "--refine", "--time-steps", "4", "-o", p("x.exr")), "a volume"),
+                           ((SCENE, "--refine", "-o", p("x.exr"), "--", "--estimator", "mean"), "the mean estimator")):
             e = cli(*args)
             check(e.returncode == 2 and len(e.stderr.strip().splitlines()) == 1 and not os.path.exists(p("x.exr")),
                   f"{what}: exit {e.returncode}, stderr {e.stderr!r}")

@@ -297,6 +297,10 @@ def run(a, extra):
         raise UsageError("--refine-share needs --refine")
     if a.refine_share is not None and not 0 < a.refine_share <= 1:
         raise UsageError(f"--refine-share: {a.refine_share:g} is not a share with 0 < S <= 1")
+    if a.refine and any(w in ("--estimator=mean", "mean") and (w != "mean" or i and extra[i - 1] == "--estimator")
+                        for i, w in enumerate(extra)):
+        raise UsageError("--refine picks the pixels where csi's image and the pixel's mean disagree: not with "
+                         "--estimator mean")
     if a.refine and (a.reference or a.time_steps > 1):
         raise UsageError("--refine picks pixels of an image: not with " + ("--reference" if a.reference else
                                                                            "--time-steps above 1"))
