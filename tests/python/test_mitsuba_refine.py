@@ -1,6 +1,7 @@
 """csi-mitsuba --refine end to end: the first pass's samples, the cells csi asks for next
-(csi_refine_positions on the first pass's reconstruction), Mitsuba rendering them, and the image
-from all the samples; bad arguments refused before any rendering.
+(csi_refine_positions on the first pass's reconstruction), Mitsuba rendering them, and the image:
+the first pass's reconstruction with each refined pixel its samples' mean; bad arguments refused
+before any rendering.
 
 Scene: data/mitsuba/horizon.py (a textured plane to the horizon, a sun glinting on a glossy
 sphere: a few pixels hold most of the image's error) at 48x48, 4 samples per pixel of 4 paths
@@ -75,10 +76,14 @@ def main():
         m = d.pixel_means().reshape(-1, 3)
         err = np.abs(img[picked] - m[picked]).max() / max(1.0, np.abs(m[picked]).max())
         check(err <= 1e-6, f"a fully sampled pixel is not its samples' mean: relative {err:.3g}")
-        # The image is csi-reconstruct's on the dump it wrote (with the variances beside it).
-        subprocess.run([programs.find("csi-reconstruct"), p("r.csid"), "-o", p("c.exr"), "-q"], check=True)
-        check(np.array_equal(exr.read(p("c.exr")), exr.read(p("r.exr"))),
-              "csi-mitsuba --refine's image != csi-reconstruct's on its dump")
+        # Every other pixel is the first pass's reconstruction: csi-reconstruct's on the one-pass
+        # dump (with the variances beside it), to the bit.
+        subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "-o", p("c.exr"), "-q"], check=True)
+        c1 = exr.read(p("c.exr")).reshape(-1, 3)
+        rest = np.setdiff1d(np.arange(len(c1)), picked)
+        check(np.array_equal(c1[rest], exr.read(p("r.exr")).reshape(-1, 3)[rest]),
+              "csi-mitsuba --refine's other pixels != csi-reconstruct's on the first pass's dump")
+        check(np.array_equal(c1, exr.read(p("one.exr")).reshape(-1, 3)), "the one-pass run's image != csi-reconstruct's")
         # Deterministic: the same run twice, the same bytes.
         r2 = cli(*common, "--refine", "--dump", p("r2.csid"))
         check(r2.returncode == 0 and open(p("r2.csid"), "rb").read() == open(p("r.csid"), "rb").read(),

@@ -312,6 +312,21 @@ class Result:
         else:
             _check(L.csi_png_write(os.fsencode(path), ctypes.byref(img)))
 
+    def set_image(self, image):
+        """Replaces the image (H, W, C, the result's shape) in this result and in the library's
+        buffer its writers read, for a caller that amends the reconstruction before writing it
+        (csi-mitsuba --refine sets the pixels it sampled whole to their samples' mean)."""
+        if not getattr(self, "_h", None):
+            raise CsiError("CSI_ERR_ARG", "this result was closed")
+        img = np.asarray(image, dtype=np.float32)
+        if img.shape != self.image.shape:
+            raise CsiError("CSI_ERR_ARG", f"set_image: shape {img.shape}, the result's is {self.image.shape}")
+        view = _Image()
+        _check(lib().csi_result_image(self._h, ctypes.byref(view)))
+        planar = np.ascontiguousarray(np.moveaxis(img, 2, 0))
+        ctypes.memmove(view.data, planar.ctypes.data, planar.nbytes)
+        self.image = img.copy()
+
     def write_exr(self, path, frame: Optional[int] = None):
         """A float32 EXR with the run's figures and every option as used in its header (frame t
         of the frames when frame is given); written to a temporary file and renamed."""

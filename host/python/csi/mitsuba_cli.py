@@ -232,7 +232,12 @@ def refine_seed(seed: int) -> int:
 def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     """The second pass of --refine: the cells csi_refine_positions picks from the first pass's
     reconstruction, rendered as the first ones were, merged with them in csi's cell order.
-    Returns (request, samples, statistics) of all the samples."""
+    Returns (request, samples, statistics) of all the samples and the image: the first pass's
+    reconstruction (csi's Result) with each refined pixel set to the mean of all its samples,
+    which a pixel sampled in every cell is given by the blend. A second reconstruction of all the
+    samples differs from it only in the fit around those pixels: it measured the same error on
+    average and above the mean of the same samples more often (docs/bench/mitsuba.md, session
+    20), for twice csi's time."""
     import numpy as np
 
     import csi
@@ -244,9 +249,10 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
         cells, pixels = csi.refine_positions(req.xyt, s.values, (*req.grid, *req.out), first.image, a.refine_share)
     except csi.CsiError as e:
         raise ReconstructError(e) from None
-    info = {"pixels": pixels, "cells": int(len(cells)), "t_first_reconstruction_s": t_first}
+    info = {"pixels": pixels, "cells": int(len(cells)), "t_first_reconstruction_s": t_first,
+            "image": "the first pass's reconstruction, each refined pixel its samples' mean"}
     if not len(cells):
-        return req, s, info
+        return req, s, info, first
     more = csid.Dump(grid=req.grid, out=req.out, xyt=cells, values=None, seed=req.seed)
     s2 = mb.render_request(scene, more, paths=a.paths, seed=refine_seed(req.seed), aov=a.aov,
                            progress=lambda d, n: prog("refinement samples", d, n))
@@ -258,7 +264,16 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     merged = mb.Samples(values=join(s.values, s2.values), variance=join(s.variance, s2.variance),
                         albedo=join(s.albedo, s2.albedo), normal=join(s.normal, s2.normal), paths=s.paths,
                         nonfinite=s.nonfinite + s2.nonfinite, timing=s.timing)
-    return csid.Dump(grid=req.grid, out=req.out, xyt=xyt[order], values=None, seed=req.seed), merged, info
+    f = req.grid[0] // req.out[0]
+    pix = (xyt[:, 1] // f).astype(np.int64) * req.out[0] + xyt[:, 0] // f
+    picked = np.unique((cells[:, 1] // f).astype(np.int64) * req.out[0] + cells[:, 0] // f)
+    cnt = np.bincount(pix, minlength=req.out[0] * req.out[1])
+    vals = np.concatenate([s.values, s2.values]).astype(np.float64)
+    img = first.image.reshape(-1, first.image.shape[2]).copy()
+    for c in range(img.shape[1]):  # in double, in sample order
+        img[picked, c] = np.bincount(pix, weights=vals[:, c], minlength=len(cnt))[picked] / cnt[picked]
+    first.set_image(img.reshape(first.image.shape))
+    return csid.Dump(grid=req.grid, out=req.out, xyt=xyt[order], values=None, seed=req.seed), merged, info, first
 
 
 class ReconstructError(Exception):
@@ -361,9 +376,9 @@ def run(a, extra):
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
                           progress=lambda d, n: prog("samples", d, n))
     prog.end()
-    refined = None
+    refined = refined_result = None
     if a.refine:
-        req, s, refined = refine(scene, req, s, a, extra, prog)
+        req, s, refined, refined_result = refine(scene, req, s, a, extra, prog)
         prog.end()
     dump = req.with_values(s.values)
     stats = {"tool": PROG, "scene": a.scene, "out": list(req.out), "grid": list(req.grid), "seed": seed,
@@ -372,7 +387,19 @@ def run(a, extra):
     if refined is not None:
         stats["refine"] = refined
     t_recon = None
-    if a.output or a.png:
+    if refined_result is not None:
+        import csi
+
+        t_recon = refined["t_first_reconstruction_s"]
+        stats["reconstruction"] = dict(refined_result.stats)
+        try:
+            if a.output:
+                refined_result.write_exr(a.output)
+            if a.png:
+                refined_result.write_png(a.png)
+        except csi.CsiError as e:
+            raise ReconstructError(e) from None
+    elif a.output or a.png:
         t0 = time.perf_counter()
         stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra,
                                                 variance=s.variance if a.variance_peaks else None)
