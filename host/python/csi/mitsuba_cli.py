@@ -106,9 +106,9 @@ def parser():
     s.add_argument("--refine", action="store_true",
                    help="a second pass: every cell of the pixels csi cannot decide (where its image and the "
                         "pixel's mean disagree by a large share of their disagreement over the image: an HDR "
-                        "highlight one of a pixel's few samples hit) is rendered too, then the image "
-                        "reconstructed from all the samples (csi-reconstruct --refine-request; "
-                        "docs/bench/mitsuba.md). Images only")
+                        "highlight one of a pixel's few samples hit) is rendered too, and those pixels take "
+                        "the mean of all their samples (csi-reconstruct --refine-request; --dump writes all "
+                        "the samples; docs/bench/mitsuba.md). Images only")
     s.add_argument("--refine-share", type=float, metavar="S",
                    help="with --refine: the share, 0 < S <= 1 (default 0.005)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
