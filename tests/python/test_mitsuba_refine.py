@@ -39,9 +39,10 @@ def main():
     with tempfile.TemporaryDirectory() as T:
         p = lambda name: os.path.join(T, name)  # noqa: E731
         common = [SCENE, "--out", "48x48", "--spp", 4, "--paths", 4, "--seed", 3, "-q"]
-        r = cli(*common, "--refine", "--dump", p("r.csid"), "-o", p("r.exr"), "--stats", p("r.json"))
-        check(r.returncode == 0, f"--refine: exit {r.returncode}: {r.stderr.strip()}")
-        r1 = cli(*common, "--dump", p("one.csid"), "-o", p("one.exr"))
+        # the default for an image is the second pass; --refine says it too
+        r = cli(*common, "--dump", p("r.csid"), "-o", p("r.exr"), "--stats", p("r.json"))
+        check(r.returncode == 0, f"the default (--refine): exit {r.returncode}: {r.stderr.strip()}")
+        r1 = cli(*common, "--no-refine", "--dump", p("one.csid"), "-o", p("one.exr"))
         check(r1.returncode == 0, f"one pass: exit {r1.returncode}: {r1.stderr.strip()}")
         if r.returncode or r1.returncode:
             return
@@ -84,13 +85,19 @@ def main():
         check(np.array_equal(c1[rest], exr.read(p("r.exr")).reshape(-1, 3)[rest]),
               "csi-mitsuba --refine's other pixels != csi-reconstruct's on the first pass's dump")
         check(np.array_equal(c1, exr.read(p("one.exr")).reshape(-1, 3)), "the one-pass run's image != csi-reconstruct's")
+        # Off by default with the mean as the estimator (it has nothing to disagree with) and for
+        # an explicit request of positions.
+        m = cli(*common, "--dump", p("m.csid"), "--", "--estimator", "mean")
+        check(m.returncode == 0 and open(p("m.csid"), "rb").read() == open(p("one.csid"), "rb").read(),
+              f"-- --estimator mean refined by default: exit {m.returncode} {m.stderr.strip()}")
         # Deterministic: the same run twice, the same bytes.
         r2 = cli(*common, "--refine", "--dump", p("r2.csid"))
         check(r2.returncode == 0 and open(p("r2.csid"), "rb").read() == open(p("r.csid"), "rb").read(),
               "--refine twice gave different samples")
 
         # Refused before any rendering: one line, exit 2, nothing written.
-        for args, what in (((SCENE, "--refine-share", "0.01", "-o", p("x.exr")), "--refine-share without --refine"),
+        for args, what in (((SCENE, "--no-refine", "--refine-share", "0.01", "-o", p("x.exr")),
+                            "--refine-share with --no-refine"),
                            ((SCENE, "--refine", "--refine-share", "0", "-o", p("x.exr")), "share 0"),
                            ((SCENE, "--refine", "--refine-share", "1.5", "-o", p("x.exr")), "share 1.5"),
                            ((SCENE, "--refine", "--reference", "16", "-o", p("x.exr")), "with --reference"),

@@ -21,7 +21,9 @@ DESCRIPTION = """\
 Renders SCENE with Mitsuba 3 (llvm_ad_rgb, the scene's own sensor and integrator) at exactly
 the fine-grid cell centres csi asks for (the grid and positions csi-positions and csi-render
 would use for the same size, spp and seed), N paths per sample averaged, and reconstructs the
-image with csi's library in the same process (the bits of csi-reconstruct on the dump). With
+image with csi's library in the same process (the bits of csi-reconstruct on the dump). An
+image then gets a second pass (--refine, the default): every cell of the few pixels csi cannot
+decide is rendered too, and those pixels take the mean of all their samples. With
 --reference it renders Mitsuba's own box-filtered image instead (the film's reconstruction
 filter set to a box: pixel (px, py) is the mean over [px, px+1) x [py, py+1), csi's output
 pixel), the ground truth to compare with.
@@ -34,7 +36,7 @@ also --seed and --device)."""
 EPILOG = """\
 examples:
   csi-mitsuba cornell --out 128x128 --spp 4 -o cornell.exr --dump cornell.csid
-  csi-mitsuba scene.xml --spp 4 --paths 64 --refine -o out.exr
+  csi-mitsuba scene.xml --spp 4 --paths 64 --no-refine -o out.exr --dump exact_spp.csid
   csi-mitsuba scene.xml --spp 4 --paths 64 -o out.exr -- --estimator mean
   csi-mitsuba cornell --out 128x128 --reference 4096 -o ref.exr
   csi-positions --out 128x128 --spp 4 -o req.csid && csi-mitsuba cornell --request req.csid --dump s.csid
@@ -103,12 +105,14 @@ def parser():
     s.add_argument("--seed", type=_int_range(0, (1 << 64) - 1), default=1, help="seed of the positions and of Mitsuba's sampler (default 1)")
     s.add_argument("--request", metavar="REQ.csid", help="evaluate this positions request (csi-positions) instead; "
                    "the size, grid and positions are its own")
-    s.add_argument("--refine", action="store_true",
+    s.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
                    help="a second pass: every cell of the pixels csi cannot decide (where its image and the "
                         "pixel's mean disagree by a large share of their disagreement over the image: an HDR "
-                        "highlight one of a pixel's few samples hit) is rendered too, and those pixels take "
-                        "the mean of all their samples (csi-reconstruct --refine-request; --dump writes all "
-                        "the samples; docs/bench/mitsuba.md). Images only")
+                        "highlight one of a pixel's few samples hit; about 2%% more samples) is rendered too, "
+                        "and those pixels take the mean of all their samples (csi-reconstruct "
+                        "--refine-request; --dump writes all the samples; docs/bench/mitsuba.md). Default: on "
+                        "for an image reconstructed by csi; off with --request, --time-steps above 1 or "
+                        "-- --estimator mean|gauss; --no-refine samples exactly --spp per pixel")
     s.add_argument("--refine-share", type=float, metavar="S",
                    help="with --refine: the share, 0 < S <= 1 (default 0.005)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
@@ -290,6 +294,16 @@ def _write_json(path, obj):
         json.dump(obj, f, indent=1)
 
 
+def _estimator(extra):
+    """The estimator the reconstruction options after '--' ask for (the last --estimator), else cs."""
+    value = "cs"
+    for i, w in enumerate(extra):
+        name, eq, v = w.partition("=")
+        if name == "--estimator":
+            value = v if eq else extra[i + 1] if i + 1 < len(extra) else value
+    return value
+
+
 def run(a, extra):
     prog = _Progress(a.quiet)
     if a.reference:
@@ -308,12 +322,14 @@ def run(a, extra):
         a.variance_peaks = a.paths > 1
     if a.variance_peaks and a.paths < 2:
         raise UsageError("--variance-peaks needs --paths above 1 (one path has no sample variance)")
+    estimator = _estimator(extra)
+    if a.refine is None:  # the default: on where csi reconstructs an image from its own positions
+        a.refine = not (a.reference or a.request or a.time_steps > 1 or estimator in ("mean", "gauss"))
     if a.refine_share is not None and not a.refine:
         raise UsageError("--refine-share needs --refine")
     if a.refine_share is not None and not 0 < a.refine_share <= 1:
         raise UsageError(f"--refine-share: {a.refine_share:g} is not a share with 0 < S <= 1")
-    if a.refine and any(w in ("--estimator=mean", "mean") and (w != "mean" or i and extra[i - 1] == "--estimator")
-                        for i, w in enumerate(extra)):
+    if a.refine and estimator == "mean":
         raise UsageError("--refine picks the pixels where csi's image and the pixel's mean disagree: not with "
                          "--estimator mean")
     if a.refine and (a.reference or a.time_steps > 1):
