@@ -36,6 +36,11 @@ static void usage(FILE *f)
 "                            records to the dump and reconstruct again (csi-mitsuba --refine does\n"
 "                            this); not written when no pixel is picked (the summary says so)\n"
 "      --refine-share S      the share, 0 < S <= 1 [default: 0.005]\n"
+"      --refine-with MORE.csid\n"
+"                            the second pass without a second reconstruction: MORE.csid is DUMP's\n"
+"                            refinement request (the same --refine-share) evaluated by the renderer;\n"
+"                            the image is DUMP's reconstruction with each refined pixel the mean of\n"
+"                            all its samples (csi-mitsuba's image; docs/bench/mitsuba.md, session 20)\n"
 );
     cli_recon_usage(f);
     cli_tile_usage(f);
@@ -140,6 +145,49 @@ static csi_status write_refinement(csi_outset *set, const char *path, const csi_
     return s;
 }
 
+/* Orders positions by their grid index (csi_grid_index), for qsort. */
+static const csi_grid *sort_grid;
+static int by_index(const void *a, const void *b)
+{
+    const uint64_t i = csi_grid_index(sort_grid, *(const csi_sample_pos *)a),
+                   j = csi_grid_index(sort_grid, *(const csi_sample_pos *)b);
+    return i < j ? -1 : i > j;
+}
+
+/* --refine-with: MORE's positions must be the request this reconstruction makes (the same cells,
+ * in any order); then the refined pixels take the mean of all their samples (csi_refine_apply). */
+static csi_status apply_refinement(const char *path, const char *in, const csi_samples *first,
+                                   const csi_samples *more, csi_result *r, double share, size_t *pixels)
+{
+    csi_image img;
+    CSI_TRY(csi_result_image(r, &img));
+    csi_sample_pos *want = NULL;
+    size_t n = 0;
+    CSI_TRY(csi_refine_positions(first, &img, share, &want, &n, NULL));
+    csi_status s = CSI_OK;
+    csi_sample_pos *got = n == more->count && n ? malloc(n * sizeof *got) : NULL;
+    if (n != more->count)
+        s = cli_fail(CSI_ERR_ARG, "%s: %zu positions, but %s's refinement request (--refine-share %g) has %zu: not "
+                     "its evaluation", path, more->count, in, share, n);
+    else if (n && !got)
+        s = cli_fail(CSI_ERR_NOMEM, "out of host memory for %zu positions", n);
+    if (s == CSI_OK && n) {
+        memcpy(got, more->pos, n * sizeof *got);
+        sort_grid = &first->grid;
+        qsort(want, n, sizeof *want, by_index);
+        qsort(got, n, sizeof *got, by_index);
+        for (size_t i = 0; i < n && s == CSI_OK; i++)
+            if (memcmp(&want[i], &got[i], sizeof *got))
+                s = cli_fail(CSI_ERR_ARG, "%s: position (%u, %u) is not in %s's refinement request (--refine-share "
+                             "%g): not its evaluation", path, got[i].x, got[i].y, in, share);
+    }
+    free(got);
+    csi_free(want);
+    if (s == CSI_OK)
+        s = csi_refine_apply(first, more, &img, pixels);
+    return s;
+}
+
 /* The statistics of a whole run. */
 static csi_status write_stats(csi_outset *set, const char *path, const char *in, const char *varfile,
                               const csi_device *dev, const csi_dump *d, const csi_dump_report *rep,
@@ -172,13 +220,14 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE, O_REFINE, O_REFINE_SHARE };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE, O_REFINE, O_REFINE_SHARE,
+           O_REFINE_WITH };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
         {"drop-invalid", no_argument, 0, O_DROP}, {"variance", required_argument, 0, O_VARIANCE},
         {"device", required_argument, 0, O_DEVICE}, {"refine-request", required_argument, 0, O_REFINE},
-        {"refine-share", required_argument, 0, O_REFINE_SHARE},
+        {"refine-share", required_argument, 0, O_REFINE_SHARE}, {"refine-with", required_argument, 0, O_REFINE_WITH},
         {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
         {0, 0, 0, 0}};
@@ -189,7 +238,7 @@ int main(int argc, char **argv)
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
     bool quiet = false, drop = false, seed_given = false;
-    const char *device = NULL, *varfile = NULL, *refine = NULL;
+    const char *device = NULL, *varfile = NULL, *refine = NULL, *refine_with = NULL;
     double refine_share = csi_refine_share_default();
     int c, rc = 0;
     opterr = 0;
@@ -207,6 +256,7 @@ int main(int argc, char **argv)
         case O_DROP: drop = true; break;
         case O_VARIANCE: varfile = optarg; break;
         case O_REFINE: refine = optarg; break;
+        case O_REFINE_WITH: refine_with = optarg; break;
         case O_REFINE_SHARE: {
             char *end;
             refine_share = strtod(optarg, &end);
@@ -265,8 +315,11 @@ int main(int argc, char **argv)
         varfile = found;
     if (!rc && !outs.exr && !outs.png && !tile.info)
         rc = cli_error(prog, CSI_ERR_ARG, "no output given: use -o OUT.exr and/or --png OUT.png");
-    if (!rc && refine && (tile.one || tile.info))
-        rc = cli_error(prog, CSI_ERR_ARG, "--refine-request needs the whole image, not --tile");
+    if (!rc && (refine || refine_with) && (tile.one || tile.info))
+        rc = cli_error(prog, CSI_ERR_ARG, "--refine-%s needs the whole image, not --tile", refine ? "request" : "with");
+    if (!rc && refine && refine_with)
+        rc = cli_error(prog, CSI_ERR_ARG, "--refine-request and --refine-with: the first pass asks, the second "
+                       "applies; give one");
     if (rc) {
         csi_options_free(opt);
         free(found);
@@ -277,7 +330,7 @@ int main(int argc, char **argv)
     const bool frames = option_is(opt, "frames", "on"), mean = option_is(opt, "estimator", "mean");
 
     csi_status s;
-    csi_dump dump = {0}, var = {0};
+    csi_dump dump = {0}, var = {0}, more = {0};
     csi_dump_report drep = {0}, vrep = {0};
     csi_dump_read_opts ropts = {.drop_invalid = drop};
     double phase[3] = {0}; /* reading the dump, making the device, writing the outputs (s) */
@@ -303,9 +356,20 @@ int main(int argc, char **argv)
         s = csi_outset_input(set, varfile);
     if (s == CSI_OK)
         s = cli_outputs_stage(&outs, set, frames && !mean && hdr.grid.t > 1 ? hdr.grid.t : 0);
-    if (s == CSI_OK && refine && hdr.grid.t > 1)
-        s = cli_fail(CSI_ERR_ARG, "%s: --refine-request picks pixels of an image; this dump is a volume "
-                     "(grid_t = %u)", in, hdr.grid.t);
+    if (s == CSI_OK && (refine || refine_with) && hdr.grid.t > 1)
+        s = cli_fail(CSI_ERR_ARG, "%s: --refine-%s picks pixels of an image; this dump is a volume "
+                     "(grid_t = %u)", in, refine ? "request" : "with", hdr.grid.t);
+    if (s == CSI_OK && (refine || refine_with) && mean)
+        s = cli_fail(CSI_ERR_ARG, "--refine-%s: the mean estimator's image is the pixels' means, there is "
+                     "nothing to refine", refine ? "request" : "with");
+    csi_dump_header mhdr = {0};
+    if (s == CSI_OK && refine_with && (s = csi_dump_read_header(refine_with, &ropts, &mhdr)) == CSI_OK &&
+        (memcmp(&mhdr.grid, &hdr.grid, sizeof hdr.grid) || mhdr.channels != hdr.channels))
+        s = cli_fail(CSI_ERR_ARG, "%s: a %ux%u grid for %ux%u with %u channels, %s's is %ux%u for %ux%u with %u: "
+                     "not its refinement", refine_with, mhdr.grid.w, mhdr.grid.h, mhdr.grid.out_w, mhdr.grid.out_h,
+                     mhdr.channels, in, hdr.grid.w, hdr.grid.h, hdr.grid.out_w, hdr.grid.out_h, hdr.channels);
+    if (s == CSI_OK && refine_with)
+        s = csi_outset_input(set, refine_with);
     if (s == CSI_OK && refine)
         s = csi_outset_file(set, refine, "the refinement request (--refine-request)");
     if (s == CSI_OK)
@@ -322,6 +386,9 @@ int main(int argc, char **argv)
         s = csi_dump_read(in, &ropts, &dump, &drep);
     if (s == CSI_OK && varfile)
         var_failed = (s = read_variance(varfile, in, &dump, &drep, &ropts, &var, &vrep)) != CSI_OK;
+    csi_dump_report mrep = {0};
+    if (s == CSI_OK && refine_with)
+        s = csi_dump_read(refine_with, &ropts, &more, &mrep);
     phase[0] = cli_now() - tp;
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s%s", cli_last_error(),
@@ -368,12 +435,17 @@ int main(int argc, char **argv)
     size_t refine_cells = 0, refine_pixels = 0;
     if (refine)
         s = write_refinement(set, refine, &samples, res, refine_share, &refine_cells, &refine_pixels);
+    if (refine_with) {
+        const csi_samples ms = {more.grid, more.channels, more.count, more.pos, more.values, more.flags, NULL};
+        s = apply_refinement(refine_with, in, &samples, &ms, res, refine_share, &refine_pixels);
+        refine_cells = more.count;
+    }
     if (s == CSI_OK)
         s = cli_write_images(&outs, set, res, NULL, &bar);
     phase[2] = cli_now() - tp;
     if (s == CSI_OK && outs.stats)
-        s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0, refine, refine_cells,
-                        refine_pixels);
+        s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0,
+                        refine ? refine : refine_with, refine_cells, refine_pixels);
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK) {
@@ -388,7 +460,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: %ux%u from %zu samples of a %ux%ux%u grid (%s) in %.2f s%s\n", prog, dump.grid.out_w,
                 dump.grid.out_h, info.n, dump.grid.w, dump.grid.h, dump.grid.t,
                 cli_solver_or_estimator(res, used, sizeof used), cli_now() - t0, all ? "" : " (not converged)");
-        if (refine && refine_cells)
+        if (refine_with)
+            fprintf(stderr, "%s: refine: %zu pixels given the mean of all their samples with %zu more from %s\n",
+                    prog, refine_pixels, refine_cells, refine_with);
+        else if (refine && refine_cells)
             fprintf(stderr, "%s: refine: %zu cells of %zu pixels to sample next in %s\n", prog, refine_cells,
                     refine_pixels, refine);
         else if (refine)
@@ -400,6 +475,7 @@ done:
     csi_device_release(dev);
     csi_dump_free(&dump);
     csi_dump_free(&var);
+    csi_dump_free(&more);
     free(found);
     csi_options_free(opt);
     return rc;

@@ -161,3 +161,75 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
         *pixels = flagged;
     return CSI_OK;
 }
+
+csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, csi_image *image, size_t *pixels)
+{
+    if (!first || !more || !image)
+        return csi_fail(CSI_ERR_ARG, "csi_refine_apply: %s is NULL", !first ? "first" : !more ? "more" : "image");
+    if (pixels)
+        *pixels = 0;
+    const csi_grid *g = &first->grid;
+    if (memcmp(g, &more->grid, sizeof *g) || first->channels != more->channels)
+        return csi_fail(CSI_ERR_ARG, "refinement: the refined samples' grid (%ux%ux%u for %ux%u, %u channels) is "
+                        "not the first samples' (%ux%ux%u for %ux%u, %u channels)", more->grid.w, more->grid.h,
+                        more->grid.t, more->grid.out_w, more->grid.out_h, more->channels, g->w, g->h, g->t,
+                        g->out_w, g->out_h, first->channels);
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "refinement: the samples are a volume (%u frames); it picks pixels of an image",
+                        g->t);
+    if (!g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
+        return csi_fail(CSI_ERR_ARG, "refinement: a grid of %ux%u cells for a %ux%u image", g->w, g->h, g->out_w,
+                        g->out_h);
+    if (image->w != g->out_w || image->h != g->out_h || image->channels != first->channels || !image->data)
+        return csi_fail(CSI_ERR_ARG, "refinement: a %ux%u image of %u channels for %ux%u samples of %u", image->w,
+                        image->h, image->channels, g->out_w, g->out_h, first->channels);
+    const uint32_t C = first->channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const csi_samples *set[2] = {first, more};
+    for (int k = 0; k < 2; k++)
+        for (size_t i = 0; i < set[k]->count; i++) {
+            const csi_sample_pos p = set[k]->pos[i];
+            if (p.x >= g->w || p.y >= g->h || p.t)
+                return csi_fail(CSI_ERR_ARG, "refinement: %s sample %zu at (%u, %u, %u) is outside the %ux%u grid",
+                                k ? "refined" : "first", i, p.x, p.y, p.t, g->w, g->h);
+            for (uint32_t c = 0; c < C; c++)
+                if (!isfinite(set[k]->values[i * C + c]))
+                    return csi_fail(CSI_ERR_ARG, "refinement: %s sample %zu's value is not finite",
+                                    k ? "refined" : "first", i);
+        }
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    double *sum = calloc(np * C, sizeof *sum);
+    unsigned char *hit = calloc(np, 1);
+    if (!cnt || !sum || !hit) {
+        free(cnt);
+        free(sum);
+        free(hit);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    for (size_t i = 0; i < more->count; i++)
+        hit[(size_t)(more->pos[i].y / bh) * g->out_w + more->pos[i].x / bw] = 1;
+    /* every sample of a refined pixel, the first ones in their order, then the refined ones */
+    for (int k = 0; k < 2; k++)
+        for (size_t i = 0; i < set[k]->count; i++) {
+            const size_t p = (size_t)(set[k]->pos[i].y / bh) * g->out_w + set[k]->pos[i].x / bw;
+            if (!hit[p])
+                continue;
+            cnt[p]++;
+            for (uint32_t c = 0; c < C; c++)
+                sum[p * C + c] += set[k]->values[i * C + c];
+        }
+    size_t n = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (!hit[p])
+            continue;
+        n++;
+        for (uint32_t c = 0; c < C; c++)
+            image->data[(size_t)c * np + p] = (float)(sum[p * C + c] / cnt[p]);
+    }
+    free(cnt);
+    free(sum);
+    free(hit);
+    if (pixels)
+        *pixels = n;
+    return CSI_OK;
+}

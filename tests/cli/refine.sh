@@ -2,7 +2,8 @@
 # csi-reconstruct --refine-request: the request (docs/dump-format.md, channels = 0) holds, for
 # the pixels it picks, exactly the cells of their blocks that the dump did not sample, each once;
 # the statistics count them; a share no pixel reaches writes nothing and says so; bad use (a
-# volume, --tile, a share outside (0, 1]) exits 2 with one line and no file left behind.
+# volume, --tile, a share outside (0, 1], the mean estimator, --refine-with a request or a volume,
+# both options) exits 2 with one line and no file left behind.
 # usage: refine.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
@@ -48,7 +49,10 @@ check "[[ $? == 0 && ! -e '$T/none.csid' ]] && grep -q 'no pixel to refine' '$T/
 for args in "$T/m.csid --refine-request $T/x.csid" "$T/d.csid --refine-request $T/x.csid --refine-share 0" \
             "$T/d.csid --refine-request $T/x.csid --refine-share 1.5" \
             "$T/d.csid --refine-request $T/x.csid --refine-share abc" \
-            "$T/d.csid --refine-request $T/x.csid --tile 1/2"; do
+            "$T/d.csid --refine-request $T/x.csid --tile 1/2" \
+            "$T/d.csid --refine-request $T/x.csid --estimator mean" \
+            "$T/m.csid --refine-with $T/m.csid" "$T/d.csid --refine-with $T/q.csid" \
+            "$T/d.csid --refine-request $T/x.csid --refine-with $T/d.csid"; do
     rm -f "$T/x.exr"
     $R $args -o "$T/x.exr" 2> "$T/err"
     rc=$?

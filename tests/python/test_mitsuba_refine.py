@@ -85,6 +85,24 @@ def main():
         check(np.array_equal(c1[rest], exr.read(p("r.exr")).reshape(-1, 3)[rest]),
               "csi-mitsuba --refine's other pixels != csi-reconstruct's on the first pass's dump")
         check(np.array_equal(c1, exr.read(p("one.exr")).reshape(-1, 3)), "the one-pass run's image != csi-reconstruct's")
+        # Another renderer's second pass: csi-reconstruct FIRST --refine-with MORE (the request's
+        # cells evaluated) gives csi-mitsuba's image, to the bit; MORE missing a cell, or of
+        # another grid, is refused with one line and no output.
+        new = ~old
+        csid.write(p("more.csid"), csid.Dump(grid=d.grid, out=d.out, xyt=d.xyt[new], values=d.values[new], seed=d.seed))
+        rw = subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "--refine-with", p("more.csid"), "-o",
+                             p("rw.exr")], capture_output=True, text=True)
+        check(rw.returncode == 0 and np.array_equal(exr.read(p("rw.exr")), exr.read(p("r.exr"))),
+              f"csi-reconstruct --refine-with != csi-mitsuba's image: exit {rw.returncode} {rw.stderr.strip()}")
+        csid.write(p("less.csid"), csid.Dump(grid=d.grid, out=d.out, xyt=d.xyt[new][1:], values=d.values[new][1:],
+                                             seed=d.seed))
+        csid.write(p("other.csid"), csid.Dump(grid=(d.grid[0] * 2, d.grid[1] * 2, 1), out=d.out, xyt=d.xyt[new] * 2,
+                                              values=d.values[new], seed=d.seed))
+        for more, what in (("less.csid", "a cell missing"), ("other.csid", "another grid")):
+            e = subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "--refine-with", p(more), "-o",
+                                p("x.exr"), "-q"], capture_output=True, text=True)
+            check(e.returncode == 2 and len(e.stderr.strip().splitlines()) == 1 and more in e.stderr
+                  and not os.path.exists(p("x.exr")), f"--refine-with, {what}: exit {e.returncode}: {e.stderr!r}")
         # Off by default with the mean as the estimator (it has nothing to disagree with) and for
         # an explicit request of positions.
         m = cli(*common, "--dump", p("m.csid"), "--", "--estimator", "mean")

@@ -15,6 +15,7 @@
  *     - (7, 7): no sample at all, image (9, 9): no mean to disagree with, not counted either.
  *   The total is 9 + 16 + 5 + 1 = 31: a share just below 5/31 picks the three, just above it
  *   the two largest, 16/31 only (6, 1), and 1 every pixel only if one holds all of it (none).
+ * csi_refine_apply sets a refined pixel to the mean of all its samples and nothing else.
  * Also: an image equal to the means up to float rounding picks nothing; the same call twice gives
  * the same cells; a volume, a share outside (0, 1], an image of another size and a NaN value are
  * refused with CSI_ERR_ARG. */
@@ -131,6 +132,35 @@ int main(void)
     csi_image fi = {OW, OW, C, flat->img};
     check_share(&fs, &fi, 0.01, NULL, 0, "the means up to rounding");
     free(flat);
+
+    /* csi_refine_apply: the refined pixels take the mean of all their samples, the others stay.
+     * (2, 5)'s 14 missing cells evaluated at 8 (channel 0) and 9 (channel 1): its mean becomes
+     * (2 x 1 + 14 x 8) / 16 = 7.125 and (2 x 2 + 14 x 9) / 16 = 8.125, exact in float. */
+    {
+        static const int px25[][2] = {{2, 5}};
+        csi_sample_pos mp[F * F];
+        const size_t nm = expected(px25, 1, mp);
+        float mv[F * F * C];
+        for (size_t i = 0; i < nm; i++)
+            mv[i * C] = 8, mv[i * C + 1] = 9;
+        csi_samples more = {g, C, nm, mp, mv, 0, NULL};
+        float copy[C * NP];
+        memcpy(copy, s->img, sizeof copy);
+        csi_image ci = {OW, OW, C, copy};
+        size_t set = 0;
+        CHECK_OK(csi_refine_apply(&smp, &more, &ci, &set));
+        size_t other = 0;
+        for (int p = 0; p < NP; p++)
+            for (int c = 0; c < C; c++)
+                if (p != 5 * OW + 2)
+                    other += copy[c * NP + p] != s->img[c * NP + p];
+        CHECK(set == 1 && copy[5 * OW + 2] == 7.125f && copy[NP + 5 * OW + 2] == 8.125f && !other,
+              "refine_apply: %zu pixels set, (2, 5) = (%g, %g), want (7.125, 8.125); %zu others changed", set,
+              copy[5 * OW + 2], copy[NP + 5 * OW + 2], other);
+        csi_samples bad = more;
+        bad.channels = 1;
+        CHECK(csi_refine_apply(&smp, &bad, &ci, NULL) == CSI_ERR_ARG, "refine_apply: other channels not refused");
+    }
 
     /* deterministic */
     csi_sample_pos *a = NULL, *b = NULL;

@@ -431,6 +431,14 @@ CSI_API csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channe
 CSI_API csi_status csi_refine_positions(const csi_samples *samples, const csi_image *image, double share,
                                         csi_sample_pos **out, size_t *count, size_t *pixels);
 CSI_API double csi_refine_share_default(void);
+/* The image after the second pass without a second reconstruction: every pixel that holds a
+ * sample of `more` (the request, evaluated) takes the mean of all its samples in first and more
+ * (in double: first's in order, then more's); a pixel sampled in every cell is exactly that mean
+ * in a reconstruction too (the blend's finite-population factor), and the rest of the image stays
+ * the first pass's fit. Same grid and channels in both; image is the first samples'
+ * reconstruction, changed in place; *pixels (may be NULL) the pixels set. */
+CSI_API csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, csi_image *image,
+                                    size_t *pixels);
 
 /* ---- tiles (docs/tiles.md) ------------------------------------------------------------------
  * csi_reconstruct solves a problem that needs more device memory than the option "mem-budget" in

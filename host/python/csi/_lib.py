@@ -174,6 +174,8 @@ def _bind(L):
                                                 ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size),
                                                 ctypes.POINTER(c_size)]),
         "csi_refine_share_default": (ctypes.c_double, []),
+        "csi_refine_apply": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Samples), ctypes.POINTER(_Image),
+                                            ctypes.POINTER(c_size)]),
         "csi_positions": (ctypes.c_int, [ctypes.POINTER(Grid), ctypes.POINTER(_PosOpts),
                                          ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size), P]),
         "csi_dump_read": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.POINTER(_Dump), P]),
@@ -567,6 +569,31 @@ def refine_positions(positions, values, grid, image, share: Optional[float] = No
     finally:
         L.csi_free(out)
     return cells, int(px.value)
+
+
+def refine_apply(positions, values, more_positions, more_values, grid, image):
+    """The image after the second pass (csi_refine_apply): image, the (H, W, C) reconstruction of
+    the first samples, with every pixel that holds one of the more samples (the request,
+    evaluated) set to the mean of all its samples. Returns (image, pixels set); image is a copy."""
+    L = lib()
+    arrs = []
+    def samples(pos, val):
+        p = np.ascontiguousarray(pos, dtype=np.uint32)
+        v = np.asarray(val, dtype=np.float32)
+        v = np.ascontiguousarray(v[:, None] if v.ndim == 1 else v)
+        if p.ndim != 2 or p.shape[1] != 3 or v.shape[0] != p.shape[0]:
+            raise CsiError("CSI_ERR_ARG", f"positions {p.shape} and values {v.shape}: expected (N, 3) and (N, C)")
+        arrs.extend((p, v))
+        return _Samples(Grid(*[int(x) for x in grid]), v.shape[1], p.shape[0], p.ctypes.data_as(ctypes.POINTER(u32)),
+                        v.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
+    first, more = samples(positions, values), samples(more_positions, more_values)
+    img = np.asarray(image, dtype=np.float32)
+    img = img[:, :, None] if img.ndim == 2 else img
+    planar = np.ascontiguousarray(np.moveaxis(img, 2, 0))
+    view = _Image(img.shape[1], img.shape[0], img.shape[2], planar.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+    px = c_size()
+    _check(L.csi_refine_apply(ctypes.byref(first), ctypes.byref(more), ctypes.byref(view), ctypes.byref(px)))
+    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
 
 
 class Dump:

@@ -268,15 +268,11 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     merged = mb.Samples(values=join(s.values, s2.values), variance=join(s.variance, s2.variance),
                         albedo=join(s.albedo, s2.albedo), normal=join(s.normal, s2.normal), paths=s.paths,
                         nonfinite=s.nonfinite + s2.nonfinite, timing=s.timing)
-    f = req.grid[0] // req.out[0]
-    pix = (xyt[:, 1] // f).astype(np.int64) * req.out[0] + xyt[:, 0] // f
-    picked = np.unique((cells[:, 1] // f).astype(np.int64) * req.out[0] + cells[:, 0] // f)
-    cnt = np.bincount(pix, minlength=req.out[0] * req.out[1])
-    vals = np.concatenate([s.values, s2.values]).astype(np.float64)
-    img = first.image.reshape(-1, first.image.shape[2]).copy()
-    for c in range(img.shape[1]):  # in double, in sample order
-        img[picked, c] = np.bincount(pix, weights=vals[:, c], minlength=len(cnt))[picked] / cnt[picked]
-    first.set_image(img.reshape(first.image.shape))
+    try:  # csi-reconstruct FIRST --refine-with MORE's image, to the bit
+        img, _ = csi.refine_apply(req.xyt, s.values, cells, s2.values, (*req.grid, *req.out), first.image)
+    except csi.CsiError as e:
+        raise ReconstructError(e) from None
+    first.set_image(img)
     return csid.Dump(grid=req.grid, out=req.out, xyt=xyt[order], values=None, seed=req.seed), merged, info, first
 
 
