@@ -31,6 +31,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(ROOT, "host", "python"))
 from bench_common import binaries, default_env, read_exr  # noqa: E402
 import mitsuba_data as md  # noqa: E402
+import csi  # noqa: E402
 from csi import dump as csid  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
 from csi.mitsuba_cli import refine_seed  # noqa: E402
@@ -86,16 +87,9 @@ def cell(bins, env, tmp, d, scene, stem, share, scenes_cache, images=None):
         c1 = recon(bins, aug, os.path.join(tmp, "c1.exr"), args, env)
         m1 = recon(bins, aug, os.path.join(tmp, "m1.exr"), ["--estimator", "mean", "--variance", "none"], env)
         row["csi_after"], row["mean_after"] = errors(c1, ref), errors(m1, ref)
-        # csi-mitsuba --refine's image: the first pass's, each refined pixel the mean of its samples
-        f = D.grid[0] // D.out[0]
-        pix = (xyt[:, 1] // f).astype(np.int64) * D.out[0] + xyt[:, 0] // f
-        picked = np.unique((req.xyt[:, 1] // f).astype(np.int64) * D.out[0] + req.xyt[:, 0] // f)
-        cnt = np.bincount(pix, minlength=D.out[0] * D.out[1])
-        vals = np.concatenate([D.values, s.values]).astype(np.float64)
-        cp = c0.reshape(-1, c0.shape[2]).astype(np.float64)
-        for c in range(cp.shape[1]):
-            cp[picked, c] = np.bincount(pix, weights=vals[:, c], minlength=len(cnt))[picked] / cnt[picked]
-        cp = cp.astype(np.float32).reshape(c0.shape)
+        # csi-mitsuba's image (csi-reconstruct DUMP --refine-with MORE): the first pass's, each
+        # refined pixel the mean of all its samples
+        cp, _ = csi.refine_apply(D.xyt, D.values, req.xyt, s.values, (*D.grid, *D.out), c0)
         row["csi_patch"] = errors(cp, ref)
     else:
         row["csi_after"], row["mean_after"], c1, m1 = row["csi_before"], row["mean_before"], c0, m0
