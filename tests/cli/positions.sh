@@ -7,10 +7,6 @@
 set -u
 B="$1"; S="$2"
 source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
-# header fields as unsigned 32-bit words: grid_w grid_h grid_t out_w out_h channels count_lo
-hdr() { od -An -v -tu4 -j8 -N28 "$1" | tr -s ' \n' ' ' | sed 's/^ //; s/ $//'; }
-# the (x, y, t) of every record of a file whose records are $2 bytes long
-xyt() { od -An -v -tu4 -j64 -w"$2" "$1" | awk '{print $1, $2, $3}'; }
 
 P="$B/csi-positions"
 "$P" --help > "$T/help" 2>&1; check "[[ $? == 0 ]] && grep -q usage '$T/help'" "--help"
@@ -26,28 +22,28 @@ for spp in 1 4 16; do
     # default grid: 4x to 3 spp, 8x for 4-15, 16x from 16 (csi_default_grid_factor)
     f=$(( spp < 4 ? 4 : spp < 16 ? 8 : 16 ))
     n=$(( spp * 32 * 32 ))
-    check "[[ '$(hdr "$T/q$spp.csid")' == '$((32 * f)) $((32 * f)) 1 32 32 0 $n' ]]" \
-          "static $spp spp header: $(hdr "$T/q$spp.csid")"
-    check "[[ '$(hdr "$T/r$spp.csid")' == '$((32 * f)) $((32 * f)) 1 32 32 3 $n' ]]" \
-          "csi-render's dump header at $spp spp: $(hdr "$T/r$spp.csid")"
+    check "[[ '$(dump_hdr "$T/q$spp.csid")' == '$((32 * f)) $((32 * f)) 1 32 32 0 $n' ]]" \
+          "static $spp spp header: $(dump_hdr "$T/q$spp.csid")"
+    check "[[ '$(dump_hdr "$T/r$spp.csid")' == '$((32 * f)) $((32 * f)) 1 32 32 3 $n' ]]" \
+          "csi-render's dump header at $spp spp: $(dump_hdr "$T/r$spp.csid")"
     check "[[ \$(stat -c %s '$T/q$spp.csid') == $((64 + 12 * n)) ]]" "request size at $spp spp"
-    check "cmp -s <(xyt '$T/q$spp.csid' 12) <(xyt '$T/r$spp.csid' 24)" "static $spp spp: positions differ from csi-render's"
+    check "cmp -s <(dump_xyt '$T/q$spp.csid' 12) <(dump_xyt '$T/r$spp.csid' 24)" "static $spp spp: positions differ from csi-render's"
 done
 "$B/csi-render" "$moving" --spp 2 --seed 5 --dump "$T/rm.csid" -o "$T/r.exr" --max-iter 5 -q
 "$P" --out 32x32 --spp 2 --seed 5 --time-steps 8 -o "$T/qm.csid" -q
-check "[[ '$(hdr "$T/qm.csid")' == '32 32 8 32 32 0 2048' ]]" "moving header: $(hdr "$T/qm.csid")"
-check "cmp -s <(xyt '$T/qm.csid' 12) <(xyt '$T/rm.csid' 24)" "moving: positions differ from csi-render's"
+check "[[ '$(dump_hdr "$T/qm.csid")' == '32 32 8 32 32 0 2048' ]]" "moving header: $(dump_hdr "$T/qm.csid")"
+check "cmp -s <(dump_xyt '$T/qm.csid' 12) <(dump_xyt '$T/rm.csid' 24)" "moving: positions differ from csi-render's"
 "$P" --out 32x32 --spp 2 --seed 6 --time-steps 8 -o "$T/qm6.csid" -q
 check "! cmp -s '$T/qm.csid' '$T/qm6.csid'" "another seed gives the same positions"
 for m in stratified random; do
     "$B/csi-render" "$static" --spp 4 --method $m --dump "$T/r$m.csid" -o "$T/r.exr" -q
     "$P" --out 32x32 --spp 4 --method $m -o "$T/q$m.csid" -q
-    check "cmp -s <(xyt '$T/q$m.csid' 12) <(xyt '$T/r$m.csid' 24)" "--method $m: positions differ from csi-render's"
+    check "cmp -s <(dump_xyt '$T/q$m.csid' 12) <(dump_xyt '$T/r$m.csid' 24)" "--method $m: positions differ from csi-render's"
 done
 "$P" --out 32x16 --spp 2 --grid 64 -o "$T/g.csid" -q
-check "[[ '$(hdr "$T/g.csid")' == '64 32 1 32 16 0 1024' ]]" "--grid 64 on 32x16: $(hdr "$T/g.csid")"
+check "[[ '$(dump_hdr "$T/g.csid")' == '64 32 1 32 16 0 1024' ]]" "--grid 64 on 32x16: $(dump_hdr "$T/g.csid")"
 "$P" --out 32x32 --fraction 0.25 --grid 64 -o "$T/f.csid" -q
-check "[[ '$(hdr "$T/f.csid")' == '64 64 1 32 32 0 1024' ]]" "--fraction 0.25: $(hdr "$T/f.csid")"
+check "[[ '$(dump_hdr "$T/f.csid")' == '64 64 1 32 32 0 1024' ]]" "--fraction 0.25: $(dump_hdr "$T/f.csid")"
 
 # --- progress where stderr is a log: plain lines while the Poisson-disk passes run (4 M cells, more
 # candidates than one report interval), the same request as a quiet run's ---------------------------

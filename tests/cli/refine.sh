@@ -8,8 +8,6 @@
 set -u
 B="$1"; S="$2"
 source "$(dirname "${BASH_SOURCE[0]}")/../support/testlib.sh"
-hdr() { od -An -v -tu4 -j8 -N28 "$1" | tr -s ' \n' ' ' | sed 's/^ //; s/ $//'; }
-xyt() { od -An -v -tu4 -j64 -w"$2" "$1" | awk '{print $1, $2, $3}'; }
 R="$B/csi-reconstruct"
 
 # The triangle at 4 spp (exact point values: the control-variate correction, which still leaves
@@ -20,10 +18,10 @@ R="$B/csi-reconstruct"
 check "[[ $? == 0 && -s '$T/q.csid' ]]" "--refine-request: $(cat "$T/err")"
 n=$(grep -o '"refine_cells": [0-9]*' "$T/s.json" | grep -o '[0-9]*$')
 px=$(grep -o '"refine_pixels": [0-9]*' "$T/s.json" | grep -o '[0-9]*$')
-check "[[ '$(hdr "$T/q.csid")' == '256 256 1 32 32 0 $n' && $n -gt 0 ]]" "request header $(hdr "$T/q.csid"), $n cells"
+check "[[ '$(dump_hdr "$T/q.csid")' == '256 256 1 32 32 0 $n' && $n -gt 0 ]]" "request header $(dump_hdr "$T/q.csid"), $n cells"
 check "grep -q 'refine: $n cells of $px pixels' '$T/err'" "summary line: $(cat "$T/err")"
-xyt "$T/q.csid" 12 | sort > "$T/q.txt"
-xyt "$T/d.csid" 24 | sort > "$T/d.txt"
+dump_xyt "$T/q.csid" 12 | sort > "$T/q.txt"
+dump_xyt "$T/d.csid" 24 | sort > "$T/d.txt"
 check "[[ -z \$(comm -12 '$T/q.txt' '$T/d.txt') ]]" "the request repeats sampled cells"
 check "[[ \$(uniq '$T/q.txt' | wc -l) == $n ]]" "the request repeats a cell"
 # per picked pixel (8 x 8 cells), requested + sampled = 64: its block is then sampled whole

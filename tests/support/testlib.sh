@@ -23,4 +23,8 @@ expect_fail() {
         bad "$name: rc=$rc lines=$lines: $(cat "$T/e")"
     fi
 }
+# A dump's header fields as unsigned 32-bit words: grid_w grid_h grid_t out_w out_h channels count_lo
+dump_hdr() { od -An -v -tu4 -j8 -N28 "$1" | tr -s ' \n' ' ' | sed 's/^ //; s/ $//'; }
+# The (x, y, t) of every record of a dump whose records are $2 bytes long
+dump_xyt() { od -An -v -tu4 -j64 -w"$2" "$1" | awk '{print $1, $2, $3}'; }
 finish() { echo "$pass passed, $fail failed"; [[ $fail == 0 ]]; }
