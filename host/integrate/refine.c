@@ -11,7 +11,8 @@
  * every cell settles it for both: the mean becomes the pixel's exact box mean (up to the paths'
  * noise) and the blend takes it (csi_aa_correct: a fully sampled pixel's mean has no sampling
  * error). A few pixels' cells are a small part of the samples; the image's error drops by far
- * more than that part would buy spread evenly.
+ * more than that part would buy spread evenly. csi_refine_apply then gives the refined pixels that
+ * mean without a second reconstruction (csi-mitsuba's second pass, csi-reconstruct --refine-with).
  *
  * Everything in double, in sample order: the same inputs give the same cells. */
 #include <math.h>
@@ -35,6 +36,21 @@ double csi_refine_share_default(void)
     return CSI_REFINE_SHARE_DEFAULT;
 }
 
+/* An image's grid (not a volume, whole pixels) and the image of it both functions take. */
+static csi_status check_image(const csi_grid *g, uint32_t channels, const csi_image *image)
+{
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "refinement: the samples are a volume (%u frames); it picks pixels of an image",
+                        g->t);
+    if (!g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
+        return csi_fail(CSI_ERR_ARG, "refinement: a grid of %ux%u cells for a %ux%u image", g->w, g->h, g->out_w,
+                        g->out_h);
+    if (image->w != g->out_w || image->h != g->out_h || image->channels != channels || !image->data)
+        return csi_fail(CSI_ERR_ARG, "refinement: a %ux%u image of %u channels for %ux%u samples of %u", image->w,
+                        image->h, image->channels, g->out_w, g->out_h, channels);
+    return CSI_OK;
+}
+
 csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, double share,
                                 csi_sample_pos **out, size_t *count, size_t *pixels)
 {
@@ -46,17 +62,9 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     if (pixels)
         *pixels = 0;
     const csi_grid *g = &s->grid;
-    if (g->t != 1)
-        return csi_fail(CSI_ERR_ARG, "refinement: the samples are a volume (%u frames); it picks pixels of an image",
-                        g->t);
+    CSI_TRY(check_image(g, s->channels, image));
     if (!(share > 0 && share <= 1))
         return csi_fail(CSI_ERR_ARG, "refinement: a share of %g (it is a fraction, 0 < share <= 1)", share);
-    if (!g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
-        return csi_fail(CSI_ERR_ARG, "refinement: a grid of %ux%u cells for a %ux%u image", g->w, g->h, g->out_w,
-                        g->out_h);
-    if (image->w != g->out_w || image->h != g->out_h || image->channels != s->channels || !image->data)
-        return csi_fail(CSI_ERR_ARG, "refinement: a %ux%u image of %u channels for %ux%u samples of %u", image->w,
-                        image->h, image->channels, g->out_w, g->out_h, s->channels);
     if (s->count && (!s->pos || !s->values))
         return csi_fail(CSI_ERR_ARG, "refinement: %zu samples without their positions or values", s->count);
     const uint32_t C = s->channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
@@ -174,15 +182,7 @@ csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, c
                         "not the first samples' (%ux%ux%u for %ux%u, %u channels)", more->grid.w, more->grid.h,
                         more->grid.t, more->grid.out_w, more->grid.out_h, more->channels, g->w, g->h, g->t,
                         g->out_w, g->out_h, first->channels);
-    if (g->t != 1)
-        return csi_fail(CSI_ERR_ARG, "refinement: the samples are a volume (%u frames); it picks pixels of an image",
-                        g->t);
-    if (!g->out_w || !g->out_h || g->w % g->out_w || g->h % g->out_h)
-        return csi_fail(CSI_ERR_ARG, "refinement: a grid of %ux%u cells for a %ux%u image", g->w, g->h, g->out_w,
-                        g->out_h);
-    if (image->w != g->out_w || image->h != g->out_h || image->channels != first->channels || !image->data)
-        return csi_fail(CSI_ERR_ARG, "refinement: a %ux%u image of %u channels for %ux%u samples of %u", image->w,
-                        image->h, image->channels, g->out_w, g->out_h, first->channels);
+    CSI_TRY(check_image(g, first->channels, image));
     const uint32_t C = first->channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
     const size_t np = (size_t)g->out_w * g->out_h;
     const csi_samples *set[2] = {first, more};
