@@ -145,12 +145,9 @@ static csi_status write_refinement(csi_outset *set, const char *path, const csi_
     return s;
 }
 
-/* Orders positions by their grid index (csi_grid_index), for qsort. */
-static const csi_grid *sort_grid;
-static int by_index(const void *a, const void *b)
+static int cmp_u64(const void *a, const void *b)
 {
-    const uint64_t i = csi_grid_index(sort_grid, *(const csi_sample_pos *)a),
-                   j = csi_grid_index(sort_grid, *(const csi_sample_pos *)b);
+    const uint64_t i = *(const uint64_t *)a, j = *(const uint64_t *)b;
     return i < j ? -1 : i > j;
 }
 
@@ -165,23 +162,27 @@ static csi_status apply_refinement(const char *path, const char *in, const csi_s
     size_t n = 0;
     CSI_TRY(csi_refine_positions(first, &img, share, &want, &n, NULL));
     csi_status s = CSI_OK;
-    csi_sample_pos *got = n == more->count && n ? malloc(n * sizeof *got) : NULL;
+    /* both as grid indices, sorted: the same cells in any order */
+    uint64_t *idx = n == more->count && n ? malloc(2 * n * sizeof *idx) : NULL;
     if (n != more->count)
         s = cli_fail(CSI_ERR_ARG, "%s: %zu positions, but %s's refinement request (--refine-share %g) has %zu: not "
                      "its evaluation", path, more->count, in, share, n);
-    else if (n && !got)
+    else if (n && !idx)
         s = cli_fail(CSI_ERR_NOMEM, "out of host memory for %zu positions", n);
     if (s == CSI_OK && n) {
-        memcpy(got, more->pos, n * sizeof *got);
-        sort_grid = &first->grid;
-        qsort(want, n, sizeof *want, by_index);
-        qsort(got, n, sizeof *got, by_index);
+        for (size_t i = 0; i < n; i++) {
+            idx[i] = csi_grid_index(&first->grid, want[i]);
+            idx[n + i] = csi_grid_index(&first->grid, more->pos[i]);
+        }
+        qsort(idx, n, sizeof *idx, cmp_u64);
+        qsort(idx + n, n, sizeof *idx, cmp_u64);
         for (size_t i = 0; i < n && s == CSI_OK; i++)
-            if (memcmp(&want[i], &got[i], sizeof *got))
+            if (idx[i] != idx[n + i])
                 s = cli_fail(CSI_ERR_ARG, "%s: position (%u, %u) is not in %s's refinement request (--refine-share "
-                             "%g): not its evaluation", path, got[i].x, got[i].y, in, share);
+                             "%g): not its evaluation", path, (unsigned)(idx[n + i] % first->grid.w),
+                             (unsigned)(idx[n + i] / first->grid.w), in, share);
     }
-    free(got);
+    free(idx);
     csi_free(want);
     if (s == CSI_OK)
         s = csi_refine_apply(first, more, &img, pixels);

@@ -541,25 +541,38 @@ def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fracti
         L.csi_free(p)
 
 
+def _image_samples(positions, values, grid, keep):
+    """csi_samples over (N, 3) positions and (N, C) or (N,) values, the arrays appended to keep
+    (alive while the library reads them)."""
+    pos = np.ascontiguousarray(positions, dtype=np.uint32)
+    val = np.asarray(values, dtype=np.float32)
+    val = np.ascontiguousarray(val[:, None] if val.ndim == 1 else val)
+    if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
+        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+    keep.extend((pos, val))
+    return _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0], pos.ctypes.data_as(ctypes.POINTER(u32)),
+                    val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
+
+
+def _planar_view(image, keep):
+    """An (H, W, C) or (H, W) image as a planar csi_image over a copy (appended to keep)."""
+    img = np.asarray(image, dtype=np.float32)
+    img = img[:, :, None] if img.ndim == 2 else img
+    if img.ndim != 3:
+        raise CsiError("CSI_ERR_ARG", f"image {img.shape}: expected (H, W, C)")
+    planar = np.ascontiguousarray(np.moveaxis(img, 2, 0))
+    keep.append(planar)
+    return _Image(img.shape[1], img.shape[0], img.shape[2], planar.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+
+
 def refine_positions(positions, values, grid, image, share: Optional[float] = None):
     """Where to sample next (csi_refine_positions): the cells without a sample of the pixels where
     image, the (H, W, C) reconstruction of these samples, and the mean of the pixel's own samples
     disagree by at least `share` (default 0.005) of their disagreement, (image - mean)^2 summed
     over the channels, over the whole image. Returns ((M, 3) uint32 cells, pixels picked); M = 0
     when none is. Images only (grid t = 1)."""
-    L = lib()
-    pos = np.ascontiguousarray(positions, dtype=np.uint32)
-    val = np.asarray(values, dtype=np.float32)
-    val = np.ascontiguousarray(val[:, None] if val.ndim == 1 else val)
-    img = np.asarray(image, dtype=np.float32)
-    img = img[:, :, None] if img.ndim == 2 else img
-    if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0] or img.ndim != 3:
-        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape}, values {val.shape}, image {img.shape}: expected "
-                       "(N, 3), (N, C) and (H, W, C)")
-    planar = np.ascontiguousarray(np.moveaxis(img, 2, 0))
-    samples = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0], pos.ctypes.data_as(ctypes.POINTER(u32)),
-                       val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
-    view = _Image(img.shape[1], img.shape[0], img.shape[2], planar.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+    L, keep = lib(), []
+    samples, view = _image_samples(positions, values, grid, keep), _planar_view(image, keep)
     out, n, px = ctypes.POINTER(u32)(), c_size(), c_size()
     _check(L.csi_refine_positions(ctypes.byref(samples), ctypes.byref(view),
                                   float(L.csi_refine_share_default() if share is None else share),
@@ -575,24 +588,13 @@ def refine_apply(positions, values, more_positions, more_values, grid, image):
     """The image after the second pass (csi_refine_apply): image, the (H, W, C) reconstruction of
     the first samples, with every pixel that holds one of the more samples (the request,
     evaluated) set to the mean of all its samples. Returns (image, pixels set); image is a copy."""
-    L = lib()
-    arrs = []
-    def samples(pos, val):
-        p = np.ascontiguousarray(pos, dtype=np.uint32)
-        v = np.asarray(val, dtype=np.float32)
-        v = np.ascontiguousarray(v[:, None] if v.ndim == 1 else v)
-        if p.ndim != 2 or p.shape[1] != 3 or v.shape[0] != p.shape[0]:
-            raise CsiError("CSI_ERR_ARG", f"positions {p.shape} and values {v.shape}: expected (N, 3) and (N, C)")
-        arrs.extend((p, v))
-        return _Samples(Grid(*[int(x) for x in grid]), v.shape[1], p.shape[0], p.ctypes.data_as(ctypes.POINTER(u32)),
-                        v.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
-    first, more = samples(positions, values), samples(more_positions, more_values)
-    img = np.asarray(image, dtype=np.float32)
-    img = img[:, :, None] if img.ndim == 2 else img
-    planar = np.ascontiguousarray(np.moveaxis(img, 2, 0))
-    view = _Image(img.shape[1], img.shape[0], img.shape[2], planar.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
+    L, keep = lib(), []
+    first = _image_samples(positions, values, grid, keep)
+    more = _image_samples(more_positions, more_values, grid, keep)
+    view = _planar_view(image, keep)
     px = c_size()
     _check(L.csi_refine_apply(ctypes.byref(first), ctypes.byref(more), ctypes.byref(view), ctypes.byref(px)))
+    planar = keep[-1]
     return np.moveaxis(planar, 0, 2).copy(), int(px.value)
 
 
