@@ -23,6 +23,8 @@ tools/bench/quality_sweep.py (csi-mkdump dumps; exact box truth), and the Mitsub
 dumps (its references). --equal-time (needs the Mitsuba data): csi at 4 spp against the
 per-pixel mean at the spp the same total time buys, and the break-even cost per sample
 (docs/BENCHMARKS-accuracy.md's definition) against Mitsuba's measured cost per path.
+With --refine as well, csi also with csi-mitsuba's second pass: the cells it asks for rendered
+through the bridge (needs Mitsuba and the scenes), the render's wall time counted.
 
 Usage (from a worktree root, after building):
   .venv/bin/python tools/bench/bench_cost.py --base /path/to/old/build --runs 3 --md docs/bench/cost.md
@@ -390,11 +392,17 @@ def equal_time_section(args, bins, report, path_us):
                         ["--estimator", "mean"])
             mean[spp] = bc.mse(bc.read_exr(exr), ref)
         exr = os.path.join(args.work, "et_cs.exr")
-        _, _, st = reconstruct(args.build, need[0], exr, os.path.join(args.work, "et.json"))
+        more_path = os.path.join(args.work, "et_more.csid")
+        if os.path.exists(more_path):
+            os.remove(more_path)
+        _, _, st = reconstruct(args.build, need[0], exr, os.path.join(args.work, "et.json"),
+                               ["--refine-request", more_path] if args.refine else [])
         ph = phases(st)
         n = st["n"]
         c_rec = 1e6 * (ph["solve"] + ph["integrate"]) / n      # reconstruction us per sample
-        cs = bc.mse(bc.read_exr(exr), ref)
+        cs_img = bc.read_exr(exr)
+        cs = bc.mse(cs_img, ref)
+        second = second_pass(args, s, need[0], more_path, cs_img, ref) if args.refine else None
         with open(need[0].replace(".csid", ".json")) as f:
             mts = json.load(f)["mitsuba"]
         # the sample's cost: 64 of this run's measured paths (the dataset's own timing ran under
@@ -409,8 +417,54 @@ def equal_time_section(args, bins, report, path_us):
                          wins=cs < mse_eq, breakeven_us=be, breakeven_paths=be / path_us))
         bc.log(f"equal time {s}: csi {cs:.3e} vs mean at {spp_eq:.2f} spp {mse_eq:.3e}; break-even {be:.2f} us = "
                f"{be / path_us:.1f} paths")
+        if second is not None:
+            # csi-mitsuba's whole run per pixel: the first pass's 4 samples and their
+            # reconstruction, then the second pass's render (its wall time through the bridge,
+            # fixed costs included) and patch; the mean gets that time in samples of c_sample
+            pix = n / 4
+            for k in ("warm", "cold"):
+                spp_k = spp_eq + 1e6 * (second[f"render_{k}_s"] + second["host_s"]) / (pix * c_sample)
+                mse_k = float(np.exp(np.interp(np.log(spp_k), np.log([1, 4, 16]), np.log([mean[1], mean[4], mean[16]]))))
+                second[f"spp_eq_{k}"], second[f"mse_mean_eq_{k}"] = spp_k, mse_k
+                second[f"wins_{k}"] = second["mse"] < mse_k
+            rows[-1]["refine"] = second
+            bc.log(f"  with the second pass ({second['cells']} cells): csi {second['mse']:.3e} vs mean at "
+                   f"{second['spp_eq_warm']:.2f} spp {second['mse_mean_eq_warm']:.3e} (warm), "
+                   f"{second['spp_eq_cold']:.2f} spp {second['mse_mean_eq_cold']:.3e} (cold)")
     report["equal_time"] = rows
     return rows
+
+
+def second_pass(args, scene, dump, more_path, first_img, ref):
+    """csi-mitsuba's second pass on a dataset dump, as csi-mitsuba runs it: the cells
+    csi-reconstruct --refine-request asked for rendered through the bridge with the first pass's
+    paths per sample and the refinement's seed, and the first pass's image patched. The render
+    runs twice: cold (the first launch of its size in this process; Dr.Jit may still find the
+    kernel in its disk cache) and warm; the patch (csi.refine_apply) is timed too."""
+    sys.path.insert(0, os.path.join(bc.ROOT, "host", "python"))
+    os.environ.setdefault("CSI_BUILD_DIR", args.build)  # the library of the build under test
+    import csi
+    from csi import dump as csid
+    from csi import mitsuba_bridge as mb
+    from csi.mitsuba_cli import refine_seed
+    import mitsuba_data as md
+
+    D = csid.read(dump)
+    if not os.path.exists(more_path):  # no pixel to refine: the first pass's image is the answer
+        return dict(cells=0, render_cold_s=0.0, render_warm_s=0.0, host_s=0.0, mse=bc.mse(first_img, ref))
+    more = csid.read(more_path, want="request")
+    paths = json.load(open(dump.replace(".csid", ".json")))["paths"]
+    sc = mb.load_scene(md.SCENES[scene], size=D.out)
+    walls = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        s2 = mb.render_request(sc, more, paths=paths, seed=refine_seed(D.seed))
+        walls.append(time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    img, _ = csi.refine_apply(D.xyt, D.values, more.xyt, s2.values, (*D.grid, *D.out), first_img)
+    host_s = time.perf_counter() - t0
+    return dict(cells=int(len(more.xyt)), render_cold_s=walls[0], render_warm_s=walls[1], host_s=host_s,
+                mse=bc.mse(img, ref))
 
 
 def equal_time_markdown(rows, path_us):
@@ -421,6 +475,19 @@ def equal_time_markdown(rows, path_us):
         lines.append(f"| {r['scene']} | {r['mse_mean4']:.4e} | {r['mse_cs4']:.4e} | {r['s_star']:.2f} | {r['c_rec_us']:.2f} | "
                      f"{r['spp_eq']:.2f} | {r['mse_mean_eq']:.4e} | {'yes' if r['wins'] else 'no'} | "
                      f"{r['breakeven_us']:.2f} | {r['breakeven_paths']:.1f} |")
+    second = [r for r in rows if "refine" in r]
+    if second:
+        lines += ["", "With csi-mitsuba's second pass (its render's wall time through the bridge, cold = the first "
+                  "launch of its size in the process, warm = the second; the patch's time included):", "",
+                  "| scene | cells | render s cold / warm | patch s | MSE csi, both passes | spp the time buys the mean (warm) | "
+                  "MSE mean there | wins (warm) | spp (cold) | MSE mean there | wins (cold) |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for r in second:
+            q = r["refine"]
+            lines.append(f"| {r['scene']} | {q['cells']} | {q['render_cold_s']:.3f} / {q['render_warm_s']:.3f} | "
+                         f"{q['host_s']:.3f} | {q['mse']:.4e} | {q['spp_eq_warm']:.2f} | {q['mse_mean_eq_warm']:.4e} | "
+                         f"{'yes' if q['wins_warm'] else 'no'} | {q['spp_eq_cold']:.2f} | {q['mse_mean_eq_cold']:.4e} | "
+                         f"{'yes' if q['wins_cold'] else 'no'} |")
     return "\n".join(lines)
 
 
@@ -456,6 +523,8 @@ def main(argv=None):
                     help="--quality: also the new build with these csi-reconstruct arguments, e.g. "
                     "'warm:--warm-channels on' (repeatable)")
     ap.add_argument("--equal-time", action="store_true")
+    ap.add_argument("--refine", action="store_true",
+                    help="--equal-time: also csi with csi-mitsuba's second pass (renders its cells with Mitsuba)")
     ap.add_argument("--md", help="write the report as markdown")
     ap.add_argument("--json", help="write the raw figures")
     args = ap.parse_args(argv)

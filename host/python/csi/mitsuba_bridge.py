@@ -277,23 +277,51 @@ def _batch_seed(seed: int, batch: int) -> int:
     return (z ^ (z >> 31)) & 0xFFFFFFFF
 
 
+#: Launch sizes are rounded up to a ladder: Dr.Jit compiles a kernel per launch size (the size
+#: is part of the kernel's hash), 0.1-0.4 s for a path tracer, and caches it on disk. Rounded, a
+#: request of any size finds the kernel of an earlier run: at most 8 sizes per octave, so the
+#: padding lanes cost at most 1/8 of a launch, and one step below 2^17 lanes (about 50 ms of work).
+LADDER_MIN_STEP = 1 << 14
+
+
+def launch_size(n: int) -> int:
+    """The lanes a launch of n points runs: n rounded up to the ladder."""
+    step = max(1 << max(int(n).bit_length() - 4, 0), LADDER_MIN_STEP)
+    return -(-int(n) // step) * step
+
+
+def _aligned_lanes(a, m):
+    """a as float32 in m lanes (the last value repeated), at a 64-byte boundary: Dr.Jit reads
+    numpy's memory in place and compiles the load's alignment into the kernel, so an unaligned
+    array would give the same kernel another hash and miss the cache."""
+    buf = np.empty(m + 16, np.float32)
+    off = (-buf.ctypes.data % 64) // 4
+    out = buf[off:off + m]
+    out[:len(a)] = a
+    out[len(a):] = a[-1] if len(a) else 0.0
+    return out
+
+
 def _launch(scene, integrator, u, v, time_, seed, aov=False):
-    """One Mitsuba launch over len(u) lanes: radiance (or the aov channels) at image points u, v."""
+    """One Mitsuba launch over len(u) points: radiance (or the aov channels) at image points u, v.
+    The launch runs launch_size(len(u)) lanes; lane i's random numbers depend on the seed and i
+    only, so the padding lanes do not change the others'."""
     mi = mitsuba()
     import drjit as dr
 
     n = len(u)
+    m = launch_size(n)
     sensor = scene.sensors()[0]
     sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(dr.opaque(mi.UInt32, seed), n)  # opaque: the seed is a kernel input, not a constant baked into (and recompiling) the kernel
-    pos = mi.Point2f(mi.Float(u.astype(np.float32)), mi.Float(v.astype(np.float32)))
-    t = mi.Float(time_.astype(np.float32))
+    sampler.seed(dr.opaque(mi.UInt32, seed), m)  # opaque: the seed is a kernel input, not a constant baked into (and recompiling) the kernel
+    pos = mi.Point2f(mi.Float(_aligned_lanes(u, m)), mi.Float(_aligned_lanes(v, m)))
+    t = mi.Float(_aligned_lanes(time_, m))
     ray, weight = sensor.sample_ray(t, sampler.next_1d(), pos, sampler.next_2d())
     L, _, aovs = integrator.sample(scene, sampler, ray)
     if aov:
-        out = np.stack([np.asarray(a) for a in aovs], axis=1)
+        out = np.stack([np.asarray(a)[:n] for a in aovs], axis=1)
     else:
-        out = np.asarray(L * weight).T
+        out = np.asarray(L * weight)[:, :n].T
     dr.sync_thread()
     return out.astype(np.float32, copy=False)
 
@@ -320,9 +348,10 @@ def render_request(scene: Scene, req: csid.Dump, paths=1, seed=None, aov=False, 
     n = len(u)
     integrator = s.integrator()
 
-    # The first launch compiles Mitsuba's kernels (seconds): time it apart on a few lanes.
-    # (Dr.Jit still builds a variant per new launch size, once per machine: it caches kernels on
-    # disk, so render_s below is the warm cost from the second run of a size on.)
+    # The first launch traces Mitsuba's kernels (seconds the first time on a machine): time it
+    # apart on a few lanes. (Dr.Jit still builds a kernel per launch size, on launch_size's
+    # ladder, and caches it on disk: render_s below is the warm cost once a run has used that
+    # rung.)
     t0 = time.perf_counter()
     k = min(n, 256)
     _launch(s, integrator, u[:k], v[:k], time_[:k], _batch_seed(seed, 1 << 40))
