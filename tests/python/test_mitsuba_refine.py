@@ -94,6 +94,11 @@ def main():
                              p("rw.exr")], capture_output=True, text=True)
         check(rw.returncode == 0 and np.array_equal(exr.read(p("rw.exr")), exr.read(p("r.exr"))),
               f"csi-reconstruct --refine-with != csi-mitsuba's image: exit {rw.returncode} {rw.stderr.strip()}")
+        # The same without a second reconstruction (docs/dump-format.md): the first pass's EXR
+        # (c.exr, csi-reconstruct on the one-pass dump) patched in Python, to the bit.
+        a, b = csid.read(p("one.csid")), csid.read(p("more.csid"))
+        patched, _ = csi.refine_apply(a.xyt, a.values, b.xyt, b.values, grid, exr.read(p("c.exr")))
+        check(np.array_equal(patched, exr.read(p("r.exr"))), "the first pass's EXR patched in Python != csi-mitsuba's image")
         csid.write(p("less.csid"), csid.Dump(grid=d.grid, out=d.out, xyt=d.xyt[new][1:], values=d.values[new][1:],
                                              seed=d.seed))
         csid.write(p("other.csid"), csid.Dump(grid=(d.grid[0] * 2, d.grid[1] * 2, 1), out=d.out, xyt=d.xyt[new] * 2,
