@@ -17,6 +17,12 @@ every pixel; --positions poisson for csi's own) go to every method:
   csi>oidn+aux  the same with the guides
   avg           (oidn+aux + csi>oidn+aux) / 2, the mean of the two denoised images
   mix>oidn+aux  OIDN with the guides on (mean + csi) / 2
+and csi-mitsuba's default, its second pass (two passes: more samples, so apart from the rest):
+  csi-mitsuba   csi as csi-mitsuba runs it (each sample's variance used with more than one path),
+                then the cells of the pixels it cannot decide rendered through the bridge and
+                those pixels set to the mean of all their samples (csi.refine_positions,
+                csi.refine_apply), against
+  mean+pass     the per-pixel mean of the same samples, the first pass's and the second's.
 Figures against Mitsuba's reference (its own render with a box pixel filter at --reference-spp):
 MSE, relMSE = mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01), the count of
 negative values, and each method's time. Mitsuba's cost per sample and per path is measured in
@@ -42,6 +48,7 @@ import mitsuba_data as md  # noqa: E402
 import csi  # noqa: E402
 from csi import dump as csid  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
+from csi.mitsuba_cli import refine_seed  # noqa: E402
 
 ALL_SCENES = ["cornell", "thin_geometry", "glossy_sun", "horizon", "envmap"]
 COMPOSITIONS = ["csi>oidn", "csi>oidn+aux", "avg", "mix>oidn+aux"]
@@ -109,6 +116,34 @@ def run_cell(files, ref):
     return res, imgs
 
 
+def two_passes(files, scene_obj, paths):
+    """csi-mitsuba's image on a cached dump: its first reconstruction (the variances beside the
+    dump with more than one path, as csi-mitsuba's --variance-peaks default), the second pass's
+    cells rendered through the bridge with the refinement's seed, the patch. Returns
+    ({"csi-mitsuba": image, "mean+pass": image}, extra samples, Mitsuba's wall seconds for them,
+    csi's wall seconds (first reconstruction, pick, patch))."""
+    d = csid.read(files["dump"])
+    grid = (*d.grid, *d.out)
+    t0 = time.perf_counter()
+    first = csi.reconstruct_dump(files["dump"], files.get("variance") if paths > 1 else None).image
+    cells, _ = csi.refine_positions(d.xyt, d.values, grid, first)
+    t_csi = time.perf_counter() - t0
+    t_render = 0.0
+    if len(cells):
+        t0 = time.perf_counter()
+        more = mb.render_request(scene_obj, csid.Dump(grid=d.grid, out=d.out, xyt=cells, values=None, seed=d.seed),
+                                 paths=paths, seed=refine_seed(d.seed))
+        t_render = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        img, _ = csi.refine_apply(d.xyt, d.values, cells, more.values, grid, first)
+        t_csi += time.perf_counter() - t0
+        d = csid.Dump(grid=d.grid, out=d.out, xyt=np.concatenate([d.xyt, cells]),
+                      values=np.concatenate([d.values, more.values]), seed=d.seed)
+    else:
+        img = first
+    return {"csi-mitsuba": img, "mean+pass": d.pixel_means().astype(np.float32)}, len(cells), t_render, t_csi
+
+
 def measure_mitsuba(scene, size, seed, paths_list, log):
     """Mitsuba's cost in this run: render_request (csi's positions through the bridge) at 4 spp
     for each paths count, and mi.render's own cost per path (box filter) on a 64-spp render.
@@ -158,6 +193,31 @@ def equal_time(scene, size, ref, cell4, timing, paths, seed, log):
     log(f"    equal time ({paths} paths): csi 4 spp {t_csi:.2f} s vs Mitsuba {spp} spp ({t_mc:.2f} s measured)")
     return {"paths": paths, "csi_spp": 4, "csi_total_s": t_csi, "csi_render_s": t_render,
             "csi_reconstruct_s": cell4["csi"]["t_wall_s"], "csi_mse": cell4["csi"]["mse"], "csi_relmse": cell4["csi"]["relmse"],
+            "mc_spp": spp, "mc_render_s": t_mc, "mc_mse": mse(img, ref), "mc_relmse": relmse(img, ref)}
+
+
+def equal_time_two_passes(scene, size, ref, cell, timing, paths, seed, log):
+    """csi-mitsuba at 4 spp with its second pass against mi.render in the same total time: the
+    first pass's and the second's samples charged mi.render's cost per path (as above), csi's
+    reconstruction, pick and patch at their measured wall time."""
+    pix = size[0] * size[1]
+    per_path = timing["mi_render_per_path_us"] * 1e-6
+    t_render = (4 * pix + cell["extra_samples"]) * paths * per_path
+    t_total = t_render + cell["t_csi_s"]
+    per_spp = per_path * paths * pix
+    spp = max(1, int(t_total / per_spp))
+    sc = mb.load_scene(md.SCENES[scene], size=size, box_filter=True)
+    for attempt in range(2):
+        t0 = time.perf_counter()
+        img = mb.render_reference(sc, spp * paths, seed=seed + 3000 + attempt)
+        t_mc = time.perf_counter() - t0
+        if abs(t_mc - t_total) <= 0.25 * t_total or attempt == 1:
+            break
+        spp = max(1, int(spp * t_total / t_mc))
+    c = cell["methods"]["csi-mitsuba"]
+    log(f"    equal time, two passes ({paths} paths): csi-mitsuba {t_total:.2f} s vs Mitsuba {spp} spp ({t_mc:.2f} s)")
+    return {"paths": paths, "total_s": t_total, "render_s": t_render, "csi_s": cell["t_csi_s"],
+            "bridge_second_render_s": cell["t_second_render_s"], "csi_mse": c["mse"], "csi_relmse": c["relmse"],
             "mc_spp": spp, "mc_render_s": t_mc, "mc_mse": mse(img, ref), "mc_relmse": relmse(img, ref)}
 
 
@@ -214,6 +274,31 @@ def report(results, args):
             f"{k[1:]} path(s) per sample {v['per_sample_us']:.2f} us/sample, {v['per_path_us']:.3f} us/path"
             for k, v in t.items() if k.startswith("p")) + f" (csi-mitsuba's bridge, 4 spp); mi.render "
             f"{t['mi_render_per_path_us']:.3f} us/path (64 spp).")
+        if any("two_passes" in c for c in r["cells"].values()):
+            L.append("")
+            L.append("csi-mitsuba's default, two passes (the second pass's samples added to both; ratios to mean+pass, "
+                     "the mean of all the samples):")
+            L.append("")
+            L.append("| spp | paths | extra samples | mean+pass: MSE | relMSE | csi-mitsuba: MSE / relMSE ratio | "
+                     "first pass alone (csi / mean) | negatives |")
+            L.append("| --- | --- | --- | --- | --- | --- | --- | --- |")
+            for c in r["cells"].values():
+                q = c.get("two_passes")
+                if not q:
+                    continue
+                m0, x = q["methods"]["mean+pass"], q["methods"]["csi-mitsuba"]
+                f0, f1 = c["methods"]["mean"], c["methods"]["csi"]
+                L.append(f"| {c['spp']} | {c['paths']} | {100 * q['extra_samples'] / q['samples']:.2f}% | {fmt(m0['mse'])} | "
+                         f"{fmt(m0['relmse'])} | **{x['mse'] / m0['mse']:.3f} / {x['relmse'] / m0['relmse']:.3f}** | "
+                         f"{f1['mse'] / f0['mse']:.3f} / {f1['relmse'] / f0['relmse']:.3f} | {x['negatives']} |")
+            L.append("")
+        for e in r.get("equal_time_two_passes", []):
+            L.append(f"Equal time, two passes, {e['paths']} path(s) per sample: csi-mitsuba at 4 spp takes "
+                     f"{e['total_s']:.2f} s (render {e['render_s']:.2f} at mi.render's cost per path + csi "
+                     f"{e['csi_s']:.2f}; the bridge rendered the second pass in {e['bridge_second_render_s']:.3f} s): "
+                     f"MSE {fmt(e['csi_mse'])}, relMSE {fmt(e['csi_relmse'])}; Mitsuba renders {e['mc_spp']} spp in that "
+                     f"time ({e['mc_render_s']:.2f} s measured): MSE {fmt(e['mc_mse'])}, relMSE {fmt(e['mc_relmse'])} "
+                     f"(csi-mitsuba / Mitsuba: {e['csi_mse'] / e['mc_mse']:.2f} / {e['csi_relmse'] / e['mc_relmse']:.2f}).")
         for e in r["equal_time"]:
             L.append(f"Equal time, {e['paths']} path(s) per sample: csi at 4 spp takes {e['csi_total_s']:.2f} s "
                      f"(render {e['csi_render_s']:.2f} + reconstruct {e['csi_reconstruct_s']:.2f}): MSE {fmt(e['csi_mse'])}, "
@@ -238,6 +323,8 @@ def main(argv=None):
     ap.add_argument("--positions", choices=("stratified", "poisson"), default="stratified",
                     help="the samples' positions: stratified (every pixel gets spp samples, default) or poisson "
                          "(csi's own default; at 1 spp some pixels get none and the mean leaves them 0)")
+    ap.add_argument("--two-passes", action=argparse.BooleanOptionalAction, default=True,
+                    help="also csi-mitsuba's default with its second pass (renders the cells it asks for) [on]")
     a = ap.parse_args(argv)
     if a.quick:
         a.scenes = a.scenes or "cornell,glossy_sun"
@@ -255,6 +342,7 @@ def main(argv=None):
         log(f"{scene}:")
         ref, _ = md.reference(a.data, scene, size, a.reference_spp, log=log)
         ref = ref.astype(np.float64)
+        scene_obj = mb.load_scene(md.SCENES[scene], size=size) if a.two_passes else None
         cells, rows = {}, []
         for spp in spps:
             for paths in paths_list:
@@ -262,6 +350,17 @@ def main(argv=None):
                 res, imgs = run_cell(files, ref)
                 cells[f"s{spp}_p{paths}"] = {"spp": spp, "paths": paths, "grid": info["grid"], "methods": res,
                                               "mitsuba_when_cached": info["mitsuba"]}
+                if a.two_passes:
+                    two, extra, t_render, t_csi = two_passes(files, scene_obj, paths)
+                    cells[f"s{spp}_p{paths}"]["two_passes"] = {
+                        "samples": info["samples"], "extra_samples": extra, "t_second_render_s": t_render, "t_csi_s": t_csi,
+                        "methods": {m: {"mse": mse(im, ref), "relmse": relmse(im, ref), "negatives": int((im < 0).sum()),
+                                        "min": float(im.min())} for m, im in two.items()}}
+                    imgs = dict(imgs, **two)
+                    q = cells[f"s{spp}_p{paths}"]["two_passes"]["methods"]
+                    log(f"    {spp:>2} spp x {paths:>2} paths, two passes (+{extra} samples): csi-mitsuba / mean+pass "
+                        f"{q['csi-mitsuba']['mse'] / q['mean+pass']['mse']:.3f} / "
+                        f"{q['csi-mitsuba']['relmse'] / q['mean+pass']['relmse']:.3f}")
                 rows.append((f"{spp} spp\n{paths} path{'s' if paths > 1 else ''}", imgs))
                 best = min(COMPOSITIONS, key=lambda m: res[m]["relmse"])
                 log(f"    {spp:>2} spp x {paths:>2} paths: relMSE mean {res['mean']['relmse']:.4g}, csi "
@@ -269,13 +368,18 @@ def main(argv=None):
                     f"{res['oidn+aux']['relmse'] / res['mean']['relmse']:.2f}x, {best} "
                     f"{res[best]['relmse'] / res['mean']['relmse']:.2f}x; csi {res['csi']['t_wall_s']:.1f} s")
         contact_sheet(os.path.join(a.out, f"{scene}.png"), ref, rows, ["mean", "csi", "oidn", "oidn+aux",
-                                                                       "csi>oidn+aux"])
+                                                                       "csi>oidn+aux"]
+                      + (["csi-mitsuba"] if a.two_passes else []))
         timing = measure_mitsuba(scene, size, a.seed, paths_list, log)
         eq = []
         if 4 in spps:
             for paths in paths_list:
                 eq.append(equal_time(scene, size, ref, cells[f"s4_p{paths}"]["methods"], timing, paths, a.seed, log))
         results["scenes"][scene] = {"cells": cells, "mitsuba": timing, "equal_time": eq}
+        if a.two_passes and 4 in spps:
+            results["scenes"][scene]["equal_time_two_passes"] = [
+                equal_time_two_passes(scene, size, ref, dict(cells[f"s4_p{paths}"]["two_passes"]), timing, paths,
+                                      a.seed, log) for paths in paths_list]
         md.write_readme(a.data)
         with open(os.path.join(a.out, "results.json"), "w") as f:
             json.dump(results, f, indent=1)
