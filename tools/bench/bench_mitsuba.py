@@ -169,6 +169,24 @@ def measure_mitsuba(scene, size, seed, paths_list, log):
     return out
 
 
+def render_in_time(scene, size, paths, budget, per_spp, seed):
+    """mi.render (box filter) at the spp that fits `budget` seconds at per_spp seconds per spp of
+    `paths` paths: (spp, image, measured seconds). The cost per path moves with the launch size
+    and the machine's load: when the render misses the budget by more than 25%, the spp is
+    rescaled by the measured time and rendered again (once); the time reported is the last
+    render's, measured."""
+    spp = max(1, int(budget / per_spp))
+    sc = mb.load_scene(md.SCENES[scene], size=size, box_filter=True)
+    for attempt in range(2):
+        t0 = time.perf_counter()
+        img = mb.render_reference(sc, spp * paths, seed=seed + attempt)
+        t_mc = time.perf_counter() - t0
+        if abs(t_mc - budget) <= 0.25 * budget or attempt == 1:
+            break
+        spp = max(1, int(spp * budget / t_mc))
+    return spp, img, t_mc
+
+
 def equal_time(scene, size, ref, cell4, timing, paths, seed, log):
     """csi at 4 spp (render + reconstruction wall time) against mi.render at the spp it reaches
     in that time (box filter; the same paths per pixel sample as csi's samples). Both renders
@@ -178,18 +196,7 @@ def equal_time(scene, size, ref, cell4, timing, paths, seed, log):
     per_spp = timing["mi_render_per_path_us"] * paths * pix * 1e-6  # one sample of `paths` paths per pixel
     t_render = 4 * per_spp
     t_csi = t_render + cell4["csi"]["t_wall_s"]
-    spp = max(1, int(t_csi / per_spp))
-    sc = mb.load_scene(md.SCENES[scene], size=size, box_filter=True)
-    # The cost per path moves with the launch size and the machine's load: when the render
-    # misses the budget by more than 25%, the spp is rescaled by the measured time and rendered
-    # again (once); the time reported is the last render's, measured.
-    for attempt in range(2):
-        t0 = time.perf_counter()
-        img = mb.render_reference(sc, spp * paths, seed=seed + 2000 + attempt)
-        t_mc = time.perf_counter() - t0
-        if abs(t_mc - t_csi) <= 0.25 * t_csi or attempt == 1:
-            break
-        spp = max(1, int(spp * t_csi / t_mc))
+    spp, img, t_mc = render_in_time(scene, size, paths, t_csi, per_spp, seed + 2000)
     log(f"    equal time ({paths} paths): csi 4 spp {t_csi:.2f} s vs Mitsuba {spp} spp ({t_mc:.2f} s measured)")
     return {"paths": paths, "csi_spp": 4, "csi_total_s": t_csi, "csi_render_s": t_render,
             "csi_reconstruct_s": cell4["csi"]["t_wall_s"], "csi_mse": cell4["csi"]["mse"], "csi_relmse": cell4["csi"]["relmse"],
@@ -205,15 +212,7 @@ def equal_time_two_passes(scene, size, ref, cell, timing, paths, seed, log):
     t_render = (4 * pix + cell["extra_samples"]) * paths * per_path
     t_total = t_render + cell["t_csi_s"]
     per_spp = per_path * paths * pix
-    spp = max(1, int(t_total / per_spp))
-    sc = mb.load_scene(md.SCENES[scene], size=size, box_filter=True)
-    for attempt in range(2):
-        t0 = time.perf_counter()
-        img = mb.render_reference(sc, spp * paths, seed=seed + 3000 + attempt)
-        t_mc = time.perf_counter() - t0
-        if abs(t_mc - t_total) <= 0.25 * t_total or attempt == 1:
-            break
-        spp = max(1, int(spp * t_total / t_mc))
+    spp, img, t_mc = render_in_time(scene, size, paths, t_total, per_spp, seed + 3000)
     c = cell["methods"]["csi-mitsuba"]
     log(f"    equal time, two passes ({paths} paths): csi-mitsuba {t_total:.2f} s vs Mitsuba {spp} spp ({t_mc:.2f} s)")
     return {"paths": paths, "total_s": t_total, "render_s": t_render, "csi_s": cell["t_csi_s"],
