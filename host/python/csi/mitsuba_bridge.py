@@ -278,9 +278,10 @@ def _batch_seed(seed: int, batch: int) -> int:
 
 
 #: Launch sizes are rounded up to a ladder: Dr.Jit compiles a kernel per launch size (the size
-#: is part of the kernel's hash), 0.1-0.4 s for a path tracer, and caches it on disk. Rounded, a
-#: request of any size finds the kernel of an earlier run: at most 8 sizes per octave, so the
-#: padding lanes cost at most 1/8 of a launch, and one step below 2^17 lanes (about 50 ms of work).
+#: is part of the kernel's hash; for a path tracer the build costs far more than tracing a few
+#: thousand paths) and caches it on disk. Rounded, a request of any size finds the kernel of an
+#: earlier run: 8 sizes per octave, so the padding lanes cost at most 1/8 of a launch, and
+#: below 8 steps of LADDER_MIN_STEP lanes at most one step.
 LADDER_MIN_STEP = 1 << 14
 
 
