@@ -47,8 +47,7 @@ static void to_rgb(float *p, size_t m)
     }
 }
 
-/* The chroma channels' options: the coarser grid. */
-static csi_recon_options chroma_options(const csi_recon_options *opt)
+csi_recon_options csi_recon_chroma_options(const csi_recon_options *opt)
 {
     csi_recon_options o = *opt;
     o.model_sigma_min = fmin(opt->model_sigma_min, CHROMA_SIGMA_MIN);
@@ -98,7 +97,7 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
                                       csi_recon_result *res, csi_recon_state *st)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
-    const csi_recon_options oc = chroma_options(opt);
+    const csi_recon_options oc = csi_recon_chroma_options(opt);
     /* the estimate at the samples of each channel, kept on the host: each solve overwrites the
      * workspace that holds it */
     float *at = malloc(3 * n * sizeof *at);

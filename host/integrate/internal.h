@@ -207,6 +207,9 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
                                       csi_recon_result *res, csi_recon_state *st);
 void csi_recon_opponent(const float *rgb, size_t n, uint32_t k, float *plane);
 double csi_recon_chroma_tau_scale(double luma);
+/* The chroma channels' options (opt resolved): the coarser model grid. Their operator is a second
+ * one beside luma's, on luma's solver workspace (plan.c counts it). */
+csi_recon_options csi_recon_chroma_options(const csi_recon_options *opt);
 
 /* The coarse start (coarse_start.c): the operator on the model grid of shape sh coarsened once
  * more, for the samples at idx, its solver on the device buffers of the model grid's (fine);

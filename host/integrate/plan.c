@@ -115,12 +115,38 @@ static uint64_t interp_host(size_t mw, size_t mh, size_t n)
     return 16 * (uint64_t)n + 12 * ((uint64_t)mw + mh) + 16 * ((uint64_t)mw * mh / 512 + 1);
 }
 
+/* Alg. 1's operator of shape sh (csi_recon_aa_operator): on the fine grid, or on the model grid
+ * D times coarser with the box means at the pixels; and the host tables made with it. */
+static void aa_operator_buffers(const csi_aa_shape *sh, const size_t dims[3], size_t n, size_t np, model *m)
+{
+    const size_t km = sh->mw * sh->mh;
+    csi_wavelet_buffers(sh->mw, sh->mh, &m->dev);
+    if (sh->D > 1)
+        csi_model_filter_buffers(sh->mw, sh->mh, &m->dev);
+    else
+        csi_filter_buffers(dims, &m->dev);
+    csi_linop_compose_buffers(km, false, &m->dev); /* Phi^-1 Psi */
+    if (sh->D > 1)
+        csi_interp_buffers(sh->mw, sh->mh, sh->D, n, &m->dev);
+    else
+        csi_sampling_buffers(n, &m->dev);
+    csi_linop_compose_buffers(km, false, &m->dev); /* S Phi^-1 Psi */
+    if (sh->D > 1) { /* the box means at the pixels */
+        csi_model_filter_buffers(sh->mw, sh->mh, &m->dev);
+        csi_interp_buffers(sh->mw, sh->mh, sh->D, np, &m->dev);
+        transient_host(m, interp_host(sh->mw, sh->mh, n > np ? n : np) + (uint64_t)np * 4 +
+                              fft_tables_host(dims));
+    } else {
+        transient_host(m, sampling_bitmap((uint64_t)dims[0] * dims[1]) + fft_tables_host(dims));
+    }
+}
+
 /* Alg. 1 (antialias.c), on the fine grid or the model grid D times coarser. */
-static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_options *opt,
+static csi_status plan_antialias(const csi_grid *g, size_t n, uint32_t channels, const csi_recon_options *opt,
                                  csi_solver_kind solver, const csi_tile_scope *scope, csi_recon_plan *p,
                                  model *m)
 {
-    const size_t w = g->w, h = g->h, k = w * h, np = (size_t)g->out_w * g->out_h;
+    const size_t w = g->w, h = g->h, np = (size_t)g->out_w * g->out_h;
     const size_t dims[3] = {w, h, 1};
     csi_recon_state whole;
     memset(&whole, 0, sizeof whole);
@@ -137,24 +163,18 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, const csi_recon_op
     p->unknowns = km;
     const size_t mdims[3] = {sh.mw, sh.mh, 1};
     p->rows_unfused = !csi_filter_rows_fused(sh.D > 1 ? mdims : dims, m->dev.local_mem);
-    csi_wavelet_buffers(sh.mw, sh.mh, &m->dev);
-    if (sh.D > 1)
-        csi_model_filter_buffers(sh.mw, sh.mh, &m->dev);
-    else
-        csi_filter_buffers(dims, &m->dev);
-    csi_linop_compose_buffers(km, false, &m->dev); /* Phi^-1 Psi */
-    if (sh.D > 1)
-        csi_interp_buffers(sh.mw, sh.mh, sh.D, n, &m->dev);
-    else
-        csi_sampling_buffers(n, &m->dev);
-    csi_linop_compose_buffers(km, false, &m->dev); /* S Phi^-1 Psi */
-    if (sh.D > 1) { /* the box means at the pixels */
-        csi_model_filter_buffers(sh.mw, sh.mh, &m->dev);
-        csi_interp_buffers(sh.mw, sh.mh, sh.D, np, &m->dev);
-        transient_host(m, interp_host(sh.mw, sh.mh, n > np ? n : np) + (uint64_t)np * 4 +
-                              fft_tables_host(dims));
-    } else {
-        transient_host(m, sampling_bitmap(k) + fft_tables_host(dims));
+    aa_operator_buffers(&sh, dims, n, np, m);
+    if (csi_recon_chroma_on(g, channels, opt)) {
+        /* RGB as luma and chroma (chroma.c): the chroma channels' operator on their coarser grid
+         * beside luma's (on luma's solver workspace), and the three channels' fits at the samples
+         * on the host */
+        const csi_recon_options oc = csi_recon_chroma_options(opt);
+        csi_aa_shape shc;
+        CSI_TRY(csi_recon_aa_shape(g, n, &oc, &whole, &shc));
+        CSI_TRY(check_wavelet(&shc, oc.wavelet));
+        aa_operator_buffers(&shc, dims, n, np, m);
+        csi_vec_ws_buffers(&m->dev); /* the sharing workspace's own reductions */
+        m->host += 3 * (uint64_t)n * 4 + csi_solver_host_bytes(n, shc.mw * shc.mh, false, false);
     }
     csi_solver_buffers(n, km, false, &m->dev);
     csi_recon_coarse_buffers(&sh, opt, n, &m->dev);
@@ -340,7 +360,7 @@ csi_status csi_recon_plan_whole(const csi_ctx *ctx, const csi_grid *g, uint32_t 
         if (opt->estimator == CSI_EST_GAUSS)
             st = plan_gauss(g, n, out, &m);
         else if (g->t == 1)
-            st = plan_antialias(g, n, opt, solver, scope, out, &m);
+            st = plan_antialias(g, n, channels, opt, solver, scope, out, &m);
         else
             st = plan_motion(g, n, opt, solver, scope, out, &m);
     }
