@@ -317,6 +317,7 @@ static void put_header(wbuf *w, const csi_partial *p)
     put_u32(w, r->nframes);
     put_u32(w, (uint32_t)r->options.solver);
     put_u32(w, r->model_factor);
+    put_u32(w, r->chroma_model_factor);
     put_u64(w, r->k);
     put_u64(w, r->n);
     put_u64(w, r->unknowns);
@@ -428,6 +429,7 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
         res->nframes = get_u32(&r);
         res->options.solver = (csi_solver_kind)get_u32(&r);
         res->model_factor = get_u32(&r);
+        res->chroma_model_factor = get_u32(&r);
         res->k = (size_t)get_u64(&r);
         res->n = (size_t)get_u64(&r);
         res->unknowns = (size_t)get_u64(&r);

@@ -5,8 +5,11 @@
  * merge refuses, with one line naming the file and nothing returned, a missing tile, a tile given
  * twice, a partial of another input, other options or another layout, a truncated, damaged or
  * other-version partial, a file that is not a partial, and frames a static run does not have; a
- * progress callback cancels it. A one-channel 64 x 64 image (4x grid, 2 spp) in 4 tiles; and a
- * volume in time windows with the binned shutter's image (binned_windows). */
+ * progress callback cancels it. A one-channel 64 x 64 image (4x grid, 2 spp) in 4 tiles; a
+ * volume in time windows with the binned shutter's image (binned_windows); and an RGB image solved
+ * as luma and chroma (chroma_partials), whose merged partials must be the tiled run's bits and say
+ * in their statistics, as it does, the chroma channels' model grid (a partial that did not carry it
+ * would say nothing). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -128,6 +131,77 @@ static void binned_windows(csi_device *dev)
     free(wpos);
     free(wval);
     free(val);
+    free(pos);
+}
+
+/* The chroma channels' model grid factor in r's statistics ("chroma_model_grid_factor"), 0 when
+ * they do not name it. */
+static long chroma_factor(const csi_result *r)
+{
+    csi_json *j = NULL;
+    const char *text = NULL, *at = NULL;
+    long f = 0;
+    if (csi_json_new(&j) != CSI_OK)
+        return -1;
+    csi_result_stats(r, j);
+    if (csi_json_text(j, &text) == CSI_OK && (at = strstr(text, "\"chroma_model_grid_factor\": ")))
+        f = strtol(at + strlen("\"chroma_model_grid_factor\": "), NULL, 10);
+    csi_json_free(j);
+    return f;
+}
+
+/* RGB as luma and chroma (--chroma on) in two tiles made apart, written and merged: 4 spp on an 8x
+ * grid, luma on a model grid D = 2, the chroma on D = 4. */
+static void chroma_partials(csi_device *dev)
+{
+    const csi_grid g = {512, 256, 1, 64, 32};
+    const csi_pos_opts po = {.method = CSI_POS_POISSON, .spp = 4, .seed = 9};
+    csi_sample_pos *pos = NULL;
+    size_t n = 0;
+    if (csi_positions(&g, &po, &pos, &n, NULL) != CSI_OK) {
+        CHECK(0, "luma and chroma: positions: %s", csi_last_error());
+        return;
+    }
+    float *rgb = malloc(3 * n * sizeof *rgb);
+    for (size_t i = 0; i < n; i++) {
+        const double u = (pos[i].x + 0.5) / g.w, v = (pos[i].y + 0.5) / g.h;
+        const bool disc = (u - 0.4) * (u - 0.4) + (v - 0.6) * (v - 0.6) < 0.06;
+        rgb[3 * i] = (float)(0.2 + 0.6 * disc);
+        rgb[3 * i + 1] = (float)(0.3 + 0.2 * u);
+        rgb[3 * i + 2] = (float)(0.5 - 0.3 * disc * v);
+    }
+    const csi_samples s = {g, 3, n, pos, rgb, 0, NULL};
+    const uint64_t id = csi_samples_id(&s);
+    csi_options *o = NULL;
+    CHECK_OK(csi_options_new(&o));
+    CHECK_OK(csi_options_set(o, "chroma", "on"));
+    CHECK_OK(csi_options_set(o, "tiles", "2"));
+    CHECK_OK(csi_options_set(o, "tile-margin", "8"));
+    CHECK_OK(csi_options_set(o, "max-iter", "30"));
+    csi_result *whole = NULL;
+    double scale[4];
+    CHECK_OK(csi_reconstruct(dev, &s, o, NULL, NULL, &whole));
+    CHECK_OK(csi_tile_scale(dev, &s, o, scale));
+    const char *part[2];
+    for (int i = 0; i < 2; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "chroma%d.csip", i);
+        part[i] = path_of(name);
+        csi_result *t = NULL;
+        CHECK_OK(csi_reconstruct_tile(dev, &s, o, (uint32_t)i, scale, NULL, NULL, &t));
+        CHECK_OK(csi_partial_write(part[i], t, "chroma.csid", id, NULL));
+        csi_result_free(t);
+    }
+    csi_result *merged = NULL;
+    CHECK_OK(csi_partials_merge(part, 2, false, NULL, NULL, &merged, NULL));
+    CHECK(merged && same_image(merged, whole), "luma and chroma: merged partials = csi_reconstruct's tiled image");
+    const long fw = chroma_factor(whole), fm = merged ? chroma_factor(merged) : -1;
+    CHECK(fw == 4 && fm == fw, "luma and chroma: the chroma's model grid factor %ld in the tiled run's statistics, "
+          "%ld in the merged partials'", fw, fm);
+    csi_result_free(merged);
+    csi_result_free(whole);
+    csi_options_free(o);
+    free(rgb);
     free(pos);
 }
 
@@ -278,12 +352,12 @@ int main(void)
     fclose(f);
     copy_changed(part[2], trunc, -(size / 2), 0);
     copy_changed(part[2], damaged, size - 100, 0x5a); /* a pixel's byte */
-    copy_changed(part[2], version, 4, 4); /* the version before the options as reported were in it */
+    copy_changed(part[2], version, 4, 5); /* the version before the chroma's grid was in it */
     f = fopen(notpart, "wb");
     fputs("CSID this is not a partial\n", f);
     fclose(f);
     const char *bad[5] = {trunc, damaged, version, notpart, path_of("absent.csip")};
-    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 4 (this program reads version 5)",
+    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 5 (this program reads version 6)",
                           "not a csi tile partial", "cannot open"};
     for (int k = 0; k < 5; k++) {
         const char *set[4] = {part[0], part[1], bad[k], part[3]};
@@ -306,6 +380,7 @@ int main(void)
 
     for (int i = 0; i < 4; i++)
         csi_result_free(tile[i]);
+    chroma_partials(dev);
     for (int k = 0; k < npaths; k++)
         remove(paths[k]);
     CHECK(rmdir(dir) == 0, "nothing else is left in %s", dir);

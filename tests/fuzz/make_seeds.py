@@ -81,7 +81,7 @@ def untimed_partial(b):
     b = bytearray(b)
     at = options_end(b) + (5 * 8 + 3 * 8 + 3 * 48 + 8 + 8 + 3 * 8) + (2 * 8 + 3 * 8 + 8 + 4 * 8)
     channels = struct.unpack_from("<Q", b, at + 48)[0]
-    at += 8 * 8 + 8 + 8 + 3 * 8
+    at += 8 * 8 + 8 + 8 + 8 + 3 * 8  # the window, solver, model_factor, chroma_model_factor, k, n, unknowns
     b[at:at + 80] = bytes(80)
     at += 80
     for _ in range(channels):
