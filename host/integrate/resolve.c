@@ -217,8 +217,9 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     if (o->coarse_start == CSI_SWITCH_AUTO)
         o->coarse_start = CSI_SWITCH_OFF;
     /* RGB as luma and chroma (chroma.c): 0.6x the CPU of an RGB solve, but the MSE moved by
-     * -3%..+2.3% on the bundled checkerboard at 1 spp (the coarser grid's bias and the early
-     * stop), more than the 2% the defaults may move (docs/bench/cost.md, session 20). */
+     * -3%..+2.3% on the bundled checkerboard at 1 spp, more than the 2% the defaults may move; the
+     * same with the chroma on luma's grid, so it is where the transform's solves stop, not the
+     * coarser grid (docs/bench/cost.md, sessions 20 and 21). */
     if (o->chroma == CSI_SWITCH_AUTO)
         o->chroma = CSI_SWITCH_OFF;
     if (o->solver == CSI_SOLVER_ROMP) {
