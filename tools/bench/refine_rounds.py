@@ -1,0 +1,175 @@
+#!/usr/bin/env python3
+"""The second pass's pick, once or in rounds (docs/bench/mitsuba.md, session 21; measured, not
+kept). For each cached Mitsuba dump: csi's first pass (csi-reconstruct), then three picks of the
+pixels to sample in every cell, each rendered through the bridge as csi-mitsuba --refine renders
+them and patched with csi.refine_apply; errors against the reference for that image and for the
+per-pixel mean of the same samples (the first pass's and the pick's):
+
+  once    csi_refine_positions, csi-mitsuba's default (checked equal to the library's pick here):
+          a pixel is picked when its disagreement (image - its samples' mean)^2, summed over the
+          channels, is at least `share` of the image's total;
+  two     that pick, then once more against the disagreement it left (what a third pass after
+          the patch would pick: the picked pixels then agree with their means, the rest are as
+          before);
+  rounds  by decreasing disagreement, a pixel is picked while it holds `share` of the
+          disagreement not yet picked; at most 1 / share pixels.
+
+    .venv/bin/python tools/bench/refine_rounds.py --data DIR[,DIR...] --spp 4 --json out.json
+    .venv/bin/python tools/bench/refine_rounds.py --summary out.json
+
+DIR is a directory of tools/bench/mitsuba_data.py; --scenes-dir adds scene files of your own
+(SCENE.py, registered by name, as held-out scenes are). Cells already in --json are skipped.
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "host", "python"))
+from bench_common import binaries, default_env, read_exr  # noqa: E402
+import mitsuba_data as md  # noqa: E402
+import csi  # noqa: E402
+from csi import dump as csid  # noqa: E402
+from csi import mitsuba_bridge as mb  # noqa: E402
+from csi.mitsuba_cli import refine_seed  # noqa: E402
+
+RULES = ("once", "two", "rounds")
+
+
+def errors(img, ref):
+    d = (img.astype(np.float64) - ref) ** 2
+    return float(d.mean()), float((d / (ref.astype(np.float64) ** 2 + 0.01)).mean())
+
+
+def disagreement(D, img):
+    """Per pixel: (samples, disagreement), as csi_refine_positions computes them."""
+    w, h, _ = D.grid
+    ow, oh = D.out
+    p = (D.xyt[:, 1] // (h // oh)).astype(np.int64) * ow + D.xyt[:, 0] // (w // ow)
+    cnt = np.bincount(p, minlength=ow * oh)
+    s = np.stack([np.bincount(p, weights=D.values[:, c].astype(np.float64), minlength=ow * oh)
+                  for c in range(D.values.shape[1])], 1)
+    x = img.reshape(-1, img.shape[2]).astype(np.float64)
+    m = s / np.maximum(cnt, 1)[:, None]
+    e = x - m
+    e[np.abs(e) <= 1e-5 * (np.abs(x) + np.abs(m))] = 0  # float rounding is no disagreement
+    d = (e ** 2).sum(1)
+    d[cnt == 0] = 0
+    return cnt, d
+
+
+def pick(D, img, rule, share):
+    cnt, d = disagreement(D, img)
+    w, h, _ = D.grid
+    ow, oh = D.out
+    bw, bh = w // ow, h // oh
+    cand = (cnt > 0) & (cnt < bw * bh) & (d > 0)
+    total = d.sum()
+    sel = cand & (d >= share * total)
+    if rule == "two":
+        sel |= cand & (d >= share * (total - d[sel].sum()))
+    elif rule == "rounds":
+        idx = np.flatnonzero(cand)
+        left, sel = total, np.zeros_like(sel)
+        for q in idx[np.lexsort((idx, -d[idx]))]:
+            if sel.sum() >= int(1 / share) or d[q] < share * left:
+                break
+            sel[q], left = True, left - d[q]
+    taken = set(zip(D.xyt[:, 0].tolist(), D.xyt[:, 1].tolist()))
+    cells = [(x, y, 0) for q in np.flatnonzero(sel) for y in range((q // ow) * bh, (q // ow + 1) * bh)
+             for x in range((q % ow) * bw, (q % ow + 1) * bw) if (x, y) not in taken]
+    return np.array(cells, np.uint32).reshape(-1, 3), int(sel.sum())
+
+
+def cell(bins, env, tmp, d, scene, stem, share, scenes):
+    dump = os.path.join(d, scene, stem + ".csid")
+    info = json.load(open(os.path.join(d, scene, stem + ".json")))
+    ref = np.load(os.path.join(d, scene, "reference_4096.npy"))
+    subprocess.run([bins["csi-reconstruct"], dump, "-o", os.path.join(tmp, "c0.exr"), "-q"], check=True, env=env)
+    c0 = read_exr(os.path.join(tmp, "c0.exr"))
+    D = csid.read(dump)
+    grid = (*D.grid, *D.out)
+    lib, _ = csi.refine_positions(D.xyt, D.values, grid, c0, share)
+    if (scene, D.out) not in scenes:
+        scenes.clear()
+        scenes[(scene, D.out)] = mb.load_scene(md.SCENES[scene], size=D.out)
+    row = {}
+    for rule in RULES:
+        cells, pixels = pick(D, c0, rule, share)
+        if rule == "once" and sorted(map(tuple, cells.tolist())) != sorted(map(tuple, np.asarray(lib).tolist())):
+            raise SystemExit(f"{dump}: this script's pick is not csi_refine_positions'")
+        img, A = c0, D
+        if len(cells):
+            s2 = mb.render_request(scenes[(scene, D.out)], csid.Dump(grid=D.grid, out=D.out, xyt=cells, values=None,
+                                                                     seed=D.seed),
+                                   paths=info["paths"], seed=refine_seed(D.seed))
+            img, _ = csi.refine_apply(D.xyt, D.values, cells, s2.values, grid, c0)
+            A = csid.Dump(grid=D.grid, out=D.out, xyt=np.concatenate([D.xyt, cells]),
+                          values=np.concatenate([D.values, s2.values]), seed=D.seed)
+        ce, me = errors(img, ref), errors(A.pixel_means(), ref)
+        row[rule] = {"pixels": pixels, "extra": len(cells) / len(D.xyt), "csi": ce, "mean": me,
+                     "ratio": [ce[0] / me[0], ce[1] / me[1]]}
+    return row
+
+
+def summary(path):
+    r = json.load(open(path))
+    above = lambda v, k: v[k]["ratio"][0] > 1 or v[k]["ratio"][1] > 1  # noqa: E731
+    print(f"{path}: {len(r)} cells")
+    for k in RULES:
+        ex = [v[k]["extra"] for v in r.values()]
+        gm = lambda f: math.exp(sum(math.log(f(v)) for v in r.values()) / len(r))  # noqa: E731
+        worst = max(max(v[k]["ratio"]) for v in r.values())
+        print(f"  {k:6s} above the mean {sum(above(v, k) for v in r.values()):3d} (newly {sum(above(v, k) and not above(v, 'once') for v in r.values())}),"
+              f" worst {worst:.4f}; extra samples {100 * np.mean(ex):.2f}% (max {100 * max(ex):.1f}%); csi / mean (MSE, geometric "
+              f"mean) {gm(lambda v: v[k]['ratio'][0]):.4f}; csi's MSE over once's {gm(lambda v: v[k]['csi'][0] / v['once']['csi'][0]):.4f}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", help="mitsuba_data.py directories, comma-separated")
+    ap.add_argument("--spp", default="4")
+    ap.add_argument("--share", type=float, default=0.005)
+    ap.add_argument("--scenes-dir", help="more scenes: DIR/NAME.py each")
+    ap.add_argument("--build", default=None)
+    ap.add_argument("--json", help="the rows (resumed if it exists)")
+    ap.add_argument("--summary", metavar="JSON", help="print the summary of a finished --json and stop")
+    a = ap.parse_args(argv)
+    if a.summary:
+        summary(a.summary)
+        return 0
+    if not a.data or not a.json:
+        ap.error("--data and --json are needed")
+    if a.scenes_dir:
+        for f in sorted(os.listdir(a.scenes_dir)):
+            if f.endswith(".py"):
+                md.SCENES[f[:-3]] = os.path.join(a.scenes_dir, f)
+    bins, env = binaries(a.build), default_env()
+    rows = json.load(open(a.json)) if os.path.exists(a.json) else {}
+    scenes = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for d in a.data.split(","):
+            for scene in sorted(s for s in os.listdir(d) if s in md.SCENES):
+                for spp in a.spp.split(","):
+                    for stem in (f"s{spp}_p{p}{m}" for p in (1, 64) for m in ("", "_poisson")):
+                        key = f"{os.path.basename(d.rstrip('/'))} {scene} {stem}"
+                        if key in rows or not os.path.exists(os.path.join(d, scene, stem + ".csid")):
+                            continue
+                        rows[key] = cell(bins, env, tmp, d, scene, stem, a.share, scenes)
+                        print(key, {k: (v["pixels"], f"{100 * v['extra']:.2f}%", [round(x, 4) for x in v["ratio"]])
+                                    for k, v in rows[key].items()}, flush=True)
+                        with open(a.json, "w") as f:
+                            json.dump(rows, f, indent=0)
+    summary(a.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
