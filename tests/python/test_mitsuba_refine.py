@@ -118,10 +118,36 @@ def main():
         check(r2.returncode == 0 and open(p("r2.csid"), "rb").read() == open(p("r.csid"), "rb").read(),
               "--refine twice gave different samples")
 
+        # A further pass (--refine-passes 2) picks again on all the samples of the first two and
+        # the patched image, exactly as csi_refine_positions does on them; the pixels it refines
+        # take the mean of all their samples, every other pixel is the two-pass image.
+        t = cli(*common, "--refine-passes", "2", "--dump", p("t.csid"), "-o", p("t.exr"), "--stats", p("t.json"))
+        check(t.returncode == 0, f"--refine-passes 2: exit {t.returncode}: {t.stderr.strip()}")
+        if t.returncode == 0:
+            d3 = csid.read(p("t.csid"))
+            third, tpix = csi.refine_positions(d.xyt, d.values, grid, exr.read(p("r.exr")))
+            passes = json.load(open(p("t.json")))["refine"]["passes"]
+            check(len(third) > 0 and [q["cells"] for q in passes] == [st["cells"], len(third)],
+                  f"passes {[q['cells'] for q in passes]}: the second pass {st['cells']}, the library's next pick {len(third)}")
+            check(len(d3.xyt) == len(d.xyt) + len(third) and np.array_equal(
+                np.sort(key(d3.xyt)), np.sort(np.concatenate([key(d.xyt), key(third)]))),
+                "--refine-passes 2's samples are not the two-pass samples and the next pick")
+            tp = np.unique((third[:, 1] // f) * d.out[0] + third[:, 0] // f)
+            timg = exr.read(p("t.exr")).reshape(-1, 3)
+            tm = d3.pixel_means().reshape(-1, 3)
+            check(np.abs(timg[tp] - tm[tp]).max() / max(1.0, np.abs(tm[tp]).max()) <= 1e-6,
+                  "a pixel of the third pass is not its samples' mean")
+            rest3 = np.setdiff1d(np.arange(len(timg)), tp)
+            check(np.array_equal(timg[rest3], exr.read(p("r.exr")).reshape(-1, 3)[rest3]),
+                  "--refine-passes 2 changed pixels the third pass did not refine")
+
         # Refused before any rendering: one line, exit 2, nothing written.
         for args, what in (((SCENE, "--no-refine", "--refine-share", "0.01", "-o", p("x.exr")),
                             "--refine-share with --no-refine"),
                            ((SCENE, "--refine", "--refine-share", "0", "-o", p("x.exr")), "share 0"),
+                           ((SCENE, "--no-refine", "--refine-passes", "2", "-o", p("x.exr")),
+                            "--refine-passes with --no-refine"),
+                           ((SCENE, "--refine", "--refine-passes", "0", "-o", p("x.exr")), "0 passes"),
                            ((SCENE, "--refine", "--refine-share", "1.5", "-o", p("x.exr")), "share 1.5"),
                            ((SCENE, "--refine", "--reference", "16", "-o", p("x.exr")), "with --reference"),
                            ((SCENE, "--refine", "--time-steps", "4", "-o", p("x.exr")), "a volume"),

@@ -115,6 +115,11 @@ def parser():
                         "-- --estimator mean|gauss; --no-refine samples exactly --spp per pixel")
     s.add_argument("--refine-share", type=float, metavar="S",
                    help="with --refine: the share, 0 < S <= 1 (default 0.005)")
+    s.add_argument("--refine-passes", type=_int_range(1, 16), metavar="N",
+                   help="with --refine: passes after the first (default 1). Each picks again on all the samples "
+                        "so far and the patched image, which settles a pixel that an earlier pick left just under "
+                        "the share: a few %% more samples for a lower error, but more images a hair above the mean "
+                        "of the same samples (docs/bench/mitsuba.md, session 21)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
                    "with SPP samples per pixel instead of samples")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
@@ -227,21 +232,21 @@ def reconstruct_result(d: csid.Dump, extra=(), variance=None):
     return res
 
 
-def refine_seed(seed: int) -> int:
-    """The refinement's paths' seed: one of their own, mixed with the run's, so that they are not
-    the first pass's paths again in the same batches."""
-    return (int(seed) ^ 0x72656669_6E650000) % (1 << 64)
+def refine_seed(seed: int, k: int = 0) -> int:
+    """The paths' seed of refinement pass k (0: the second pass): one of their own, mixed with the
+    run's, so that they are not an earlier pass's paths again in the same batches."""
+    return ((int(seed) ^ 0x72656669_6E650000) + k) % (1 << 64)
 
 
 def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
-    """The second pass of --refine: the cells csi_refine_positions picks from the first pass's
-    reconstruction, rendered as the first ones were, merged with them in csi's cell order.
-    Returns (request, samples, statistics) of all the samples and the image: the first pass's
-    reconstruction (csi's Result) with each refined pixel set to the mean of all its samples,
-    which a pixel sampled in every cell is given by the blend. A second reconstruction of all the
-    samples differs from it only in the fit around those pixels: it measured the same error on
-    average and above the mean of the same samples more often (docs/bench/mitsuba.md, session
-    20), for twice csi's time."""
+    """The passes after the first (--refine, --refine-passes): the cells csi_refine_positions
+    picks, rendered as the first ones were and merged with them in csi's cell order; each further
+    pass picks again on all the samples so far and the patched image. Returns (request, samples,
+    statistics, image) of all the samples: the first pass's reconstruction (csi's Result) with
+    each refined pixel set to the mean of all its samples, which a pixel sampled in every cell is
+    given by the blend. A second reconstruction of all the samples differs from it only in the
+    fit around those pixels: it measured the same error on average and above the mean of the same
+    samples more often (docs/bench/mitsuba.md, session 20), for twice csi's time."""
     import numpy as np
 
     import csi
@@ -249,31 +254,40 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     t0 = time.perf_counter()
     first = reconstruct_result(req.with_values(s.values), extra, s.variance if a.variance_peaks else None)
     t_first = time.perf_counter() - t0
-    try:
-        cells, pixels = csi.refine_positions(req.xyt, s.values, (*req.grid, *req.out), first.image, a.refine_share)
-    except csi.CsiError as e:
-        raise ReconstructError(e) from None
-    info = {"pixels": pixels, "cells": int(len(cells)), "t_first_reconstruction_s": t_first,
+    info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first,
             "image": "the first pass's reconstruction, each refined pixel its samples' mean"}
-    if not len(cells):
-        return req, s, info, first
-    more = csid.Dump(grid=req.grid, out=req.out, xyt=cells, values=None, seed=req.seed)
-    s2 = mb.render_request(scene, more, paths=a.paths, seed=refine_seed(req.seed), aov=a.aov,
-                           progress=lambda d, n: prog("refinement samples", d, n))
-    info["mitsuba"] = s2.timing
+    grid = (*req.grid, *req.out)
     w, h, _ = req.grid
-    xyt = np.concatenate([req.xyt, cells])
-    order = np.argsort((xyt[:, 2].astype(np.int64) * h + xyt[:, 1]) * w + xyt[:, 0], kind="stable")
-    join = lambda u, v: None if u is None or v is None else np.concatenate([u, v])[order]
-    merged = mb.Samples(values=join(s.values, s2.values), variance=join(s.variance, s2.variance),
-                        albedo=join(s.albedo, s2.albedo), normal=join(s.normal, s2.normal), paths=s.paths,
-                        nonfinite=s.nonfinite + s2.nonfinite, timing=s.timing)
-    try:  # csi-reconstruct FIRST --refine-with MORE's image, to the bit
-        img, _ = csi.refine_apply(req.xyt, s.values, cells, s2.values, (*req.grid, *req.out), first.image)
-    except csi.CsiError as e:
-        raise ReconstructError(e) from None
-    first.set_image(img)
-    return csid.Dump(grid=req.grid, out=req.out, xyt=xyt[order], values=None, seed=req.seed), merged, info, first
+    image = first.image
+    for k in range(a.refine_passes):
+        try:
+            cells, pixels = csi.refine_positions(req.xyt, s.values, grid, image, a.refine_share)
+        except csi.CsiError as e:
+            raise ReconstructError(e) from None
+        if not len(cells):
+            break
+        more = csid.Dump(grid=req.grid, out=req.out, xyt=cells, values=None, seed=req.seed)
+        s2 = mb.render_request(scene, more, paths=a.paths, seed=refine_seed(req.seed, k), aov=a.aov,
+                               progress=lambda d, n: prog("refinement samples", d, n))
+        try:  # csi-reconstruct FIRST --refine-with MORE's image, to the bit (the second pass)
+            image, _ = csi.refine_apply(req.xyt, s.values, cells, s2.values, grid, image)
+        except csi.CsiError as e:
+            raise ReconstructError(e) from None
+        xyt = np.concatenate([req.xyt, cells])
+        order = np.argsort((xyt[:, 2].astype(np.int64) * h + xyt[:, 1]) * w + xyt[:, 0], kind="stable")
+        join = lambda u, v: None if u is None or v is None else np.concatenate([u, v])[order]  # noqa: E731
+        s = mb.Samples(values=join(s.values, s2.values), variance=join(s.variance, s2.variance),
+                       albedo=join(s.albedo, s2.albedo), normal=join(s.normal, s2.normal), paths=s.paths,
+                       nonfinite=s.nonfinite + s2.nonfinite, timing=s.timing)
+        req = csid.Dump(grid=req.grid, out=req.out, xyt=xyt[order], values=None, seed=req.seed)
+        info["pixels"] += pixels
+        info["cells"] += int(len(cells))
+        info["passes"].append({"pixels": pixels, "cells": int(len(cells)), "mitsuba": s2.timing})
+        if k == 0:
+            info["mitsuba"] = s2.timing
+    if info["cells"]:
+        first.set_image(image)
+    return req, s, info, first
 
 
 class ReconstructError(Exception):
@@ -323,6 +337,10 @@ def run(a, extra):
         a.refine = not (a.reference or a.request or a.time_steps > 1 or estimator in ("mean", "gauss"))
     if a.refine_share is not None and not a.refine:
         raise UsageError("--refine-share needs --refine")
+    if a.refine_passes is not None and not a.refine:
+        raise UsageError("--refine-passes needs --refine")
+    if a.refine_passes is None:
+        a.refine_passes = 1
     if a.refine_share is not None and not 0 < a.refine_share <= 1:
         raise UsageError(f"--refine-share: {a.refine_share:g} is not a share with 0 < S <= 1")
     if a.refine and estimator == "mean":
@@ -433,8 +451,10 @@ def run(a, extra):
                f"{t['render_s']:.2f} s ({t['per_sample_us']:.2f} us/sample, {t['per_path_us']:.3f} us/path; "
                f"first call {t['jit_s']:.2f} s apart)")
         if refined is not None:
+            passes = refined["passes"]
             msg += (f"; refine: {refined['cells']} more samples at {refined['pixels']} pixels"
-                    + (f" (Mitsuba {refined['mitsuba']['render_s']:.2f} s)" if "mitsuba" in refined else ""))
+                    + (f" in {len(passes)} passes" if len(passes) > 1 else "")
+                    + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else ""))
         if t_recon is not None:
             msg += f", csi {t_recon:.2f} s"
         if s.nonfinite:
