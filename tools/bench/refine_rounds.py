@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The second pass's pick, once or in rounds (docs/bench/mitsuba.md, session 21; measured, not
-kept). For each cached Mitsuba dump: csi's first pass (csi-reconstruct), then three picks of the
+"""The second pass's pick, once or in rounds (docs/bench/mitsuba.md, session 21; "two" is
+csi-mitsuba --refine-passes 2, an option). For each cached Mitsuba dump: csi's first pass (csi-reconstruct), then three picks of the
 pixels to sample in every cell, each rendered through the bridge as csi-mitsuba --refine renders
 them and patched with csi.refine_apply; errors against the reference for that image and for the
 per-pixel mean of the same samples (the first pass's and the pick's):
