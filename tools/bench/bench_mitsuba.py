@@ -48,7 +48,6 @@ import mitsuba_data as md  # noqa: E402
 import csi  # noqa: E402
 from csi import dump as csid  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
-from csi.mitsuba_cli import refine_seed  # noqa: E402
 
 ALL_SCENES = ["cornell", "thin_geometry", "glossy_sun", "horizon", "envmap"]
 COMPOSITIONS = ["csi>oidn", "csi>oidn+aux", "avg", "mix>oidn+aux"]
@@ -116,32 +115,30 @@ def run_cell(files, ref):
     return res, imgs
 
 
-def two_passes(files, scene_obj, paths):
-    """csi-mitsuba's image on a cached dump: its first reconstruction (the variances beside the
-    dump with more than one path, as csi-mitsuba's --variance-peaks default), the second pass's
-    cells rendered through the bridge with the refinement's seed, the patch. Returns
+def two_passes(files, scene_obj, paths, passes=1):
+    """csi-mitsuba's image on a cached dump, by csi-mitsuba's own code (mitsuba_cli.refine, with
+    its defaults: each sample's variance used with more than one path, the default share):
+    the first reconstruction, the cells of the pixels it cannot decide rendered through the
+    bridge with the refinement's seed, the patch; `passes` passes after the first. Returns
     ({"csi-mitsuba": image, "mean+pass": image}, extra samples, Mitsuba's wall seconds for them,
-    csi's wall seconds (first reconstruction, pick, patch))."""
+    csi's wall seconds (first reconstruction, picks, patches))."""
+    import types
+
+    from csi import mitsuba_cli
+
     d = csid.read(files["dump"])
-    grid = (*d.grid, *d.out)
+    req = csid.Dump(grid=d.grid, out=d.out, xyt=d.xyt, values=None, seed=d.seed)
+    s = mb.Samples(values=d.values, variance=csid.read(files["variance"]).values if paths > 1 else None,
+                   albedo=None, normal=None, paths=paths, nonfinite=0, timing={})
+    a = types.SimpleNamespace(refine_share=None, refine_passes=passes, paths=paths, aov=False,
+                              variance_peaks=paths > 1)
     t0 = time.perf_counter()
-    first = csi.reconstruct_dump(files["dump"], files.get("variance") if paths > 1 else None).image
-    cells, _ = csi.refine_positions(d.xyt, d.values, grid, first)
-    t_csi = time.perf_counter() - t0
-    t_render = 0.0
-    if len(cells):
-        t0 = time.perf_counter()
-        more = mb.render_request(scene_obj, csid.Dump(grid=d.grid, out=d.out, xyt=cells, values=None, seed=d.seed),
-                                 paths=paths, seed=refine_seed(d.seed))
-        t_render = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        img, _ = csi.refine_apply(d.xyt, d.values, cells, more.values, grid, first)
-        t_csi += time.perf_counter() - t0
-        d = csid.Dump(grid=d.grid, out=d.out, xyt=np.concatenate([d.xyt, cells]),
-                      values=np.concatenate([d.values, more.values]), seed=d.seed)
-    else:
-        img = first
-    return {"csi-mitsuba": img, "mean+pass": d.pixel_means().astype(np.float32)}, len(cells), t_render, t_csi
+    req2, s2, info, result = mitsuba_cli.refine(scene_obj, req, s, a, [], lambda *_: None)
+    wall = time.perf_counter() - t0
+    t_render = sum(q["mitsuba"]["render_s"] + q["mitsuba"]["jit_s"] for q in info["passes"])
+    merged = csid.Dump(grid=d.grid, out=d.out, xyt=req2.xyt, values=s2.values, seed=d.seed)
+    return ({"csi-mitsuba": result.image, "mean+pass": merged.pixel_means().astype(np.float32)}, info["cells"],
+            t_render, wall - t_render)
 
 
 def measure_mitsuba(scene, size, seed, paths_list, log):
@@ -324,6 +321,8 @@ def main(argv=None):
                          "(csi's own default; at 1 spp some pixels get none and the mean leaves them 0)")
     ap.add_argument("--two-passes", action=argparse.BooleanOptionalAction, default=True,
                     help="also csi-mitsuba's default with its second pass (renders the cells it asks for) [on]")
+    ap.add_argument("--refine-passes", type=int, default=1,
+                    help="with --two-passes: csi-mitsuba --refine-passes (passes after the first) [1]")
     a = ap.parse_args(argv)
     if a.quick:
         a.scenes = a.scenes or "cornell,glossy_sun"
@@ -350,7 +349,7 @@ def main(argv=None):
                 cells[f"s{spp}_p{paths}"] = {"spp": spp, "paths": paths, "grid": info["grid"], "methods": res,
                                               "mitsuba_when_cached": info["mitsuba"]}
                 if a.two_passes:
-                    two, extra, t_render, t_csi = two_passes(files, scene_obj, paths)
+                    two, extra, t_render, t_csi = two_passes(files, scene_obj, paths, a.refine_passes)
                     cells[f"s{spp}_p{paths}"]["two_passes"] = {
                         "samples": info["samples"], "extra_samples": extra, "t_second_render_s": t_render, "t_csi_s": t_csi,
                         "methods": {m: {"mse": mse(im, ref), "relmse": relmse(im, ref), "negatives": int((im < 0).sum()),
