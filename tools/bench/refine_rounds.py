@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """The second pass's pick, once or in rounds (docs/bench/mitsuba.md, session 21; "two" is
-csi-mitsuba --refine-passes 2, an option). For each cached Mitsuba dump: csi's first pass (csi-reconstruct), then three picks of the
-pixels to sample in every cell, each rendered through the bridge as csi-mitsuba --refine renders
-them and patched with csi.refine_apply; errors against the reference for that image and for the
-per-pixel mean of the same samples (the first pass's and the pick's):
+csi-mitsuba --refine-passes 2, an option). For each cached Mitsuba dump: csi's first pass
+(csi-reconstruct), then four picks of the pixels to sample in every cell, each rendered through
+the bridge as csi-mitsuba --refine renders them and patched with csi.refine_apply; errors against
+the reference for that image and for the per-pixel mean of the same samples (the first pass's and
+the pick's):
 
   once    csi_refine_positions, csi-mitsuba's default (checked equal to the library's pick here):
           a pixel is picked when its disagreement (image - its samples' mean)^2, summed over the
@@ -11,6 +12,8 @@ per-pixel mean of the same samples (the first pass's and the pick's):
   two     that pick, then once more against the disagreement it left (what a third pass after
           the patch would pick: the picked pixels then agree with their means, the rest are as
           before);
+  twosig  two, its second round only where the disagreement is beyond 9 times the variance of
+          the pixel's mean (from its samples' spread; none for a pixel of one sample);
   rounds  by decreasing disagreement, a pixel is picked while it holds `share` of the
           disagreement not yet picked; at most 1 / share pixels.
 
@@ -40,7 +43,7 @@ from csi import dump as csid  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
 from csi.mitsuba_cli import refine_seed  # noqa: E402
 
-RULES = ("once", "two", "rounds")
+RULES = ("once", "two", "twosig", "rounds")
 
 
 def errors(img, ref):
@@ -75,6 +78,16 @@ def pick(D, img, rule, share):
     sel = cand & (d >= share * total)
     if rule == "two":
         sel |= cand & (d >= share * (total - d[sel].sum()))
+    elif rule == "twosig":
+        # two, its second round only where the disagreement is beyond the mean's own noise: 9 times
+        # the variance of the pixel's mean from its samples' spread (a pixel of one sample has none)
+        p = (D.xyt[:, 1] // bh).astype(np.int64) * ow + D.xyt[:, 0] // bw
+        v = D.values.astype(np.float64)
+        s1 = np.stack([np.bincount(p, weights=v[:, c], minlength=ow * oh) for c in range(v.shape[1])], 1)
+        s2 = np.stack([np.bincount(p, weights=v[:, c] ** 2, minlength=ow * oh) for c in range(v.shape[1])], 1)
+        n = np.maximum(cnt, 1)[:, None]
+        noise = np.where(cnt > 1, (np.maximum(s2 - s1 ** 2 / n, 0) / np.maximum(n - 1, 1) / n).sum(1), np.inf)
+        sel |= cand & (d >= share * (total - d[sel].sum())) & (d >= 9.0 * noise)
     elif rule == "rounds":
         idx = np.flatnonzero(cand)
         left, sel = total, np.zeros_like(sel)
