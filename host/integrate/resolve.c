@@ -216,10 +216,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->warm_channels = CSI_SWITCH_OFF;
     if (o->coarse_start == CSI_SWITCH_AUTO)
         o->coarse_start = CSI_SWITCH_OFF;
-    /* RGB as luma and chroma (chroma.c): 0.6x the CPU of an RGB solve, but the MSE moved by
-     * -3%..+2.3% on the bundled checkerboard at 1 spp, more than the 2% the defaults may move; the
-     * same with the chroma on luma's grid, so it is where the transform's solves stop, not the
-     * coarser grid (docs/bench/cost.md, sessions 20 and 21). */
+    /* RGB as luma and chroma (chroma.c) is cheaper than three RGB solves, but it moved the bundled
+     * checkerboard's MSE at 1 spp by more than the 2% the defaults may move, with the chroma on
+     * the coarser grid or on luma's: where the transform's solves stop, not the grid
+     * (docs/bench/cost.md, sessions 20 and 21). */
     if (o->chroma == CSI_SWITCH_AUTO)
         o->chroma = CSI_SWITCH_OFF;
     if (o->solver == CSI_SOLVER_ROMP) {

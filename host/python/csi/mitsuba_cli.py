@@ -283,8 +283,6 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
         info["pixels"] += pixels
         info["cells"] += int(len(cells))
         info["passes"].append({"pixels": pixels, "cells": int(len(cells)), "mitsuba": s2.timing})
-        if k == 0:
-            info["mitsuba"] = s2.timing
     if info["cells"]:
         first.set_image(image)
     return req, s, info, first
