@@ -9,6 +9,7 @@ sphere: a few pixels hold most of the image's error) at 48x48, 4 samples per pix
 """
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -141,13 +142,19 @@ def main():
             check(np.array_equal(timg[rest3], exr.read(p("r.exr")).reshape(-1, 3)[rest3]),
                   "--refine-passes 2 changed pixels the third pass did not refine")
 
-        # Refused before any rendering: one line, exit 2, nothing written.
+        # Refused before any rendering: one line, exit 2, nothing written (the scene a copy: a
+        # failure must not write over the repository's).
+        shutil.copyfile(SCENE, p("scene.py"))
         for args, what in (((SCENE, "--no-refine", "--refine-share", "0.01", "-o", p("x.exr")),
                             "--refine-share with --no-refine"),
                            ((SCENE, "--refine", "--refine-share", "0", "-o", p("x.exr")), "share 0"),
                            ((SCENE, "--no-refine", "--refine-passes", "2", "-o", p("x.exr")),
                             "--refine-passes with --no-refine"),
                            ((SCENE, "--refine", "--refine-passes", "0", "-o", p("x.exr")), "0 passes"),
+                           ((SCENE, "--dump", p("x.exr"), "-o", p("x.exr")), "the dump and the image on one path"),
+                           ((SCENE, "--paths", "2", "--dump", p("x.csid"), "-o", p("x.variance.csid")),
+                            "the image on the dump's variances"),
+                           ((p("scene.py"), "-o", p("scene.py")), "the image over the scene"),
                            ((SCENE, "--refine", "--refine-share", "1.5", "-o", p("x.exr")), "share 1.5"),
                            ((SCENE, "--refine", "--reference", "16", "-o", p("x.exr")), "with --reference"),
                            ((SCENE, "--refine", "--time-steps", "4", "-o", p("x.exr")), "a volume"),

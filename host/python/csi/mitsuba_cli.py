@@ -361,6 +361,18 @@ def run(a, extra):
             _check_writable(var_path, "variances")
         if a.aov:
             aov_paths = (stem + ".albedo.csid", stem + ".normal.csid")
+    # Two outputs on one path would leave only the last written; an output on an input would
+    # destroy it: both refused before any rendering.
+    files = [(path, what) for path, what in outs if path]
+    files += [(var_path, "variances")] if var_path else []
+    files += list(zip(aov_paths, ("albedo", "normals"))) if aov_paths else []
+    seen = {os.path.realpath(x): what for x, what in
+            ((a.scene, "scene"), (a.request, "request")) if x and os.path.exists(x)}
+    for path, what in files:
+        key = os.path.realpath(path)
+        if key in seen:
+            raise UsageError(f"{path}: the {what} would be written over the {seen[key]}")
+        seen[key] = what
 
     req = None
     if a.request:
