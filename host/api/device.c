@@ -40,6 +40,15 @@ void csi_device_release(csi_device *dev)
     free(dev);
 }
 
+csi_status csi_device_cache_programs(csi_device *dev, int *stored)
+{
+    if (stored)
+        *stored = 0;
+    if (!dev)
+        return csi_fail(CSI_ERR_ARG, "csi_device_cache_programs: no device (dev is NULL)");
+    return csi_ctx_cache_programs(dev->ctx, NULL, stored);
+}
+
 const char *csi_device_name(const csi_device *dev)
 {
     return dev ? csi_ctx_device_name(dev->ctx) : "";

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 
 #include "csi/buffer_keep.h"
+#include "csi/program_cache.h"
 
 struct csi_embedded_kernel {
     const char *name;
@@ -44,6 +45,7 @@ struct csi_ctx {
         cl_program program;
     } programs[CSI_MAX_PROGRAMS];
     int nprograms;
+    int nprograms_cached; /* of which loaded from csi's program cache */
     struct csi_kernel_slot kernels[CSI_MAX_KERNELS];
     int nkernels;
     bool clfft;
@@ -173,20 +175,6 @@ static bool contains_ci(const char *hay, const char *needle)
     return n == 0;
 }
 
-static void mkdirs(const char *path)
-{
-    char tmp[1024];
-    snprintf(tmp, sizeof tmp, "%s", path);
-    for (char *p = tmp + 1; *p; p++) {
-        if (*p == '/') {
-            *p = '\0';
-            mkdir(tmp, 0755);
-            *p = '/';
-        }
-    }
-    mkdir(tmp, 0755);
-}
-
 /* Sets up kernel caches before the platform is first touched (PoCL reads its env at init). */
 static void setup_caches(void)
 {
@@ -194,10 +182,10 @@ static void setup_caches(void)
     char path[1024];
     if (dir && *dir) {
         snprintf(path, sizeof path, "%s/pocl", dir);
-        mkdirs(path);
+        csi_cache_mkdirs(path);
         setenv("POCL_CACHE_DIR", path, 0);
         snprintf(path, sizeof path, "%s/clfft", dir);
-        mkdirs(path);
+        csi_cache_mkdirs(path);
         setenv("CLFFT_CACHE_PATH", path, 0);
         return;
     }
@@ -211,7 +199,7 @@ static void setup_caches(void)
         snprintf(path, sizeof path, "%s/.cache/csi/clfft", home);
     else
         return;
-    mkdirs(path);
+    csi_cache_mkdirs(path);
     setenv("CLFFT_CACHE_PATH", path, 0);
 }
 
@@ -427,6 +415,9 @@ uint64_t csi_ctx_local_mem(const csi_ctx *ctx)
     return local;
 }
 
+/* No -cl-fast-relaxed-math: the solvers' stopping rules depend on IEEE float behaviour. */
+static const char BUILD_OPTIONS[] = "-cl-std=CL1.2";
+
 static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
 {
     for (int i = 0; i < ctx->nprograms; i++)
@@ -444,11 +435,15 @@ static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
         return csi_fail(CSI_ERR_BUILD, "no kernel program '%s' is embedded (kernels/%s.cl)", name, name);
     if (ctx->nprograms == CSI_MAX_PROGRAMS)
         return csi_fail(CSI_ERR_BUILD, "too many kernel programs (limit %d)", CSI_MAX_PROGRAMS);
+    cl_program prog = csi_program_cache_load(ctx->context, ctx->device, stored_name, src, BUILD_OPTIONS);
+    if (prog) {
+        ctx->nprograms_cached++;
+        goto built;
+    }
     cl_int err;
-    cl_program prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
+    prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
     CSI_CL_TRY(err);
-    /* No -cl-fast-relaxed-math: the solvers' stopping rules depend on IEEE float behaviour. */
-    err = clBuildProgram(prog, 1, &ctx->device, "-cl-std=CL1.2", NULL, NULL);
+    err = clBuildProgram(prog, 1, &ctx->device, BUILD_OPTIONS, NULL, NULL);
     if (err != CL_SUCCESS) {
         char log[1500] = "";
         size_t len = 0;
@@ -461,6 +456,7 @@ static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
         return csi_fail(CSI_ERR_BUILD, "kernels/%s.cl failed to build (%s): %s", name,
                         csi_cl_error_name(err), log);
     }
+built:
     ctx->programs[ctx->nprograms].name = stored_name;
     ctx->programs[ctx->nprograms].program = prog;
     ctx->nprograms++;
@@ -476,6 +472,46 @@ static double seconds_now(void)
 }
 
 double csi_ctx_build_seconds(const csi_ctx *ctx) { return ctx->t_build; }
+
+int csi_ctx_programs_from_cache(const csi_ctx *ctx) { return ctx->nprograms_cached; }
+
+csi_status csi_ctx_cache_programs(csi_ctx *ctx, const char *name, int *stored)
+{
+    if (stored)
+        *stored = 0;
+    char dir[1024];
+    if (!csi_program_cache_dir(dir, sizeof dir))
+        return csi_fail(CSI_ERR_IO, "the program cache is off (CSI_PROGRAM_CACHE=0, or no CSI_CACHE_DIR, "
+                                    "XDG_CACHE_HOME or HOME to put it in)");
+    bool found = false;
+    for (const struct csi_embedded_kernel *e = csi_embedded_kernels; e->name; e++) {
+        if (name && strcmp(e->name, name) != 0)
+            continue;
+        found = true;
+        cl_program prog = csi_program_cache_load(ctx->context, ctx->device, e->name, e->source, BUILD_OPTIONS);
+        if (prog) {
+            clReleaseProgram(prog);
+            continue;
+        }
+        const char *src = e->source;
+        cl_int err;
+        prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
+        CSI_CL_TRY(err);
+        err = clBuildProgram(prog, 1, &ctx->device, BUILD_OPTIONS, NULL, NULL);
+        const bool ok = err == CL_SUCCESS &&
+                        csi_program_cache_store(prog, ctx->device, e->name, e->source, BUILD_OPTIONS);
+        clReleaseProgram(prog);
+        if (err != CL_SUCCESS)
+            return csi_fail(CSI_ERR_BUILD, "kernels/%s.cl failed to build (%s)", e->name, csi_cl_error_name(err));
+        if (!ok)
+            return csi_fail(CSI_ERR_IO, "%s: cannot store the binary of kernels/%s.cl there", dir, e->name);
+        if (stored)
+            (*stored)++;
+    }
+    if (!found)
+        return csi_fail(CSI_ERR_ARG, "no kernel program '%s' is embedded", name);
+    return CSI_OK;
+}
 
 csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_kernel *out)
 {

@@ -58,6 +58,11 @@ static void usage(FILE *f)
 "                            --romp-normalize on); default: the dump's seed (csi-render's), else 1\n"
 "      --device NAME         OpenCL device (substring of 'platform / device'; default: PoCL CPU,\n"
 "                            or $CSI_DEVICE); --device list prints the devices\n"
+"      --cache-programs      build csi's OpenCL programs and keep their binaries for later runs\n"
+"                            (in $CSI_CACHE_DIR/programs, else ~/.cache/csi/programs), which then\n"
+"                            load them instead of building them (most of a run's programs_s);\n"
+"                            once after installing or rebuilding csi or updating the driver: slow\n"
+"                            the first time (PoCL compiles every kernel), quick when cached\n"
 "  -q, --quiet               no progress or warnings on stderr\n"
 "      (progress: a redrawn line on a terminal; elsewhere, as in a log, a plain line at most\n"
 "      every 60 s; $CSI_PROGRESS = off, bar, or the seconds between plain lines)\n"
@@ -219,10 +224,30 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
     return s;
 }
 
+/* --cache-programs: csi_device_cache_programs on the chosen device, said on stderr. */
+static int cli_cache_programs(const char *prog, const char *device, bool quiet)
+{
+    csi_device *dev = NULL;
+    if (csi_device_new(device, &dev) != CSI_OK)
+        return cli_error(prog, CSI_ERR_DEVICE, "%s", cli_last_error());
+    if (!quiet)
+        fprintf(stderr, "%s: caching the OpenCL programs for %s (a minute or more on a first run)\n", prog,
+                csi_device_name(dev));
+    int stored = 0;
+    const csi_status s = csi_device_cache_programs(dev, &stored);
+    csi_device_release(dev);
+    if (s != CSI_OK)
+        return cli_error(prog, s, "%s", cli_last_error());
+    if (!quiet)
+        fprintf(stderr, "%s: %d program%s stored now, the others were cached already\n", prog, stored,
+                stored == 1 ? "" : "s");
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE, O_REFINE, O_REFINE_SHARE,
-           O_REFINE_WITH };
+           O_REFINE_WITH, O_CACHE_PROGRAMS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -230,7 +255,7 @@ int main(int argc, char **argv)
         {"device", required_argument, 0, O_DEVICE}, {"refine-request", required_argument, 0, O_REFINE},
         {"refine-share", required_argument, 0, O_REFINE_SHARE}, {"refine-with", required_argument, 0, O_REFINE_WITH},
         {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
-        {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
+        {"cache-programs", no_argument, 0, O_CACHE_PROGRAMS}, {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
         {0, 0, 0, 0}};
     cli_heap_keep_freed();
     cli_outputs outs = {0};
@@ -238,7 +263,7 @@ int main(int argc, char **argv)
     csi_options *opt = NULL;
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
-    bool quiet = false, drop = false, seed_given = false;
+    bool quiet = false, drop = false, seed_given = false, cache_programs = false;
     const char *device = NULL, *varfile = NULL, *refine = NULL, *refine_with = NULL;
     double refine_share = csi_refine_share_default();
     int c, rc = 0;
@@ -275,6 +300,7 @@ int main(int argc, char **argv)
             break;
         }
         case O_DEVICE: device = optarg; break;
+        case O_CACHE_PROGRAMS: cache_programs = true; break;
         case 'q': quiet = true; break;
         case 'h': usage(stdout); rc = -1; break;
         case O_VERSION: printf("csi-reconstruct %s\n", CSI_VERSION); rc = -1; break;
@@ -296,6 +322,12 @@ int main(int argc, char **argv)
             return cli_error(prog, CSI_ERR_DEVICE, "%s", cli_last_error());
         fputs(buf[0] ? buf : "no OpenCL devices\n", stdout);
         return 0;
+    }
+    if (cache_programs) {
+        csi_options_free(opt);
+        if (optind != argc)
+            return cli_error(prog, CSI_ERR_ARG, "--cache-programs takes no input (%s given)", argv[optind]);
+        return cli_cache_programs(prog, device, quiet);
     }
     if (optind != argc - 1)
         rc = cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no sample dump given (see --help)"

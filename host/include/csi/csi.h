@@ -121,6 +121,16 @@ CSI_API const char *csi_device_name(const csi_device *dev);
 CSI_API csi_status csi_device_error(csi_device *dev, const char **message);
 /* Every platform / device pair, one line each ("platform / device (type)"), into buf. */
 CSI_API csi_status csi_device_list(char *buf, size_t len);
+/* Builds every OpenCL program of csi's on dev and keeps its binary on disk, in
+ * $CSI_CACHE_DIR/programs (else $XDG_CACHE_HOME/csi/programs, else ~/.cache/csi/programs), so
+ * that later processes load the programs instead of building them: a process's fixed cost then
+ * drops by most of its program time (the run statistics' programs_s). Run it once after
+ * installing or rebuilding csi or updating the OpenCL driver (a binary is only used for the
+ * same kernels, build options and driver); it takes a while (PoCL compiles every kernel of a
+ * program for its binary) and is quick when everything is cached already. *stored (may be
+ * NULL): how many programs it stored now. CSI_ERR_IO when the cache is off
+ * (CSI_PROGRAM_CACHE=0) or cannot be written. */
+CSI_API csi_status csi_device_cache_programs(csi_device *dev, int *stored);
 
 /* ---- the grid and the sample positions ----------------------------------------------------- */
 /* Samples lie on the fine grid of the signal (the paper's Sec. 4): a position is the index

@@ -67,6 +67,17 @@ csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_
  * or loads cached binaries on first use): the part of a run's fixed cost the programs take. */
 double csi_ctx_build_seconds(const csi_ctx *ctx);
 
+/* How many of this context's programs came from csi's program cache (csi/program_cache.h)
+ * rather than from their source. */
+int csi_ctx_programs_from_cache(const csi_ctx *ctx);
+
+/* Puts the program `name` (NULL: every program csi embeds) into the program cache for later
+ * processes: built from source and its binary stored unless the cache already holds it. Slow
+ * once (PoCL compiles every kernel of a program for its binary), then a load. *stored (may be
+ * NULL): the programs stored now. CSI_ERR_IO when the cache is off or its file cannot be
+ * written. */
+csi_status csi_ctx_cache_programs(csi_ctx *ctx, const char *name, int *stored);
+
 /* The pool of worker threads for the host's passes between the device's work (csi/row_pool.h):
  * one per context, started on the first call, stopped by csi_ctx_release. NULL on a host of one
  * core or when no worker could be started (the passes then run on the calling thread). */

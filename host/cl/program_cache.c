@@ -1,0 +1,191 @@
+/* Built programs kept on disk as the driver's binaries (csi/program_cache.h). */
+#include "csi/program_cache.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <sys/stat.h>
+
+/* A file: this magic, the payload's length and its FNV-1a 64 checksum (little-endian u64s as the
+ * host stores them: a file is only ever read on the machine that wrote it), then the payload. */
+static const char MAGIC[8] = {'C', 'S', 'I', 'P', 'B', 'I', 'N', '1'};
+#define HEADER_BYTES (sizeof MAGIC + 2 * sizeof(uint64_t))
+
+/* A binary larger than this is not a program of csi's: the file is foreign. */
+#define MAX_BINARY_BYTES ((uint64_t)256 << 20)
+
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+#define FNV_BASIS 14695981039346656037ull
+
+/* A string into the hash with its terminating zero, so that "ab" + "c" differs from "a" + "bc". */
+static uint64_t hash_str(uint64_t h, const char *s)
+{
+    return fnv1a(h, s ? s : "", strlen(s ? s : "") + 1);
+}
+
+static uint64_t hash_info(uint64_t h, cl_device_id device, cl_platform_id platform, cl_uint what, bool of_device)
+{
+    char buf[512] = "";
+    if (of_device)
+        clGetDeviceInfo(device, what, sizeof buf - 1, buf, NULL);
+    else
+        clGetPlatformInfo(platform, what, sizeof buf - 1, buf, NULL);
+    buf[sizeof buf - 1] = '\0';
+    return hash_str(h, buf);
+}
+
+bool csi_program_cache_dir(char *out, size_t len)
+{
+    const char *off = getenv("CSI_PROGRAM_CACHE");
+    if (off && strcmp(off, "0") == 0)
+        return false;
+    const char *dir = getenv("CSI_CACHE_DIR"), *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+    int n;
+    if (dir && *dir)
+        n = snprintf(out, len, "%s/programs", dir);
+    else if (xdg && *xdg)
+        n = snprintf(out, len, "%s/csi/programs", xdg);
+    else if (home && *home)
+        n = snprintf(out, len, "%s/.cache/csi/programs", home);
+    else
+        return false;
+    return n > 0 && (size_t)n < len;
+}
+
+/* The file that holds `name`'s binary for this source, options and driver. */
+static bool cache_path(cl_device_id device, const char *name, const char *source, const char *options, char *out,
+                       size_t len)
+{
+    char dir[1024];
+    if (!csi_program_cache_dir(dir, sizeof dir))
+        return false;
+    cl_platform_id platform = NULL;
+    if (clGetDeviceInfo(device, CL_DEVICE_PLATFORM, sizeof platform, &platform, NULL) != CL_SUCCESS)
+        return false;
+    uint64_t h = FNV_BASIS;
+    h = hash_str(h, source);
+    h = hash_str(h, options);
+    h = hash_info(h, device, platform, CL_PLATFORM_NAME, false);
+    h = hash_info(h, device, platform, CL_PLATFORM_VERSION, false);
+    h = hash_info(h, device, platform, CL_DEVICE_NAME, true);
+    h = hash_info(h, device, platform, CL_DEVICE_VERSION, true);
+    h = hash_info(h, device, platform, CL_DRIVER_VERSION, true);
+    const int n = snprintf(out, len, "%s/%s-%016llx.bin", dir, name, (unsigned long long)h);
+    return n > 0 && (size_t)n < len;
+}
+
+/* The payload of a whole, undamaged file, or NULL. */
+static unsigned char *read_binary(const char *path, size_t *bytes)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    unsigned char head[HEADER_BYTES];
+    uint64_t len = 0, sum = 0;
+    unsigned char *bin = NULL;
+    if (fread(head, 1, sizeof head, f) == sizeof head && memcmp(head, MAGIC, sizeof MAGIC) == 0) {
+        memcpy(&len, head + sizeof MAGIC, sizeof len);
+        memcpy(&sum, head + sizeof MAGIC + sizeof len, sizeof sum);
+        if (len > 0 && len <= MAX_BINARY_BYTES && (bin = malloc(len + 1))) {
+            /* one byte more than the payload: a longer file is as damaged as a shorter one */
+            if (fread(bin, 1, len + 1, f) != len || fnv1a(FNV_BASIS, bin, len) != sum) {
+                free(bin);
+                bin = NULL;
+            }
+        }
+    }
+    fclose(f);
+    *bytes = bin ? (size_t)len : 0;
+    return bin;
+}
+
+cl_program csi_program_cache_load(cl_context context, cl_device_id device, const char *name, const char *source,
+                                  const char *options)
+{
+    char path[1200];
+    if (!cache_path(device, name, source, options, path, sizeof path))
+        return NULL;
+    size_t bytes = 0;
+    unsigned char *bin = read_binary(path, &bytes);
+    if (!bin)
+        return NULL;
+    const unsigned char *bins[1] = {bin};
+    cl_int st = CL_SUCCESS, err = CL_SUCCESS;
+    cl_program prog = clCreateProgramWithBinary(context, 1, &device, &bytes, bins, &st, &err);
+    free(bin);
+    if (err != CL_SUCCESS || st != CL_SUCCESS) {
+        if (prog)
+            clReleaseProgram(prog);
+        return NULL;
+    }
+    if (clBuildProgram(prog, 1, &device, options, NULL, NULL) != CL_SUCCESS) {
+        clReleaseProgram(prog);
+        return NULL;
+    }
+    return prog;
+}
+
+void csi_cache_mkdirs(const char *path)
+{
+    char tmp[1024];
+    snprintf(tmp, sizeof tmp, "%s", path);
+    for (char *p = tmp + 1; *p; p++)
+        if (*p == '/') {
+            *p = '\0';
+            mkdir(tmp, 0755);
+            *p = '/';
+        }
+    mkdir(tmp, 0755);
+}
+
+bool csi_program_cache_store(cl_program program, cl_device_id device, const char *name, const char *source,
+                             const char *options)
+{
+    char path[1200], dir[1024], tmp[1300];
+    if (!cache_path(device, name, source, options, path, sizeof path) || !csi_program_cache_dir(dir, sizeof dir))
+        return false;
+    cl_uint ndev = 0;
+    if (clGetProgramInfo(program, CL_PROGRAM_NUM_DEVICES, sizeof ndev, &ndev, NULL) != CL_SUCCESS || ndev != 1)
+        return false;
+    size_t bytes = 0;
+    if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof bytes, &bytes, NULL) != CL_SUCCESS || !bytes ||
+        bytes > MAX_BINARY_BYTES)
+        return false;
+    unsigned char *bin = malloc(bytes);
+    if (!bin)
+        return false;
+    unsigned char *bins[1] = {bin};
+    if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof bins, bins, NULL) != CL_SUCCESS) {
+        free(bin);
+        return false;
+    }
+    csi_cache_mkdirs(dir);
+    /* a name of this process's own, so that processes storing the same program at once do not
+     * write into one file; the rename is atomic, the last one stays */
+    snprintf(tmp, sizeof tmp, "%s.%ld.tmp", path, (long)getpid());
+    FILE *f = fopen(tmp, "wb");
+    bool ok = f != NULL;
+    if (ok) {
+        const uint64_t len = bytes, sum = fnv1a(FNV_BASIS, bin, bytes);
+        ok = fwrite(MAGIC, 1, sizeof MAGIC, f) == sizeof MAGIC && fwrite(&len, sizeof len, 1, f) == 1 &&
+             fwrite(&sum, sizeof sum, 1, f) == 1 && fwrite(bin, 1, bytes, f) == bytes;
+        ok = fclose(f) == 0 && ok;
+    }
+    ok = ok && rename(tmp, path) == 0;
+    if (!ok)
+        remove(tmp);
+    free(bin);
+    return ok;
+}
