@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include "csi/buffer_keep.h"
@@ -175,22 +176,29 @@ static bool contains_ci(const char *hay, const char *needle)
     return n == 0;
 }
 
-/* Sets up kernel caches before the platform is first touched (PoCL reads its env at init). */
-static void setup_caches(void)
+/* Sets up kernel caches before the platform is first touched (PoCL reads its env at init). A
+ * CSI_CACHE_DIR where PoCL cannot write its cache is refused here: PoCL would otherwise fail to
+ * start and the process would only learn that no OpenCL device was found. */
+static csi_status setup_caches(void)
 {
     const char *dir = getenv("CSI_CACHE_DIR");
     char path[1024];
     if (dir && *dir) {
-        snprintf(path, sizeof path, "%s/pocl", dir);
-        csi_cache_mkdirs(path);
-        setenv("POCL_CACHE_DIR", path, 0);
-        snprintf(path, sizeof path, "%s/clfft", dir);
-        csi_cache_mkdirs(path);
-        setenv("CLFFT_CACHE_PATH", path, 0);
-        return;
+        const char *sub[2] = {"pocl", "clfft"}, *var[2] = {"POCL_CACHE_DIR", "CLFFT_CACHE_PATH"};
+        for (int i = 0; i < 2; i++) {
+            if (getenv(var[i]))
+                continue; /* the caller's own choice stands */
+            snprintf(path, sizeof path, "%s/%s", dir, sub[i]);
+            csi_cache_mkdirs(path);
+            if (access(path, W_OK | X_OK) != 0)
+                return csi_fail(CSI_ERR_IO, "CSI_CACHE_DIR=%s: cannot keep kernel caches in %s (%s); set it to a "
+                                            "writable directory, or unset it", dir, path, strerror(errno));
+            setenv(var[i], path, 1);
+        }
+        return CSI_OK;
     }
     if (getenv("CLFFT_CACHE_PATH"))
-        return;
+        return CSI_OK;
     const char *xdg = getenv("XDG_CACHE_HOME");
     const char *home = getenv("HOME");
     if (xdg && *xdg)
@@ -198,9 +206,10 @@ static void setup_caches(void)
     else if (home && *home)
         snprintf(path, sizeof path, "%s/.cache/csi/clfft", home);
     else
-        return;
+        return CSI_OK;
     csi_cache_mkdirs(path);
     setenv("CLFFT_CACHE_PATH", path, 0);
+    return CSI_OK;
 }
 
 typedef struct {
@@ -248,7 +257,7 @@ static csi_status enumerate(dev_entry *out, int cap, int *count)
 
 csi_status csi_list_devices(char *buf, size_t len)
 {
-    setup_caches();
+    CSI_TRY(setup_caches());
     dev_entry devs[32];
     int n = 0;
     CSI_TRY(enumerate(devs, 32, &n));
@@ -269,7 +278,7 @@ csi_status csi_list_devices(char *buf, size_t len)
 csi_status csi_ctx_create(csi_ctx **out, const char *spec)
 {
     *out = NULL;
-    setup_caches();
+    CSI_TRY(setup_caches());
     if (!spec || !*spec)
         spec = getenv("CSI_DEVICE");
     dev_entry devs[32];
@@ -334,7 +343,7 @@ csi_status csi_ctx_wrap(cl_context context, cl_device_id device, cl_command_queu
         return csi_fail(CSI_ERR_ARG, "an OpenCL device needs a context, a device and a queue "
                                      "(got %s%s%s NULL)", context ? "" : "context ",
                         device ? "" : "device ", queue ? "" : "queue");
-    setup_caches();
+    CSI_TRY(setup_caches());
     cl_context qctx = NULL;
     cl_device_id qdev = NULL;
     cl_command_queue_properties props = 0;

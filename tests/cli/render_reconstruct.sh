@@ -109,6 +109,10 @@ expect_fail "no output" "no output" "$B/csi-reconstruct" "$good"
 expect_fail "romp on a volume" "ROMP" "$B/csi-reconstruct" "$T/moving.csid" -o "$T/out.exr" --solver romp
 CSI_DEVICE=no-such-device expect_fail "missing OpenCL device" "no OpenCL device matches" \
     "$B/csi-reconstruct" "$good" -o "$T/out.exr"
+# a cache folder that cannot be made (under a file): named as such, where PoCL alone would fail to
+# start and the program would say that no device was found
+CSI_CACHE_DIR="$good/cache" expect_fail "cache folder not writable" "cannot keep kernel caches in $good/cache/" \
+    "$B/csi-reconstruct" "$good" -o "$T/out.exr"
 printf 'camera { position 0 0 -2 target 0 0 0 up 0 1 0 fov 40 size 8 8 }\nbogus 1 2 3\n' > "$T/bad.scene"
 expect_fail "scene error" "bad.scene:2:1" "$B/csi-render" "$T/bad.scene" -o "$T/out.exr"
 expect_fail "missing scene" "nothere.scene" "$B/csi-render" "$T/nothere.scene" -o "$T/out.exr"
