@@ -427,6 +427,29 @@ uint64_t csi_ctx_local_mem(const csi_ctx *ctx)
 /* No -cl-fast-relaxed-math: the solvers' stopping rules depend on IEEE float behaviour. */
 static const char BUILD_OPTIONS[] = "-cl-std=CL1.2";
 
+/* kernels/<name>.cl built from its source, or CSI_ERR_BUILD with the start of the build log. */
+static csi_status build_from_source(csi_ctx *ctx, const char *name, const char *src, cl_program *out)
+{
+    cl_int err;
+    cl_program prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
+    CSI_CL_TRY(err);
+    err = clBuildProgram(prog, 1, &ctx->device, BUILD_OPTIONS, NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[1500] = "";
+        size_t len = 0;
+        clGetProgramBuildInfo(prog, ctx->device, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, &len);
+        log[sizeof log - 1] = '\0';
+        for (char *p = log; *p; p++)
+            if (*p == '\n')
+                *p = ' ';
+        clReleaseProgram(prog);
+        return csi_fail(CSI_ERR_BUILD, "kernels/%s.cl failed to build (%s): %s", name,
+                        csi_cl_error_name(err), log);
+    }
+    *out = prog;
+    return CSI_OK;
+}
+
 static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
 {
     for (int i = 0; i < ctx->nprograms; i++)
@@ -445,27 +468,10 @@ static csi_status build_program(csi_ctx *ctx, const char *name, cl_program *out)
     if (ctx->nprograms == CSI_MAX_PROGRAMS)
         return csi_fail(CSI_ERR_BUILD, "too many kernel programs (limit %d)", CSI_MAX_PROGRAMS);
     cl_program prog = csi_program_cache_load(ctx->context, ctx->device, stored_name, src, BUILD_OPTIONS);
-    if (prog) {
+    if (prog)
         ctx->nprograms_cached++;
-        goto built;
-    }
-    cl_int err;
-    prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
-    CSI_CL_TRY(err);
-    err = clBuildProgram(prog, 1, &ctx->device, BUILD_OPTIONS, NULL, NULL);
-    if (err != CL_SUCCESS) {
-        char log[1500] = "";
-        size_t len = 0;
-        clGetProgramBuildInfo(prog, ctx->device, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, &len);
-        log[sizeof log - 1] = '\0';
-        for (char *p = log; *p; p++)
-            if (*p == '\n')
-                *p = ' ';
-        clReleaseProgram(prog);
-        return csi_fail(CSI_ERR_BUILD, "kernels/%s.cl failed to build (%s): %s", name,
-                        csi_cl_error_name(err), log);
-    }
-built:
+    else
+        CSI_TRY(build_from_source(ctx, stored_name, src, &prog));
     ctx->programs[ctx->nprograms].name = stored_name;
     ctx->programs[ctx->nprograms].program = prog;
     ctx->nprograms++;
@@ -502,16 +508,9 @@ csi_status csi_ctx_cache_programs(csi_ctx *ctx, const char *name, int *stored)
             clReleaseProgram(prog);
             continue;
         }
-        const char *src = e->source;
-        cl_int err;
-        prog = clCreateProgramWithSource(ctx->context, 1, &src, NULL, &err);
-        CSI_CL_TRY(err);
-        err = clBuildProgram(prog, 1, &ctx->device, BUILD_OPTIONS, NULL, NULL);
-        const bool ok = err == CL_SUCCESS &&
-                        csi_program_cache_store(prog, ctx->device, e->name, e->source, BUILD_OPTIONS);
+        CSI_TRY(build_from_source(ctx, e->name, e->source, &prog));
+        const bool ok = csi_program_cache_store(prog, ctx->device, e->name, e->source, BUILD_OPTIONS);
         clReleaseProgram(prog);
-        if (err != CL_SUCCESS)
-            return csi_fail(CSI_ERR_BUILD, "kernels/%s.cl failed to build (%s)", e->name, csi_cl_error_name(err));
         if (!ok)
             return csi_fail(CSI_ERR_IO, "%s: cannot store the binary of kernels/%s.cl there", dir, e->name);
         if (stored)
@@ -532,7 +531,7 @@ csi_status csi_kernel(csi_ctx *ctx, const char *program, const char *kernel, cl_
     if (ctx->nkernels == CSI_MAX_KERNELS)
         return csi_fail(CSI_ERR_BUILD, "too many kernels (limit %d)", CSI_MAX_KERNELS);
     const double t0 = seconds_now();
-    cl_program prog;
+    cl_program prog = NULL;
     csi_status bst = build_program(ctx, program, &prog);
     cl_int err = CL_SUCCESS;
     cl_kernel k = bst == CSI_OK ? clCreateKernel(prog, kernel, &err) : NULL;
