@@ -1,6 +1,7 @@
 /* Built programs kept on disk as the driver's binaries (csi/program_cache.h). */
 #include "csi/program_cache.h"
 
+#include <dirent.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -9,25 +10,39 @@
 #include <unistd.h>
 #include <sys/stat.h>
 
-/* A file: this magic, the payload's length and its FNV-1a 64 checksum (little-endian u64s as the
- * host stores them: a file is only ever read on the machine that wrote it), then the payload. */
-static const char MAGIC[8] = {'C', 'S', 'I', 'P', 'B', 'I', 'N', '1'};
+/* A file: this magic, the payload's length and its checksum (csi_program_cache_checksum; u64s
+ * as the host stores them: a file is only ever read on the machine that wrote it), then the
+ * payload. */
+static const char MAGIC[8] = {'C', 'S', 'I', 'P', 'B', 'I', 'N', '2'};
 #define HEADER_BYTES (sizeof MAGIC + 2 * sizeof(uint64_t))
 
 /* A binary larger than this is not a program of csi's: the file is foreign. */
 #define MAX_BINARY_BYTES ((uint64_t)256 << 20)
 
+#define FNV_BASIS 14695981039346656037ull
+#define FNV_PRIME 1099511628211ull
+
+/* FNV-1a's step over 8-byte words, then the bytes left: a program's binary is megabytes, read by
+ * every process, and a byte at a time cost more than reading it. Not a cryptographic hash: it
+ * tells a damaged file from a whole one. */
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
 {
     const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 1099511628211ull;
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        uint64_t w;
+        memcpy(&w, p + i, sizeof w);
+        h = (h ^ w) * FNV_PRIME;
     }
+    for (; i < n; i++)
+        h = (h ^ p[i]) * FNV_PRIME;
     return h;
 }
 
-#define FNV_BASIS 14695981039346656037ull
+uint64_t csi_program_cache_checksum(const void *data, size_t n)
+{
+    return fnv1a(FNV_BASIS, data, n);
+}
 
 /* A string into the hash with its terminating zero, so that "ab" + "c" differs from "a" + "bc". */
 static uint64_t hash_str(uint64_t h, const char *s)
@@ -100,7 +115,7 @@ static unsigned char *read_binary(const char *path, size_t *bytes)
         memcpy(&sum, head + sizeof MAGIC + sizeof len, sizeof sum);
         if (len > 0 && len <= MAX_BINARY_BYTES && (bin = malloc(len + 1))) {
             /* one byte more than the payload: a longer file is as damaged as a shorter one */
-            if (fread(bin, 1, len + 1, f) != len || fnv1a(FNV_BASIS, bin, len) != sum) {
+            if (fread(bin, 1, len + 1, f) != len || csi_program_cache_checksum(bin, len) != sum) {
                 free(bin);
                 bin = NULL;
             }
@@ -150,6 +165,28 @@ void csi_cache_mkdirs(const char *path)
     mkdir(tmp, 0755);
 }
 
+/* The program's files of other keys (an earlier source or driver): one binary per program is
+ * kept, so that rebuilding csi does not grow the cache without bound. */
+static void remove_others(const char *dir, const char *name, const char *keep)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    const size_t n = strlen(name), dn = strlen(dir);
+    char other[1200];
+    for (struct dirent *e; (e = readdir(d));) {
+        const size_t len = strlen(e->d_name);
+        if (strncmp(e->d_name, name, n) != 0 || e->d_name[n] != '-' || len < 4 ||
+            strcmp(e->d_name + len - 4, ".bin") != 0)
+            continue;
+        if (snprintf(other, sizeof other, "%s/%s", dir, e->d_name) >= (int)sizeof other)
+            continue;
+        if (strcmp(other, keep) != 0 && strncmp(other, keep, dn) == 0)
+            remove(other);
+    }
+    closedir(d);
+}
+
 bool csi_program_cache_store(cl_program program, cl_device_id device, const char *name, const char *source,
                              const char *options)
 {
@@ -178,7 +215,7 @@ bool csi_program_cache_store(cl_program program, cl_device_id device, const char
     FILE *f = fopen(tmp, "wb");
     bool ok = f != NULL;
     if (ok) {
-        const uint64_t len = bytes, sum = fnv1a(FNV_BASIS, bin, bytes);
+        const uint64_t len = bytes, sum = csi_program_cache_checksum(bin, bytes);
         ok = fwrite(MAGIC, 1, sizeof MAGIC, f) == sizeof MAGIC && fwrite(&len, sizeof len, 1, f) == 1 &&
              fwrite(&sum, sizeof sum, 1, f) == 1 && fwrite(bin, 1, bytes, f) == bytes;
         ok = fclose(f) == 0 && ok;
@@ -187,5 +224,7 @@ bool csi_program_cache_store(cl_program program, cl_device_id device, const char
     if (!ok)
         remove(tmp);
     free(bin);
+    if (ok)
+        remove_others(dir, name, path);
     return ok;
 }

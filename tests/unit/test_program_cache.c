@@ -121,8 +121,21 @@ int main(void)
     cached_file(path, sizeof path);
     CHECK(path[0] == '\0', "plain use stored %s", path);
 
-    /* Cached on request, once; a later context loads it and computes the same values. */
+    /* Cached on request, once, replacing the program's file of another key (an earlier source)
+     * and no other program's; a later context loads it and computes the same values. */
+    char stale[600], other[600];
+    snprintf(path, sizeof path, "%s/programs", g_dir);
+    csi_cache_mkdirs(path);
+    snprintf(stale, sizeof stale, "%s/runtime-0123456789abcdef.bin", path);
+    snprintf(other, sizeof other, "%s/runtimes-0123456789abcdef.bin", path);
+    for (int i = 0; i < 2; i++) {
+        FILE *f = fopen(i ? other : stale, "wb");
+        MUST(f && fputs("old", f) >= 0 && fclose(f) == 0, "write %s", i ? other : stale);
+    }
     cache_probe(1);
+    CHECK(access(stale, F_OK) != 0, "the program's file of another key stayed: %s", stale);
+    CHECK(access(other, F_OK) == 0, "another program's file was removed: %s", other);
+    remove(other);
     cached_file(path, sizeof path);
     MUST(path[0], "no file in %s/programs after caching", g_dir);
     cache_probe(0);
@@ -145,19 +158,18 @@ int main(void)
     CHECK(bad == 0, "%d wrong values after a truncated file", bad);
 
     /* A foreign file with a valid header and checksum: the driver refuses the bytes, the program
-     * is built from source. The payload is 64 bytes of text (FNV-1a 64 computed here). */
+     * is built from source. The payload is 64 bytes of text; the header's magic is the cached
+     * file's own. */
     {
-        unsigned char payload[64];
+        unsigned char payload[64], magic[8];
         memset(payload, 'x', sizeof payload);
-        uint64_t sum = 14695981039346656037ull;
-        for (size_t i = 0; i < sizeof payload; i++) {
-            sum ^= payload[i];
-            sum *= 1099511628211ull;
-        }
-        const uint64_t len = sizeof payload;
-        FILE *f = fopen(path, "wb");
+        const uint64_t sum = csi_program_cache_checksum(payload, sizeof payload), len = sizeof payload;
+        FILE *f = fopen(path, "rb");
+        MUST(f && fread(magic, 1, sizeof magic, f) == sizeof magic, "read %s", path);
+        fclose(f);
+        f = fopen(path, "wb");
         MUST(f, "rewrite %s", path);
-        fwrite("CSIPBIN1", 1, 8, f);
+        fwrite(magic, 1, sizeof magic, f);
         fwrite(&len, sizeof len, 1, f);
         fwrite(&sum, sizeof sum, 1, f);
         fwrite(payload, 1, sizeof payload, f);

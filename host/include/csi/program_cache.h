@@ -14,6 +14,7 @@
  * platform's and device's names and versions (a new driver is a miss, not a stale binary). A
  * file is written whole under a temporary name and renamed, and carries its length and a
  * checksum: a truncated or corrupt file is a miss (and is replaced), never handed to the driver.
+ * Storing a program removes its files of other keys: one binary per program is kept.
  * The directory: $CSI_CACHE_DIR/programs, else $XDG_CACHE_HOME/csi/programs, else
  * ~/.cache/csi/programs; none of them, or CSI_PROGRAM_CACHE=0, turns the cache off. Every
  * failure of the cache is a miss: the program is built from source as without it. */
@@ -22,6 +23,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include <CL/cl.h>
 
@@ -39,6 +41,9 @@ cl_program csi_program_cache_load(cl_context context, cl_device_id device, const
  * behind then. */
 bool csi_program_cache_store(cl_program program, cl_device_id device, const char *name, const char *source,
                              const char *options);
+
+/* The checksum a cached file carries of its binary. */
+uint64_t csi_program_cache_checksum(const void *data, size_t n);
 
 /* The cache's directory into out; false when the cache is off. */
 bool csi_program_cache_dir(char *out, size_t len);
