@@ -239,8 +239,7 @@ static int cli_cache_programs(const char *prog, const char *device, bool quiet)
     if (s != CSI_OK)
         return cli_error(prog, s, "%s", cli_last_error());
     if (!quiet)
-        fprintf(stderr, "%s: %d program%s stored now, the others were cached already\n", prog, stored,
-                stored == 1 ? "" : "s");
+        fprintf(stderr, "%s: every program is cached (%d built and stored now)\n", prog, stored);
     return 0;
 }
 
