@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
-"""The second pass's pick, once or in rounds (docs/bench/mitsuba.md, session 21; "two" is
+"""The second pass's pick, once or in rounds (docs/bench/mitsuba.md, sessions 21-22; "two" is
 csi-mitsuba --refine-passes 2, an option). For each cached Mitsuba dump: csi's first pass
-(csi-reconstruct), then four picks of the pixels to sample in every cell, each rendered through
-the bridge as csi-mitsuba --refine renders them and patched with csi.refine_apply; errors against
-the reference for that image and for the per-pixel mean of the same samples (the first pass's and
-the pick's):
+(csi-reconstruct), then the rules' picks of the pixels to sample in every cell, each rendered
+through the bridge as csi-mitsuba --refine renders them and patched with csi.refine_apply; errors
+against the reference for that image and for the per-pixel mean of the same samples, the first
+pass's and the pick's (csi-reconstruct --estimator mean, which fills a pixel without a sample):
 
   once    csi_refine_positions, csi-mitsuba's default (checked equal to the library's pick here):
           a pixel is picked when its disagreement (image - its samples' mean)^2, summed over the
@@ -15,13 +15,20 @@ the pick's):
   twosig  two, its second round only where the disagreement is beyond 9 times the variance of
           the pixel's mean (from its samples' spread; none for a pixel of one sample);
   rounds  by decreasing disagreement, a pixel is picked while it holds `share` of the
-          disagreement not yet picked; at most 1 / share pixels.
+          disagreement not yet picked; at most 1 / share pixels;
+  nbr     once, then two's second round only among the 8-neighbours of once's pixels (the idea:
+          an HDR pixel's leak into the fit lands beside it, where csi would more likely be worse
+          than the mean; measured, csi was as often the better estimate there);
+  nbr1    once, and every 8-neighbour of once's pixels holding share / 10 of the image's total.
 
     .venv/bin/python tools/bench/refine_rounds.py --data DIR[,DIR...] --spp 4 --json out.json
-    .venv/bin/python tools/bench/refine_rounds.py --summary out.json
+    .venv/bin/python tools/bench/refine_rounds.py --summary out.json[,more.json]
 
 DIR is a directory of tools/bench/mitsuba_data.py; --scenes-dir adds scene files of your own
-(SCENE.py, registered by name, as held-out scenes are). Cells already in --json are skipped.
+(SCENE.py, registered by name, as held-out scenes are). --rules measures some of the rules (the
+summary judges each against once's rows); a cell's rules already in --json are not measured
+again, so a later run with other rules adds them. --summary merges the rows of several files, the
+first file's first, and says how far a later file's once rows are from the first's.
 """
 import argparse
 import json
@@ -43,7 +50,7 @@ from csi import dump as csid  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
 from csi.mitsuba_cli import refine_seed  # noqa: E402
 
-RULES = ("once", "two", "twosig", "rounds")
+RULES = ("once", "two", "twosig", "rounds", "nbr", "nbr1")
 
 
 def errors(img, ref):
@@ -95,18 +102,45 @@ def pick(D, img, rule, share):
             if sel.sum() >= int(1 / share) or d[q] < share * left:
                 break
             sel[q], left = True, left - d[q]
+    elif rule in ("nbr", "nbr1"):
+        # the 8-neighbours of once's pixels, not themselves picked
+        m = sel.reshape(oh, ow)
+        near = np.zeros((oh + 2, ow + 2), bool)
+        for dy in (0, 1, 2):
+            for dx in (0, 1, 2):
+                near[dy:dy + oh, dx:dx + ow] |= m
+        near = near[1:-1, 1:-1].reshape(-1) & ~sel
+        bar = share * (total - d[sel].sum()) if rule == "nbr" else share / 10 * total
+        sel = sel | (cand & near & (d >= bar))
     taken = set(zip(D.xyt[:, 0].tolist(), D.xyt[:, 1].tolist()))
     cells = [(x, y, 0) for q in np.flatnonzero(sel) for y in range((q // ow) * bh, (q // ow + 1) * bh)
              for x in range((q % ow) * bw, (q % ow + 1) * bw) if (x, y) not in taken]
     return np.array(cells, np.uint32).reshape(-1, 3), int(sel.sum())
 
 
-def cell(bins, env, tmp, d, scene, stem, share, scenes):
+def mean_image(bins, env, tmp, D, cells, values):
+    """csi's mean estimator on the first pass's samples and the pick's (as bench_refine.py gives
+    it): each pixel's mean, and pixels without a sample filled as csi-reconstruct fills them."""
+    xyt = np.concatenate([D.xyt, cells])
+    w, h, _ = D.grid
+    order = np.argsort((xyt[:, 2].astype(np.int64) * h + xyt[:, 1]) * w + xyt[:, 0], kind="stable")
+    path = os.path.join(tmp, "all.csid")
+    csid.write(path, csid.Dump(grid=D.grid, out=D.out, xyt=xyt[order], values=np.concatenate([D.values, values])[order],
+                               seed=D.seed))
+    subprocess.run([bins["csi-reconstruct"], path, "-o", os.path.join(tmp, "m1.exr"), "-q", "--estimator", "mean",
+                    "--variance", "none"], check=True, env=env)
+    return read_exr(os.path.join(tmp, "m1.exr"))
+
+
+def cell(bins, env, tmp, d, scene, stem, share, scenes, rules):
     dump = os.path.join(d, scene, stem + ".csid")
     info = json.load(open(os.path.join(d, scene, stem + ".json")))
     ref = np.load(os.path.join(d, scene, "reference_4096.npy"))
     subprocess.run([bins["csi-reconstruct"], dump, "-o", os.path.join(tmp, "c0.exr"), "-q"], check=True, env=env)
     c0 = read_exr(os.path.join(tmp, "c0.exr"))
+    subprocess.run([bins["csi-reconstruct"], dump, "-o", os.path.join(tmp, "m0.exr"), "-q", "--estimator", "mean",
+                    "--variance", "none"], check=True, env=env)
+    m0 = read_exr(os.path.join(tmp, "m0.exr"))
     D = csid.read(dump)
     grid = (*D.grid, *D.out)
     lib, _ = csi.refine_positions(D.xyt, D.values, grid, c0, share)
@@ -114,33 +148,42 @@ def cell(bins, env, tmp, d, scene, stem, share, scenes):
         scenes.clear()
         scenes[(scene, D.out)] = mb.load_scene(md.SCENES[scene], size=D.out)
     row = {}
-    for rule in RULES:
+    for rule in rules:
         cells, pixels = pick(D, c0, rule, share)
         if rule == "once" and sorted(map(tuple, cells.tolist())) != sorted(map(tuple, np.asarray(lib).tolist())):
             raise SystemExit(f"{dump}: this script's pick is not csi_refine_positions'")
-        img, A = c0, D
+        img, mean = c0, m0
         if len(cells):
             s2 = mb.render_request(scenes[(scene, D.out)], csid.Dump(grid=D.grid, out=D.out, xyt=cells, values=None,
                                                                      seed=D.seed),
                                    paths=info["paths"], seed=refine_seed(D.seed))
             img, _ = csi.refine_apply(D.xyt, D.values, cells, s2.values, grid, c0)
-            A = csid.Dump(grid=D.grid, out=D.out, xyt=np.concatenate([D.xyt, cells]),
-                          values=np.concatenate([D.values, s2.values]), seed=D.seed)
-        ce, me = errors(img, ref), errors(A.pixel_means(), ref)
+            mean = mean_image(bins, env, tmp, D, cells, s2.values)
+        ce, me = errors(img, ref), errors(mean, ref)
         row[rule] = {"pixels": pixels, "extra": len(cells) / len(D.xyt), "csi": ce, "mean": me,
                      "ratio": [ce[0] / me[0], ce[1] / me[1]]}
     return row
 
 
-def summary(path):
-    r = json.load(open(path))
-    above = lambda v, k: v[k]["ratio"][0] > 1 or v[k]["ratio"][1] > 1  # noqa: E731
-    print(f"{path}: {len(r)} cells")
-    for k in RULES:
+def summary(paths):
+    r, apart = {}, {}
+    for path in paths.split(","):
+        for key, v in json.load(open(path)).items():
+            if "once" in v and "once" in r.get(key, {}):  # a later file's once against the first's
+                apart.setdefault(path, []).append(max(abs(x / y - 1) for x, y in zip(v["once"]["ratio"],
+                                                                                     r[key]["once"]["ratio"])))
+            r.setdefault(key, {}).update({k: x for k, x in v.items() if k not in r[key]})
+    above = lambda v, k, by=1: v[k]["ratio"][0] > by or v[k]["ratio"][1] > by  # noqa: E731
+    print(f"{paths}: {len(r)} cells")
+    for path, rel in apart.items():
+        print(f"  {path}: once's ratios within {max(rel):.2g} (relative) of the first file's in {len(rel)} cells")
+    for k in (k for k in RULES if all(k in v for v in r.values())):
         ex = [v[k]["extra"] for v in r.values()]
         gm = lambda f: math.exp(sum(math.log(f(v)) for v in r.values()) / len(r))  # noqa: E731
         worst = max(max(v[k]["ratio"]) for v in r.values())
-        print(f"  {k:6s} above the mean {sum(above(v, k) for v in r.values()):3d} (newly {sum(above(v, k) and not above(v, 'once') for v in r.values())}),"
+        n_above = sum(above(v, k) for v in r.values())
+        newly = sum(above(v, k) and not above(v, "once") for v in r.values())
+        print(f"  {k:6s} above the mean {n_above:3d} (newly {newly}), by over 0.1% {sum(above(v, k, 1.001) for v in r.values())},"
               f" worst {worst:.4f}; extra samples {100 * np.mean(ex):.2f}% (max {100 * max(ex):.1f}%); csi / mean (MSE, geometric "
               f"mean) {gm(lambda v: v[k]['ratio'][0]):.4f}; csi's MSE over once's {gm(lambda v: v[k]['csi'][0] / v['once']['csi'][0]):.4f}")
 
@@ -152,8 +195,9 @@ def main(argv=None):
     ap.add_argument("--share", type=float, default=0.005)
     ap.add_argument("--scenes-dir", help="more scenes: DIR/NAME.py each")
     ap.add_argument("--build", default=None)
-    ap.add_argument("--json", help="the rows (resumed if it exists)")
-    ap.add_argument("--summary", metavar="JSON", help="print the summary of a finished --json and stop")
+    ap.add_argument("--json", help="the rows (resumed if it exists: the rules a cell lacks are measured)")
+    ap.add_argument("--rules", default=",".join(RULES), help="the rules to measure, comma-separated")
+    ap.add_argument("--summary", metavar="JSON", help="print the summary of finished --json files (comma-separated) and stop")
     a = ap.parse_args(argv)
     if a.summary:
         summary(a.summary)
@@ -164,6 +208,9 @@ def main(argv=None):
         for f in sorted(os.listdir(a.scenes_dir)):
             if f.endswith(".py"):
                 md.SCENES[f[:-3]] = os.path.join(a.scenes_dir, f)
+    rules = a.rules.split(",")
+    if set(rules) - set(RULES):
+        ap.error(f"--rules: one of {', '.join(RULES)}")
     bins, env = binaries(a.build), default_env()
     rows = json.load(open(a.json)) if os.path.exists(a.json) else {}
     scenes = {}
@@ -173,9 +220,10 @@ def main(argv=None):
                 for spp in a.spp.split(","):
                     for stem in (f"s{spp}_p{p}{m}" for p in (1, 64) for m in ("", "_poisson")):
                         key = f"{os.path.basename(d.rstrip('/'))} {scene} {stem}"
-                        if key in rows or not os.path.exists(os.path.join(d, scene, stem + ".csid")):
+                        todo = [k for k in rules if k not in rows.get(key, {})]
+                        if not todo or not os.path.exists(os.path.join(d, scene, stem + ".csid")):
                             continue
-                        rows[key] = cell(bins, env, tmp, d, scene, stem, a.share, scenes)
+                        rows.setdefault(key, {}).update(cell(bins, env, tmp, d, scene, stem, a.share, scenes, todo))
                         print(key, {k: (v["pixels"], f"{100 * v['extra']:.2f}%", [round(x, 4) for x in v["ratio"]])
                                     for k, v in rows[key].items()}, flush=True)
                         with open(a.json, "w") as f:
