@@ -6,6 +6,8 @@
 
 #include "internal.h"
 
+#include "csi/program_cache.h"
+
 csi_status csi_device_record(csi_device *dev, csi_status st)
 {
     if (st != CSI_OK && dev && dev->error == CSI_OK) {
@@ -38,6 +40,14 @@ void csi_device_release(csi_device *dev)
         return;
     csi_ctx_release(dev->ctx);
     free(dev);
+}
+
+csi_status csi_cached_programs_dir(char *buf, size_t len)
+{
+    if (!buf || !len)
+        return csi_fail(CSI_ERR_ARG, "csi_cached_programs_dir: no place for the folder (buf is NULL or empty)");
+    buf[0] = '\0';
+    return csi_program_cache_require_dir(buf, len);
 }
 
 csi_status csi_device_cache_programs(csi_device *dev, int *stored)

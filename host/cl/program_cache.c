@@ -79,6 +79,14 @@ bool csi_program_cache_dir(char *out, size_t len)
     return n > 0 && (size_t)n < len;
 }
 
+csi_status csi_program_cache_require_dir(char *out, size_t len)
+{
+    if (csi_program_cache_dir(out, len))
+        return CSI_OK;
+    return csi_fail(CSI_ERR_IO, "the program cache is off (CSI_PROGRAM_CACHE=0, or no CSI_CACHE_DIR, XDG_CACHE_HOME "
+                                "or HOME to put it in)");
+}
+
 /* The file that holds `name`'s binary for this source, options and driver. */
 static bool cache_path(cl_device_id device, const char *name, const char *source, const char *options, char *out,
                        size_t len)

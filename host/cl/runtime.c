@@ -495,9 +495,7 @@ csi_status csi_ctx_cache_programs(csi_ctx *ctx, const char *name, int *stored)
     if (stored)
         *stored = 0;
     char dir[1024];
-    if (!csi_program_cache_dir(dir, sizeof dir))
-        return csi_fail(CSI_ERR_IO, "the program cache is off (CSI_PROGRAM_CACHE=0, or no CSI_CACHE_DIR, "
-                                    "XDG_CACHE_HOME or HOME to put it in)");
+    CSI_TRY(csi_program_cache_require_dir(dir, sizeof dir));
     bool found = false;
     for (const struct csi_embedded_kernel *e = csi_embedded_kernels; e->name; e++) {
         if (name && strcmp(e->name, name) != 0)

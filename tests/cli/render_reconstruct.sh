@@ -109,6 +109,10 @@ expect_fail "no output" "no output" "$B/csi-reconstruct" "$good"
 expect_fail "romp on a volume" "ROMP" "$B/csi-reconstruct" "$T/moving.csid" -o "$T/out.exr" --solver romp
 CSI_DEVICE=no-such-device expect_fail "missing OpenCL device" "no OpenCL device matches" \
     "$B/csi-reconstruct" "$good" -o "$T/out.exr"
+# --cache-programs: no input beside it; refused with the cache off
+expect_fail "cache-programs with an input" "takes no input" "$B/csi-reconstruct" --cache-programs "$good"
+CSI_PROGRAM_CACHE=0 expect_fail "cache-programs, cache off" "program cache is off" \
+    "$B/csi-reconstruct" --cache-programs
 # a cache folder that cannot be made (under a file): named as such, where PoCL alone would fail to
 # start and the program would say that no device was found
 CSI_CACHE_DIR="$good/cache" expect_fail "cache folder not writable" "cannot keep kernel caches in $good/cache/" \

@@ -131,6 +131,9 @@ CSI_API csi_status csi_device_list(char *buf, size_t len);
  * NULL): how many programs it stored now. CSI_ERR_IO when the cache is off
  * (CSI_PROGRAM_CACHE=0) or cannot be written. */
 CSI_API csi_status csi_device_cache_programs(csi_device *dev, int *stored);
+/* The folder csi_device_cache_programs writes to and every device loads from, into buf; CSI_ERR_IO
+ * with the reason when the cache is off. */
+CSI_API csi_status csi_cached_programs_dir(char *buf, size_t len);
 
 /* ---- the grid and the sample positions ----------------------------------------------------- */
 /* Samples lie on the fine grid of the signal (the paper's Sec. 4): a position is the index

@@ -27,6 +27,8 @@
 
 #include <CL/cl.h>
 
+#include "csi/status.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -47,6 +49,9 @@ uint64_t csi_program_cache_checksum(const void *data, size_t n);
 
 /* The cache's directory into out; false when the cache is off. */
 bool csi_program_cache_dir(char *out, size_t len);
+
+/* The same, for a caller that needs the cache on: CSI_ERR_IO saying why it is off. */
+csi_status csi_program_cache_require_dir(char *out, size_t len);
 
 /* Makes a cache directory and its parents (mkdir -p); what exists already is kept, a failure
  * shows up when the cache's file is written. */
