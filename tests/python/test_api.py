@@ -174,4 +174,23 @@ with tempfile.TemporaryDirectory() as T:
     except csi.CsiError as e:
         check(e.status == "CSI_ERR_ARG" and "tile 1 of 4 is missing" in str(e), f"missing tile: {e.status} {e}")
 
+# csi's program cache: its folder follows CSI_CACHE_DIR (or the XDG / home cache) as the C
+# library documents; caching twice stores nothing the second time; off, both refuse.
+cache_root = os.environ.get("CSI_CACHE_DIR") or (os.path.join(os.environ["XDG_CACHE_HOME"], "csi")
+                                                 if os.environ.get("XDG_CACHE_HOME")
+                                                 else os.path.join(os.path.expanduser("~"), ".cache", "csi"))
+check(csi.cached_programs_dir() == os.path.join(cache_root, "programs"), f"cache folder {csi.cached_programs_dir()}")
+dev = csi.Device()
+dev.cache_programs()
+check(dev.cache_programs() == 0, "a second cache_programs stored programs again")
+os.environ["CSI_PROGRAM_CACHE"] = "0"
+for call in (csi.cached_programs_dir, dev.cache_programs):
+    try:
+        call()
+        check(False, f"{call.__name__} with the cache off raises")
+    except csi.CsiError as e:
+        check(e.status == "CSI_ERR_IO" and "off" in str(e), f"cache off: {e.status} {e}")
+del os.environ["CSI_PROGRAM_CACHE"]
+dev.close()
+
 sys.exit(done())

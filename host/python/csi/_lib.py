@@ -168,6 +168,8 @@ def _bind(L):
         "csi_device_new": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(P)]),
         "csi_device_release": (None, [P]),
         "csi_device_name": (ctypes.c_char_p, [P]),
+        "csi_device_cache_programs": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_int)]),
+        "csi_cached_programs_dir": (ctypes.c_int, [ctypes.c_char_p, c_size]),
         "csi_default_grid_factor": (u32, [u32, u32, u32, ctypes.c_uint64]),
         "csi_pos_method_parse": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]),
         "csi_refine_positions": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Image), ctypes.c_double,
@@ -218,6 +220,14 @@ def _check(st: int):
     if st != 0:
         L = lib()
         raise CsiError(L.csi_status_name(st).decode(), L.csi_last_error().decode(errors="replace"))
+
+
+def cached_programs_dir() -> str:
+    """The folder of csi's program cache (Device.cache_programs); CsiError CSI_ERR_IO when the
+    cache is off (CSI_PROGRAM_CACHE=0)."""
+    buf = ctypes.create_string_buffer(4096)
+    _check(lib().csi_cached_programs_dir(buf, len(buf)))
+    return os.fsdecode(buf.value)
 
 
 def version() -> str:
@@ -278,6 +288,15 @@ class Device:
         _check(L.csi_device_new(name.encode() if name else None, ctypes.byref(h)))
         self._h = h
         self.name = L.csi_device_name(h).decode()
+
+    def cache_programs(self) -> int:
+        """Builds csi's OpenCL programs on this device and keeps their binaries for later
+        processes, which then load them instead of building them (csi-reconstruct
+        --cache-programs; slow the first time, quick when cached). Returns how many programs it
+        stored now; CsiError CSI_ERR_IO when the cache is off or cannot be written."""
+        n = ctypes.c_int(0)
+        _check(lib().csi_device_cache_programs(self._h, ctypes.byref(n)))
+        return n.value
 
     def close(self):
         if getattr(self, "_h", None) and _lib is not None:
