@@ -87,7 +87,9 @@ csi_status csi_program_cache_require_dir(char *out, size_t len)
                                 "or HOME to put it in)");
 }
 
-/* The file that holds `name`'s binary for this source, options and driver. */
+/* The file that holds `name`'s binary for this source, options and driver: DIR/NAME-D-S.bin, D a
+ * hash of the platform, device and driver, S of the source and options (so that the files of
+ * one device can be told from another's in a folder that several machines share). */
 static bool cache_path(cl_device_id device, const char *name, const char *source, const char *options, char *out,
                        size_t len)
 {
@@ -97,15 +99,16 @@ static bool cache_path(cl_device_id device, const char *name, const char *source
     cl_platform_id platform = NULL;
     if (clGetDeviceInfo(device, CL_DEVICE_PLATFORM, sizeof platform, &platform, NULL) != CL_SUCCESS)
         return false;
-    uint64_t h = FNV_BASIS;
+    uint64_t d = FNV_BASIS, h = FNV_BASIS;
+    d = hash_info(d, device, platform, CL_PLATFORM_NAME, false);
+    d = hash_info(d, device, platform, CL_PLATFORM_VERSION, false);
+    d = hash_info(d, device, platform, CL_DEVICE_NAME, true);
+    d = hash_info(d, device, platform, CL_DEVICE_VERSION, true);
+    d = hash_info(d, device, platform, CL_DRIVER_VERSION, true);
     h = hash_str(h, source);
     h = hash_str(h, options);
-    h = hash_info(h, device, platform, CL_PLATFORM_NAME, false);
-    h = hash_info(h, device, platform, CL_PLATFORM_VERSION, false);
-    h = hash_info(h, device, platform, CL_DEVICE_NAME, true);
-    h = hash_info(h, device, platform, CL_DEVICE_VERSION, true);
-    h = hash_info(h, device, platform, CL_DRIVER_VERSION, true);
-    const int n = snprintf(out, len, "%s/%s-%016llx.bin", dir, name, (unsigned long long)h);
+    const int n = snprintf(out, len, "%s/%s-%016llx-%016llx.bin", dir, name, (unsigned long long)d,
+                           (unsigned long long)h);
     return n > 0 && (size_t)n < len;
 }
 
@@ -173,23 +176,23 @@ void csi_cache_mkdirs(const char *path)
     mkdir(tmp, 0755);
 }
 
-/* The program's files of other keys (an earlier source or driver): one binary per program is
- * kept, so that rebuilding csi does not grow the cache without bound. */
-static void remove_others(const char *dir, const char *name, const char *keep)
+/* The program's files of this device with another source (an earlier build of csi): one binary
+ * per program and device is kept, so that rebuilding csi does not grow the cache without bound,
+ * and machines sharing the folder keep each their own. `keep` is the file just stored. */
+static void remove_others(const char *dir, const char *keep)
 {
+    const char *base = strrchr(keep, '/') + 1, *src = strrchr(base, '-');
+    const size_t prefix = (size_t)(src - base) + 1; /* NAME-D- */
     DIR *d = opendir(dir);
     if (!d)
         return;
-    const size_t n = strlen(name), dn = strlen(dir);
     char other[1200];
     for (struct dirent *e; (e = readdir(d));) {
         const size_t len = strlen(e->d_name);
-        if (strncmp(e->d_name, name, n) != 0 || e->d_name[n] != '-' || len < 4 ||
+        if (len != strlen(base) || strncmp(e->d_name, base, prefix) != 0 || strcmp(e->d_name, base) == 0 ||
             strcmp(e->d_name + len - 4, ".bin") != 0)
             continue;
-        if (snprintf(other, sizeof other, "%s/%s", dir, e->d_name) >= (int)sizeof other)
-            continue;
-        if (strcmp(other, keep) != 0 && strncmp(other, keep, dn) == 0)
+        if (snprintf(other, sizeof other, "%s/%s", dir, e->d_name) < (int)sizeof other)
             remove(other);
     }
     closedir(d);
@@ -233,6 +236,6 @@ bool csi_program_cache_store(cl_program program, cl_device_id device, const char
         remove(tmp);
     free(bin);
     if (ok)
-        remove_others(dir, name, path);
+        remove_others(dir, path);
     return ok;
 }

@@ -121,20 +121,29 @@ int main(void)
     cached_file(path, sizeof path);
     CHECK(path[0] == '\0', "plain use stored %s", path);
 
-    /* Cached on request, once, replacing the program's file of another key (an earlier source)
-     * and no other program's; a later context loads it and computes the same values. */
-    char stale[600], other[600];
-    snprintf(path, sizeof path, "%s/programs", g_dir);
-    csi_cache_mkdirs(path);
-    snprintf(stale, sizeof stale, "%s/runtime-0123456789abcdef.bin", path);
-    snprintf(other, sizeof other, "%s/runtimes-0123456789abcdef.bin", path);
-    for (int i = 0; i < 2; i++) {
-        FILE *f = fopen(i ? other : stale, "wb");
-        MUST(f && fputs("old", f) >= 0 && fclose(f) == 0, "write %s", i ? other : stale);
-    }
+    /* Cached on request, once; stored again, it replaces the program's file of another source on
+     * this device, and no other device's or program's; a later context loads it and computes the
+     * same values. */
     cache_probe(1);
-    CHECK(access(stale, F_OK) != 0, "the program's file of another key stayed: %s", stale);
+    cached_file(path, sizeof path);
+    MUST(path[0], "no file in %s/programs after caching", g_dir);
+    /* the same program and device, another source; another device; another program */
+    char stale[600], device[600], other[600];
+    const char *dash = strrchr(path, '-');
+    snprintf(stale, sizeof stale, "%.*s-0123456789abcdef.bin", (int)(dash - path), path);
+    snprintf(device, sizeof device, "%s/programs/runtime-0123456789abcdef-0123456789abcdef.bin", g_dir);
+    snprintf(other, sizeof other, "%s/programs/runtimes%s", g_dir, strchr(strrchr(path, '/'), '-'));
+    const char *made[3] = {stale, device, other};
+    for (int i = 0; i < 3; i++) {
+        FILE *f = fopen(made[i], "wb");
+        MUST(f && fputs("old", f) >= 0 && fclose(f) == 0, "write %s", made[i]);
+    }
+    MUST(remove(path) == 0, "remove %s", path);
+    cache_probe(1);
+    CHECK(access(stale, F_OK) != 0, "the program's file of another source stayed: %s", stale);
+    CHECK(access(device, F_OK) == 0, "another device's file was removed: %s", device);
     CHECK(access(other, F_OK) == 0, "another program's file was removed: %s", other);
+    remove(device);
     remove(other);
     cached_file(path, sizeof path);
     MUST(path[0], "no file in %s/programs after caching", g_dir);

@@ -14,7 +14,8 @@
  * platform's and device's names and versions (a new driver is a miss, not a stale binary). A
  * file is written whole under a temporary name and renamed, and carries its length and a
  * checksum: a truncated or corrupt file is a miss (and is replaced), never handed to the driver.
- * Storing a program removes its files of other keys: one binary per program is kept.
+ * Storing a program removes its files of the same device with another source: one binary per
+ * program and device is kept.
  * The directory: $CSI_CACHE_DIR/programs, else $XDG_CACHE_HOME/csi/programs, else
  * ~/.cache/csi/programs; none of them, or CSI_PROGRAM_CACHE=0, turns the cache off. Every
  * failure of the cache is a miss: the program is built from source as without it. */
