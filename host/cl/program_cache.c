@@ -22,10 +22,10 @@ static const char MAGIC[8] = {'C', 'S', 'I', 'P', 'B', 'I', 'N', '2'};
 #define FNV_BASIS 14695981039346656037ull
 #define FNV_PRIME 1099511628211ull
 
-/* FNV-1a's step over 8-byte words, then the bytes left: a program's binary is megabytes, read by
+/* FNV-1a's step over 8-byte words, then the bytes left (not FNV-1a's values): a program's binary is megabytes, read by
  * every process, and a byte at a time cost more than reading it. Not a cryptographic hash: it
  * tells a damaged file from a whole one. */
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+static uint64_t hash_words(uint64_t h, const void *data, size_t n)
 {
     const unsigned char *p = data;
     size_t i = 0;
@@ -41,13 +41,13 @@ static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
 
 uint64_t csi_program_cache_checksum(const void *data, size_t n)
 {
-    return fnv1a(FNV_BASIS, data, n);
+    return hash_words(FNV_BASIS, data, n);
 }
 
 /* A string into the hash with its terminating zero, so that "ab" + "c" differs from "a" + "bc". */
 static uint64_t hash_str(uint64_t h, const char *s)
 {
-    return fnv1a(h, s ? s : "", strlen(s ? s : "") + 1);
+    return hash_words(h, s ? s : "", strlen(s ? s : "") + 1);
 }
 
 static uint64_t hash_info(uint64_t h, cl_device_id device, cl_platform_id platform, cl_uint what, bool of_device)
