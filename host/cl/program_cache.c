@@ -22,9 +22,9 @@ static const char MAGIC[8] = {'C', 'S', 'I', 'P', 'B', 'I', 'N', '2'};
 #define FNV_BASIS 14695981039346656037ull
 #define FNV_PRIME 1099511628211ull
 
-/* FNV-1a's step over 8-byte words, then the bytes left (not FNV-1a's values): a program's binary is megabytes, read by
- * every process, and a byte at a time cost more than reading it. Not a cryptographic hash: it
- * tells a damaged file from a whole one. */
+/* FNV-1a's step over 8-byte words, then the bytes left (not FNV-1a's values): a program's
+ * binary is megabytes, read by every process, and a byte at a time cost more than reading it.
+ * Not a cryptographic hash: it tells a damaged file from a whole one. */
 static uint64_t hash_words(uint64_t h, const void *data, size_t n)
 {
     const unsigned char *p = data;
