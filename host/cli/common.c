@@ -210,3 +210,25 @@ void cli_json_grid(csi_json *j, const csi_grid *g)
     csi_json_int(j, "out_w", g->out_w);
     csi_json_int(j, "out_h", g->out_h);
 }
+
+/* --cache-programs: csi_device_cache_programs on the chosen device, said on stderr. */
+int cli_cache_programs(const char *prog, const char *device, bool quiet)
+{
+    char dir[1024];
+    if (csi_cached_programs_dir(dir, sizeof dir) != CSI_OK)
+        return cli_error(prog, CSI_ERR_IO, "%s", cli_last_error());
+    csi_device *dev = NULL;
+    if (csi_device_new(device, &dev) != CSI_OK)
+        return cli_error(prog, CSI_ERR_DEVICE, "%s", cli_last_error());
+    if (!quiet)
+        fprintf(stderr, "%s: caching the OpenCL programs for %s in %s (a minute or more on a first run)\n",
+                prog, csi_device_name(dev), dir);
+    int stored = 0;
+    const csi_status s = csi_device_cache_programs(dev, &stored);
+    csi_device_release(dev);
+    if (s != CSI_OK)
+        return cli_error(prog, s, "%s", cli_last_error());
+    if (!quiet)
+        fprintf(stderr, "%s: every program is cached (%d built and stored now)\n", prog, stored);
+    return 0;
+}

@@ -28,6 +28,10 @@ void cli_warn(const char *prog, const char *fmt, ...)
 /* Exit code for a library failure: input problems -> 2, the rest -> 1. */
 int cli_exit_code(csi_status st);
 
+/* --cache-programs (csi-reconstruct, csi-render): csi_device_cache_programs on `device`, said on
+ * stderr unless quiet; refused before any work when the cache is off. The exit code. */
+int cli_cache_programs(const char *prog, const char *device, bool quiet);
+
 /* Failures of the program-support code, which records its messages here (the library keeps its
  * own): cli_fail records a printf-style message, forgets the library's last one and returns st;
  * cli_last_error gives the message of the most recent failure on this thread, the library's

@@ -224,28 +224,6 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
     return s;
 }
 
-/* --cache-programs: csi_device_cache_programs on the chosen device, said on stderr. */
-static int cli_cache_programs(const char *prog, const char *device, bool quiet)
-{
-    char dir[1024];
-    if (csi_cached_programs_dir(dir, sizeof dir) != CSI_OK)
-        return cli_error(prog, CSI_ERR_IO, "%s", cli_last_error());
-    csi_device *dev = NULL;
-    if (csi_device_new(device, &dev) != CSI_OK)
-        return cli_error(prog, CSI_ERR_DEVICE, "%s", cli_last_error());
-    if (!quiet)
-        fprintf(stderr, "%s: caching the OpenCL programs for %s in %s (a minute or more on a first run)\n",
-                prog, csi_device_name(dev), dir);
-    int stored = 0;
-    const csi_status s = csi_device_cache_programs(dev, &stored);
-    csi_device_release(dev);
-    if (s != CSI_OK)
-        return cli_error(prog, s, "%s", cli_last_error());
-    if (!quiet)
-        fprintf(stderr, "%s: every program is cached (%d built and stored now)\n", prog, stored);
-    return 0;
-}
-
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_DROP, O_DEVICE, O_VERSION, O_SEED, O_VARIANCE, O_REFINE, O_REFINE_SHARE,

@@ -54,6 +54,8 @@ static void usage(FILE *f)
 "      each tile scales tau by its own samples, as an untiled run of the window would)\n"
 "other:\n"
 "      --device NAME         OpenCL device (default: PoCL CPU, or $CSI_DEVICE)\n"
+"      --cache-programs      build csi's OpenCL programs and keep their binaries for later runs\n"
+"                            (as csi-reconstruct --cache-programs; once per build and driver)\n"
 "  -q, --quiet               no progress on stderr\n"
 "      (progress: a redrawn line on a terminal; elsewhere, as in a log, a plain line at most\n"
 "      every 60 s; $CSI_PROGRESS = off, bar, or the seconds between plain lines)\n"
@@ -167,7 +169,7 @@ static csi_status write_stats(csi_outset *set, const char *path, const csi_devic
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
@@ -176,6 +178,7 @@ int main(int argc, char **argv)
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
         {"threads", required_argument, 0, O_THREADS}, {"plan", no_argument, 0, O_PLAN},
+        {"cache-programs", no_argument, 0, O_CACHE_PROGRAMS},
         {"time-steps", required_argument, 0, O_TSTEPS},
         {"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'},
         {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS, {0, 0, 0, 0}};
@@ -185,7 +188,7 @@ int main(int argc, char **argv)
     csi_options *opt = NULL;
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
-    bool quiet = false, plan_only = false;
+    bool quiet = false, plan_only = false, cache_programs = false;
     const char *device = NULL, *dump_path = NULL, *method = "cs";
     uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
     int c, rc = 0;
@@ -203,6 +206,7 @@ int main(int argc, char **argv)
         case O_STATS: outs.stats = optarg; break;
         case O_DUMP: dump_path = optarg; break;
         case O_PLAN: plan_only = true; break;
+        case O_CACHE_PROGRAMS: cache_programs = true; break;
         case O_SPP:
             if (!cli_parse_u64(optarg, 1, 65536, &spp))
                 rc = cli_error(prog, CSI_ERR_ARG, "--spp: '%s' is not a whole number from 1 to 65536", optarg);
@@ -245,6 +249,12 @@ int main(int argc, char **argv)
         }
     }
     free(all_opts);
+    if (!rc && cache_programs) {
+        csi_options_free(opt);
+        if (optind != argc)
+            return cli_error(prog, CSI_ERR_ARG, "--cache-programs takes no scene (%s given)", argv[optind]);
+        return cli_cache_programs(prog, device, quiet);
+    }
     const bool est_given = cli_recon_given("estimator"); /* else it follows --method */
     if (!rc && optind != argc - 1)
         rc = cli_error(prog, CSI_ERR_ARG, optind >= argc ? "no scene given (see --help)"

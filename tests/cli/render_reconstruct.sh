@@ -113,6 +113,9 @@ CSI_DEVICE=no-such-device expect_fail "missing OpenCL device" "no OpenCL device 
 expect_fail "cache-programs with an input" "takes no input" "$B/csi-reconstruct" --cache-programs "$good"
 CSI_PROGRAM_CACHE=0 expect_fail "cache-programs, cache off" "program cache is off" \
     "$B/csi-reconstruct" --cache-programs
+expect_fail "render --cache-programs with a scene" "takes no scene" "$B/csi-render" --cache-programs "$static"
+CSI_PROGRAM_CACHE=0 expect_fail "render --cache-programs, cache off" "program cache is off" \
+    "$B/csi-render" --cache-programs
 # a cache folder that cannot be made (under a file): named as such, where PoCL alone would fail to
 # start and the program would say that no device was found
 CSI_CACHE_DIR="$good/cache" expect_fail "cache folder not writable" "cannot keep kernel caches in $good/cache/" \
