@@ -72,6 +72,21 @@ def image_hash(stats):
         return json.load(f)["image_fnv1a64"]
 
 
+def process_stat(pid):
+    """The fields of /proc/PID/stat after the command name (state first), or None when gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+
+
+def user_time(pid):
+    """PID's user CPU time in clock ticks, or None when it is gone or a zombie."""
+    st = process_stat(pid)
+    return int(st[11]) if st and st[0] not in ("Z", "X") else None
+
+
 def csi_processes(marker):
     """PIDs of running processes whose command line mentions marker."""
     out = []
@@ -144,7 +159,7 @@ def main():
                 if any(str(k).startswith("task_tile") for k in keys):
                     # the tile's csi-reconstruct is running under this worker: kill the worker
                     pid = client.run(os.getpid, workers=[addr])[addr]
-                    victims = [p for p in csi_processes(dump) if open(f"/proc/{p}/stat").read().split()[3] == str(pid)]
+                    victims = [p for p in csi_processes(dump) if (process_stat(p) or [None, None])[1] == str(pid)]
                     if not victims:
                         continue
                     victim_children = victims
@@ -153,15 +168,27 @@ def main():
                     print(f"killed worker {addr} (pid {pid}) while its csi-reconstruct {victims} ran a tile")
                     break
             time.sleep(0.02)
+        # Whether the killed worker's csi-reconstruct outlived it: once the worker is gone, a child
+        # killed with it (PR_SET_PDEATHSIG) runs no more user code, though it may show in /proc a
+        # while longer (its memory torn down, then a zombie until something reaps it); one that
+        # survived goes on computing its tile (a few tenths of a second here: measured at once).
+        # So: its user time must not grow by more than the tick of its last moments.
+        outlived = []
+        if killed is not None:
+            t0 = time.time()
+            while user_time(killed) is not None and time.time() < t0 + 30:
+                time.sleep(0.01)
+            time.sleep(0.05)
+            u0 = {p: user_time(p) for p in victim_children}
+            time.sleep(0.25)
+            outlived = [p for p in victim_children if u0[p] is not None and (user_time(p) or u0[p]) > u0[p] + 2]
         th.join(600)
         check(killed is not None, "a worker running a tile was found and killed")
         check(result.get("ok"), f"the farm finished after the kill ({result.get('error')})")
         if result.get("ok"):
             check(image_hash(os.path.join(out2, "img.json")) == ref, "after a killed worker the image differs")
         check(sorted(os.listdir(out2)) == ["img.exr", "img.json"], f"only the outputs in the output dir: {os.listdir(out2)}")
-        time.sleep(0.5)
-        alive = [p for p in victim_children if os.path.exists(f"/proc/{p}")]
-        check(not alive, f"the killed worker's csi-reconstruct {alive} outlived it")
+        check(not outlived, f"the killed worker's csi-reconstruct {outlived} outlived it (still computing)")
         leftovers = [d for d in os.listdir(private) if d.startswith("csi-farm-scratch-")]
         check(not leftovers, f"scratch directories left: {leftovers}")
 
