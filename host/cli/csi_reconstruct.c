@@ -235,7 +235,8 @@ int main(int argc, char **argv)
         {"device", required_argument, 0, O_DEVICE}, {"refine-request", required_argument, 0, O_REFINE},
         {"refine-share", required_argument, 0, O_REFINE_SHARE}, {"refine-with", required_argument, 0, O_REFINE_WITH},
         {"seed", required_argument, 0, O_SEED}, {"quiet", no_argument, 0, 'q'},
-        {"cache-programs", no_argument, 0, O_CACHE_PROGRAMS}, {"help", no_argument, 0, 'h'}, {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
+        {"cache-programs", no_argument, 0, O_CACHE_PROGRAMS}, {"help", no_argument, 0, 'h'},
+        {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
         {0, 0, 0, 0}};
     cli_heap_keep_freed();
     cli_outputs outs = {0};

@@ -169,7 +169,8 @@ static csi_status write_stats(csi_outset *set, const char *path, const csi_devic
 
 int main(int argc, char **argv)
 {
-    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED, O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS };
+    enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED,
+           O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
