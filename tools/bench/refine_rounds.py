@@ -19,7 +19,12 @@ pass's and the pick's (csi-reconstruct --estimator mean, which fills a pixel wit
   nbr     once, then two's second round only among the 8-neighbours of once's pixels (the idea:
           an HDR pixel's leak into the fit lands beside it, where csi would more likely be worse
           than the mean; measured, csi was as often the better estimate there);
-  nbr1    once, and every 8-neighbour of once's pixels holding share / 10 of the image's total.
+  nbr1    once, and every 8-neighbour of once's pixels holding share / 10 of the image's total;
+  domP    once, then a second round only for a pixel holding P% (5, 10, 25) of what once left;
+  vnbr    once, rendered; then two's second round only beside once's pixels where csi was the
+          worse estimate, judged by once's new samples (see verified());
+  vall    once, rendered; then two's second round only if over once's pixels csi was the worse
+          estimate in sum, judged the same way.
 
     .venv/bin/python tools/bench/refine_rounds.py --data DIR[,DIR...] --spp 4 --json out.json
     .venv/bin/python tools/bench/refine_rounds.py --summary out.json[,more.json]
@@ -50,7 +55,7 @@ from csi import dump as csid  # noqa: E402
 from csi import mitsuba_bridge as mb  # noqa: E402
 from csi.mitsuba_cli import refine_seed  # noqa: E402
 
-RULES = ("once", "two", "twosig", "rounds", "nbr", "nbr1")
+RULES = ("once", "two", "twosig", "rounds", "nbr", "nbr1", "dom5", "dom10", "dom25", "vnbr", "vall")
 
 
 def errors(img, ref):
@@ -102,6 +107,9 @@ def pick(D, img, rule, share):
             if sel.sum() >= int(1 / share) or d[q] < share * left:
                 break
             sel[q], left = True, left - d[q]
+    elif rule.startswith("dom"):
+        # a second round only for a pixel that holds a large part (5, 10, 25%) of what once left
+        sel |= cand & (d >= float(rule[3:]) / 100 * (total - d[sel].sum()))
     elif rule in ("nbr", "nbr1"):
         # the 8-neighbours of once's pixels, not themselves picked
         m = sel.reshape(oh, ow)
@@ -112,10 +120,18 @@ def pick(D, img, rule, share):
         near = near[1:-1, 1:-1].reshape(-1) & ~sel
         bar = share * (total - d[sel].sum()) if rule == "nbr" else share / 10 * total
         sel = sel | (cand & near & (d >= bar))
+    return cells_of(D, sel), int(sel.sum())
+
+
+def cells_of(D, sel):
+    """The cells without a sample of the pixels sel (a mask over the output's pixels)."""
+    w, h, _ = D.grid
+    ow, oh = D.out
+    bw, bh = w // ow, h // oh
     taken = set(zip(D.xyt[:, 0].tolist(), D.xyt[:, 1].tolist()))
     cells = [(x, y, 0) for q in np.flatnonzero(sel) for y in range((q // ow) * bh, (q // ow + 1) * bh)
              for x in range((q % ow) * bw, (q % ow + 1) * bw) if (x, y) not in taken]
-    return np.array(cells, np.uint32).reshape(-1, 3), int(sel.sum())
+    return np.array(cells, np.uint32).reshape(-1, 3)
 
 
 def mean_image(bins, env, tmp, D, cells, values):
@@ -149,6 +165,9 @@ def cell(bins, env, tmp, d, scene, stem, share, scenes, rules):
         scenes[(scene, D.out)] = mb.load_scene(md.SCENES[scene], size=D.out)
     row = {}
     for rule in rules:
+        if rule in ("vnbr", "vall"):
+            row[rule] = verified(bins, env, tmp, D, c0, scenes[(scene, D.out)], info, ref, share, rule)
+            continue
         cells, pixels = pick(D, c0, rule, share)
         if rule == "once" and sorted(map(tuple, cells.tolist())) != sorted(map(tuple, np.asarray(lib).tolist())):
             raise SystemExit(f"{dump}: this script's pick is not csi_refine_positions'")
@@ -163,6 +182,60 @@ def cell(bins, env, tmp, d, scene, stem, share, scenes, rules):
         row[rule] = {"pixels": pixels, "extra": len(cells) / len(D.xyt), "csi": ce, "mean": me,
                      "ratio": [ce[0] / me[0], ce[1] / me[1]]}
     return row
+
+
+def verified(bins, env, tmp, D, c0, scene, info, ref, share, rule):
+    """once, rendered; then a second round judged by once's new samples. At each of once's pixels
+    the new samples' mean m2 is independent of the first pass, so |c0 - m2|^2 against |m0 - m2|^2
+    compares csi's error with the first mean's without bias (m2's own variance is in both):
+      vnbr  two's second round only among the 8-neighbours of once's pixels where csi was the
+            worse estimate by that test;
+      vall  two's second round, only when over once's pixels csi was the worse estimate in sum."""
+    w, h, _ = D.grid
+    ow, oh = D.out
+    bw, bh = w // ow, h // oh
+    grid = (*D.grid, *D.out)
+    cnt, d = disagreement(D, c0)
+    cand = (cnt > 0) & (cnt < bw * bh) & (d > 0)
+    total = d.sum()
+    sel = cand & (d >= share * total)
+    cells1 = cells_of(D, sel)
+    if not len(cells1):
+        mean = mean_image(bins, env, tmp, D, cells1, np.zeros((0, D.values.shape[1]), np.float32))
+        ce, me = errors(c0, ref), errors(mean, ref)
+        return {"pixels": 0, "extra": 0.0, "csi": ce, "mean": me, "ratio": [ce[0] / me[0], ce[1] / me[1]], "second": 0}
+    req = lambda cells: csid.Dump(grid=D.grid, out=D.out, xyt=cells, values=None, seed=D.seed)  # noqa: E731
+    v1 = mb.render_request(scene, req(cells1), paths=info["paths"], seed=refine_seed(D.seed)).values
+    C = D.values.shape[1]
+    pix = lambda xyt: (xyt[:, 1] // bh).astype(np.int64) * ow + xyt[:, 0] // bw  # noqa: E731
+    sums = lambda xyt, v: np.stack([np.bincount(pix(xyt), weights=v[:, c].astype(np.float64), minlength=ow * oh)  # noqa: E731
+                                    for c in range(C)], 1)
+    n1 = np.bincount(pix(cells1), minlength=ow * oh)
+    m2 = sums(cells1, v1) / np.maximum(n1, 1)[:, None]
+    m0 = sums(D.xyt, D.values) / np.maximum(cnt, 1)[:, None]
+    x = c0.reshape(-1, C).astype(np.float64)
+    excess = ((x - m2) ** 2).sum(1) - ((m0 - m2) ** 2).sum(1)  # > 0: csi the worse estimate
+    excess[~sel] = 0
+    rest = cand & ~sel & (d >= share * (total - d[sel].sum()))
+    if rule == "vnbr":
+        m = (sel & (excess > 0)).reshape(oh, ow)
+        near = np.zeros((oh + 2, ow + 2), bool)
+        for dy in (0, 1, 2):
+            for dx in (0, 1, 2):
+                near[dy:dy + oh, dx:dx + ow] |= m
+        sel2 = rest & near[1:-1, 1:-1].reshape(-1)
+    else:
+        sel2 = rest if excess.sum() > 0 else np.zeros_like(rest)
+    cells2 = cells_of(D, sel2)
+    cells, values = cells1, v1
+    if len(cells2):
+        v2 = mb.render_request(scene, req(cells2), paths=info["paths"], seed=refine_seed(D.seed, 1)).values
+        cells, values = np.concatenate([cells1, cells2]), np.concatenate([v1, v2])
+    img, _ = csi.refine_apply(D.xyt, D.values, cells, values, grid, c0)
+    mean = mean_image(bins, env, tmp, D, cells, values)
+    ce, me = errors(img, ref), errors(mean, ref)
+    return {"pixels": int(sel.sum() + sel2.sum()), "extra": len(cells) / len(D.xyt), "csi": ce, "mean": me,
+            "ratio": [ce[0] / me[0], ce[1] / me[1]], "second": int(sel2.sum())}
 
 
 def summary(paths):
