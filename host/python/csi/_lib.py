@@ -16,10 +16,13 @@ It is loaded on first use, so `import csi` needs only numpy.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import os
+import signal
 import subprocess
+import threading
 from typing import Callable, Optional
 
 import numpy as np
@@ -209,6 +212,16 @@ def _bind(L):
         "csi_partial_write": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.c_char_p, ctypes.c_uint64, ctypes.c_char_p]),
         "csi_partials_merge": (ctypes.c_int, [ctypes.POINTER(ctypes.c_char_p), c_size, ctypes.c_bool, _PROGRESS_FN,
                                               P, ctypes.POINTER(P), ctypes.POINTER(_PartialInfo)]),
+        "csi_reconstruct_check": (ctypes.c_int, [P, ctypes.POINTER(Grid), u32, c_size, P, ctypes.c_uint64,
+                                                 ctypes.c_char_p]),
+        "csi_outset_create": (ctypes.c_int, [ctypes.POINTER(P)]),
+        "csi_outset_free": (None, [P]),
+        "csi_outset_input": (ctypes.c_int, [P, ctypes.c_char_p]),
+        "csi_outset_file": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
+        "csi_outset_dir": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
+        "csi_outset_tmp": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.POINTER(ctypes.c_char_p)]),
+        "csi_outset_commit": (ctypes.c_int, [P]),
+        "csi_outset_abort": (None, [P]),
     }
     for name, (res, args) in sig.items():
         f = getattr(L, name)
@@ -325,7 +338,7 @@ class Result:
         L = lib()
         img = _Image()
         _check(L.csi_result_image(self._h, ctypes.byref(img)) if frame is None
-               else L.csi_result_frame(self._h, frame, ctypes.byref(img)))
+               else L.csi_result_frame(self._h, _whole("frame", frame, 0, _U32), ctypes.byref(img)))
         if exr:
             attrs = ctypes.c_void_p()
             n = L.csi_result_attributes(self._h, ctypes.byref(attrs))
@@ -421,48 +434,127 @@ def _result(L, r) -> Result:
     return Result(image, frames, used, reports, info, stats, r)
 
 
+def _whole(name: str, value, lo: int, hi: int) -> int:
+    """value as an int from lo to hi, else CsiError naming it: ctypes would pass a negative or
+    too large number on silently, wrapped around (a seed of -1 as 2^64 - 1, 2^32 + 64 as 64)."""
+    if isinstance(value, (bool, np.bool_)):
+        v = None
+    elif isinstance(value, (int, np.integer)):
+        v = int(value)
+    elif isinstance(value, (float, np.floating)) and np.isfinite(value) and float(value).is_integer():
+        v = int(value)
+    else:
+        v = None
+    if v is None or not lo <= v <= hi:
+        raise CsiError("CSI_ERR_ARG", f"{name}: {value!r} is not a whole number from {lo} to {hi}")
+    return v
+
+
+_U32, _U64 = (1 << 32) - 1, (1 << 64) - 1
+
+
+def _grid(grid) -> Grid:
+    """(w, h, t, out_w, out_h) as the library's grid, each a whole number that fits its field."""
+    try:
+        sides = None if isinstance(grid, (str, bytes)) else list(grid)
+    except TypeError:
+        sides = None
+    if sides is None or len(sides) != 5:
+        raise CsiError("CSI_ERR_ARG", f"grid {grid!r}: expected (w, h, t, out_w, out_h)")
+    return Grid(*[_whole(f"grid {n}", v, 0, _U32) for n, v in zip(("w", "h", "t", "out_w", "out_h"), sides)])
+
+
+def _samples_arrays(positions, values):
+    """(N, 3) uint32 cells and (N, C) float32 values, contiguous, from what the caller gave:
+    positions of an integer type, or floats that are whole numbers, inside the uint32 range (a
+    negative, fractional or NaN cell would otherwise be cast to another cell); real values of
+    shape (N, C) or (N,)."""
+    pos = np.asarray(positions)
+    if pos.dtype.kind == "f":
+        if pos.size and not (np.isfinite(pos).all() and (pos == np.floor(pos)).all()):
+            raise CsiError("CSI_ERR_ARG", "positions: not whole numbers (cells are integer x, y, t)")
+    elif pos.dtype.kind not in "iu":
+        raise CsiError("CSI_ERR_ARG", f"positions: {pos.dtype} values, not integer cells")
+    if pos.size and (pos.min() < 0 or pos.max() > _U32):
+        raise CsiError("CSI_ERR_ARG", f"positions: cells from {pos.min()} to {pos.max()}, outside 0 to {_U32}")
+    pos = np.ascontiguousarray(pos, dtype=np.uint32)
+    val = np.asarray(values)
+    if val.dtype.kind not in "biuf":
+        raise CsiError("CSI_ERR_ARG", f"values: {val.dtype} values, not real numbers")
+    val = val.astype(np.float32, copy=False)
+    val = np.ascontiguousarray(val[:, None] if val.ndim == 1 else val)
+    if pos.ndim != 2 or pos.shape[1] != 3 or val.ndim != 2 or val.shape[0] != pos.shape[0]:
+        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+    return pos, val
+
+
+def _options_and_device(options, kwargs, device):
+    """The options of a call (an Options with the keywords set on it, or new ones of the
+    keywords) and its device (the process's default device, made on first use, when None)."""
+    global _default_device
+    if options is None:
+        options = Options(**kwargs)
+    else:
+        for k, v in kwargs.items():
+            options.set(k, v)
+    if device is None:
+        if _default_device is None:
+            _default_device = Device()
+        device = _default_device
+    return options, device
+
+
 class _Call:
     """The arguments of a reconstruction call: samples from numpy arrays (kept alive with it),
     options, device, and the progress relay that passes on what the callback raised."""
 
     def __init__(self, positions, values, grid, device, progress, options, kwargs, exact, variance=None):
-        global _default_device
-        pos = np.ascontiguousarray(positions, dtype=np.uint32)
-        val = np.asarray(values, dtype=np.float32)
-        if val.ndim == 1:
-            val = val[:, None]
-        val = np.ascontiguousarray(val)
-        if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
-            raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+        pos, val = _samples_arrays(positions, values)
+        grid = _grid(grid)
         var = None
         if variance is not None:
-            var = np.ascontiguousarray(np.asarray(variance, dtype=np.float32).reshape(val.shape[0], -1))
-            if var.shape != val.shape:
-                raise CsiError("CSI_ERR_ARG", f"variance {var.shape}: expected the values' shape {val.shape}")
-        if options is None:
-            options = Options(**kwargs)
-        else:
-            for k, v in kwargs.items():
-                options.set(k, v)
-        if device is None:
-            if _default_device is None:
-                _default_device = Device()
-            device = _default_device
+            var = np.asarray(variance)
+            if var.dtype.kind not in "iuf" or var.size != val.size or var.shape[:1] != val.shape[:1]:
+                raise CsiError("CSI_ERR_ARG", f"variance {var.shape} of {var.dtype}: expected real numbers in the "
+                               f"values' shape {val.shape}")
+            var = np.ascontiguousarray(var.astype(np.float32).reshape(val.shape))
+        options, device = _options_and_device(options, kwargs, device)
         self.arrays, self.options, self.device, self.raised = (pos, val, var), options, device, []
-        self.samples = _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0],
+        self.samples = _Samples(grid, val.shape[1], pos.shape[0],
                                 pos.ctypes.data_as(ctypes.POINTER(u32)),
                                 val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), SAMPLES_EXACT if exact else 0,
                                 var.ctypes.data_as(ctypes.POINTER(ctypes.c_float)) if var is not None else None)
 
         def relay(_user, p):
+            if self.raised:  # a Ctrl-C (see interruptible)
+                return False
             try:
+                if progress is None:
+                    return True
                 go = progress(p.contents.phase.decode(), p.contents.iteration, p.contents.residual)
                 return go is None or bool(go)
             except BaseException as e:  # noqa: BLE001 - passed on after the library has cleaned up
                 self.raised.append(e)
                 return False
 
-        self.fn = _PROGRESS_FN(relay) if progress else _PROGRESS_FN()
+        self.fn = _PROGRESS_FN(relay)
+
+    @contextlib.contextmanager
+    def interruptible(self):
+        """Around the library's call: a Ctrl-C cancels it at its next progress report and is
+        raised when it has returned. Python runs its signal handlers only between its own
+        bytecodes (here: when the relay is entered, where a KeyboardInterrupt could not be
+        caught), so SIGINT is recorded by a handler of ours meanwhile, in the main thread where
+        Python's default handler is in place."""
+        if (threading.current_thread() is not threading.main_thread()
+                or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+            yield
+            return
+        old = signal.signal(signal.SIGINT, lambda *_: self.raised.append(KeyboardInterrupt()))
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, old)
 
     def result(self, L, st, r) -> Result:
         if self.raised:
@@ -490,8 +582,25 @@ def reconstruct(positions, values, grid, device: Optional[Device] = None,
     L = lib()
     c = _Call(positions, values, grid, device, progress, options, kwargs, exact, variance)
     r = ctypes.c_void_p()
-    st = L.csi_reconstruct(c.device._h, ctypes.byref(c.samples), c.options._h, c.fn, None, ctypes.byref(r))
+    with c.interruptible():
+        st = L.csi_reconstruct(c.device._h, ctypes.byref(c.samples), c.options._h, c.fn, None, ctypes.byref(r))
     return c.result(L, st, r)
+
+
+def reconstruct_check(grid, channels: int, count: int, device: Optional[Device] = None,
+                      options: Optional[Options] = None, extra_host: int = 0, input: str = "", **kwargs):
+    """Sizes before work (csi_reconstruct_check): returns when reconstructing `count` samples of
+    `channels` on grid (w, h, t, out_w, out_h) with these options fits the device and the host's
+    available memory (with extra_host more bytes the caller holds meanwhile); else raises
+    CsiError CSI_ERR_TOO_LARGE (CSI_ERR_ARG: a grid no plan can hold), its message starting with
+    `input`. Arithmetic on the sizes only, in milliseconds: for a caller that refuses a run before
+    rendering its samples."""
+    L = lib()
+    options, device = _options_and_device(options, kwargs, device)
+    g = _grid(grid)
+    _check(L.csi_reconstruct_check(device._h, ctypes.byref(g), _whole("channels", channels, 0, _U32),
+                                   _whole("count", count, 0, _U64), options._h, _whole("extra_host", extra_host, 0, _U64),
+                                   os.fsencode(input)))
 
 
 def reconstruct_tile(positions, values, grid, index: int, scale=None, device: Optional[Device] = None,
@@ -507,8 +616,9 @@ def reconstruct_tile(positions, values, grid, index: int, scale=None, device: Op
     c = _Call(positions, values, grid, device, progress, options, kwargs, exact, variance)
     sc = (ctypes.c_double * 4)(*[float(x) for x in list(scale)[:4]]) if scale is not None else None
     r = ctypes.c_void_p()
-    st = L.csi_reconstruct_tile(c.device._h, ctypes.byref(c.samples), c.options._h, int(index), sc, c.fn, None,
-                                ctypes.byref(r))
+    with c.interruptible():
+        st = L.csi_reconstruct_tile(c.device._h, ctypes.byref(c.samples), c.options._h, _whole("index", index, 0, _U32), sc, c.fn, None,
+                                    ctypes.byref(r))
     res = c.result(L, st, r)
     res._input_id = L.csi_samples_id(ctypes.byref(c.samples))
     return res
@@ -539,7 +649,8 @@ def merge_partials(paths, frames: bool = False) -> Result:
 def default_grid_factor(out_w: int, out_h: int, t: int = 1, spp: int = 4) -> int:
     """csi's fine-grid factor F for spp samples per output pixel (csi_default_grid_factor, the
     rule of csi-render and csi-positions): the grid is F out_w x F out_h cells, t frames."""
-    return int(lib().csi_default_grid_factor(int(out_w), int(out_h), int(t), int(spp)))
+    return int(lib().csi_default_grid_factor(_whole("out_w", out_w, 1, _U32), _whole("out_h", out_h, 1, _U32),
+                                             _whole("t", t, 1, _U32), _whole("spp", spp, 1, _U64)))
 
 
 def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fraction: Optional[float] = None):
@@ -548,10 +659,10 @@ def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fracti
     seed. method: poisson, stratified or random; fraction: N = round(fraction * cells) instead
     of spp samples per output pixel."""
     L = lib()
-    g = Grid(*[int(x) for x in grid])
+    g = _grid(grid)
     m = ctypes.c_int()
     _check(L.csi_pos_method_parse(str(method).encode(), ctypes.byref(m)))
-    o = _PosOpts(m.value, int(spp), float(fraction or 0), int(seed))
+    o = _PosOpts(m.value, _whole("spp", spp, 0, _U32), float(fraction or 0), _whole("seed", seed, 0, _U64))
     p, n = ctypes.POINTER(u32)(), c_size()
     _check(L.csi_positions(ctypes.byref(g), ctypes.byref(o), ctypes.byref(p), ctypes.byref(n), None))
     try:
@@ -563,13 +674,9 @@ def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fracti
 def _image_samples(positions, values, grid, keep):
     """csi_samples over (N, 3) positions and (N, C) or (N,) values, the arrays appended to keep
     (alive while the library reads them)."""
-    pos = np.ascontiguousarray(positions, dtype=np.uint32)
-    val = np.asarray(values, dtype=np.float32)
-    val = np.ascontiguousarray(val[:, None] if val.ndim == 1 else val)
-    if pos.ndim != 2 or pos.shape[1] != 3 or val.shape[0] != pos.shape[0]:
-        raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
+    pos, val = _samples_arrays(positions, values)
     keep.extend((pos, val))
-    return _Samples(Grid(*[int(x) for x in grid]), val.shape[1], pos.shape[0], pos.ctypes.data_as(ctypes.POINTER(u32)),
+    return _Samples(_grid(grid), val.shape[1], pos.shape[0], pos.ctypes.data_as(ctypes.POINTER(u32)),
                     val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
 
 
@@ -615,6 +722,74 @@ def refine_apply(positions, values, more_positions, more_values, grid, image):
     _check(L.csi_refine_apply(ctypes.byref(first), ctypes.byref(more), ctypes.byref(view), ctypes.byref(px)))
     planar = keep[-1]
     return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+
+
+class OutputSet:
+    """A run's output files written all or nothing (csi_outset, csi/csi.h), as csi's programs
+    write theirs: every output is stated before any work and refused then (one line naming the
+    path) when its directory is missing or unwritable, when it is a directory, another output, or
+    one of the stated inputs; after the work each is written to tmp(path) and commit() renames
+    them all into place. Leaving a `with` block by an exception (KeyboardInterrupt included), or
+    close() before commit(), removes every temporary file: a failed run leaves nothing.
+
+        with csi.OutputSet(inputs=[scene]) as outs:
+            outs.file("out.exr", "the image (-o)")
+            ...                                    # the work
+            result.write_exr(outs.tmp("out.exr"))
+            outs.commit()
+    """
+
+    def __init__(self, inputs=()):
+        L = lib()
+        h = ctypes.c_void_p()
+        _check(L.csi_outset_create(ctypes.byref(h)))
+        self._h = h
+        self._names = []  # the library keeps pointers to these
+        for path in inputs:
+            self.input(path)
+
+    def _keep(self, text) -> bytes:
+        b = os.fsencode(text)
+        self._names.append(b)
+        return b
+
+    def input(self, path):
+        """An input of the run: no output may be the same file (a missing one is not checked)."""
+        if path:
+            _check(lib().csi_outset_input(self._h, self._keep(path)))
+
+    def file(self, path, what: str):
+        """An output file, checked now (CsiError CSI_ERR_IO / CSI_ERR_ARG naming it)."""
+        _check(lib().csi_outset_file(self._h, self._keep(path if path is not None else ""), self._keep(what)))
+
+    def dir(self, path, what: str):
+        """An output folder (made by the writer of its files; checked now)."""
+        _check(lib().csi_outset_dir(self._h, self._keep(path if path is not None else ""), self._keep(what)))
+
+    def tmp(self, path) -> str:
+        """The temporary path to write the stated output `path` to."""
+        t = ctypes.c_char_p()
+        _check(lib().csi_outset_tmp(self._h, self._keep(path), ctypes.byref(t)))
+        return os.fsdecode(t.value)
+
+    def commit(self):
+        """Renames every output written into place, all or none."""
+        _check(lib().csi_outset_commit(self._h))
+
+    def close(self):
+        """Removes what was not committed, and frees the set."""
+        if getattr(self, "_h", None) and _lib is not None:
+            _lib.csi_outset_free(self._h)
+        self._h = None
+
+    __del__ = close
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
 
 
 class Dump:
