@@ -194,6 +194,9 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
     if size is not None and (size[0] < 1 or size[1] < 1 or size[0] > csid.MAX_SIDE or size[1] > csid.MAX_SIDE):
         raise BridgeError(f"image size {size[0]}x{size[1]} is not from 1x1 to {csid.MAX_SIDE}x{csid.MAX_SIDE}")
     # What can be checked without Mitsuba first: a bad path fails fast and without the import.
+    if spec != "cornell" and os.path.isdir(spec):
+        raise BridgeError(f"{spec}: a directory, not a scene file (give a Mitsuba XML file, a .py with scene(), or "
+                          "'cornell')")
     if spec != "cornell" and not os.path.isfile(spec):
         raise BridgeError(f"{spec}: no such scene file (give a Mitsuba XML file, a .py with scene(), or 'cornell')")
     text = _xml_override(spec, size, box_filter) if spec != "cornell" and not spec.endswith(".py") else None

@@ -9,7 +9,6 @@ import sys
 import tempfile
 import time
 
-from . import atomic
 from . import dump as csid
 from . import exr
 from . import mitsuba_bridge as mb
@@ -126,14 +125,6 @@ def parser():
     return p
 
 
-def _check_writable(path, what):
-    d = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(d):
-        raise UsageError(f"{path}: cannot write the {what}: no such directory {d}")
-    if not os.access(d, os.W_OK):
-        raise UsageError(f"{path}: cannot write the {what}: directory {d} is not writable")
-
-
 class _Progress:
     def __init__(self, quiet):
         self.on = not quiet and sys.stderr.isatty()
@@ -232,6 +223,22 @@ def reconstruct_result(d: csid.Dump, extra=(), variance=None):
     return res
 
 
+def check_fits(req: csid.Dump, a, extra):
+    """Refuses (exit 2) before any rendering a reconstruction that cannot fit the device or the
+    host's memory, as csi-render does: the request's samples (RGB), with the positions, values
+    and variances held meanwhile."""
+    import csi
+
+    kw, device = reconstruction_options(extra)
+    n = len(req.xyt)
+    held = n * (12 + 12 + (12 if a.paths > 1 else 0))
+    try:
+        csi.reconstruct_check((*req.grid, *req.out), 3, n, device=csi.Device(device) if device else None,
+                              extra_host=held, input=a.request or a.scene, **kw)
+    except csi.CsiError as e:
+        raise ReconstructError(e) from None
+
+
 def refine_seed(seed: int, k: int = 0) -> int:
     """The paths' seed of refinement pass k (0: the second pass): one of their own, mixed with the
     run's, so that they are not an earlier pass's paths again in the same batches."""
@@ -298,7 +305,7 @@ class ReconstructError(Exception):
 
 
 def _write_json(path, obj):
-    with atomic.target(path) as tmp, open(tmp, "w") as f:
+    with open(path, "w") as f:
         json.dump(obj, f, indent=1)
 
 
@@ -349,31 +356,42 @@ def run(a, extra):
                                                                            "--time-steps above 1"))
     if not (a.output or a.png or a.dump or a.npy):
         raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
-    outs = [(a.output, "image"), (a.png, "preview"), (a.dump, "dump"), (a.npy, "array"), (a.stats, "statistics")]
-    for path, what in outs:
-        if path:
-            _check_writable(path, what)
     aov_paths = var_path = None
     if a.dump:
         stem = a.dump[:-5] if a.dump.endswith(".csid") else a.dump
         if a.paths > 1:  # each sample's variance beside its value (csi-reconstruct --variance)
             var_path = stem + ".variance.csid"
-            _check_writable(var_path, "variances")
         if a.aov:
             aov_paths = (stem + ".albedo.csid", stem + ".normal.csid")
-    # Two outputs on one path would leave only the last written; an output on an input would
-    # destroy it: both refused before any rendering.
-    files = [(path, what) for path, what in outs if path]
-    files += [(var_path, "variances")] if var_path else []
-    files += list(zip(aov_paths, ("albedo", "normals"))) if aov_paths else []
-    seen = {os.path.realpath(x): what for x, what in
-            ((a.scene, "scene"), (a.request, "request")) if x and os.path.exists(x)}
-    for path, what in files:
-        key = os.path.realpath(path)
-        if key in seen:
-            raise UsageError(f"{path}: the {what} would be written over the {seen[key]}")
-        seen[key] = what
+    outs = [(a.output, "the image (-o)"), (a.png, "the preview (--png)"), (a.dump, "the dump (--dump)"),
+            (a.npy, "the array (--npy)"), (a.stats, "the statistics (--stats)"),
+            (var_path, "the variances (beside --dump)")]
+    outs += list(zip(aov_paths, ("the albedo (--aov)", "the normals (--aov)"))) if aov_paths else []
+    # Every output stated before any rendering (its directory, not a directory itself, not an
+    # input, not another output), and written all or nothing after it: csi's programs' rule.
+    import csi
 
+    with csi.OutputSet(inputs=[a.scene, a.request]) as files:
+        try:
+            for path, what in outs:
+                if path:
+                    files.file(path, what)
+        except csi.CsiError as e:
+            raise UsageError(str(e)) from None
+        summary = _run(a, extra, prog, files, var_path, aov_paths)
+        try:
+            files.commit()
+        except csi.CsiError as e:
+            raise ReconstructError(e) from None
+    if not a.quiet:
+        print(summary, file=sys.stderr)
+    return 0
+
+
+def _run(a, extra, prog, files, var_path, aov_paths):
+    """The work of run(), every output written to its temporary name in `files`; returns the
+    summary line."""
+    tmp = lambda path: files.tmp(path) if path else None  # noqa: E731
     req = None
     if a.request:
         req = csid.read(a.request, want="request")
@@ -395,24 +413,24 @@ def run(a, extra):
         t_ref = time.perf_counter() - t0
         prog.end()
         if a.output:
-            exr.write(a.output, ref)
+            exr.write(tmp(a.output), ref)
         if a.npy:
             import numpy as np
 
-            with atomic.target(a.npy, suffix=".npy") as tmp:
-                np.save(tmp, ref)
+            with open(tmp(a.npy), "wb") as f:
+                np.save(f, ref)
         if a.stats:
-            _write_json(a.stats, {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
+            _write_json(tmp(a.stats), {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
                                   "seed": a.seed, "t_load_s": t_load, "t_render_s": t_ref,
                                   "per_path_us": 1e6 * t_ref / (a.reference * size[0] * size[1])})
-        if not a.quiet:
-            print(f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {a.reference} spp, box filter: {t_ref:.2f} s "
-                  f"-> {a.output or a.npy}", file=sys.stderr)
-        return 0
+        return (f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {a.reference} spp, box filter: {t_ref:.2f} s "
+                f"-> {a.output or a.npy}")
 
     if req is None:
         req = mb.positions_request(size, spp=a.spp, grid=a.grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
     seed = a.seed if not a.request else req.seed
+    if a.refine or a.output or a.png:
+        check_fits(req, a, extra)
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
                           progress=lambda d, n: prog("samples", d, n))
     prog.end()
@@ -434,43 +452,40 @@ def run(a, extra):
         stats["reconstruction"] = dict(refined_result.stats)
         try:
             if a.output:
-                refined_result.write_exr(a.output)
+                refined_result.write_exr(tmp(a.output))
             if a.png:
-                refined_result.write_png(a.png)
+                refined_result.write_png(tmp(a.png))
         except csi.CsiError as e:
             raise ReconstructError(e) from None
     elif a.output or a.png:
         t0 = time.perf_counter()
-        stats["reconstruction"] = reconstruct(dump, a.output, a.png, extra=extra,
+        stats["reconstruction"] = reconstruct(dump, tmp(a.output), tmp(a.png), extra=extra,
                                                 variance=s.variance if a.variance_peaks else None)
         t_recon = time.perf_counter() - t0
-    # The samples last: a failed reconstruction leaves no dump behind either.
     if a.dump:
-        csid.write(a.dump, dump)
+        csid.write(tmp(a.dump), dump)
         if aov_paths:
-            csid.write(aov_paths[0], req.with_values(s.albedo))
-            csid.write(aov_paths[1], req.with_values(s.normal))
+            csid.write(tmp(aov_paths[0]), req.with_values(s.albedo))
+            csid.write(tmp(aov_paths[1]), req.with_values(s.normal))
         if var_path and s.variance is not None:
-            csid.write(var_path, req.with_values(s.variance))
+            csid.write(tmp(var_path), req.with_values(s.variance))
     if a.stats:
-        _write_json(a.stats, stats)
-    if not a.quiet:
-        t = s.timing
-        msg = (f"{PROG}: {scene.name} {req.out[0]}x{req.out[1]}: {len(req.xyt)} samples x {a.paths} path"
-               f"{'s' if a.paths > 1 else ''} on a {req.grid[0]}x{req.grid[1]}x{req.grid[2]} grid; Mitsuba "
-               f"{t['render_s']:.2f} s ({t['per_sample_us']:.2f} us/sample, {t['per_path_us']:.3f} us/path; "
-               f"first call {t['jit_s']:.2f} s apart)")
-        if refined is not None:
-            passes = refined["passes"]
-            msg += (f"; refine: {refined['cells']} more samples at {refined['pixels']} pixels"
-                    + (f" in {len(passes)} passes" if len(passes) > 1 else "")
-                    + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else ""))
-        if t_recon is not None:
-            msg += f", csi {t_recon:.2f} s"
-        if s.nonfinite:
-            msg += f"; warning: {s.nonfinite} NaN/Inf paths counted as 0"
-        print(msg, file=sys.stderr)
-    return 0
+        _write_json(tmp(a.stats), stats)
+    t = s.timing
+    msg = (f"{PROG}: {scene.name} {req.out[0]}x{req.out[1]}: {len(req.xyt)} samples x {a.paths} path"
+           f"{'s' if a.paths > 1 else ''} on a {req.grid[0]}x{req.grid[1]}x{req.grid[2]} grid; Mitsuba "
+           f"{t['render_s']:.2f} s ({t['per_sample_us']:.2f} us/sample, {t['per_path_us']:.3f} us/path; "
+           f"first call {t['jit_s']:.2f} s apart)")
+    if refined is not None:
+        passes = refined["passes"]
+        msg += (f"; refine: {refined['cells']} more samples at {refined['pixels']} pixels"
+                + (f" in {len(passes)} passes" if len(passes) > 1 else "")
+                + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else ""))
+    if t_recon is not None:
+        msg += f", csi {t_recon:.2f} s"
+    if s.nonfinite:
+        msg += f"; warning: {s.nonfinite} NaN/Inf paths counted as 0"
+    return msg
 
 
 def main(argv=None):
@@ -491,6 +506,9 @@ def main(argv=None):
     except (programs.ProgramError, ReconstructError) as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return e.code
+    except OSError as e:  # a write that failed after the checks (a full disk): the outputs were removed
+        print(f"{PROG}: error: {e.filename + ': ' if e.filename else ''}{e.strerror or e}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
