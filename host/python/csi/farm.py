@@ -19,6 +19,7 @@ partials travel through Dask, and nothing is written next to the outputs until t
 """
 
 import argparse
+import functools
 import json
 import os
 import shlex
@@ -34,6 +35,22 @@ class FarmError(RuntimeError):
     """A csi program failed (its one-line message), or the farm was misused."""
 
 
+class Refused:
+    """What a task returns when its csi program refused its input (exit status 2: a bad dump,
+    scene or option): the same on any worker, so it is handed back as a value, neither run
+    again (--retries) nor logged by the worker as a failed task; the client raises it."""
+
+    def __init__(self, message):
+        self.message = message
+
+
+def _value(res):
+    """A task's result, or FarmError with the program's line when it refused its input."""
+    if isinstance(res, Refused):
+        raise FarmError(res.message)
+    return res
+
+
 # ---- what runs on a worker --------------------------------------------------------------------
 
 def _die_with_parent():
@@ -46,19 +63,37 @@ def _die_with_parent():
         pass
 
 
+class _BadInput(FarmError):
+    """The program exited with status 2: its input or options are bad."""
+
+
 def _run(cmd):
     p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_die_with_parent)
     if p.returncode != 0:
         msg = p.stderr.decode(errors="replace").strip().splitlines()
-        raise FarmError(msg[-1] if msg else f"{shlex.join(cmd)} exited with {p.returncode}")
+        msg = msg[-1] if msg else f"{shlex.join(cmd)} exited with {p.returncode}"
+        raise _BadInput(msg) if p.returncode == 2 else FarmError(msg)
     return p.stdout
 
 
+def _refusable(task):
+    """A task whose program's refusal (exit 2) is returned as Refused instead of raised."""
+    @functools.wraps(task)
+    def run(*args):
+        try:
+            return task(*args)
+        except _BadInput as e:
+            return Refused(str(e))
+    return run
+
+
+@_refusable
 def task_info(program, source, args):
     """The layout and the whole problem's scale of one dump: csi-reconstruct --tile-info."""
     return json.loads(_run([program, source, "--tile-info", "-q"] + list(args)))
 
 
+@_refusable
 def task_tile(program, source, index, count, scale, args, scratch=None):
     """One tile's partial, as bytes (written in a private directory under `scratch`, which is
     then removed; a worker killed meanwhile leaves it to whoever removes `scratch`)."""
@@ -77,6 +112,7 @@ def task_tile(program, source, index, count, scale, args, scratch=None):
         shutil.rmtree(d, ignore_errors=True)
 
 
+@_refusable
 def task_render(program, scene, dump, args):
     """Traces a scene into a dump (csi-render --dump; the per-pixel mean it also writes is
     discarded): the input of that scene's tiles."""
@@ -95,6 +131,11 @@ def find_programs(bin_dir=None):
     """Paths of csi-reconstruct, csi-render and csi-merge: bin_dir, $CSI_BIN, the build directory
     of this checkout, then $PATH."""
     here = os.path.dirname(os.path.abspath(__file__))
+    if bin_dir:  # given: the programs there, or an error (not some other build's)
+        missing = [n for n in ("csi-reconstruct", "csi-render", "csi-merge")
+                   if not os.access(os.path.join(bin_dir, n), os.X_OK)]
+        if missing:
+            raise FarmError(f"{bin_dir}: --bin holds no {', '.join(missing)}")
     dirs = [bin_dir, os.environ.get("CSI_BIN"), os.path.join(here, "..", "..", "..", "build")]
     out = {}
     for name in ("csi-reconstruct", "csi-render", "csi-merge"):
@@ -128,12 +169,24 @@ class Progress:
             self.stream.flush()
 
 
-def _client(scheduler=None, workers=None):
-    """A client of the scheduler at `scheduler`, or of a new LocalCluster with `workers` worker
-    processes (one thread each: a tile already uses every core through PoCL) on 127.0.0.1."""
+#: Seconds to wait for a --scheduler to answer before giving up.
+CONNECT_TIMEOUT = 10
+
+
+def _client(scheduler=None, workers=None, timeout=CONNECT_TIMEOUT):
+    """A client of the scheduler at `scheduler` (FarmError when it does not answer within
+    `timeout` seconds), or of a new LocalCluster with `workers` worker processes (one thread
+    each: a tile already uses every core through PoCL) on 127.0.0.1."""
     from distributed import Client, LocalCluster
     if scheduler:
-        return Client(scheduler), None
+        try:
+            return Client(scheduler, timeout=timeout), None
+        except (OSError, TimeoutError, ValueError, TypeError) as e:
+            reason = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            if isinstance(e, (ValueError, TypeError)):
+                raise FarmError(f"--scheduler {scheduler}: not a scheduler address ({reason})") from None
+            raise FarmError(f"--scheduler {scheduler}: no Dask scheduler answered within {timeout:g} s "
+                            f"({reason})") from None
     n = workers or max(1, (os.cpu_count() or 2) // 2)
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address=None)
@@ -158,6 +211,33 @@ def _merge(progs, partials, output, png, frames_dir, stats, quiet):
         shutil.rmtree(d, ignore_errors=True)
 
 
+def _check_input(path, what):
+    """An input the workers will read, checked here first (the same path on a shared file system)."""
+    if os.path.isdir(path):
+        raise FarmError(f"{path}: cannot open the {what}: a directory")
+    if not os.path.isfile(path):
+        raise FarmError(f"{path}: cannot open the {what}: " + ("not a regular file" if os.path.exists(path)
+                                                               else "No such file or directory"))
+
+
+def _check_outputs(inputs, files, dirs=()):
+    """The outputs csi-merge will write, checked before any task by the rule of csi's programs
+    (csi.OutputSet: a directory that exists and is writable, not a directory itself, not one of
+    the inputs, not another output), so that a run that cannot write them fails at once."""
+    import csi
+
+    try:
+        with csi.OutputSet(inputs=inputs) as outs:
+            for path, what in files:
+                if path:
+                    outs.file(path, what)
+            for path, what in dirs:
+                if path:
+                    outs.dir(path, what)
+    except csi.CsiError as e:
+        raise FarmError(str(e)) from None
+
+
 def _submit_tiles(client, progs, source, info, args, retries, scratch):
     n = int(info["tiles"])
     scale = info.get("tile_scale") or ""
@@ -177,26 +257,31 @@ def _scratch(client):
 
 
 def reconstruct(dump, output=None, *, png=None, frames_dir=None, stats=None, tiles=None, options=(),
-                client=None, scheduler=None, workers=None, bin_dir=None, retries=2, quiet=False):
+                client=None, scheduler=None, workers=None, bin_dir=None, retries=2, quiet=False,
+                connect_timeout=CONNECT_TIMEOUT):
     """Reconstructs one dump in tiles on a Dask cluster and writes the outputs with csi-merge.
     `options` are csi-reconstruct's reconstruction options (a list of arguments). Returns the
     layout (the --tile-info JSON as a dict)."""
     progs = find_programs(bin_dir)
     dump = os.path.abspath(dump)
+    _check_input(dump, "sample dump")
+    _check_outputs([dump], [(output, "the image (-o)"), (png, "the preview (--png)"),
+                            (stats, "the statistics (--stats)")], [(frames_dir, "the frames (--frames)")])
     args = list(options) + (["--tiles", str(tiles)] if tiles else []) + (["--partial-frames"] if frames_dir else [])
     own = None
     if client is None:
-        client, own = _client(scheduler, workers)
+        client, own = _client(scheduler, workers, connect_timeout)
     scratch = _scratch(client)
     try:
         from distributed import as_completed
-        info = client.submit(task_info, progs["csi-reconstruct"], dump, args, pure=False, retries=retries).result()
+        info = _value(client.submit(task_info, progs["csi-reconstruct"], dump, args, pure=False,
+                                    retries=retries).result())
         futs = _submit_tiles(client, progs, dump, info, args, retries, scratch)
         prog = Progress(len(futs), quiet)
         index = {f.key: i for i, f in enumerate(futs)}
         parts = [None] * len(futs)
         for f in as_completed(futs):
-            parts[index[f.key]] = f.result()
+            parts[index[f.key]] = _value(f.result())
             prog.step(f"{os.path.basename(dump)} tile {index[f.key]}")
         _merge(progs, parts, output, png, frames_dir, stats, quiet)
         return info
@@ -210,7 +295,7 @@ def reconstruct(dump, output=None, *, png=None, frames_dir=None, stats=None, til
 
 def render(scenes, output_pattern, *, render_options=(), options=(), png_pattern=None, frames_pattern=None,
            tiles=None, work_dir=None, client=None, scheduler=None, workers=None, bin_dir=None, retries=2,
-           quiet=False):
+           quiet=False, connect_timeout=CONNECT_TIMEOUT):
     """Renders and reconstructs every scene (the frames of an animation): one csi-render --dump
     task per scene, then the tiles of its dump, each scene merged when its tiles are in. Output
     patterns take the frame number (the scene's position in `scenes`) as %d. The dumps go to
@@ -219,13 +304,25 @@ def render(scenes, output_pattern, *, render_options=(), options=(), png_pattern
     progs = find_programs(bin_dir)
     own_dir = work_dir is None
     args = list(options) + (["--tiles", str(tiles)] if tiles else []) + (["--partial-frames"] if frames_pattern else [])
-    fill = (lambda pat, i: (pat % i) if pat and "%" in pat else pat)
+    def fill(pat, i):
+        try:
+            return (pat % i) if pat and "%" in pat else pat
+        except (TypeError, ValueError) as e:
+            raise FarmError(f"{pat}: not a pattern with one frame number (%d, %04d ...): {e}") from None
+
     outputs = [fill(output_pattern, i) for i in range(len(scenes))]
     if len(set(outputs)) != len(outputs):
         raise FarmError(f"{output_pattern}: several scenes would write one output: put %d (the frame number) in it")
+    for sc in scenes:
+        _check_input(sc, "scene")
+    _check_outputs(scenes, [(path, what) for i in range(len(scenes)) for path, what in
+                            ((outputs[i], "the image (-o)"), (fill(png_pattern, i), "the preview (--png)"))],
+                   [(fill(frames_pattern, i), "the frames (--frames)") for i in range(len(scenes))])
+    if work_dir is not None and os.path.exists(work_dir) and not os.path.isdir(work_dir):
+        raise FarmError(f"{work_dir}: --work-dir is not a directory")
     own = None
     if client is None:
-        client, own = _client(scheduler, workers)
+        client, own = _client(scheduler, workers, connect_timeout)
     scratch = _scratch(client)
     work = tempfile.mkdtemp(prefix="csi-farm-") if own_dir else os.path.abspath(work_dir)
     os.makedirs(work, exist_ok=True)
@@ -243,7 +340,7 @@ def render(scenes, output_pattern, *, render_options=(), options=(), png_pattern
         parts, infos = {}, {}
         for f in pending:
             kind, i, extra = what.pop(f.key)
-            res = f.result()
+            res = _value(f.result())
             if kind == "render":
                 prog.step(f"{os.path.basename(scenes[i])} rendered")
                 g = client.submit(task_info, progs["csi-reconstruct"], res, args, pure=False, retries=retries)
@@ -276,18 +373,49 @@ def render(scenes, output_pattern, *, render_options=(), options=(), png_pattern
             shutil.rmtree(scratch, ignore_errors=True)
 
 
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse prints the usage too otherwise)
+        raise FarmError(message)
+
+
+def _count(lo):
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"'{text}' is not a whole number >= {lo}")
+        return v
+    return parse
+
+
+def _seconds(text):
+    try:
+        v = float(text)
+    except ValueError:
+        v = -1
+    if not 0 < v <= 3600:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds from 0 to 3600")
+    return v
+
+
 def main(argv=None):
-    ap = argparse.ArgumentParser(
+    ap = _Parser(
         prog="csi-farm",
         description="Tiles of a csi reconstruction, and frames of an animation, on a Dask cluster "
-                    "(a LocalCluster on this machine by default). Options after -- go to the csi programs.")
+                    "(a LocalCluster on this machine by default). Options after -- go to the csi programs. "
+                    "Exit status: 0 success, 2 bad input or usage, 1 other failure.")
     ap.add_argument("--scheduler", help="address of a Dask scheduler (default: start a LocalCluster on 127.0.0.1)")
-    ap.add_argument("--workers", type=int, help="worker processes of the LocalCluster (default: half the cores, at least 1)")
-    ap.add_argument("--tiles", type=int, help="tiles per image (default: as few as fit the memory budget)")
-    ap.add_argument("--retries", type=int, default=2, help="times a failed task is run again (default 2)")
+    ap.add_argument("--connect-timeout", type=_seconds, default=CONNECT_TIMEOUT, metavar="S",
+                    help=f"seconds to wait for --scheduler to answer (default {CONNECT_TIMEOUT})")
+    ap.add_argument("--workers", type=_count(1),
+                    help="worker processes of the LocalCluster (default: half the cores, at least 1)")
+    ap.add_argument("--tiles", type=_count(1), help="tiles per image (default: as few as fit the memory budget)")
+    ap.add_argument("--retries", type=_count(0), default=2, help="times a failed task is run again (default 2)")
     ap.add_argument("--bin", help="directory of csi-reconstruct, csi-render, csi-merge (default: $CSI_BIN, the build, $PATH)")
     ap.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
-    sub = ap.add_subparsers(dest="cmd", required=True)
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
     r = sub.add_parser("reconstruct", help="one dump, in tiles")
     r.add_argument("dump")
     r.add_argument("-o", "--output", required=True)
@@ -299,28 +427,35 @@ def main(argv=None):
     s.add_argument("-o", "--output", required=True, help="output path; %%d (or %%04d ...) is the frame number")
     s.add_argument("--png", help="preview path pattern")
     s.add_argument("--frames", help="directory pattern for every frame of a moving scene's volume")
-    s.add_argument("--spp", type=int, help="samples per pixel (csi-render --spp)")
-    s.add_argument("--seed", type=int, help="csi-render --seed")
+    s.add_argument("--spp", type=_count(1), help="samples per pixel (csi-render --spp)")
+    s.add_argument("--seed", type=_count(0), help="csi-render --seed")
     s.add_argument("--work-dir", help="directory for the dumps, reachable by every worker (default: a temporary one)")
     argv = sys.argv[1:] if argv is None else list(argv)
     extra = []
     if "--" in argv:
         k = argv.index("--")
         argv, extra = argv[:k], argv[k + 1:]
-    a = ap.parse_args(argv)
     try:
+        a = ap.parse_args(argv)
         if a.cmd == "reconstruct":
             reconstruct(a.dump, a.output, png=a.png, frames_dir=a.frames, stats=a.stats, tiles=a.tiles,
                         options=extra, scheduler=a.scheduler, workers=a.workers, bin_dir=a.bin,
-                        retries=a.retries, quiet=a.quiet)
+                        retries=a.retries, quiet=a.quiet, connect_timeout=a.connect_timeout)
         else:
             ropts = (["--spp", str(a.spp)] if a.spp else []) + (["--seed", str(a.seed)] if a.seed is not None else [])
             render(a.scenes, a.output, render_options=ropts, options=extra, png_pattern=a.png,
                    frames_pattern=a.frames, tiles=a.tiles, work_dir=a.work_dir, scheduler=a.scheduler,
-                   workers=a.workers, bin_dir=a.bin, retries=a.retries, quiet=a.quiet)
+                   workers=a.workers, bin_dir=a.bin, retries=a.retries, quiet=a.quiet,
+                   connect_timeout=a.connect_timeout)
     except FarmError as e:
         sys.stderr.write(f"csi-farm: error: {e}\n")
         return 2
+    except OSError as e:
+        sys.stderr.write(f"csi-farm: error: {e.filename + ': ' if e.filename else ''}{e.strerror or e}\n")
+        return 1
+    except KeyboardInterrupt:
+        sys.stderr.write("csi-farm: interrupted\n")
+        return 130
     return 0
 
 
