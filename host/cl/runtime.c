@@ -212,6 +212,32 @@ static csi_status setup_caches(void)
     return CSI_OK;
 }
 
+/* The settings the library reads from the environment beside CSI_CACHE_DIR and CSI_DEVICE,
+ * checked when a device is made: a value they cannot mean is refused then, in one line naming
+ * it, rather than read as something else (CSI_HOST_THREADS=four as one thread). */
+static bool whole_number(const char *text, unsigned long long lo)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(text, &end, 10);
+    return isdigit((unsigned char)text[0]) && *end == '\0' && !errno && v >= lo;
+}
+
+static csi_status check_settings(void)
+{
+    const char *v = getenv("CSI_HOST_THREADS");
+    if (v && *v && !whole_number(v, 1))
+        return csi_fail(CSI_ERR_ARG, "CSI_HOST_THREADS=%.40s is not a number of threads (1 or more); unset it for "
+                                     "the host's cores", v);
+    v = getenv("CSI_PROGRAM_CACHE");
+    if (v && *v && strcmp(v, "0") && strcmp(v, "1"))
+        return csi_fail(CSI_ERR_ARG, "CSI_PROGRAM_CACHE=%.40s is neither 0 (off) nor 1 (on, the default)", v);
+    v = getenv("CSI_HOST_MEMORY_LIMIT");
+    if (v && *v && !whole_number(v, 1))
+        return csi_fail(CSI_ERR_ARG, "CSI_HOST_MEMORY_LIMIT=%.40s is not a number of bytes (1 or more)", v);
+    return CSI_OK;
+}
+
 typedef struct {
     cl_platform_id platform;
     cl_device_id device;
@@ -278,6 +304,7 @@ csi_status csi_list_devices(char *buf, size_t len)
 csi_status csi_ctx_create(csi_ctx **out, const char *spec)
 {
     *out = NULL;
+    CSI_TRY(check_settings());
     CSI_TRY(setup_caches());
     if (!spec || !*spec)
         spec = getenv("CSI_DEVICE");

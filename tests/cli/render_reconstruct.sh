@@ -120,6 +120,16 @@ CSI_PROGRAM_CACHE=0 expect_fail "render --cache-programs, cache off" "program ca
 # start and the program would say that no device was found
 CSI_CACHE_DIR="$good/cache" expect_fail "cache folder not writable" "cannot keep kernel caches in $good/cache/" \
     "$B/csi-reconstruct" "$good" -o "$T/out.exr"
+# settings the library reads from the environment: a value they cannot mean is refused, not read
+# as another (CSI_HOST_THREADS=abc ran on one thread, =-3 too; CSI_PROGRAM_CACHE=no kept it on)
+for setting in CSI_HOST_THREADS=abc CSI_HOST_THREADS=-3 CSI_HOST_THREADS=0 CSI_PROGRAM_CACHE=no \
+               CSI_HOST_MEMORY_LIMIT=2G; do
+    export "$setting"
+    expect_fail "$setting" "$setting is" "$B/csi-reconstruct" "$good" -o "$T/out.exr"
+    unset "${setting%%=*}"
+done
+CSI_HOST_THREADS=abc expect_fail "render: CSI_HOST_THREADS=abc" "CSI_HOST_THREADS=abc is" \
+    "$B/csi-render" "$static" -o "$T/out.exr"
 printf 'camera { position 0 0 -2 target 0 0 0 up 0 1 0 fov 40 size 8 8 }\nbogus 1 2 3\n' > "$T/bad.scene"
 expect_fail "scene error" "bad.scene:2:1" "$B/csi-render" "$T/bad.scene" -o "$T/out.exr"
 expect_fail "missing scene" "nothere.scene" "$B/csi-render" "$T/nothere.scene" -o "$T/out.exr"
