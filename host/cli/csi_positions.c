@@ -136,35 +136,57 @@ int main(int argc, char **argv)
     csi_pos_opts popts = {.method = method, .spp = (uint32_t)spp, .fraction = fraction, .seed = seed};
     csi_sample_pos *pos = NULL;
     size_t n = 0;
+    /* The output stated before work, as every program's (a directory, a missing or unwritable
+     * folder refused now), and written whole or not at all. */
+    csi_outset *set = NULL;
+    s = cli_outset_new(&set);
+    if (s == CSI_OK)
+        s = csi_outset_file(set, output, "the request (-o)");
+    if (s != CSI_OK) {
+        cli_outset_free(set);
+        return cli_error(prog, s, "%s", cli_last_error());
+    }
+    int rc = 0;
     /* Sizes before work: the positions and the request's records must fit the host. */
     uint64_t need = 0, avail = csi_host_available_bytes();
     s = csi_positions_host_bytes(&grid, &popts, &need);
     if (s == CSI_OK)
         s = csi_positions_count(&grid, &popts, &n);
-    if (s != CSI_OK)
-        return cli_error(prog, s, "%s", cli_last_error());
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s", cli_last_error());
+        goto done;
+    }
     need += 12 * (uint64_t)n;
     if (avail && need > avail) {
         char a[32], b[32];
-        return cli_error(prog, CSI_ERR_TOO_LARGE, "%s: %zu positions on a %ux%ux%u grid need %s of host memory, more "
-                         "than the %s available", output, n, grid.w, grid.h, grid.t, csi_bytes_text(need, a, sizeof a),
-                         csi_bytes_text(avail, b, sizeof b));
+        rc = cli_error(prog, CSI_ERR_TOO_LARGE, "%s: %zu positions on a %ux%ux%u grid need %s of host memory, more "
+                       "than the %s available", output, n, grid.w, grid.h, grid.t, csi_bytes_text(need, a, sizeof a),
+                       csi_bytes_text(avail, b, sizeof b));
+        goto done;
     }
     cli_progress bar;
-    if (!cli_progress_init(&bar, prog, quiet))
-        return cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
+    if (!cli_progress_init(&bar, prog, quiet)) {
+        rc = cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());
+        goto done;
+    }
     s = csi_positions_with_progress(&grid, &popts, &pos, &n, NULL, on_positions, &bar);
     cli_progress_end(&bar);
-    if (s != CSI_OK)
-        return cli_error(prog, s, "%s", cli_last_error());
-    csi_dump req = {.grid = grid, .channels = 0, .seed = seed, .count = n, .pos = pos, .values = NULL};
-    s = csi_dump_write(output, &req);
-    csi_free(pos);
-    if (s != CSI_OK)
-        return cli_error(prog, s, "%s", cli_last_error());
+    if (s == CSI_OK) {
+        csi_dump req = {.grid = grid, .channels = 0, .seed = seed, .count = n, .pos = pos, .values = NULL};
+        s = cli_write_dump(set, output, &req);
+    }
+    if (s == CSI_OK)
+        s = csi_outset_commit(set);
+    if (s != CSI_OK) {
+        rc = cli_error(prog, s, "%s", cli_last_error());
+        goto done;
+    }
     if (!quiet)
         fprintf(stderr, "%s: %zu %s positions on a %ux%ux%u grid (%llux) for %ux%u, seed %llu -> %s\n", prog, n,
                 csi_pos_method_name(method), grid.w, grid.h, grid.t, (unsigned long long)factor, out_w, out_h,
                 (unsigned long long)seed, output);
-    return 0;
+done:
+    csi_free(pos);
+    cli_outset_free(set);
+    return rc;
 }

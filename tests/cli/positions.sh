@@ -63,6 +63,15 @@ expect_fail "more samples than cells" "cells" "$P" --out 32x32 --grid 32 --spp 2
 expect_fail "unknown method" "poisson" "$P" --out 32x32 --method sobol -o "$T/out.csid"
 expect_fail "bad fraction" "--fraction" "$P" --out 32x32 --fraction 1.5 -o "$T/out.csid"
 expect_fail "unwritable output" "no-such-dir" "$P" --out 32x32 -o "$T/no-such-dir/out.csid"
+# the output stated before work, as every program's (it was: 'write failed' after the positions)
+mkdir "$T/sub"
+expect_fail "a directory as the output" "is a directory" "$P" --out 32x32 -o "$T/sub"
+expect_fail "'.' as the output" "is a directory" "$P" --out 32x32 -o "$T/sub/."
+# written whole or not at all: a failure of its write, or of its rename into place, leaves nothing
+for n in 1 2; do
+    CSI_FAIL_OUTPUT=$n "$P" --out 32x32 -o "$T/sub/r.csid" -q 2> /dev/null
+    check "[[ $? == 2 && -z \"\$(ls -A '$T/sub')\" ]]" "output event $n failing left: $(ls -A "$T/sub")"
+done
 expect_fail "stray argument" "stray" "$P" --out 32x32 -o "$T/out.csid" stray
 expect_fail "unknown option" "--bogus" "$P" --out 32x32 -o "$T/out.csid" --bogus
 
