@@ -247,6 +247,7 @@ int main(int argc, char **argv)
     bool quiet = false, drop = false, seed_given = false, cache_programs = false;
     const char *device = NULL, *varfile = NULL, *refine = NULL, *refine_with = NULL;
     double refine_share = csi_refine_share_default();
+    bool share_given = false;
     int c, rc = 0;
     opterr = 0;
     struct option *all_opts = cli_longopts_with_recon(longopts);
@@ -266,6 +267,7 @@ int main(int argc, char **argv)
         case O_REFINE_WITH: refine_with = optarg; break;
         case O_REFINE_SHARE: {
             char *end;
+            share_given = true;
             refine_share = strtod(optarg, &end);
             if (end == optarg || *end || !(refine_share > 0 && refine_share <= 1))
                 rc = cli_error(prog, CSI_ERR_ARG, "--refine-share: '%s' is not a number with 0 < S <= 1", optarg);
@@ -334,6 +336,8 @@ int main(int argc, char **argv)
     if (!rc && refine && refine_with)
         rc = cli_error(prog, CSI_ERR_ARG, "--refine-request and --refine-with: the first pass asks, the second "
                        "applies; give one");
+    if (!rc && share_given && !refine && !refine_with) /* as csi-mitsuba: an option with nothing to act on */
+        rc = cli_error(prog, CSI_ERR_ARG, "--refine-share applies to --refine-request or --refine-with only");
     if (rc) {
         csi_options_free(opt);
         free(found);

@@ -50,7 +50,8 @@ for args in "$T/m.csid --refine-request $T/x.csid" "$T/d.csid --refine-request $
             "$T/d.csid --refine-request $T/x.csid --tile 1/2" \
             "$T/d.csid --refine-request $T/x.csid --estimator mean" \
             "$T/m.csid --refine-with $T/m.csid" "$T/d.csid --refine-with $T/q.csid" \
-            "$T/d.csid --refine-request $T/x.csid --refine-with $T/d.csid"; do
+            "$T/d.csid --refine-request $T/x.csid --refine-with $T/d.csid" \
+            "$T/d.csid --refine-share 0.1"; do
     rm -f "$T/x.exr"
     $R $args -o "$T/x.exr" 2> "$T/err"
     rc=$?
