@@ -416,7 +416,7 @@ static csi_status store_number(const row *r, double d, bool ok, const char *text
         if (r->flags & F_WHOLE1)
             return csi_fail(CSI_ERR_ARG, "%s: '%s' is neither a fraction in (0, 1) nor a whole count%s",
                             r->name, v, extra);
-        return csi_fail(CSI_ERR_ARG, "%s: '%s' is not a %s in [%g, %g]%s", r->name, v,
+        return csi_fail(CSI_ERR_ARG, "%s: '%s' is not a %s in [%.12g, %.12g]%s", r->name, v,
                         whole ? "whole number" : "number", r->lo, r->hi, extra);
     }
     if ((r->flags & F_OFF) && d < 0)

@@ -127,6 +127,11 @@ int main(void)
     }
     CHECK(csi_recon_option_set(&o, "no-such", "1") == CSI_ERR_ARG && strstr(csi_last_error(), "no-such"),
           "unknown name");
+    /* a refusal names the range as a user types it (it was [1, 1.04858e+06] for --tiles) */
+    CHECK(csi_recon_option_set(&o, "tiles", "2000000") == CSI_ERR_ARG && strstr(csi_last_error(), "[1, 1048576]"),
+          "tiles 2000000: %s", csi_last_error());
+    CHECK(csi_recon_option_set(&o, "lambda", "abc") == CSI_ERR_ARG && strstr(csi_last_error(), "[1e-12, 1000000]"),
+          "lambda abc: %s", csi_last_error());
 
     /* Resolution. Alg. 1, SpaRSA: 64x64 grid, 16x16 output, n = 600 samples (spp 2.34). */
     csi_grid still = {64, 64, 1, 16, 16};
