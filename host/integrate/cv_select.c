@@ -49,26 +49,32 @@ csi_status csi_cv_folds(const csi_grid *g, const csi_sample_pos *pos, size_t n, 
 }
 
 /* Marks (in `lose`) the pixels of the regions of side r whose sums of d[.][0] and of d[.][1] are
- * both above CSI_CV_Z times the root of their sums of squares. */
-static csi_status mark_regions(const csi_grid *g, const double *d, uint32_t r, uint8_t *lose)
+ * both above CSI_CV_Z times the root of their sums of squares. The regions are those of an image
+ * whose pixel (0, 0) is this one's (ox, oy): a tile's window cut from a larger image makes the
+ * larger image's regions, cut at the window's sides. */
+static csi_status mark_regions(const csi_grid *g, uint32_t ox, uint32_t oy, const double *d, uint32_t r,
+                               uint8_t *lose)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
-    const size_t rw = (g->out_w + r - 1) / r, rh = (g->out_h + r - 1) / r;
+    const uint32_t sx = ox % r, sy = oy % r;
+    const size_t rw = (g->out_w + sx + r - 1) / r, rh = (g->out_h + sy + r - 1) / r;
     double *acc = calloc(rw * rh * 4, sizeof *acc); /* per region: sum and sum of squares, x2 */
     if (!acc)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu regions", rw * rh);
+#define REGION_OF(p) ((((p) / g->out_w + sy) / r) * rw + ((p) % g->out_w + sx) / r)
     for (size_t p = 0; p < np; p++) {
-        double *a = acc + ((p / g->out_w / r) * rw + (p % g->out_w) / r) * 4;
+        double *a = acc + REGION_OF(p) * 4;
         for (int k = 0; k < 2; k++) {
             a[k * 2] += d[p * 2 + k];
             a[k * 2 + 1] += d[p * 2 + k] * d[p * 2 + k];
         }
     }
     for (size_t p = 0; p < np; p++) {
-        const double *a = acc + ((p / g->out_w / r) * rw + (p % g->out_w) / r) * 4;
+        const double *a = acc + REGION_OF(p) * 4;
         if (a[0] > CSI_CV_Z * sqrt(a[1]) && a[2] > CSI_CV_Z * sqrt(a[3]))
             lose[p] = 1;
     }
+#undef REGION_OF
     free(acc);
     return CSI_OK;
 }
@@ -81,10 +87,25 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
                             switched);
 }
 
+static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const csi_sample_pos *pos, size_t n,
+                            const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
+                            const float *cA, const float *cB, uint32_t region, uint32_t channels,
+                            const float *values, float *image, size_t *switched);
+
 csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t n, const uint8_t *fold,
                             uint32_t fold_channels, const float *fold_values, const float *cA,
                             const float *cB, uint32_t region, uint32_t channels, const float *values,
                             float *image, size_t *switched)
+{
+    return choose_at(g, 0, 0, pos, n, fold, fold_channels, fold_values, cA, cB, region, channels, values, image,
+                     switched);
+}
+
+/* csi_cv_choose_on with the regions of an image whose pixel (0, 0) is this one's (ox, oy). */
+static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const csi_sample_pos *pos, size_t n,
+                            const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
+                            const float *cA, const float *cB, uint32_t region, uint32_t channels,
+                            const float *values, float *image, size_t *switched)
 {
     if (switched)
         *switched = 0;
@@ -124,9 +145,9 @@ csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t
         }
     }
     if (s == CSI_OK)
-        s = mark_regions(g, d, region, lose);
+        s = mark_regions(g, ox, oy, d, region, lose);
     if (s == CSI_OK)
-        s = mark_regions(g, d, 2 * region, lose);
+        s = mark_regions(g, ox, oy, d, 2 * region, lose);
     size_t sw = 0;
     for (size_t p = 0; p < np && s == CSI_OK; p++) {
         const uint32_t nt = cnt[p * 2] + cnt[p * 2 + 1];
@@ -200,6 +221,13 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
                                const float *values, size_t n, const csi_recon_options *opt,
                                csi_recon_result *out)
 {
+    return csi_recon_cv_select_at(ctx, g, 0, 0, channels, pos, values, n, opt, out);
+}
+
+csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, uint32_t oy, uint32_t channels,
+                                  const csi_sample_pos *pos, const float *values, size_t n,
+                                  const csi_recon_options *opt, csi_recon_result *out)
+{
     /* Below 2 samples per pixel on average each fold's reconstruction is made from under one
      * sample per pixel, a regime so unlike the whole's that its loss against the mean says little
      * about the whole's (docs/bench/mitsuba.md: Poisson-disk cells at 1 spp); nothing is done. */
@@ -233,8 +261,8 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
         if (s == CSI_OK)
             s = fold_image(ctx, g, fc, pos, fv, n, fold, 1, opt, out, &b);
         if (s == CSI_OK)
-            s = csi_cv_choose_on(g, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values,
-                                 out->image, &out->cv_switched);
+            s = choose_at(g, ox, oy, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values, out->image,
+                          &out->cv_switched);
     }
     free(mean);
     free(a);

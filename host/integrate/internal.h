@@ -75,6 +75,11 @@ csi_status csi_recon_crop(csi_recon_result *r, uint32_t out_w, uint32_t out_h, u
 csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                                const float *values, size_t n, const csi_recon_options *opt,
                                csi_recon_result *out);
+/* The same on a tile's window cut from a larger image at output pixel (ox, oy): the choice's
+ * regions are the larger image's (tiled.c). */
+csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, uint32_t oy, uint32_t channels,
+                                  const csi_sample_pos *pos, const float *values, size_t n,
+                                  const csi_recon_options *opt, csi_recon_result *out);
 
 /* The image of a volume's result `out` (reconstructed whole from all n samples with opt) chosen
  * per region between it and binned solves' by two-fold cross-validation (motion_image.c); the

@@ -156,9 +156,10 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
      * cross-validated choice (csi/cv_select.h), a volume's image chosen against binned solves'
      * (motion_image.c), then isolated peaks by the log fit (csi/peak_range.h), which comes after the
      * choice since the choice compares the blend with the mean and knows nothing of it. A tile (a
-     * job of its own, csi/tiles.h) sees its window only, so a tiled run goes without them (its
-     * options say off: csi_recon_reported). */
-    int cs = out->options.estimator == CSI_EST_CS;
+     * job of its own, csi/tiles.h) sees its window only: a tiled run's tiles made the choice in
+     * their windows (tiled.c), and it goes without the other two (its options say off:
+     * csi_recon_reported). */
+    int cs = out->options.estimator == CSI_EST_CS && tl.count == 1;
     const struct {
         whole_step fn;
         csi_switch *on;
@@ -208,8 +209,11 @@ csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *
 {
     if (tl->count > 1) {
         CSI_TRY(csi_recon_resolve(given, &tl->grid, n, out));
-        /* the steps on the whole result: a tile sees its window only (csi_recon) */
-        csi_switch *steps[] = {&out->cv_select, &out->motion_image_cv, &out->peak_range};
+        /* the steps on the whole result: a tile sees its window only (csi_recon); the
+         * cross-validated choice, if on, was made in the tiles' windows */
+        csi_switch *steps[] = {&out->motion_image_cv, &out->peak_range};
+        if (tl->grid.t > 1)
+            out->cv_select = CSI_SWITCH_OFF;
         for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++)
             if (*steps[k] == CSI_SWITCH_ON)
                 *steps[k] = CSI_SWITCH_OFF;

@@ -182,9 +182,9 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     if (o->correct == CSI_CORRECT_AUTO)
         o->correct = o->sample_flags & CSI_SAMPLES_EXACT ? CSI_CORRECT_CV : CSI_CORRECT_BLEND;
     /* The cross-validated choice (csi/cv_select.h): with the blend, the correction for noisy
-     * samples, on the whole image (a tile cannot see the whole's folds: reconstruct.c). */
+     * samples; on the whole image, or in each tile's window (tiled.c). */
     if (o->cv_select == CSI_SWITCH_AUTO)
-        o->cv_select = o->correct == CSI_CORRECT_BLEND && !scope ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+        o->cv_select = o->correct == CSI_CORRECT_BLEND ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
     /* Its folds on the channels' mean: a third of the folds' solves, and on Mitsuba's dumps the
      * MSE of folds per channel within 0.2% in 227 cells of 228 (docs/bench/mitsuba.md, session 19). */
     if (o->cv_channels == CSI_CV_CHANNELS_AUTO)

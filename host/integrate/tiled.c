@@ -185,6 +185,29 @@ static csi_status tile_peaks(const csi_tiling *tl, uint32_t index, uint32_t chan
     return s;
 }
 
+/* The cross-validated choice (csi/cv_select.h) in a tile's window, on the samples as given (unscaled,
+ * like the tile's result by now), before the window's empty pixels and peaks as in an untiled run.
+ * The folds are the window's samples, split as the whole image's are (a sample's fold depends on
+ * its own pixel only), each reconstructed as the window's one problem; the regions are the whole
+ * image's, cut at the window's sides. A region wholly inside the window is decided on the same
+ * samples as in the untiled run, though by folds of the window rather than of the whole, and a
+ * tile run alone (--tile I/N) decides as csi_recon's own tile does. */
+static csi_status tile_cv_select(csi_ctx *ctx, const csi_tiling *tl, uint32_t index, uint32_t channels,
+                                 const csi_sample_pos *pos, const float *values, size_t n,
+                                 const csi_recon_options *opt, csi_recon_result *r)
+{
+    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.cv_select != CSI_SWITCH_ON)
+        return CSI_OK;
+    tile_problem p;
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
+    csi_recon_options o = *opt;
+    o.tiles = 1; /* a fold is the window's problem, whatever the layout asked of the whole */
+    const csi_status s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], channels, p.pos,
+                                                p.values, p.n, &o, r);
+    tile_problem_free(&p);
+    return s;
+}
+
 /* Pixels without a sample next to an HDR step (csi/empty_pixels.h) in a tile's window, on the
  * samples as given, before the tile's peaks as in an untiled run. The rule looks two pixels around
  * a pixel (its neighbours and theirs), and a pixel a tile contributes with a weight above 0 lies
@@ -218,6 +241,8 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
+    if (s == CSI_OK && (s = tile_cv_select(ctx, tl, index, channels, pos, values, n, opt, &out->r)) != CSI_OK)
+        csi_tile_result_free(out);
     if (s == CSI_OK &&
         (s = tile_empty_pixels(tl, index, channels, pos, values, n, csi_ctx_row_pool(ctx), &out->r)) != CSI_OK)
         csi_tile_result_free(out);
@@ -615,6 +640,8 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     out->t_solve += r->t_solve;
     out->t_integrate += r->t_integrate;
     out->t_programs += r->t_programs;
+    out->t_cv += r->t_cv;
+    out->cv_switched += r->cv_switched;
     out->cpu_setup += r->cpu_setup;
     out->cpu_work += r->cpu_work;
     for (uint32_t c = 0; c < C && c < 4; c++)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Tiles on the command line (docs/tiles.md): a run tiled in one process, the same tiles run one
-# by one with --tile I/N (in any order, the scale given or computed) and blended by csi-merge,
+# by one with --tile I/N (in any order, the scale given or computed; noisy samples too, with the
+# cross-validated choice in each tile) and blended by csi-merge,
 # and csi-render tracing only each tile's samples, all give the same pixels, bit for bit (image
 # hashes in the statistics, frame PNGs byte for byte; csi-reconstruct's EXR and the merge's byte
 # for byte, attributes too), also for an image and a volume whose side or frame count the FFT
@@ -45,6 +46,38 @@ for i in 0 1 2 3; do
 done
 "$B/csi-merge" "$T"/r?.csip -o "$T/rm.exr" --stats "$T/rm.json" -q
 check "[[ '$(json "$T/rm.json" image_fnv1a64)' == '$ha' ]]" "csi-render's tiles differ from the tiled run"
+
+# --- noisy samples: the cross-validated choice in each tile's window --------------------------
+# Ambient occlusion of one ray makes the samples noisy (the blend and the choice apply) and two
+# small lamps leak into the fit, so the choice gives some regions their means; each tile makes it
+# in its window, and a tile run alone makes the same choice.
+cat > "$T/noisy.scene" <<'SCENE'
+camera { position 0 0 -2.5 target 0 0 0 up 0 1 0 fov 40 size 32 32 }
+background 0.3 0.3 0.3
+ambient_occlusion { samples 1 distance 2 color 1 1 1 }
+material grey { diffuse 0.8 0.7 0.6 }
+material lamp { diffuse 0 0 0 emission 300 280 250 }
+mesh {
+  vertices { -0.62 -0.48 0.0   0.71 -0.29 0.4   -0.13 0.63 -0.2   -2 -2 1  2 -2 1  2 2 1  -2 2 1 }
+  triangles { 0 1 2  3 4 5  3 5 6 }
+  material grey
+}
+mesh {
+  vertices { -0.5 0.3 -0.5  -0.3 0.35 -0.5  -0.42 0.5 -0.5   0.3 -0.5 -0.5  0.42 -0.45 -0.5  0.33 -0.3 -0.5 }
+  triangles { 0 1 2  3 4 5 }
+  material lamp
+}
+SCENE
+"$B/csi-render" "$T/noisy.scene" --spp 4 --dump "$T/n.csid" -o "$T/n.exr" --stats "$T/n.json" --tiles 4 "${tiles[@]}"
+check "[[ $? == 0 && '$(json "$T/n.json" cv_select)' == on ]]" "noisy samples in 4 tiles: the choice is $(json "$T/n.json" cv_select)"
+check "[[ '$(json "$T/n.json" cv_switched_pixels)' -gt 0 ]]" "the tiles' choice gave no pixel its mean"
+hn="$(json "$T/n.json" image_fnv1a64)"
+for i in 2 0 3 1; do
+    "$B/csi-reconstruct" "$T/n.csid" --tile $i/4 -o "$T/np$i.csip" "${tiles[@]}"
+    check "[[ $? == 0 ]]" "noisy: --tile $i/4"
+done
+"$B/csi-merge" "$T"/np?.csip -o "$T/nm.exr" --stats "$T/nm.json" -q
+check "[[ '$(json "$T/nm.json" image_fnv1a64)' == '$hn' ]]" "noisy: the merged tiles differ from the tiled run"
 
 # --- moving: time and space tiles, frames ---------------------------------------------------
 # (time windows only when asked: --tiles-t; the budget alone splits x and y first)

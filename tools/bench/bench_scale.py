@@ -11,8 +11,13 @@ against image size and against Dask worker count, and single large targets.
   .venv/bin/python tools/bench/bench_scale.py target  --out bench-scale --size 3840x2160 --spp 16
   .venv/bin/python tools/bench/bench_scale.py long    --out bench-scale --spp 16 --variant "--mem-budget 16M --tiles-t 8"
   .venv/bin/python tools/bench/bench_scale.py plot    --out bench-scale   # the figures of docs/bench/scale.md
+  .venv/bin/python tools/bench/bench_scale.py mitsuba --out bench-scale --data DIR[,DIR] [--base BUILD]
 
-Every input is rendered here by csi-render from a bundled scene (`bench_common.scene_variant` sets
+mitsuba: a real renderer's noisy samples (tools/bench/mitsuba_data.py's dumps, 128x128, 4 and 16
+spp, 1 and 64 paths, stratified and Poisson-disk) untiled and in 2 and 4 tiles (a layout that
+cannot be made is skipped), against the reference and the per-pixel mean of the same samples;
+with --base, another build's csi-reconstruct on the same dumps beside this one's.
+Every other input is rendered here by csi-render from a bundled scene (`bench_common.scene_variant` sets
 the camera size) and dumped; reconstructions run csi-reconstruct on the dump as a user would.
 - Error: MSE over pixels and channels against a stratified reference (csi-render --reference
   256), the same samples tiled and untiled (`--tiles 1` with the device's whole memory as budget).
@@ -553,10 +558,81 @@ def plot(a):
         fig.savefig(os.path.join(figdir, "seams_garden.png"), dpi=72)
 
 
+def mitsuba(a, bins, env, work, logf):
+    """Tiled against untiled on Mitsuba's dumps (module doc): per dump and build, the MSE and relMSE
+    of the untiled and tiled images over the mean's of the same samples."""
+    builds = {"this": bins["csi-reconstruct"]}
+    if a.base:
+        builds["base"] = os.path.join(a.base, "csi-reconstruct")
+    exr = os.path.join(work, "mitsuba.exr")
+
+    def errors(ref):
+        img = bc.read_exr(exr).astype(np.float64)
+        d = (img - ref) ** 2
+        return [float(d.mean()), float((d / (ref ** 2 + 0.01)).mean())]
+
+    rows = []
+    for d in a.data.split(","):
+        for scene in sorted(os.listdir(d)):
+            sd = os.path.join(d, scene)
+            refs = sorted(f for f in os.listdir(sd) if f.startswith("reference_") and f.endswith(".npy")) \
+                if os.path.isdir(sd) else []
+            if not refs:
+                continue
+            ref = np.load(os.path.join(sd, refs[-1])).astype(np.float64)
+            for stem in (f"s{spp}_p{p}{m}" for spp in a.mitsuba_spp.split(",") for p in (1, 64)
+                         for m in ("", "_poisson")):
+                dump = os.path.join(sd, stem + ".csid")
+                if not os.path.exists(dump):
+                    continue
+                subprocess.run([builds["this"], dump, "-o", exr, "-q", "--estimator", "mean", "--variance", "none"],
+                               check=True, env=env)
+                row = dict(data=os.path.basename(d.rstrip("/")), scene=scene, dump=stem, mean=errors(ref))
+                for name, b in builds.items():
+                    for n in [1] + a.mitsuba_tiles:
+                        r = subprocess.run([b, dump, "-o", exr, "-q", "--tiles", str(n)], env=env,
+                                           capture_output=True, text=True)
+                        row[f"{name} {n}"] = errors(ref) if r.returncode == 0 else None
+                rows.append(row)
+                bc.log("  " + " ".join(f"{k}: {v[0] / row['mean'][0]:.4f}/{v[1] / row['mean'][1]:.4f}"
+                                       for k, v in row.items() if isinstance(v, list) and k != "mean" and v)
+                       + f"  ({row['data']} {scene} {stem}; over the mean, MSE/relMSE)")
+    summary = mitsuba_summary(rows, builds, a.mitsuba_tiles)
+    for line in summary:
+        bc.log(line)
+        print(line, file=logf)
+    with open(os.path.join(a.out, "mitsuba.json"), "w") as f:
+        json.dump(rows, f, indent=0)
+    return summary
+
+
+def mitsuba_summary(rows, builds, tiles):
+    """Per build and tile count: the tiled/untiled ratios' range and the cells above the mean."""
+    out = []
+    for name in builds:
+        u = [r for r in rows if r.get(f"{name} 1")]
+        above_u = sum(max(r[f"{name} 1"][k] / r["mean"][k] for k in (0, 1)) > 1 for r in u)
+        out.append(f"{name}, untiled: {len(u)} dumps, {above_u} above the mean (MSE or relMSE)")
+        for n in tiles:
+            t = [r for r in u if r.get(f"{name} {n}")]
+            if not t:
+                continue
+            q = np.array([[r[f"{name} {n}"][k] / r[f"{name} 1"][k] for k in (0, 1)] for r in t])
+            above = sum(max(r[f"{name} {n}"][k] / r["mean"][k] for k in (0, 1)) > 1 for r in t)
+            newly = sum(max(r[f"{name} {n}"][k] / r["mean"][k] for k in (0, 1)) > 1 and
+                        max(r[f"{name} 1"][k] / r["mean"][k] for k in (0, 1)) <= 1 for r in t)
+            worse = sum(q.max(1) > 1.02)
+            out.append(f"{name}, {n} tiles: {len(t)} dumps; tiled/untiled MSE {q[:, 0].min():.3f}-{q[:, 0].max():.3f} "
+                       f"(geometric mean {np.exp(np.log(q[:, 0]).mean()):.4f}), relMSE {q[:, 1].min():.3f}-"
+                       f"{q[:, 1].max():.3f} ({np.exp(np.log(q[:, 1]).mean()):.4f}); above untiled by > 2% in "
+                       f"{worse}; above the mean {above} ({newly} where untiled is not)")
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("what", choices=["seams", "seams_t", "margins", "windows", "sizes", "workers", "target", "long",
-                                     "plot"])
+                                     "plot", "mitsuba"])
     ap.add_argument("--out", default="bench-scale")
     ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "bench", "scale"))
     ap.add_argument("--scene", default="garden")
@@ -568,7 +644,13 @@ def main():
     ap.add_argument("--time-steps", type=int, default=256, help="long: frames of the volume")
     ap.add_argument("--variant", action="append", default=[],
                     help="long: csi-reconstruct arguments of a tiled run (repeatable; the first also runs on csi-farm)")
+    ap.add_argument("--data", help="mitsuba: tools/bench/mitsuba_data.py directories, comma-separated")
+    ap.add_argument("--mitsuba-spp", default="4,16", help="mitsuba: the dumps' spp")
+    ap.add_argument("--mitsuba-tiles", type=int, nargs="+", default=[2, 4], help="mitsuba: tile counts")
+    ap.add_argument("--base", help="mitsuba: another build directory to run beside this one")
     a = ap.parse_args()
+    if a.what == "mitsuba" and not a.data:
+        ap.error("mitsuba needs --data")
     os.makedirs(a.out, exist_ok=True)
     if a.what == "plot":
         return plot(a)

@@ -40,7 +40,8 @@
  * held-out pair and adds nothing: where no pixel of a region has two, the region keeps the
  * reconstruction (every pixel at 1 spp on stratified positions). A reconstruction from fewer
  * than 2 samples per pixel on average is left as it is (csi_recon_cv_select): each fold would
- * hold under one sample per pixel.
+ * hold under one sample per pixel. A tiled reconstruction makes the choice in each tile's window
+ * (host/integrate/tiled.c), with the whole image's regions.
  *
  * The channels. For samples of several channels the folds reconstruct, by default, the mean of
  * the channels (--cv-channels mean): one solve per fold instead of one per channel and fold, and
