@@ -128,6 +128,26 @@ def main():
                                stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR)))
             lines = r.stderr.strip().splitlines()
             check(r.returncode == 2 and len(lines) == 1 and want in r.stderr, f"csi-preview {args}: {r.stderr!r}")
+        # outputs as csi's programs state theirs (before: a frame overwritten by the sheet, one
+        # output over the other, the sheet left when the animation failed, all exit 0 or after
+        # the drawing); a canvas too large refused (before: minutes to a MemoryError)
+        frame0 = open(p("frames/frame_0000.exr"), "rb").read()
+        for args, want in [(["-o", p("frames/frame_0000.exr")], "would overwrite the input"),
+                           (["-o", p("x.gif"), "--animation", p("x.gif")], "are the same file"),
+                           (["-o", p("x.png"), "--animation", p("no/x.webp")], "does not exist"),
+                           (["-o", p("frames")], "is a directory"),
+                           (["-o", p("x.png"), "--scale", "100000"], "more than the"),
+                           (["-o", p("x.png"), "--exposure", "inf"], "--exposure"),
+                           (["-o", p("x.png"), "--scale", "abc"], "--scale")]:
+            try:
+                r = subprocess.run([sys.executable, "-m", "csi.preview", p("frames"), *args], stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True, timeout=60,
+                                   env=dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR)))
+            except subprocess.TimeoutExpired:
+                r = subprocess.CompletedProcess(args, "timeout", "", "no answer in 60 s")
+            lines = r.stderr.strip().splitlines()
+            check(r.returncode == 2 and len(lines) == 1 and want in r.stderr, f"csi-preview {args}: {r.stderr!r}")
+        check(open(p("frames/frame_0000.exr"), "rb").read() == frame0, "csi-preview wrote over a frame")
         check(set(os.listdir(tmp)) == before, "csi-preview's failures left files")
         with open(p("bad.py"), "w") as f:
             f.write(SCENE.replace('params["ball.to_world"]', 'params["no_such_key"]'))

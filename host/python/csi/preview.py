@@ -135,9 +135,10 @@ def contact_sheet(path, seqs, picks=8, scale=2, exposure=1.0, mean=True):
         img.save(tmp, format="PNG")
 
 
-def animation(path, seqs, fps=12, scale=2, exposure=1.0):
+def animation(path, seqs, fps=12, scale=2, exposure=1.0, webp=None):
     """Writes an animated image playing the frames of every sequence side by side (labelled),
-    looping: WebP when `path` ends in .webp (lossless), else GIF (256 colours per frame)."""
+    looping: WebP (lossless) when `webp`, else GIF (256 colours per frame); webp None: WebP when
+    `path` ends in .webp."""
     from PIL import Image, ImageDraw, ImageFont
 
     seqs = _check(seqs)
@@ -154,7 +155,8 @@ def animation(path, seqs, fps=12, scale=2, exposure=1.0):
             im = Image.fromarray(to_srgb8(fr[t], exposure)).resize((w * scale, h * scale), Image.NEAREST)
             img.paste(im, (x0, pad + lh))
         out.append(img)
-    webp = os.fspath(path).lower().endswith(".webp")
+    if webp is None:
+        webp = os.fspath(path).lower().endswith(".webp")
     with atomic.target(path, suffix=".webp" if webp else ".gif") as tmp:
         kw = dict(save_all=True, append_images=out[1:], duration=int(round(1000 / fps)), loop=0)
         if webp:
@@ -163,9 +165,35 @@ def animation(path, seqs, fps=12, scale=2, exposure=1.0):
             out[0].save(tmp, format="GIF", **kw)
 
 
+#: The most pixels csi-preview draws (the sheet, or all the animation's frames together): about
+#: 400 MB of RGB, so that a --scale or --picks far too large is refused, not left to exhaust memory.
+MAX_PIXELS = 1 << 27
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line (argparse prints the usage too otherwise)
+        raise PreviewError(message)
+
+
+def _pixels(seqs, picks, scale, sheet, anim):
+    """The pixels the sheet and the animation would hold (their canvases), from the sizes alone."""
+    from PIL import ImageFont
+
+    T, h, w = seqs[0][1].shape[:3]
+    lh, pad = _label_height(ImageFont.load_default()), 2
+    n = 0
+    if sheet:
+        cols = len(_pick(T, picks)) + 1
+        n += (cols * (w * scale + pad) + pad) * (len(seqs) * (h * scale + lh + pad) + pad)
+    if anim:
+        n += T * (len(seqs) * (w * scale + pad) + pad) * (h * scale + lh + 2 * pad)
+    return n
+
+
 def main(argv=None):
-    p = argparse.ArgumentParser(prog=PROG, description="A contact sheet (PNG) and an animated preview (WebP or GIF) "
-                                "of the frames csi-reconstruct / csi-render --frames DIR wrote.")
+    p = _Parser(prog=PROG, description="A contact sheet (PNG) and an animated preview (WebP or GIF) "
+                "of the frames csi-reconstruct / csi-render --frames DIR wrote. Exit status: 0 success, 2 bad "
+                "input or usage.")
     p.add_argument("frames", metavar="DIR", nargs="+", help="frame directories (frame_NNNN.exr), one row each")
     p.add_argument("-o", "--sheet", metavar="SHEET.png", help="the contact sheet")
     p.add_argument("--animation", metavar="ANIM.webp|.gif", help="the animated preview")
@@ -173,20 +201,41 @@ def main(argv=None):
     p.add_argument("--scale", type=int, default=2, help="enlargement (nearest), default 2")
     p.add_argument("--exposure", type=float, default=1.0, help="linear values are multiplied by this, default 1")
     p.add_argument("--fps", type=float, default=12, help="frames per second of the animation, default 12")
-    a = p.parse_args(argv)
+    from ._lib import CsiError, OutputSet
+
     try:
+        a = p.parse_args(argv)
         if not (a.sheet or a.animation):
             raise PreviewError("no output given: use -o SHEET.png and/or --animation ANIM.webp")
-        if a.picks < 1 or a.scale < 1 or not (a.fps > 0) or not (a.exposure > 0):
-            raise PreviewError("--picks and --scale must be >= 1, --fps and --exposure > 0")
-        seqs = [(os.path.basename(os.path.normpath(d)), read_frames(d)) for d in a.frames]
-        if a.sheet:
-            contact_sheet(a.sheet, seqs, picks=a.picks, scale=a.scale, exposure=a.exposure)
-        if a.animation:
-            animation(a.animation, seqs, fps=a.fps, scale=a.scale, exposure=a.exposure)
-    except (PreviewError, OSError) as e:
+        if a.picks < 1 or a.scale < 1 or not 0 < a.fps < float("inf") or not 0 < a.exposure < float("inf"):
+            raise PreviewError("--picks and --scale must be >= 1, --fps and --exposure finite and > 0")
+        # The outputs as csi's programs state theirs: checked before any work (not a directory,
+        # not a frame, not each other), written all or nothing.
+        frames = [f for d in a.frames for f in sorted(glob.glob(os.path.join(d, "frame_*.exr")))]
+        with OutputSet(inputs=frames) as outs:
+            for path, what in ((a.sheet, "the contact sheet (-o)"), (a.animation, "the animation (--animation)")):
+                if path:
+                    outs.file(path, what)
+            seqs = [(os.path.basename(os.path.normpath(d)), read_frames(d)) for d in a.frames]
+            n = _pixels(_check(seqs), a.picks, a.scale, a.sheet, a.animation)
+            if n > MAX_PIXELS:
+                raise PreviewError(f"--scale {a.scale} would draw {n} pixels, more than the {MAX_PIXELS} csi-preview "
+                                   "draws: give a smaller --scale or --picks")
+            if a.sheet:
+                contact_sheet(outs.tmp(a.sheet), seqs, picks=a.picks, scale=a.scale, exposure=a.exposure)
+            if a.animation:
+                animation(outs.tmp(a.animation), seqs, fps=a.fps, scale=a.scale, exposure=a.exposure,
+                          webp=a.animation.lower().endswith(".webp"))
+            outs.commit()
+    except (PreviewError, CsiError) as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:
+        print(f"{PROG}: error: {e.filename + ': ' if e.filename else ''}{e.strerror or e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
     return 0
 
 
