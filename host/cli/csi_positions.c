@@ -99,7 +99,7 @@ int main(int argc, char **argv)
         }
         case O_SEED:
             if (!cli_parse_u64(optarg, 0, UINT64_MAX, &seed))
-                return cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
+                return cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number from 0 to 2^64 - 1", optarg);
             break;
         case 'q': quiet = true; break;
         case 'h': usage(stdout); return 0;

@@ -276,7 +276,7 @@ int main(int argc, char **argv)
         case O_SEED: {
             uint64_t v;
             if (!cli_parse_u64(optarg, 0, UINT64_MAX, &v))
-                rc = cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number from 0 to 2^64 - 1", optarg);
             else
                 rc = csi_options_set(opt, "seed", optarg) == CSI_OK ? 0 : cli_error(prog, CSI_ERR_ARG, "--%s", cli_last_error());
             seed_given = true;

@@ -228,7 +228,7 @@ int main(int argc, char **argv)
             break;
         case O_SEED:
             if (!cli_parse_u64(optarg, 0, UINT64_MAX, &seed))
-                rc = cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number", optarg);
+                rc = cli_error(prog, CSI_ERR_ARG, "--seed: '%s' is not a whole number from 0 to 2^64 - 1", optarg);
             break;
         case O_THREADS:
             if (!cli_parse_u64(optarg, 1, 256, &threads))

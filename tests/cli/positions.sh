@@ -62,6 +62,7 @@ expect_fail "grid not a multiple" "--grid" "$P" --out 32x32 --grid 50 -o "$T/out
 expect_fail "more samples than cells" "cells" "$P" --out 32x32 --grid 32 --spp 2 -o "$T/out.csid"
 expect_fail "unknown method" "poisson" "$P" --out 32x32 --method sobol -o "$T/out.csid"
 expect_fail "bad fraction" "--fraction" "$P" --out 32x32 --fraction 1.5 -o "$T/out.csid"
+expect_fail "negative seed" "from 0 to 2^64 - 1" "$P" --out 32x32 --seed -1 -o "$T/out.csid"
 expect_fail "unwritable output" "no-such-dir" "$P" --out 32x32 -o "$T/no-such-dir/out.csid"
 # the output stated before work, as every program's (it was: 'write failed' after the positions)
 mkdir "$T/sub"

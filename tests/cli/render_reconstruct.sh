@@ -105,6 +105,9 @@ expect_fail "position outside the grid" "pos.csid" "$B/csi-reconstruct" "$T/pos.
 expect_fail "unwritable output" "no-such-dir" "$B/csi-reconstruct" "$good" -o "$T/no-such-dir/out.exr"
 expect_fail "unknown option" "--bogus" "$B/csi-reconstruct" "$good" -o "$T/out.exr" --bogus
 expect_fail "bad number" "--lambda" "$B/csi-reconstruct" "$good" -o "$T/out.exr" --lambda abc
+# a negative seed: the range said (it was 'is not a whole number')
+expect_fail "negative seed" "from 0 to 2^64 - 1" "$B/csi-reconstruct" "$good" -o "$T/out.exr" --seed -1
+expect_fail "render: negative seed" "from 0 to 2^64 - 1" "$B/csi-render" "$static" -o "$T/out.exr" --seed -1
 expect_fail "no output" "no output" "$B/csi-reconstruct" "$good"
 expect_fail "romp on a volume" "ROMP" "$B/csi-reconstruct" "$T/moving.csid" -o "$T/out.exr" --solver romp
 CSI_DEVICE=no-such-device expect_fail "missing OpenCL device" "no OpenCL device matches" \

@@ -61,6 +61,12 @@ def main():
     refused("a negative frame", "frame", lambda: rec().write_exr(os.devnull, frame=-1))
     refused("a negative tile", "index", lambda: csi.reconstruct_tile(pos, val, GRID, -1, tiles=2))
     refused("a check of -1 samples", "count", lambda: csi.reconstruct_check(GRID, 3, -1))
+    refused("a number as the device", "expected a csi.Device", lambda: rec(device=3))
+    try:  # a device's name is taken for the device (it was an AttributeError)
+        rec(device="no-such-device")
+        check(False, "a device name that matches nothing was taken")
+    except csi.CsiError as e:
+        check(e.status == "CSI_ERR_DEVICE" and "no-such-device" in str(e), f"device by name: {e.status} {e}")
     # the same inputs in other good forms: the canonical form's image, bit for bit
     ref = rec().image
     for what, p, v, g in (("int64 positions", pos.astype(np.int64), val, GRID),
@@ -72,6 +78,7 @@ def main():
     one = rec(v=val[:, 0]).image
     check(np.array_equal(rec(v=val[:, :1]).image, one), "values (N,) and (N, 1) differ")
     check(csi.positions(GRID, spp=4.0, seed=1).tolist() == pos.tolist(), "spp 4.0 is not spp 4")
+    check(np.array_equal(rec(device=csi.Device().name).image, ref), "the default device by its name: another image")
     return done()
 
 

@@ -490,8 +490,13 @@ def _samples_arrays(positions, values):
 
 def _options_and_device(options, kwargs, device):
     """The options of a call (an Options with the keywords set on it, or new ones of the
-    keywords) and its device (the process's default device, made on first use, when None)."""
+    keywords) and its device (a Device, a device's name, or None: the process's default device,
+    made on first use)."""
     global _default_device
+    if isinstance(device, str):
+        device = Device(device)
+    elif device is not None and not isinstance(device, Device):
+        raise CsiError("CSI_ERR_ARG", f"device {device!r}: expected a csi.Device, a device's name or None")
     if options is None:
         options = Options(**kwargs)
     else:
