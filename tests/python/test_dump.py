@@ -136,6 +136,21 @@ def main():
         expect_error(p("req.csid"), "a positions request, not samples", want="samples")
         expect_error(p("r.csid"), "not a positions request", want="request")
         expect_error(p("missing.csid"), "cannot open")
+        expect_error(T, "a directory, not a regular file")
+        # what is not a regular file is refused without being read: /dev/zero was read without
+        # end (24 GB and the OOM killer), a FIFO waited for a writer for ever. Each in a process
+        # of its own with 2 GB of address space and a minute, so that the old behaviour fails here.
+        os.mkfifo(p("fifo.csid"))
+        probe = ("import resource, sys; resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30)); "
+                 "from csi import dump\ntry:\n    dump.read(sys.argv[1])\nexcept dump.DumpError as e:\n    print(e)")
+        for path, want in (("/dev/zero", "a character device"), (p("fifo.csid"), "a FIFO")):
+            try:
+                r = subprocess.run([sys.executable, "-c", probe, path], capture_output=True, text=True, timeout=60,
+                                   env=dict(os.environ, PYTHONPATH=os.path.join(HERE, "..", "..", "host", "python")))
+                out = r.stdout + r.stderr.strip()[-200:]
+            except subprocess.TimeoutExpired:
+                out = "no answer in 60 s"
+            check(want in out, f"{path}: {out!r}")
         try:
             csid.write(p("nan_out.csid"), d.with_values(np.full_like(d.values, np.nan)))
             check(False, "wrote NaN values")

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import stat
 
 import numpy as np
 
@@ -111,14 +112,41 @@ def _check_grid(path, grid, out, channels, allow_request):
         raise DumpError(f"{path}: byte 28: channels = {channels} (must be {'0 to' if allow_request else '1 to'} {MAX_CHANNELS})")
 
 
-def read(path, *, want=None) -> Dump:
-    """Reads a dump or a positions request. want: None (either), "request" or "samples"."""
-    path = os.fspath(path)
+def _kind(mode) -> str:
+    for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def _open_regular(path):
+    """path opened for reading when it is a regular file (and its size), else DumpError saying
+    what it is: opened without blocking (a FIFO would wait for a writer), so that a FIFO or
+    /dev/zero is refused at once instead of read without end (the C reader's rule)."""
     try:
-        with open(path, "rb") as f:
-            data = f.read()
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except OSError as e:
         raise DumpError(f"{path}: cannot open: {e.strerror}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        raise DumpError(f"{path}: cannot open: {_kind(st.st_mode)}, not a regular file")
+    os.set_blocking(fd, True)
+    return os.fdopen(fd, "rb"), st.st_size
+
+
+def read(path, *, want=None) -> Dump:
+    """Reads a dump or a positions request. want: None (either), "request" or "samples". The
+    header is checked against the file's size before the records are read."""
+    path = os.fspath(path)
+    f, size = _open_regular(path)
+    with f:
+        return _read(f, size, path, want)
+
+
+def _read(f, size, path, want) -> Dump:
+    data = f.read(HEADER_BYTES)
     if len(data) >= 4 and data[:4] != MAGIC:
         raise DumpError(f"{path}: byte 0: wrong magic {data[:4]!r} (expected 'CSID'): not a csi sample dump")
     if len(data) < HEADER_BYTES:
@@ -148,15 +176,19 @@ def read(path, *, want=None) -> Dump:
     if count == 0:
         raise DumpError(f"{path}: byte 32: zero samples (count = 0)")
     rec = 12 + 4 * channels
-    payload = len(data) - HEADER_BYTES
+    payload = size - HEADER_BYTES
     if count > payload // rec:
         raise DumpError(f"{path}: byte 32: count = {count} records of {rec} bytes but the file holds only "
                         f"{payload} bytes after the header (truncated at record {payload // rec})")
     if payload != count * rec:
         raise DumpError(f"{path}: byte {HEADER_BYTES + count * rec}: {payload - count * rec} trailing bytes "
                         f"after the last of {count} records")
+    body = f.read(count * rec)
+    if len(body) != count * rec:
+        raise DumpError(f"{path}: byte {HEADER_BYTES + len(body)}: the file ended at record {len(body) // rec} of "
+                        f"{count} while it was read")
     dt = np.dtype([("p", "<u4", 3), ("v", "<f4", channels)]) if channels else np.dtype([("p", "<u4", 3)])
-    recs = np.frombuffer(data, dtype=dt, offset=HEADER_BYTES, count=count)
+    recs = np.frombuffer(body, dtype=dt, count=count)
     xyt = recs["p"].astype(np.uint32)
     outside = (xyt[:, 0] >= grid[0]) | (xyt[:, 1] >= grid[1]) | (xyt[:, 2] >= grid[2])
     if outside.any():
