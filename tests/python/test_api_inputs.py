@@ -6,6 +6,7 @@ imaginary part, all silently); each good form of the same input is still taken, 
 of its canonical form, bit for bit.
 """
 import os
+import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -67,6 +68,12 @@ def main():
         check(False, "a device name that matches nothing was taken")
     except csi.CsiError as e:
         check(e.status == "CSI_ERR_DEVICE" and "no-such-device" in str(e), f"device by name: {e.status} {e}")
+    # CSI_LIBRARY naming no file: refused (it fell through to the build's library, silently)
+    r = subprocess.run([sys.executable, "-c", "import csi; print(csi.version())"], capture_output=True, text=True,
+                       env=dict(os.environ, CSI_LIBRARY="/nonexistent/libcsi.so",
+                                PYTHONPATH=os.path.join(HERE, "..", "..", "host", "python")))
+    check(r.returncode != 0 and "CSI_LIBRARY=/nonexistent/libcsi.so: no such file" in r.stderr,
+          f"CSI_LIBRARY naming no file: exit {r.returncode}, {r.stdout.strip()!r} {r.stderr.strip()[-200:]!r}")
     # the same inputs in other good forms: the canonical form's image, bit for bit
     ref = rec().image
     for what, p, v, g in (("int64 positions", pos.astype(np.int64), val, GRID),

@@ -172,6 +172,7 @@ def main():
         before = set(os.listdir(T))
         cases = [
             ("missing scene", "nothere.xml", [p("nothere.xml"), "-o", p("o.exr")]),
+            ("a device as the scene", "not a regular file", ["/dev/null", "-o", p("o.exr")]),
             ("malformed XML", "bad.xml", [p("bad.xml"), "-o", p("o.exr")]),
             ("Mitsuba refuses the XML", "no_such_plugin", [p("bad2.xml"), "-o", p("o.exr")]),
             ("bad size", "--out", ["cornell", "--out", "64x0", "-o", p("o.exr")]),
@@ -188,7 +189,8 @@ def main():
         # an LLVM Mitsuba cannot use: named before Dr.Jit starts (it would print several lines,
         # or abort inside code generation on LLVM < 16)
         old_llvm = sorted(glob.glob("/usr/lib/*-linux-gnu/libLLVM-1[0-5].so*"))
-        envs = [("missing LLVM library", "no such file", {"DRJIT_LIBLLVM_PATH": p("nothere/libLLVM-19.so")})]
+        envs = [("missing LLVM library", "no such file", {"DRJIT_LIBLLVM_PATH": p("nothere/libLLVM-19.so")}),
+                ("missing csi library", "CSI_LIBRARY=", {"CSI_LIBRARY": p("nothere/libcsi.so")})]
         if old_llvm:
             envs.append(("LLVM too old", "needs LLVM >= 16", {"DRJIT_LIBLLVM_PATH": old_llvm[0]}))
         cases += [(name, want, ["cornell", "--out", "8x8", "-o", p("o.exr")], env) for name, want, env in envs]

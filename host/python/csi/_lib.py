@@ -143,6 +143,9 @@ def lib():
     global _lib
     if _lib is not None:
         return _lib
+    given = os.environ.get("CSI_LIBRARY")
+    if given and not os.path.isfile(given):  # asked for: that one, not some other build's
+        raise CsiError("CSI_ERR_IO", f"CSI_LIBRARY={given}: no such file (unset it to let csi find libcsi.so)")
     tried = []
     for path in _candidates():
         tried.append(path)

@@ -197,6 +197,8 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
     if spec != "cornell" and os.path.isdir(spec):
         raise BridgeError(f"{spec}: a directory, not a scene file (give a Mitsuba XML file, a .py with scene(), or "
                           "'cornell')")
+    if spec != "cornell" and os.path.exists(spec) and not os.path.isfile(spec):
+        raise BridgeError(f"{spec}: not a regular file, not a scene file")
     if spec != "cornell" and not os.path.isfile(spec):
         raise BridgeError(f"{spec}: no such scene file (give a Mitsuba XML file, a .py with scene(), or 'cornell')")
     text = _xml_override(spec, size, box_filter) if spec != "cornell" and not spec.endswith(".py") else None

@@ -13,6 +13,7 @@ from . import dump as csid
 from . import exr
 from . import mitsuba_bridge as mb
 from . import programs
+from ._lib import CsiError
 
 PROG = "csi-mitsuba"
 
@@ -506,6 +507,9 @@ def main(argv=None):
     except (programs.ProgramError, ReconstructError) as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return e.code
+    except CsiError as e:  # the library itself (not found, another ABI) or a call outside reconstruct
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return ReconstructError(e).code
     except OSError as e:  # a write that failed after the checks (a full disk): the outputs were removed
         print(f"{PROG}: error: {e.filename + ': ' if e.filename else ''}{e.strerror or e}", file=sys.stderr)
         return 2
