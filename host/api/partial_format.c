@@ -389,8 +389,10 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
     csi_status s = CSI_OK;
     if (got != size)
         s = csi_fail(CSI_ERR_IO, "%s: read %zu of %zu bytes", path, got, size);
-    else if (size < 16 || memcmp(b, CSI_PARTIAL_MAGIC, 4))
+    else if (size < 4 || memcmp(b, CSI_PARTIAL_MAGIC, 4))
         s = csi_fail(CSI_ERR_FORMAT, "%s: not a csi tile partial (no \"CSIP\" magic)", path);
+    else if (size < 16)
+        s = csi_fail(CSI_ERR_FORMAT, "%s: truncated: %zu bytes, shorter than a partial's header", path, size);
     else if (b[4] != CSI_PARTIAL_VERSION || b[5] || b[6] || b[7])
         s = csi_fail(CSI_ERR_FORMAT, "%s: partial format version %u (this program reads version %u)", path,
                      (unsigned)b[4] | (unsigned)b[5] << 8, CSI_PARTIAL_VERSION);
