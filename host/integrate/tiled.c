@@ -131,6 +131,8 @@ static csi_status scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_recon_options o = *opt;
     o.levels = tl->levels;
     for (uint32_t i = 0; i < tl->count; i++) {
+        /* one adjoint per tile: with many tiles a long pass, heard from (and cancelled) per tile */
+        CSI_TRY(csi_recon_progress_step(opt, "tile scale", (int)i));
         tile_problem p;
         CSI_TRY(tile_problem_make(tl, i, channels, pos, values, NULL, n, &p));
         double sc[4] = {0, 0, 0, 0};

@@ -15,7 +15,10 @@
  *   4. determinism: csi_recon tiling by itself (that budget, below the whole's bytes) gives
  *      the same bits as the tiles computed one by one in reverse order, one of them in a second
  *      OpenCL context, and blended in index order; blending out of order is refused; one tile
- *      gives the untiled bits.
+ *      gives the untiled bits;
+ *   5. the tiles' scale pass (one adjoint per tile before any solve) reports each tile to the
+ *      progress callback, and a caller who cancels at the second tile's report stops the run
+ *      there (CSI_ERR_CANCELLED) rather than after every tile's adjoint.
  * Alg. 2: a 32 x 32 x 48 volume (a disc sliding over a textured background), 10% random
  * samples, 2 time windows of 40 frames (the default 8-frame margins). Claims: the blurred image's
  * MSE against the volume's mean over t is within 2% of the untiled one's (a window's Fourier
@@ -96,6 +99,18 @@ static csi_status by_hand(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const 
     return CSI_OK;
 }
 
+/* Claim 5's callback: cancels at the scale pass's report of tile 1. */
+static bool cancel_at_scale_1(void *user, const char *phase, int iter, double residual)
+{
+    (void)residual;
+    int *cancelled = user;
+    if (!strcmp(phase, "tile scale") && iter == 1) {
+        *cancelled = 1;
+        return false;
+    }
+    return true;
+}
+
 static bool in_band(const csi_tiling *tl, int axis, uint32_t c)
 {
     for (uint32_t i = 1; i < tl->n[axis]; i++) {
@@ -146,6 +161,18 @@ static void alg1(csi_ctx *ctx, csi_ctx *ctx2)
         csi_tiling tl;
         CHECK_OK(csi_tiling_plan(ctx, &g, 1, n, &o, &tl));
         CHECK(tl.count == 4, "4 tiles (%u)", tl.count);
+        if (seed == 1) { /* claim 5 */
+            csi_recon_options oc = o;
+            int cancelled = 0;
+            oc.progress = cancel_at_scale_1;
+            oc.user = &cancelled;
+            csi_recon_result r;
+            const csi_status st = csi_recon(ctx, &g, 1, pos, val, n, &oc, &r);
+            CHECK(st == CSI_ERR_CANCELLED && cancelled, "cancelled at the scale pass's tile 1: status %d, %s",
+                  (int)st, cancelled ? "reported" : "never reported");
+            if (st == CSI_OK)
+                csi_recon_result_free(&r);
+        }
         /* A layout chosen by csi_recon from a budget below the whole's bytes: the 4 strips'
          * bytes (another layout may fit them too: a window whose FFT rows run fused needs less
          * than a narrower one whose rows do not). */
