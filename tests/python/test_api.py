@@ -57,6 +57,10 @@ with tempfile.TemporaryDirectory() as T:
         check(res.options["solver"] == "sparsa" and res.options["tau"] not in ("auto", ""),
               f"{sc}: resolved options {res.options['solver']} {res.options['tau']}")
         check(res.info["tiles"] == 1 and res.info["n"] == want[1]["n"], f"{sc}: info {res.info}")
+        # where the time went, as csi-reconstruct's statistics say it: each channel's solve
+        ph = res.stats.get("phases", {})
+        check(sorted(ph.get("solve_s", {})) == sorted(want[1]["phases"]["solve_s"]) and res.stats.get("cpu_work_s", 0) > 0
+              and ph.get("read_s") == 0, f"{sc}: the phases {ph}")
         subprocess.run([os.path.join(BUILD, "csi-reconstruct"), dump, "-o", os.path.join(T, sc + ".c2.exr"),
                         "--png", os.path.join(T, sc + ".c.png"), "-q"], check=True)
         res.write_exr(os.path.join(T, sc + ".py.exr"))

@@ -206,6 +206,7 @@ def _bind(L):
         "csi_json_free": (None, [P]),
         "csi_json_text": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_char_p)]),
         "csi_result_stats": (None, [P, P]),
+        "csi_result_stats_phases": (None, [P, P, ctypes.c_double, ctypes.c_double, ctypes.c_double]),
         "csi_result_attributes": (c_size, [P, ctypes.POINTER(P)]),
         "csi_exr_write": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(_Image), P, c_size]),
         "csi_png_write": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(_Image)]),
@@ -327,7 +328,9 @@ _default_device = None
 
 class Result:
     """A reconstruction: image (H, W, C) float32, frames (T, H, W, C) or None, the options as
-    used (every auto that applied resolved), per-channel reports and the statistics.
+    used (every auto that applied resolved), per-channel reports and the statistics (as
+    csi-reconstruct --stats writes them, where the time went included: "phases", whose read_s,
+    device_s and write_s are 0, the caller's own).
     write_exr / write_png write the image as csi-reconstruct does (the same bytes)."""
 
     def __init__(self, image, frames, options, reports, info, stats, handle=None):
@@ -429,6 +432,7 @@ def _result(L, r) -> Result:
     _check(L.csi_json_new(ctypes.byref(j)))
     try:
         L.csi_result_stats(r, j)
+        L.csi_result_stats_phases(r, j, 0.0, 0.0, 0.0)  # no input read, device made or output written here
         text = ctypes.c_char_p()
         _check(L.csi_json_text(j, ctypes.byref(text)))
         stats = json.loads(text.value.decode())
