@@ -156,6 +156,50 @@ static int cmp_u64(const void *a, const void *b)
     return i < j ? -1 : i > j;
 }
 
+/* --refine-with, before the reconstruction: what any refinement request's evaluation is, whatever
+ * the image: cells FIRST did not sample, each once, that complete every pixel they touch (a request
+ * asks for all the cells a picked pixel lacks). Which pixels is decided by the image, after. */
+static csi_status refinement_cells_check(const char *path, const char *in, const csi_samples *first,
+                                         const csi_samples *more)
+{
+    const csi_grid *g = &first->grid;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h, m = more->count;
+    uint32_t *cnt = calloc(2 * np, sizeof *cnt); /* per pixel: FIRST's samples, MORE's */
+    uint64_t *idx = malloc((m ? m : 1) * sizeof *idx);
+    csi_status s = CSI_OK;
+    if (!cnt || !idx)
+        s = cli_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    for (size_t i = 0; i < m && s == CSI_OK; i++) {
+        const csi_sample_pos q = more->pos[i];
+        idx[i] = csi_grid_index(g, q);
+        cnt[2 * ((size_t)(q.y / bh) * g->out_w + q.x / bw) + 1]++;
+    }
+    if (s == CSI_OK)
+        qsort(idx, m, sizeof *idx, cmp_u64);
+    for (size_t i = 0; i < m && s == CSI_OK; i++)
+        if (i && idx[i] == idx[i - 1])
+            s = cli_fail(CSI_ERR_ARG, "%s: position (%u, %u) is given twice: not a refinement request's evaluation",
+                         path, (unsigned)(idx[i] % g->w), (unsigned)(idx[i] / g->w));
+    for (size_t i = 0; i < first->count && s == CSI_OK; i++) {
+        const csi_sample_pos q = first->pos[i];
+        const size_t p = (size_t)(q.y / bh) * g->out_w + q.x / bw;
+        cnt[2 * p]++;
+        const uint64_t k = csi_grid_index(g, q);
+        if (cnt[2 * p + 1] && bsearch(&k, idx, m, sizeof *idx, cmp_u64))
+            s = cli_fail(CSI_ERR_ARG, "%s: position (%u, %u) is sampled in %s already: not its refinement (a "
+                         "request asks for cells without a sample)", path, q.x, q.y, in);
+    }
+    for (size_t p = 0; p < np && s == CSI_OK; p++)
+        if (cnt[2 * p + 1] && cnt[2 * p] + cnt[2 * p + 1] != bw * bh)
+            s = cli_fail(CSI_ERR_ARG, "%s: pixel (%zu, %zu) gets %u cells with %s's %u, of its %u: not a refinement "
+                         "request's evaluation (a request completes every pixel it picks)", path, p % g->out_w,
+                         p / g->out_w, cnt[2 * p + 1], in, cnt[2 * p], bw * bh);
+    free(cnt);
+    free(idx);
+    return s;
+}
+
 /* --refine-with: MORE's positions must be the request this reconstruction makes (the same cells,
  * in any order); then the refined pixels take the mean of all their samples (csi_refine_apply). */
 static csi_status apply_refinement(const char *path, const char *in, const csi_samples *first,
@@ -428,6 +472,14 @@ int main(int argc, char **argv)
     if (frames && dump.grid.t == 1 && !quiet)
         cli_warn(prog, "%s is a static dump (grid_t = 1): --frames writes nothing", in);
 
+    if (refine_with) {
+        const csi_samples fs = {dump.grid, dump.channels, dump.count, dump.pos, dump.values, dump.flags, NULL};
+        const csi_samples ms = {more.grid, more.channels, more.count, more.pos, more.values, more.flags, NULL};
+        if ((s = refinement_cells_check(refine_with, in, &fs, &ms)) != CSI_OK) {
+            rc = cli_error(prog, s, "%s", cli_last_error());
+            goto done;
+        }
+    }
     cli_progress bar;
     if (!cli_progress_init(&bar, prog, quiet)) {
         rc = cli_error(prog, CSI_ERR_ARG, "%s", cli_last_error());

@@ -2,8 +2,8 @@
 # csi-reconstruct --refine-request: the request (docs/dump-format.md, channels = 0) holds, for
 # the pixels it picks, exactly the cells of their blocks that the dump did not sample, each once;
 # the statistics count them; a share no pixel reaches writes nothing and says so; bad use (a
-# volume, --tile, a share outside (0, 1], the mean estimator, --refine-with a request or a volume,
-# both options) exits 2 with one line and no file left behind.
+# volume, --tile, a share outside (0, 1], the mean estimator, --refine-with a request, a volume or
+# samples no request asks for, both options) exits 2 with one line and no file left behind.
 # usage: refine.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
@@ -58,4 +58,14 @@ for args in "$T/m.csid --refine-request $T/x.csid" "$T/d.csid --refine-request $
     check "[[ $rc == 2 && \$(wc -l < '$T/err') == 1 && ! -e '$T/x.exr' && ! -e '$T/x.csid' ]]" \
           "refused ($args): exit $rc: $(cat "$T/err")"
 done
+# --refine-with given samples that no refinement request asks for (another seed's dump of the same
+# grid: cells the first dump sampled, pixels left incomplete) is refused before the
+# reconstruction, by what every request's evaluation is whatever the image
+"$B/csi-render" "$S/tests/cli/scenes/small_triangle.scene" --spp 4 --seed 4 --dump "$T/d4.csid" -o "$T/r4.exr" \
+    --max-iter 5 -q
+rm -f "$T/x.exr"
+"$R" "$T/d.csid" --refine-with "$T/d4.csid" -o "$T/x.exr" 2> "$T/err"
+rc=$?
+check "[[ $rc == 2 && \$(wc -l < '$T/err') == 1 && ! -e '$T/x.exr' ]] && grep -Eq 'sampled in .* already|completes every pixel' '$T/err'" \
+      "--refine-with another dump: exit $rc: $(cat "$T/err")"
 finish
