@@ -125,7 +125,8 @@ def main():
     with open(ref_stats) as f:
         check(json.load(f)["tiles"] == 8, "the reference run has 8 tiles")
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address="127.0.0.1:0")
     client = Client(cluster)
     try:
         # 1. bit-identical to the single-process tiled run

@@ -188,8 +188,10 @@ def _client(scheduler=None, workers=None, timeout=CONNECT_TIMEOUT):
             raise FarmError(f"--scheduler {scheduler}: no Dask scheduler answered within {timeout:g} s "
                             f"({reason})") from None
     n = workers or max(1, (os.cpu_count() or 2) // 2)
+    # The scheduler's HTTP server on a free port: without an address it takes 8787, and a second
+    # local cluster (another run, a test beside it) then warns on stderr and moves.
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None)
+                           dashboard_address="127.0.0.1:0")
     return Client(cluster), cluster
 
 
