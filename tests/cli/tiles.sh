@@ -193,8 +193,8 @@ expect_fail "another layout" "layout" "$B/csi-merge" "$T/p0.csip" "$T/half1.csip
 expect_fail "foreign dump" "dump1.csip: tile 1 belongs to another run.*the input" "$B/csi-merge" "$T/p0.csip" "$T/dump1.csip" "$T/p2.csip" "$T/p3.csip" -o "$T/out.exr"
 head -c 300 "$T/p2.csip" > "$T/trunc.csip"
 expect_fail "truncated partial" "trunc.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/trunc.csip" "$T/p3.csip" -o "$T/out.exr"
-head -c 5 "$T/p2.csip" > "$T/stub.csip" # its magic and no more
-expect_fail "a partial cut inside its header" "stub.csip: truncated: 5 bytes" "$B/csi-merge" "$T/p0.csip" "$T/stub.csip" -o "$T/out.exr"
+head -c 5 "$T/p2.csip" > "$T/head5.csip" # its magic and no more
+expect_fail "a partial cut inside its header" "head5.csip: truncated: 5 bytes" "$B/csi-merge" "$T/p0.csip" "$T/head5.csip" -o "$T/out.exr"
 # a byte of the pixels changed; the format version changed (byte 4)
 size=$(stat -c %s "$T/p2.csip")
 { head -c $((size - 64)) "$T/p2.csip"; printf 'Z'; tail -c 63 "$T/p2.csip"; } > "$T/damaged.csip"
