@@ -87,25 +87,26 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
                             switched);
 }
 
-static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const csi_sample_pos *pos, size_t n,
-                            const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
-                            const float *cA, const float *cB, uint32_t region, uint32_t channels,
-                            const float *values, float *image, size_t *switched);
+static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
+                            const csi_sample_pos *pos, size_t n, const uint8_t *fold, uint32_t fold_channels,
+                            const float *fold_values, const float *cA, const float *cB, uint32_t region,
+                            uint32_t channels, const float *values, float *image, size_t *switched);
 
 csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t n, const uint8_t *fold,
                             uint32_t fold_channels, const float *fold_values, const float *cA,
                             const float *cB, uint32_t region, uint32_t channels, const float *values,
                             float *image, size_t *switched)
 {
-    return choose_at(g, 0, 0, pos, n, fold, fold_channels, fold_values, cA, cB, region, channels, values, image,
-                     switched);
+    return choose_at(g, 0, 0, NULL, pos, n, fold, fold_channels, fold_values, cA, cB, region, channels, values,
+                     image, switched);
 }
 
-/* csi_cv_choose_on with the regions of an image whose pixel (0, 0) is this one's (ox, oy). */
-static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const csi_sample_pos *pos, size_t n,
-                            const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
-                            const float *cA, const float *cB, uint32_t region, uint32_t channels,
-                            const float *values, float *image, size_t *switched)
+/* csi_cv_choose_on with the regions of an image whose pixel (0, 0) is this one's (ox, oy), and
+ * *switched counting only the pixels inside box (x0, y0, x1, y1; NULL: all). */
+static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
+                            const csi_sample_pos *pos, size_t n, const uint8_t *fold, uint32_t fold_channels,
+                            const float *fold_values, const float *cA, const float *cB, uint32_t region,
+                            uint32_t channels, const float *values, float *image, size_t *switched)
 {
     if (switched)
         *switched = 0;
@@ -155,7 +156,8 @@ static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const c
             continue;
         for (uint32_t c = 0; c < channels; c++)
             image[(size_t)c * np + p] = (float)((isum[(p * 2) * channels + c] + isum[(p * 2 + 1) * channels + c]) / nt);
-        sw++;
+        const uint32_t x = (uint32_t)(p % g->out_w), y = (uint32_t)(p / g->out_w);
+        sw += !box || (x >= box[0] && y >= box[1] && x < box[2] && y < box[3]);
     }
     if (switched)
         *switched = sw;
@@ -221,11 +223,11 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
                                const float *values, size_t n, const csi_recon_options *opt,
                                csi_recon_result *out)
 {
-    return csi_recon_cv_select_at(ctx, g, 0, 0, channels, pos, values, n, opt, out);
+    return csi_recon_cv_select_at(ctx, g, 0, 0, NULL, channels, pos, values, n, opt, out);
 }
 
-csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, uint32_t oy, uint32_t channels,
-                                  const csi_sample_pos *pos, const float *values, size_t n,
+csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
+                                  uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
                                   const csi_recon_options *opt, csi_recon_result *out)
 {
     /* Below 2 samples per pixel on average each fold's reconstruction is made from under one
@@ -261,7 +263,7 @@ csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, 
         if (s == CSI_OK)
             s = fold_image(ctx, g, fc, pos, fv, n, fold, 1, opt, out, &b);
         if (s == CSI_OK)
-            s = choose_at(g, ox, oy, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values, out->image,
+            s = choose_at(g, ox, oy, box, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values, out->image,
                           &out->cv_switched);
     }
     free(mean);

@@ -76,9 +76,11 @@ csi_status csi_recon_cv_select(csi_ctx *ctx, const csi_grid *g, uint32_t channel
                                const float *values, size_t n, const csi_recon_options *opt,
                                csi_recon_result *out);
 /* The same on a tile's window cut from a larger image at output pixel (ox, oy): the choice's
- * regions are the larger image's (tiled.c). */
-csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, uint32_t oy, uint32_t channels,
-                                  const csi_sample_pos *pos, const float *values, size_t n,
+ * regions are the larger image's (tiled.c); out->cv_switched counts the pixels inside box (x0, y0,
+ * x1, y1 in the window's pixels: the tile's core, so that the tiles' counts add up to the image's;
+ * NULL: all). */
+csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
+                                  uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
                                   const csi_recon_options *opt, csi_recon_result *out);
 
 /* The image of a volume's result `out` (reconstructed whole from all n samples with opt) chosen

@@ -204,7 +204,9 @@ static csi_status tile_cv_select(csi_ctx *ctx, const csi_tiling *tl, uint32_t in
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
     csi_recon_options o = *opt;
     o.tiles = 1; /* a fold is the window's problem, whatever the layout asked of the whole */
-    const csi_status s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], channels, p.pos,
+    const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
+                              p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
+    const csi_status s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], core, channels, p.pos,
                                                 p.values, p.n, &o, r);
     tile_problem_free(&p);
     return s;

@@ -21,7 +21,9 @@
  *      image's pixel (0, 0), not the window's) wholly or not at all; some are; and the tiled
  *      image with the choice is closer to the truth (each pixel's box mean of the scene over its
  *      cells) in relMSE than the tiled image without it, as the untiled one is than its own (the
- *      plain MSE is the HDR squares', which the choice leaves alike).
+ *      plain MSE is the HDR squares', which the choice leaves alike). The run's count of pixels
+ *      given their mean is the cores': no fewer than the choice changed there, no more than are at
+ *      their mean.
  * The second run of each claim is in a second context, so the bits do not depend on one. */
 #include <math.h>
 #include <stdio.h>
@@ -153,7 +155,8 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
     CHECK_OK(csi_tiling_layout(ctx, g, 1, n, &on, &tl));
     csi_tile_scope scope;
     CHECK_OK(csi_tile_scope_make(ctx, g, 1, pos, val, n, &on, &tl, &scope));
-    size_t switched = 0, blocks_mixed = 0, neither = 0;
+    /* over the tiles' cores (which partition the image): pixels the choice changed, pixels at their mean */
+    size_t switched = 0, blocks_mixed = 0, neither = 0, core_changed = 0, core_at_mean = 0;
     for (uint32_t i = 0; i < tl.count; i++) {
         csi_tile_result a, b;
         CHECK_OK(csi_recon_tile(ctx, g, 1, pos, val, n, &on, &tl, &scope, i, &a));
@@ -190,6 +193,14 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
             }
         for (size_t q = 0; q < (size_t)w * h; q++)
             switched += px[q] >> 1;
+        csi_tile t;
+        csi_tiling_tile(&tl, i, &t);
+        for (uint32_t Y = t.core0[1]; Y < t.core1[1]; Y++)
+            for (uint32_t X = t.core0[0]; X < t.core1[0]; X++) {
+                const uint8_t v = px[(size_t)(Y - a.y0) * w + X - a.x0];
+                core_changed += v >> 1;
+                core_at_mean += v & 1;
+            }
         free(px);
         csi_tile_result_free(&a);
         csi_tile_result_free(&b);
@@ -216,6 +227,11 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
     CHECK_OK(csi_recon(ctx2, g, 1, pos, val, n, &woff, &w_off));
     CHECK(t_on.tiles == 4 && t_on.options.cv_select == CSI_SWITCH_ON, "the tiled run: %u tiles, the choice %s",
           t_on.tiles, t_on.options.cv_select == CSI_SWITCH_ON ? "on" : "not on");
+    /* its count: each pixel once, in its tile's core; at least the pixels the choice changed there,
+     * at most those at their mean (the blend alone puts some there) */
+    CHECK(core_changed <= t_on.cv_switched && t_on.cv_switched <= core_at_mean,
+          "the tiled run says %zu pixels were given their mean; its tiles' cores changed %zu and hold %zu at "
+          "their mean", t_on.cv_switched, core_changed, core_at_mean);
     if (t_on.image && t_off.image && w_on.image && w_off.image) {
         const double a = rel_mse_vs(t_on.image, truth, np), b = rel_mse_vs(t_off.image, truth, np);
         const double c = rel_mse_vs(w_on.image, truth, np), d = rel_mse_vs(w_off.image, truth, np);

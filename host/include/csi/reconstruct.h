@@ -293,7 +293,7 @@ typedef struct csi_recon_result {
     csi_recon_options options; /* the options used: every auto that applies resolved */
     csi_solve_report report[4];
     size_t cv_switched;     /* pixels the cross-validated choice gave their mean (cv_select; in
-                               tiles, summed over their windows, margins included) */
+                               tiles, each tile's in its core) */
     size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
     double t_setup, t_solve, t_integrate; /* seconds */
