@@ -99,7 +99,9 @@ static bool parse_size(const char *s, uint32_t *w, uint32_t *h)
 }
 
 /* The pattern must hold exactly one integer conversion (%d, %i, %u with optional 0 flag and
- * width) and otherwise only %% escapes, so passing it to snprintf is safe. */
+ * width, at most PATTERN_WIDTH_MAX: a frame number has 10 digits, and a width of a million would
+ * make a path of a megabyte) and otherwise only %% escapes, so passing it to snprintf is safe. */
+#define PATTERN_WIDTH_MAX 20
 static bool check_pattern(const char *p)
 {
     int convs = 0;
@@ -111,8 +113,13 @@ static bool check_pattern(const char *p)
             continue;
         while (*s == '0')
             s++;
-        while (*s >= '0' && *s <= '9')
+        unsigned width = 0;
+        while (*s >= '0' && *s <= '9') {
+            width = width * 10 + (unsigned)(*s - '0');
+            if (width > PATTERN_WIDTH_MAX)
+                return false;
             s++;
+        }
         if (*s != 'd' && *s != 'i' && *s != 'u')
             return false;
         convs++;
@@ -214,7 +221,8 @@ int main(int argc, char **argv)
     if (frames && (uint64_t)start + count > INT32_MAX)
         return die("%s", "--start + --count is too large for a frame number");
     if (frames && !check_pattern(frames))
-        return die("--frames \"%s\" needs exactly one integer conversion such as %%03d (and no other %%)", frames);
+        return die("--frames \"%s\" needs exactly one integer conversion such as %%03d (a width of at most 20, "
+                   "and no other %%)", frames);
     csi_pos_method method;
     if (csi_pos_method_parse(method_s, &method) != CSI_OK)
         return lib_fail();

@@ -121,6 +121,7 @@ expect_bad "nope.png: cannot open" "$TMP/nope.png" -o "$TMP/bad.csid" --out 4x3
 expect_bad "neither a PNG nor an EXR" "$DATA/img_rgb.txt" -o "$TMP/bad.csid" --out 4x3
 expect_bad "does not exist" "$I" -o "$TMP/no/dir/bad.csid" --out 4x3
 expect_bad "exactly one integer conversion" --frames "$DATA/frame_%s.png" --count 4 -o "$TMP/bad.csid" --out 4x4
+expect_bad "a width of at most 20" --frames "$DATA/frame_%999999d.png" --count 4 -o "$TMP/bad.csid" --out 4x4
 expect_bad "--count T with T >= 2" --frames "$DATA/frame_%03d.png" -o "$TMP/bad.csid" --out 4x4
 expect_bad "frame_004.png: cannot open" --frames "$DATA/frame_%03d.png" --count 5 -o "$TMP/bad.csid" --out 4x4
 cp "$DATA/img_rgb.png" "$TMP/mix_001.png"
