@@ -169,65 +169,46 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
                                    const csi_recon_options *opt, const csi_tiling *tl,
                                    const csi_tile_scope *scope, uint32_t index, csi_tile_result *out);
 
-/* Isolated peaks against their own noise (csi/peak_noise.h) in a tile's window, on the samples as
- * given (unscaled, like the tile's result by now). The rule looks one pixel around a pixel, and a
- * tile's core lies margin pixels inside its window, so every pixel a tile's core contributes is
- * judged as the whole image's would be; tiles run alone (--tile I/N) and merged give the same
- * bits as csi_recon's own tiles. */
-static csi_status tile_peaks(const csi_tiling *tl, uint32_t index, uint32_t channels, const csi_sample_pos *pos,
-                             const float *values, const float *variance, size_t n, csi_row_pool *pool,
-                             csi_recon_result *r)
+/* The steps an untiled run of noisy samples takes after its blend (reconstruct.c), in a tile's
+ * window, in the same order, on the window's samples as given (unscaled, like the tile's result
+ * by now), made once for all three:
+ * - the cross-validated choice (csi/cv_select.h): its folds are the window's samples, split as the
+ *   whole image's are (a sample's fold depends on its own pixel only), each reconstructed as the
+ *   window's one problem; its regions are the whole image's, cut at the window's sides. A region
+ *   wholly inside the window is decided on the same samples as in the untiled run, though by folds
+ *   of the window rather than of the whole;
+ * - pixels without a sample next to an HDR step (csi/empty_pixels.h): the rule looks two pixels
+ *   around a pixel (its neighbours and theirs), and a pixel a tile contributes with a weight above
+ *   0 lies at least half the margin (2 pixels with the automatic margins) inside its window, so it
+ *   is judged on the same neighbours' samples as the whole image's would be (only the rule's
+ *   floor, 1% of the samples' mean absolute value, is the window's, as the blend's is in a tile);
+ * - isolated peaks against their own noise (csi/peak_noise.h), given the samples' variances: the
+ *   rule looks one pixel around a pixel, and a tile's core lies margin pixels inside its window, so
+ *   every pixel a tile's core contributes is judged as the whole image's would be.
+ * Tiles run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
+static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t index, uint32_t channels,
+                                   const csi_sample_pos *pos, const float *values, size_t n,
+                                   const csi_recon_options *opt, csi_recon_result *r)
 {
-    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.correct != CSI_CORRECT_BLEND)
+    const bool choice = r->options.cv_select == CSI_SWITCH_ON; /* asked for with any correction, as untiled */
+    const bool blend = r->options.correct == CSI_CORRECT_BLEND;
+    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || !(choice || blend))
         return CSI_OK;
     tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, variance, n, &p));
-    const csi_status s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, pool, r->image, NULL);
-    tile_problem_free(&p);
-    return s;
-}
-
-/* The cross-validated choice (csi/cv_select.h) in a tile's window, on the samples as given (unscaled,
- * like the tile's result by now), before the window's empty pixels and peaks as in an untiled run.
- * The folds are the window's samples, split as the whole image's are (a sample's fold depends on
- * its own pixel only), each reconstructed as the window's one problem; the regions are the whole
- * image's, cut at the window's sides. A region wholly inside the window is decided on the same
- * samples as in the untiled run, though by folds of the window rather than of the whole, and a
- * tile run alone (--tile I/N) decides as csi_recon's own tile does. */
-static csi_status tile_cv_select(csi_ctx *ctx, const csi_tiling *tl, uint32_t index, uint32_t channels,
-                                 const csi_sample_pos *pos, const float *values, size_t n,
-                                 const csi_recon_options *opt, csi_recon_result *r)
-{
-    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.cv_select != CSI_SWITCH_ON)
-        return CSI_OK;
-    tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
-    csi_recon_options o = *opt;
-    o.tiles = 1; /* a fold is the window's problem, whatever the layout asked of the whole */
-    const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
-                              p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
-    const csi_status s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], core, channels, p.pos,
-                                                p.values, p.n, &o, r);
-    tile_problem_free(&p);
-    return s;
-}
-
-/* Pixels without a sample next to an HDR step (csi/empty_pixels.h) in a tile's window, on the
- * samples as given, before the tile's peaks as in an untiled run. The rule looks two pixels around
- * a pixel (its neighbours and theirs), and a pixel a tile contributes with a weight above 0 lies
- * at least half the margin (2 pixels with the automatic margins) inside its window, so it is
- * judged on the same neighbours' samples as the whole image's would be (only the rule's floor,
- * 1% of the samples' mean absolute value, is the window's, as the blend's is in a tile); tiles
- * run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
-static csi_status tile_empty_pixels(const csi_tiling *tl, uint32_t index, uint32_t channels,
-                                    const csi_sample_pos *pos, const float *values, size_t n,
-                                    csi_row_pool *pool, csi_recon_result *r)
-{
-    if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || r->options.correct != CSI_CORRECT_BLEND)
-        return CSI_OK;
-    tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
-    const csi_status s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, pool, r->image);
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, blend ? opt->sample_variance : NULL, n, &p));
+    csi_status s = CSI_OK;
+    if (choice) {
+        csi_recon_options o = *opt;
+        o.tiles = 1; /* a fold is the window's problem, whatever the layout asked of the whole */
+        const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
+                                  p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
+        s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], core, channels, p.pos, p.values, p.n,
+                                   &o, r);
+    }
+    if (s == CSI_OK && blend)
+        s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, csi_ctx_row_pool(ctx), r->image);
+    if (s == CSI_OK && p.variance)
+        s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, csi_ctx_row_pool(ctx), r->image, NULL);
     tile_problem_free(&p);
     return s;
 }
@@ -245,14 +226,7 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
-    if (s == CSI_OK && (s = tile_cv_select(ctx, tl, index, channels, pos, values, n, opt, &out->r)) != CSI_OK)
-        csi_tile_result_free(out);
-    if (s == CSI_OK &&
-        (s = tile_empty_pixels(tl, index, channels, pos, values, n, csi_ctx_row_pool(ctx), &out->r)) != CSI_OK)
-        csi_tile_result_free(out);
-    if (s == CSI_OK && opt->sample_variance &&
-        (s = tile_peaks(tl, index, channels, pos, values, opt->sample_variance, n, csi_ctx_row_pool(ctx),
-                        &out->r)) != CSI_OK)
+    if (s == CSI_OK && (s = tile_noisy_steps(ctx, tl, index, channels, pos, values, n, opt, &out->r)) != CSI_OK)
         csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)
@@ -383,7 +357,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     if (tl->image_t < tl->grid.t)
         o.shutter_frames = tl->image_t; /* the later frames are padding (csi_tiling_layout) */
     /* The whole image's variances are indexed by its samples, not the tile's: the tile's peaks
-     * read them through tile_peaks, which gathers the tile's own; the solve gets none. */
+     * read them through tile_noisy_steps, which gathers the tile's own; the solve gets none. */
     o.sample_variance = NULL;
     /* A time window keeps its volume at its samples for the whole shutter's correction. */
     csi_recon_fit fit = {NULL, false};
