@@ -139,6 +139,11 @@ csi_status csi_outset_input(csi_outset *s, const char *path)
     struct stat sb;
     if (!path || stat(path, &sb) != 0)
         return CSI_OK; /* a missing input is its reader's error */
+    /* an input stated after the outputs is checked against them as theirs were against it */
+    for (size_t i = 0; i < s->n; i++)
+        if (s->e[i].exists && s->e[i].dev == sb.st_dev && s->e[i].ino == sb.st_ino)
+            return csi_fail(CSI_ERR_ARG, "%s: %s would overwrite the input %s (the same file)", s->e[i].path,
+                            s->e[i].what, path);
     s->busy = 1;
     csi_status rs = room((void **)&s->in, &s->capin, s->nin, sizeof *s->in);
     s->busy = 0;

@@ -147,7 +147,8 @@ fi
 cp "$static" "$T/t.scene"
 cp "$S/tests/data/io/img_rgb.png" "$T/img.png"
 ln -f "$T/s.csid" "$T/hard.csid"; ln -sf "$T/s.csid" "$T/soft.csid"
-sum_before="$(md5sum "$T/s.csid" "$T/t.scene" "$T/img.png")"
+cp "$T/s.csid" "$T/more.csid" # an input stated after the outputs (--refine-with)
+sum_before="$(md5sum "$T/s.csid" "$T/t.scene" "$T/img.png" "$T/more.csid")"
 same() { # name want cmd...
     local name="$1" want="$2"; shift 2
     "$@" > /dev/null 2> "$T/e"; local rc=$?
@@ -159,12 +160,13 @@ same "dump --png symlink" "would overwrite the input" "$B/csi-reconstruct" "$T/s
 same "scene -o itself" "would overwrite the input" "$B/csi-render" "$T/t.scene" -o "$T/t.scene"
 same "scene --dump itself" "would overwrite the input" "$B/csi-render" "$T/t.scene" -o "$T/x.exr" --dump "$T/t.scene"
 same "mkdump -o its image" "would overwrite the input" "$B/csi-mkdump" "$T/img.png" -o "$T/img.png" --out 4x3
+same "--refine-with -o itself" "would overwrite the input" "$B/csi-reconstruct" "$T/s.csid" --refine-with "$T/more.csid" -o "$T/more.csid"
 same "two outputs, one file" "are the same file" "$B/csi-reconstruct" "$T/s.csid" -o "$T/y.exr" --png "$T/y.exr"
 same "two outputs, one file via ./" "are the same file" "$B/csi-reconstruct" "$T/s.csid" -o "$T/y.exr" --stats "$T/./y.exr"
 printf 'camera { position 0 0 -2 target 0 0 0 size 8 8 }\nmaterial m { texture "tex.png" }\n' > "$T/tx.scene"
 cp "$S/tests/data/io/img_rgb.png" "$T/tex.png"
 same "scene texture as --png" "would overwrite the input" "$B/csi-render" "$T/tx.scene" -o "$T/x.exr" --png "$T/tex.png"
-[[ "$(md5sum "$T/s.csid" "$T/t.scene" "$T/img.png")" == "$sum_before" && ! -e "$T/x.exr" && ! -e "$T/y.exr" ]] \
+[[ "$(md5sum "$T/s.csid" "$T/t.scene" "$T/img.png" "$T/more.csid")" == "$sum_before" && ! -e "$T/x.exr" && ! -e "$T/y.exr" ]] \
     && ok || bad "an input changed or an output was written"
 
 # --- inputs that are not regular files -----------------------------------------------------------

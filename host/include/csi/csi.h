@@ -659,7 +659,8 @@ CSI_API csi_status csi_outset_create(csi_outset **out);
 /* Aborts whatever was not committed, then frees. NULL is fine. */
 CSI_API void csi_outset_free(csi_outset *s);
 
-/* An input of the run (it must exist): no output may resolve to it. */
+/* An input of the run (it must exist): no output may resolve to it, whether stated before or after
+ * it (CSI_ERR_ARG naming both). */
 CSI_API csi_status csi_outset_input(csi_outset *s, const char *path);
 
 /* An output file. `what` names it in messages ("the image", "--png"). Refused (CSI_ERR_IO, one
