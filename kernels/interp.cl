@@ -181,23 +181,47 @@ void csi_interp_zero(__global float *restrict c, const uint n, const uint stream
  * (it then gets + 0 throughout): whether it does depends on the sample's position, a branch the
  * CPU cannot predict; only where the first block ends the row (ROW_END) is the second left out.
  * The blocks reach 7 cells left and 15 right of the window's first cell, within the tile's margin
- * (see the host). */
+ * (see the host).
+ *
+ * On a grid larger than the cache (`ahead`, the host's choice, the same as the zeroing's), the
+ * sample SPREAD_AHEAD places later in the tile has its value and the blocks of its window's last
+ * row prefetched: a tile's values lie scattered over r (the caller's order), and the last row is
+ * the one a tile's samples reach first in their order (the rows above it were reached by the
+ * samples before), so both would otherwise be a wait on memory for most samples. Prefetches move
+ * no data the kernel computes with: the additions, and so the bits, are those without them. On a
+ * grid the cache holds they only cost instructions. (Holding the blocks of consecutive samples in
+ * registers instead of memory costs more than it saves: whether the next sample hits the same
+ * blocks, the next ones or others is a branch the CPU cannot predict.) */
+#define SPREAD_AHEAD 20
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void csi_interp_spread(__global float *restrict c, __global const float *restrict r,
                        __global const uint *restrict cell, __global const uint *restrict ph,
                        __global const uint *restrict perm, __global const float *restrict wt8,
                        __global const float *restrict wpad, const uint mw, const uint mh,
                        __global const uint *restrict tstart, __global const uint *restrict rows,
-                       const uint roff, const uint nrows, const uint xoff, const uint Tx)
+                       const uint roff, const uint nrows, const uint xoff, const uint Tx,
+                       const uint ahead)
 {
     const size_t g = get_global_id(0);
     if (g >= nrows)
         return;
     const uint ty = rows[roff + g];
     const bool blocks = mw % 8u == 0u;
+    const size_t cells = (size_t)mw * mh;
     for (uint q = 0; q < Tx; q++) {
         const uint t = ty * Tx + rows[xoff + q];
-        for (uint i = tstart[t]; i < tstart[t + 1]; i++) {
+        const uint i1 = tstart[t + 1];
+        for (uint i = tstart[t]; i < i1; i++) {
+            if (ahead && i + SPREAD_AHEAD < i1) {
+                const uint j = i + SPREAD_AHEAD;
+                __builtin_prefetch(r + perm[j]);
+                /* the two aligned blocks of its window's last row (a window that wraps past the
+                 * grid's end prefetches the grid's first cells instead) */
+                size_t f = ((size_t)cell[j] + (IW - 1 - IH) * (size_t)mw - IH) & ~(size_t)7;
+                f = f + 16 <= cells ? f : 0;
+                __builtin_prefetch(c + f);
+                __builtin_prefetch(c + f + 8);
+            }
             const float v = r[perm[i]];
             const uint p = ph[i];
             __global const float *wx = wt8 + (size_t)(p & 0xffu) * 8;

@@ -31,7 +31,8 @@
 #define ZERO_CELLS (1024 * 16)
 /* The largest grid zeroed with plain stores before the spreading, which then finds it in the
  * cache; a larger one is zeroed with non-temporal stores (kernels/interp.cl): measured between
- * the two (docs/bench/cost.md, session 19). */
+ * the two (docs/bench/cost.md, session 19). On a larger one the spreading also prefetches ahead
+ * of its samples (kernels/interp.cl), which on a grid in the cache only costs time. */
 #define ZERO_CACHED_BYTES ((size_t)8 << 20)
 /* Samples per work-item of the gather. */
 #define GATHER_CHUNK 256
@@ -126,7 +127,7 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
         CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(r), CSI_MEM(s->cell), CSI_MEM(s->ph),
                          CSI_MEM(s->perm), CSI_MEM(s->wt8), CSI_MEM(s->wpad), CSI_ARG(mw),
                          CSI_ARG(mh), CSI_MEM(s->tstart), CSI_MEM(s->rows), CSI_ARG(roff), CSI_ARG(nrows),
-                         CSI_ARG(xoff), CSI_ARG(Tx)));
+                         CSI_ARG(xoff), CSI_ARG(Tx), CSI_ARG(stream)));
         size_t l = 1, g = count;
         CSI_TRY(csi_run(ctx, k, 1, &g, &l));
     }

@@ -189,6 +189,73 @@ static void test_grid_end(csi_ctx *ctx)
     free(s);
 }
 
+/* The spreading on a grid larger than the cache (above host/ops/interp.c's ZERO_CACHED_BYTES),
+ * where it looks ahead of the sample it adds (kernels/interp.cl): tiles full of samples (every
+ * fine cell of the grid's first two rows of tiles and of its last rows and columns: the windows
+ * that wrap, those whose block ends the row, those whose look-ahead would reach past the grid),
+ * and samples scattered over the rest, against the taps summed in double here with explicit
+ * wrap, within the 1e-5 above, on a buffer that held 1e30 in every cell. */
+static void test_large_grid(csi_ctx *ctx)
+{
+    enum { MW = 2048, MH = 1040, D = 2 };
+    const size_t k = (size_t)MW * MH, fw = (size_t)MW * D, fh = (size_t)MH * D;
+    /* the three regions below, then scattered samples up to cap */
+    const size_t cap = 32 * 256 + 16 * fw + (fh / 8) * 8 + 8192;
+    uint32_t *idx = malloc(cap * sizeof *idx);
+    float *r = malloc(cap * sizeof *r);
+    size_t n = 0;
+    for (size_t py = 0; py < 32; py++)
+        for (size_t px = 0; px < 256; px++)
+            idx[n++] = (uint32_t)(py * fw + px);
+    for (size_t py = fh - 16; py < fh; py++)
+        for (size_t px = 0; px < fw; px++)
+            idx[n++] = (uint32_t)(py * fw + px);
+    for (size_t py = 32; py < fh - 16; py += 8)
+        for (size_t px = fw - 24; px < fw; px += 3)
+            idx[n++] = (uint32_t)(py * fw + px);
+    uint64_t st = 0x9e3779b97f4a7c15ull;
+    while (n < cap) {
+        st = st * 6364136223846793005ull + 1442695040888963407ull;
+        idx[n++] = (uint32_t)((st >> 20) % (fw * fh));
+    }
+    for (size_t i = 0; i < n; i++)
+        r[i] = (float)((i * 37) % 23) / 11.0f - 1.0f;
+    double *ref = calloc(k, sizeof *ref);
+    for (size_t i = 0; i < n; i++) {
+        const size_t px = idx[i] % fw, py = idx[i] / fw, mx = px / D, my = py / D;
+        for (int a = 0; a < CSI_INTERP_TAPS; a++)
+            for (int b = 0; b < CSI_INTERP_TAPS; b++) {
+                const int o = CSI_INTERP_TAPS / 2 - 1;
+                const size_t jx = (mx + MW + b - o) % MW, jy = (my + MH + a - o) % MH;
+                const double dx = (double)(px % D) / D - (b - o), dy = (double)(py % D) / D - (a - o);
+                ref[jy * MW + jx] += r[i] * csi_interp_kernel(dx) * csi_interp_kernel(dy);
+            }
+    }
+    float *s = malloc(k * sizeof *s), *refs = malloc(k * sizeof *refs);
+    for (size_t j = 0; j < k; j++) {
+        s[j] = 1e30f;
+        refs[j] = (float)ref[j];
+    }
+    csi_linop *op = NULL;
+    CHECK_OK(csi_interp_create(ctx, MW, MH, D, idx, n, &op));
+    if (op) {
+        cl_mem dr = test_upload(r, n * 4), ds = test_upload(s, k * 4);
+        CHECK_OK(csi_linop_adjoint(op, dr, ds));
+        test_download(ds, s, k * 4);
+        double es = test_max_abs_diff(s, refs, k) / test_max_abs(refs, k);
+        CHECK(es < 1e-5, "large grid: spread within 1e-5 of max |ref| (%.2e)", es);
+        printf("large grid: %zu samples, spread err %.2e\n", n, es);
+        csi_buffer_release(&dr);
+        csi_buffer_release(&ds);
+        csi_linop_free(op);
+    }
+    free(ref);
+    free(refs);
+    free(s);
+    free(idx);
+    free(r);
+}
+
 static void test_errors(csi_ctx *ctx)
 {
     uint32_t idx[2] = {0, 400};
@@ -207,6 +274,7 @@ int main(void)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         test_case(ctx, &cases[i]);
     test_grid_end(ctx);
+    test_large_grid(ctx);
     test_errors(ctx);
     return test_done();
 }
