@@ -137,7 +137,10 @@ def two_passes(files, scene_obj, paths, passes=1):
     wall = time.perf_counter() - t0
     t_render = sum(q["mitsuba"]["render_s"] + q["mitsuba"]["jit_s"] for q in info["passes"])
     merged = csid.Dump(grid=d.grid, out=d.out, xyt=req2.xyt, values=s2.values, seed=d.seed)
-    return ({"csi-mitsuba": result.image, "mean+pass": merged.pixel_means().astype(np.float32)}, info["cells"],
+    # a pixel without a sample (Poisson-disk positions at 1 spp) is 0 in the mean, as csi's estimator
+    # mean leaves it, not NaN
+    mean_pass = np.nan_to_num(merged.pixel_means(), nan=0.0).astype(np.float32)
+    return ({"csi-mitsuba": result.image, "mean+pass": mean_pass}, info["cells"],
             t_render, wall - t_render)
 
 
@@ -310,7 +313,8 @@ def main(argv=None):
     ap.add_argument("--data", required=True, help="cache of dumps and references (created; reused across runs)")
     ap.add_argument("--out", required=True, help="results.json, report.md, contact sheets")
     ap.add_argument("--quick", action="store_true", help="cornell and glossy_sun at 64x64, 1 and 4 spp, 1 and 16 paths")
-    ap.add_argument("--scenes", help=f"comma-separated, default all: {','.join(ALL_SCENES)}")
+    ap.add_argument("--scenes", help=f"comma-separated names or scene files of your own (XML, or Python defining "
+                                     f"scene()), default all: {','.join(ALL_SCENES)}")
     ap.add_argument("--spp", default="1,4,16")
     ap.add_argument("--paths", default="1,64")
     ap.add_argument("--size", default="128x128")
@@ -327,7 +331,7 @@ def main(argv=None):
     if a.quick:
         a.scenes = a.scenes or "cornell,glossy_sun"
         a.spp, a.paths, a.size, a.reference_spp = "1,4", "1,16", "64x64", 1024
-    scenes = (a.scenes or ",".join(ALL_SCENES)).split(",")
+    scenes = md.scene_names(a.scenes or ",".join(ALL_SCENES))
     size = tuple(int(v) for v in a.size.split("x"))
     spps = [int(v) for v in a.spp.split(",")]
     paths_list = [int(v) for v in a.paths.split(",")]

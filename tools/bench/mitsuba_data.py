@@ -44,6 +44,25 @@ SCENES = {
     "street_lamps": os.path.join(ROOT, "data", "mitsuba", "street_lamps.py"),
 }
 
+
+def scene_names(arg):
+    """The scene names of a comma-separated --scenes: each a name above, or a scene file of one's own
+    (a Mitsuba XML file, or a Python file defining scene() as data/mitsuba/*.py do), which is added
+    to SCENES under its file name without the extension (its dumps go in DATA/NAME)."""
+    names = []
+    for s in arg.split(","):
+        if s in SCENES:
+            names.append(s)
+        elif os.path.isfile(s):
+            name = os.path.splitext(os.path.basename(s))[0]
+            if name in SCENES and SCENES[name] != os.path.abspath(s):
+                raise SystemExit(f"--scenes: {s}: the name {name!r} is taken by another scene")
+            SCENES[name] = os.path.abspath(s)
+            names.append(name)
+        else:
+            raise SystemExit(f"--scenes: {s}: neither a scene name ({', '.join(SCENES)}) nor a scene file")
+    return names
+
 README = """Mitsuba 3 sample dumps and references for csi (issue 9), made by
 tools/bench/mitsuba_data.py of the csi repository, e.g.
     .venv/bin/python tools/bench/mitsuba_data.py --data DIR --methods stratified,poisson
@@ -183,7 +202,8 @@ def main(argv=None):
 
     ap = argparse.ArgumentParser(description="Renders the Mitsuba benchmark's dumps and references into DIR.")
     ap.add_argument("--data", required=True)
-    ap.add_argument("--scenes", default=",".join(SCENES))
+    ap.add_argument("--scenes", default=",".join(SCENES),
+                    help="comma-separated scene names, or scene files of your own (XML, or Python defining scene())")
     ap.add_argument("--spp", default="1,4,16")
     ap.add_argument("--paths", default="1,64")
     ap.add_argument("--size", default="128x128")
@@ -193,7 +213,7 @@ def main(argv=None):
                     help="the positions' and paths' seed; another seed goes in another DIR (the reference, seed 0, is the same render)")
     a = ap.parse_args(argv)
     size = tuple(int(v) for v in a.size.split("x"))
-    scenes = a.scenes.split(",")
+    scenes = scene_names(a.scenes)
     os.makedirs(a.data, exist_ok=True)
     for scene in scenes:
         for spp in (int(v) for v in a.spp.split(",")):
