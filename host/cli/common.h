@@ -93,11 +93,12 @@ void cli_progress_end(cli_progress *p);
 double cli_now(void); /* seconds, monotonic */
 
 /* A reconstruction's progress (common_eta.c): the library's phases ("setup", "solve c/C",
- * "integrate c/C") with the solver's step, and the time left once a channel is done. */
+ * "integrate c/C", each after "tile t/T " in a tiled run) with the solver's step, and the time
+ * left once a channel's solve is done. */
 typedef struct {
     cli_progress *bar;
-    unsigned channel, channels, done; /* current channel (1-based, 0 before the first) */
-    double t_first, t_current;        /* when the first and the current channel began */
+    unsigned unit, units, done; /* current channel solve (1-based over every tile, 0 before the first) */
+    double t_first, t_current;  /* when the first and the current one began */
 } cli_recon_progress;
 void cli_recon_progress_init(cli_recon_progress *p, cli_progress *bar);
 /* A csi_progress_fn's arguments. */

@@ -1,6 +1,9 @@
 /* The reconstruction's progress line: phase, the solver's step, and an estimate of the time
- * left from the channels already done (csi_recon_options.progress names the phases
- * "setup", "solve c/C", "integrate c/C"). */
+ * left from the channels' solves already done (csi_recon_options.progress names the phases
+ * "setup", "solve c/C", "integrate c/C", in a tiled run each after "tile t/T "). A run is T x C
+ * such solves, one after another: the solve of channel c in tile t is the ((t - 1) C + c)-th. The
+ * cross-validated choice's folds also say "solve 1/1" after a tile's channels; their index is
+ * never past the current one, so they are not counted, and their time goes into the average. */
 #include <stdio.h>
 #include <string.h>
 
@@ -14,25 +17,33 @@ void cli_recon_progress_init(cli_recon_progress *p, cli_progress *bar)
 
 double cli_recon_progress_eta(const cli_recon_progress *p, double now)
 {
-    if (p->done == 0 || p->channels == 0)
+    if (p->done == 0 || p->units == 0)
         return -1.0;
-    /* Channels cost about the same (one operator, the same sample count). */
+    /* Channels cost about the same (one operator, the same sample count), and so do tiles (one
+     * window size): the mean so far, what happens between the solves included. */
     double per = (p->t_current - p->t_first) / p->done;
-    double left = per * (p->channels - p->done) - (now - p->t_current);
+    double left = per * (p->units - p->done) - (now - p->t_current);
     return left > 0 ? left : 0;
 }
 
 void cli_recon_progress_update(cli_recon_progress *p, const char *phase, int iter, double res)
 {
-    unsigned c = 0, nc = 0;
+    unsigned t = 1, nt = 1, c = 0, nc = 0;
+    int at = 0;
     const double now = cli_now();
-    if (sscanf(phase, "solve %u/%u", &c, &nc) == 2 && c >= 1 && c > p->channel) {
-        if (p->channel == 0)
-            p->t_first = now;
-        p->done = c - 1; /* every earlier channel is integrated */
-        p->channel = c;
-        p->channels = nc;
-        p->t_current = now;
+    const char *solve = phase;
+    if (sscanf(phase, "tile %u/%u %n", &t, &nt, &at) == 2 && at > 0)
+        solve = phase + at;
+    if (sscanf(solve, "solve %u/%u", &c, &nc) == 2 && c >= 1 && c <= nc && t >= 1 && t <= nt) {
+        const unsigned u = (t - 1) * nc + c;
+        if (u > p->unit) {
+            if (p->unit == 0)
+                p->t_first = now;
+            p->done = u - 1; /* every earlier solve is integrated */
+            p->unit = u;
+            p->units = nt * nc;
+            p->t_current = now;
+        }
     }
     char detail[128] = "", eta[32] = "";
     double left = cli_recon_progress_eta(p, now);

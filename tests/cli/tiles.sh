@@ -169,6 +169,12 @@ check "grep -q '^csi-reconstruct: progress: write [0-9]*%  .*pg.exr' '$T/pg.err'
 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pq.exr" --stats "$T/pq.json" "${prog[@]}" -q 2> "$T/pq.err"
 check "[[ ! -s '$T/pq.err' && '$(json "$T/pq.json" image_fnv1a64)' == '$(json "$T/pg.json" image_fnv1a64)' ]]" \
     "quiet: nothing on stderr, the same pixels: $(cat "$T/pq.err")"
+# a tiled run's time left: counted over every tile's channels, shown from the second solve on
+CSI_PROGRESS=0 "$B/csi-reconstruct" "$T/s.csid" --tiles 4 -o "$T/pe.exr" "${prog[@]}" 2> "$T/pe.err"
+check "[[ $? == 0 ]] && grep -q '^csi-reconstruct: progress: tile 4/4 solve [0-9]/[0-9] .* eta [0-9]*s' '$T/pe.err'" \
+    "no time left in the last tile's progress: $(grep 'tile 4/4 solve' "$T/pe.err" | head -2)"
+check "! grep -q '^csi-reconstruct: progress: tile 1/4 solve 1/.*eta' '$T/pe.err'" \
+    "a time left before any solve was done: $(grep -m1 eta "$T/pe.err")"
 CSI_PROGRESS=1000 "$B/csi-reconstruct" "$T/m.csid" -o "$T/pg.exr" "${prog[@]}" 2> "$T/pl.err"
 check "[[ $? == 0 ]] && ! grep -q progress '$T/pl.err'" "a line before the first 1000 s: $(cat "$T/pl.err")"
 CSI_PROGRESS=0.001 "$B/csi-reconstruct" "$T/m.csid" --tiles 2 --tile 1/2 -o "$T/pt.csip" "${prog[@]}" 2> "$T/pt.err"
