@@ -71,7 +71,40 @@ def main():
             check(code == 2 and want in err.getvalue() and err.getvalue().startswith("csi-mitsuba: error: cornell:"),
                   f"{what}: exit {code}, stderr {err.getvalue()!r}")
         check(os.listdir(T) == [], f"refused runs left {os.listdir(T)}")
+
+    # On a terminal the progress line follows the reconstruction too (the library's phases and
+    # steps), not only Mitsuba's renders: a 1920x1080 run reconstructs for tens of seconds.
+    with tempfile.TemporaryDirectory() as T:
+        shown = on_terminal(["cornell", "--out", "64x64", "--spp", "4", "--no-refine", "-o", os.path.join(T, "o.exr")])
+        check("csi-mitsuba: samples" in shown and "csi-mitsuba: reconstruction: solve 1/3  step 1" in shown,
+              f"the progress on a terminal: {shown[-400:]!r}")
     return done()
+
+
+def on_terminal(args):
+    """csi-mitsuba ARGS with stderr on a pseudo-terminal: what it wrote there."""
+    import pty
+    import subprocess
+
+    from test_mitsuba_e2e import PYDIR
+
+    leader, follower = pty.openpty()
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR))
+    proc = subprocess.Popen([sys.executable, "-m", "csi.mitsuba_cli", *args], stdout=subprocess.DEVNULL,
+                            stderr=follower, env=env)
+    os.close(follower)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(leader, 65536)
+        except OSError:  # the child closed the terminal
+            break
+        if not chunk:
+            break
+        out += chunk
+    proc.wait()
+    os.close(leader)
+    return out.decode(errors="replace")
 
 
 if __name__ == "__main__":

@@ -135,6 +135,13 @@ class _Progress:
             sys.stderr.write(f"\r{PROG}: {phase} {done}/{total}   ")
             sys.stderr.flush()
 
+    def reconstruction(self, phase, iteration, residual):
+        """csi.reconstruct's progress callback: the library's phase and the solver's step."""
+        if self.on:
+            step = f"  step {iteration}" if iteration > 0 else ""
+            sys.stderr.write(f"\r\033[K{PROG}: reconstruction: {phase}{step}")
+            sys.stderr.flush()
+
     def end(self):
         if self.on:
             sys.stderr.write("\r\033[K")
@@ -174,12 +181,12 @@ def reconstruction_options(args):
     return kw, device
 
 
-def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None):
+def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None, progress=None):
     """reconstruct_result, then its image written to output (EXR) and png; returns the statistics."""
     import csi
 
     t0 = time.perf_counter()
-    res = reconstruct_result(d, extra, variance)
+    res = reconstruct_result(d, extra, variance, progress)
     try:
         if output:
             res.write_exr(output)
@@ -192,10 +199,10 @@ def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None):
     return stats
 
 
-def reconstruct_result(d: csid.Dump, extra=(), variance=None):
+def reconstruct_result(d: csid.Dump, extra=(), variance=None, progress=None):
     """Reconstructs the samples d with csi's library in this process (the same bits as
     csi-reconstruct on their dump, with --variance when `variance`, the samples' variances, is
-    given); returns csi's Result. Positions in csi's order (sorted
+    given); returns csi's Result. progress: csi.reconstruct's callback, or None. Positions in csi's order (sorted
     by cell, each once: csi-positions' requests) go straight in; any others through the library's
     dump reader, which sorts them and averages repeats as csi-reconstruct does, without the
     variances (the variance of an averaged repeat is not their mean)."""
@@ -213,12 +220,12 @@ def reconstruct_result(d: csid.Dump, extra=(), variance=None):
             if d.seed and "seed" not in kw:
                 kw["seed"] = d.seed  # csi-reconstruct's rule: the dump's seed unless given
             res = csi.reconstruct(d.xyt, d.values, (w, h, t, *d.out), device=dev, exact=d.exact,
-                                  variance=variance, **kw)
+                                  variance=variance, progress=progress, **kw)
         else:
             with tempfile.TemporaryDirectory(prefix="csi-mitsuba-") as tmp:
                 path = os.path.join(tmp, "samples.csid")
                 csid.write(path, d)
-                res = csi.reconstruct_dump(path, device=dev, **kw)
+                res = csi.reconstruct_dump(path, device=dev, progress=progress, **kw)
     except csi.CsiError as e:
         raise ReconstructError(e) from None
     return res
@@ -260,7 +267,9 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     import csi
 
     t0 = time.perf_counter()
-    first = reconstruct_result(req.with_values(s.values), extra, s.variance if a.variance_peaks else None)
+    # prog: csi-mitsuba's _Progress, or any callable for the renders alone (as the benchmarks pass)
+    first = reconstruct_result(req.with_values(s.values), extra, s.variance if a.variance_peaks else None,
+                               getattr(prog, "reconstruction", None))
     t_first = time.perf_counter() - t0
     info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first,
             "image": "the first pass's reconstruction, each refined pixel its samples' mean"}
@@ -461,7 +470,9 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     elif a.output or a.png:
         t0 = time.perf_counter()
         stats["reconstruction"] = reconstruct(dump, tmp(a.output), tmp(a.png), extra=extra,
-                                                variance=s.variance if a.variance_peaks else None)
+                                                variance=s.variance if a.variance_peaks else None,
+                                                progress=prog.reconstruction)
+        prog.end()
         t_recon = time.perf_counter() - t0
     if a.dump:
         csid.write(tmp(a.dump), dump)
