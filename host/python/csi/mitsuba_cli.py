@@ -202,10 +202,10 @@ def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None, progres
 def reconstruct_result(d: csid.Dump, extra=(), variance=None, progress=None):
     """Reconstructs the samples d with csi's library in this process (the same bits as
     csi-reconstruct on their dump, with --variance when `variance`, the samples' variances, is
-    given); returns csi's Result. progress: csi.reconstruct's callback, or None. Positions in csi's order (sorted
-    by cell, each once: csi-positions' requests) go straight in; any others through the library's
-    dump reader, which sorts them and averages repeats as csi-reconstruct does, without the
-    variances (the variance of an averaged repeat is not their mean)."""
+    given); returns csi's Result. progress: csi.reconstruct's callback, or None. Positions in
+    csi's order (sorted by cell, each once: csi-positions' requests) go straight in; any others
+    through the library's dump reader, which sorts them and averages repeats as csi-reconstruct
+    does, without the variances (the variance of an averaged repeat is not their mean)."""
     import numpy as np
 
     import csi
