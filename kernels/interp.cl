@@ -77,15 +77,32 @@ inline float8 gather_cols(__global const float *restrict c, __global const uint 
  * made together: the same additions on the same pairs of lanes, 8 samples to a vector, so the
  * same bits with fewer shuffles and no chain of dependent adds per sample. Work-groups of one
  * item: the vector types are the SIMD lanes (across work-items PoCL would turn every load into
- * gathers). */
+ * gathers).
+ *
+ * On a grid larger than the cache (`ahead`, the host's choice, as for the spreading), the sample
+ * GATHER_AHEAD places later has its window's last row prefetched: the grid comes from a stage
+ * that wrote it to memory, a tile's samples reach that row first, and the rows above it were read
+ * by the samples before. Prefetches move no data the kernel computes with: the same bits. (The
+ * scattered writes of y are not a wait: prefetching them for writing gained nothing.) */
+#define GATHER_AHEAD 32
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void csi_interp_gather(__global const float *restrict c, __global float *restrict y,
                        __global const uint *restrict cell, __global const uint *restrict ph,
                        __global const uint *restrict perm, __global const float *restrict wt8,
-                       const uint mw, const uint mh, const uint chunk, const uint n)
+                       const uint mw, const uint mh, const uint chunk, const uint n,
+                       const uint ahead)
 {
     const size_t i0 = get_global_id(0) * (size_t)chunk, i1 = min(i0 + chunk, (size_t)n);
+    const size_t cells = (size_t)mw * mh;
     for (size_t i = i0; i < i1; i++) {
+        if (ahead && i + GATHER_AHEAD < n) {
+            /* the 8 cells the row's load reads (a window that wraps past the grid's end
+             * prefetches the grid's first cells instead) */
+            size_t f = (size_t)cell[i + GATHER_AHEAD] + (IW - 1 - IH) * (size_t)mw - IH;
+            f = f + 8 <= cells ? f : 0;
+            __builtin_prefetch(c + f);
+            __builtin_prefetch(c + f + 7);
+        }
         if (i + 8 <= i1 && all((vload8(0, ph + i) & INSIDE) != 0u)) {
             float8 s[8];
 #pragma unroll

@@ -444,7 +444,13 @@ inline int wrap(int i, int n)
  * kernels above, so the same bits. In local memory a row's halves are G = ceil(n/32) vectors of
  * 16 each; where n/2 is not a multiple of 16 the last vector's extra lanes are computed from
  * wrapped windows and not stored. The host launches these only where input and output are
- * distinct buffers. */
+ * distinct buffers.
+ *
+ * The x pass asks for the next input row (or the next rows of both halves) a slice per vector it
+ * makes: the input was written as non-temporal stores (store_lanes) or by another stage long
+ * before, so it is in memory, and the hardware's prefetchers neither guess the jump to the next
+ * row nor cross its 4 KiB pages, so each row's start and each page would otherwise be a wait.
+ * Prefetches move no data the kernel computes with: the same bits. */
 
 /* 16 lanes of v to p[0 .. cnt) (all 16 when cnt >= 16). A level's output is read back only
  * after the whole launch, long after it has left the caches: on x86, a whole 64-byte aligned
@@ -491,9 +497,12 @@ inline void store_lanes(const float16 v, __global float *p, const int cnt)
         const int rows = 2 * (o1 - o0) + F - 2;                                                    \
         for (int i = 0; i < rows; i++) {                                                           \
             __global const float *row = src + soff + (size_t)wrap(r0 + i, m) * sstride;            \
+            __global const float *nrow = src + soff + (size_t)wrap(r0 + i + 1, m) * sstride;       \
             __local float16 *out = S + (size_t)(2 * G) * i;                                        \
             for (int c = 0; c < G; c++) {                                                          \
                 const int base = 32 * c - F / 2;                                                   \
+                __builtin_prefetch(nrow + 32 * c);                                                 \
+                __builtin_prefetch(nrow + min(32 * c + 16, n - 1));                                \
                 float16 w0, w1, w2;                                                                \
                 if (c >= 1 && base + 48 <= n && 16 * c + 16 <= nx) {                               \
                     w0 = vload16(0, row + base);                                                   \
@@ -564,9 +573,16 @@ inline void store_lanes(const float16 v, __global float *p, const int cnt)
             __global const float *a = y < ny ? approx + aoff + (size_t)y * astride                 \
                                              : coef + (size_t)y * cstride;                         \
             __global const float *d = coef + (size_t)y * cstride + nh;                             \
+            const int j = i + 1,                                                                   \
+                      yn = (j < cnt ? 0 : ny) + wrap(p0 - F / 4 + (j < cnt ? j : j - cnt), ny);    \
+            __global const float *na = yn < ny ? approx + aoff + (size_t)yn * astride              \
+                                               : coef + (size_t)yn * cstride;                      \
+            __global const float *nd = coef + (size_t)yn * cstride + nh;                           \
             __local float16 *out = S + (size_t)(2 * G) * i;                                        \
             for (int c = 0; c < G; c++) {                                                          \
                 const int w = 16 * c - F / 4;                                                      \
+                __builtin_prefetch(na + 16 * c);                                                   \
+                __builtin_prefetch(nd + 16 * c);                                                   \
                 float16 A0, D0;                                                                    \
                 float8 a1, d1;                                                                     \
                 if (c >= 1 && w + 24 <= nh && 16 * c + 16 <= nh) {                                 \

@@ -31,8 +31,9 @@
 #define ZERO_CELLS (1024 * 16)
 /* The largest grid zeroed with plain stores before the spreading, which then finds it in the
  * cache; a larger one is zeroed with non-temporal stores (kernels/interp.cl): measured between
- * the two (docs/bench/cost.md, session 19). On a larger one the spreading also prefetches ahead
- * of its samples (kernels/interp.cl), which on a grid in the cache only costs time. */
+ * the two (docs/bench/cost.md, session 19). On a larger one the spreading and the gather also
+ * prefetch ahead of their samples (kernels/interp.cl), which on a grid in the cache only costs
+ * time. */
 #define ZERO_CACHED_BYTES ((size_t)8 << 20)
 /* Samples per work-item of the gather. */
 #define GATHER_CHUNK 256
@@ -101,8 +102,10 @@ static csi_status interp_apply(const csi_linop *op, cl_mem c, cl_mem y)
     cl_kernel k;
     CSI_TRY(csi_kernel(op->ctx, "interp", "csi_interp_gather", &k));
     cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh, chunk = GATHER_CHUNK, n = (cl_uint)s->n;
+    const cl_uint ahead = s->mw * s->mh * sizeof(float) > ZERO_CACHED_BYTES;
     CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(y), CSI_MEM(s->cell), CSI_MEM(s->ph), CSI_MEM(s->perm),
-                     CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh), CSI_ARG(chunk), CSI_ARG(n)));
+                     CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh), CSI_ARG(chunk), CSI_ARG(n),
+                     CSI_ARG(ahead)));
     size_t g = (s->n + GATHER_CHUNK - 1) / GATHER_CHUNK, l = 1;
     return csi_run(op->ctx, k, 1, &g, &l);
 }

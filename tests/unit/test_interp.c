@@ -189,12 +189,12 @@ static void test_grid_end(csi_ctx *ctx)
     free(s);
 }
 
-/* The spreading on a grid larger than the cache (above host/ops/interp.c's ZERO_CACHED_BYTES),
- * where it looks ahead of the sample it adds (kernels/interp.cl): tiles full of samples (every
- * fine cell of the grid's first two rows of tiles and of its last rows and columns: the windows
- * that wrap, those whose block ends the row, those whose look-ahead would reach past the grid),
- * and samples scattered over the rest, against the taps summed in double here with explicit
- * wrap, within the 1e-5 above, on a buffer that held 1e30 in every cell. */
+/* The spreading and the gather on a grid larger than the cache (above host/ops/interp.c's
+ * ZERO_CACHED_BYTES), where both look ahead of the sample they take (kernels/interp.cl): tiles
+ * full of samples (every fine cell of the grid's first two rows of tiles and of its last rows and
+ * columns: the windows that wrap, those whose block ends the row, those whose look-ahead would
+ * reach past the grid), and samples scattered over the rest, against the taps summed in double
+ * here with explicit wrap, within the 1e-5 above, on buffers that held 1e30 in every cell. */
 static void test_large_grid(csi_ctx *ctx)
 {
     enum { MW = 2048, MH = 1040, D = 2 };
@@ -244,7 +244,36 @@ static void test_large_grid(csi_ctx *ctx)
         test_download(ds, s, k * 4);
         double es = test_max_abs_diff(s, refs, k) / test_max_abs(refs, k);
         CHECK(es < 1e-5, "large grid: spread within 1e-5 of max |ref| (%.2e)", es);
-        printf("large grid: %zu samples, spread err %.2e\n", n, es);
+        /* the gather, which looks ahead too, of a grid of known values at the same samples */
+        for (size_t j = 0; j < k; j++)
+            s[j] = (float)((j * 53) % 29) / 14.0f - 1.0f;
+        double *yd = calloc(n, sizeof *yd);
+        for (size_t i = 0; i < n; i++) {
+            const size_t px = idx[i] % fw, py = idx[i] / fw, mx = px / D, my = py / D;
+            for (int a = 0; a < CSI_INTERP_TAPS; a++)
+                for (int b = 0; b < CSI_INTERP_TAPS; b++) {
+                    const int o = CSI_INTERP_TAPS / 2 - 1;
+                    const size_t jx = (mx + MW + b - o) % MW, jy = (my + MH + a - o) % MH;
+                    const double dx = (double)(px % D) / D - (b - o), dy = (double)(py % D) / D - (a - o);
+                    yd[i] += s[jy * MW + jx] * csi_interp_kernel(dx) * csi_interp_kernel(dy);
+                }
+        }
+        float *y = malloc(n * sizeof *y), *yref = malloc(n * sizeof *yref);
+        for (size_t i = 0; i < n; i++) {
+            y[i] = 1e30f;
+            yref[i] = (float)yd[i];
+        }
+        cl_mem dc = test_upload(s, k * 4), dy = test_upload(y, n * 4);
+        CHECK_OK(csi_linop_apply(op, dc, dy));
+        test_download(dy, y, n * 4);
+        double ey = test_max_abs_diff(y, yref, n) / test_max_abs(yref, n);
+        CHECK(ey < 1e-5, "large grid: gather within 1e-5 of max |ref| (%.2e)", ey);
+        printf("large grid: %zu samples, spread err %.2e, gather err %.2e\n", n, es, ey);
+        csi_buffer_release(&dc);
+        csi_buffer_release(&dy);
+        free(yd);
+        free(y);
+        free(yref);
         csi_buffer_release(&dr);
         csi_buffer_release(&ds);
         csi_linop_free(op);
