@@ -8,6 +8,7 @@ Scene: Mitsuba's Cornell box at 8x8 (a fraction of a second per run).
 import contextlib
 import io
 import os
+import re
 import sys
 import tempfile
 
@@ -78,6 +79,17 @@ def main():
         shown = on_terminal(["cornell", "--out", "64x64", "--spp", "4", "--no-refine", "-o", os.path.join(T, "o.exr")])
         check("csi-mitsuba: samples" in shown and "csi-mitsuba: reconstruction: solve 1/3  step 1" in shown,
               f"the progress on a terminal: {shown[-400:]!r}")
+        check(re.search(r"reconstruction: solve 3/3  step \d+  eta \d+s", shown) is not None,
+              f"no time left on the last channel's solve: {shown[-400:]!r}")
+
+    # The time left, by hand: 2 tiles x 3 channels; the folds' "solve 1/1" is not a solve of its own
+    clock = mitsuba_cli._SolveClock()
+    seen = [clock.update(phase, now) for phase, now in (
+        ("setup", 0.0), ("tile 1/2 solve 1/3", 1.0), ("tile 1/2 solve 2/3", 3.0), ("tile 1/2 solve 3/3", 5.0),
+        ("tile 1/2 solve 1/1", 7.0), ("tile 2/2 solve 1/3", 9.0), ("tile 2/2 solve 3/3", 20.0))]
+    want = [None, None, 2.0 * 5, 2.0 * 4, 2.0 * 4 - 2.0, 8.0 / 3 * 3, 19.0 / 5 * 1]
+    check(all((a is None and b is None) or (a is not None and b is not None and abs(a - b) < 1e-9)
+              for a, b in zip(seen, want)), f"the time left: {seen}, want {want}")
     return done()
 
 

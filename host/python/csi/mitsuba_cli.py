@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import tempfile
 import time
@@ -129,6 +130,7 @@ def parser():
 class _Progress:
     def __init__(self, quiet):
         self.on = not quiet and sys.stderr.isatty()
+        self.solves = _SolveClock()
 
     def __call__(self, phase, done, total):
         if self.on:
@@ -136,15 +138,48 @@ class _Progress:
             sys.stderr.flush()
 
     def reconstruction(self, phase, iteration, residual):
-        """csi.reconstruct's progress callback: the library's phase and the solver's step."""
+        """csi.reconstruct's progress callback: the library's phase, the solver's step and, once a
+        channel's solve is done, the time left."""
         if self.on:
+            left = self.solves.update(phase, time.perf_counter())
             step = f"  step {iteration}" if iteration > 0 else ""
-            sys.stderr.write(f"\r\033[K{PROG}: reconstruction: {phase}{step}")
+            eta = f"  eta {left:.0f}s" if left is not None else ""
+            sys.stderr.write(f"\r\033[K{PROG}: reconstruction: {phase}{step}{eta}")
             sys.stderr.flush()
 
     def end(self):
         if self.on:
             sys.stderr.write("\r\033[K")
+
+
+class _SolveClock:
+    """The time left in a reconstruction, as csi-reconstruct's progress line estimates it
+    (host/cli/common_eta.c): the library's phases "solve c/C", each after "tile t/T " in a tiled
+    run, are T x C solves one after another, the solve of channel c in tile t the ((t - 1) C + c)-th;
+    the cross-validated choice's folds ("solve 1/1" after a tile's channels) are never past the
+    current one and are not counted. The time left: the mean time of the solves done so far, what
+    happens between them included, times those left, less what the current one has taken."""
+
+    def __init__(self):
+        self.unit = self.units = 0
+        self.t_first = self.t_current = 0.0
+
+    def update(self, phase, now):
+        """Seconds left after `phase` began or went on at `now`; None before a solve is done."""
+        m = re.match(r"(?:tile (\d+)/(\d+) )?solve (\d+)/(\d+)", phase)
+        if m:
+            t, nt = (int(m[1]), int(m[2])) if m[1] else (1, 1)
+            c, nc = int(m[3]), int(m[4])
+            u = (t - 1) * nc + c
+            if 1 <= c <= nc and 1 <= t <= nt and u > self.unit:
+                if self.unit == 0:
+                    self.t_first = now
+                self.unit, self.units, self.t_current = u, nt * nc, now
+        done = self.unit - 1
+        if done < 1:
+            return None
+        per = (self.t_current - self.t_first) / done
+        return max(per * (self.units - done) - (now - self.t_current), 0.0)
 
 
 def reconstruction_options(args):
