@@ -102,9 +102,29 @@ def csi_processes(marker):
     return out
 
 
+def progress_lines():
+    """The progress line's time left, by hand: 4 tasks, the first done 3 s after the start (9 s
+    left at that rate), the third at 9 s (3 s left), none said after the last."""
+    import io
+
+    p = farm.Progress(4, stream=io.StringIO())
+    p.t0 = 10.0
+    check(p.left(12.0) is None, "a time left before any task finished")
+    p.done = 1
+    check(abs(p.left(13.0) - 9.0) < 1e-12, f"1 of 4 done after 3 s: {p.left(13.0)} s left, want 9")
+    p.done = 3
+    check(abs(p.left(19.0) - 3.0) < 1e-12, f"3 of 4 done after 9 s: {p.left(19.0)} s left, want 3")
+    p.t0 = time.perf_counter()
+    p.step("tile 4")
+    line = p.stream.getvalue()
+    check(line.startswith("csi-farm: [4/4] tile 4 (") and "left" not in line, f"the last task's line: {line!r}")
+
+
 def main():
     from distributed import Client, LocalCluster
     import subprocess
+
+    progress_lines()
 
     os.environ.setdefault("CSI_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "csi"))
     tmp = tempfile.mkdtemp(prefix="csi-test-farm-")

@@ -152,7 +152,9 @@ def find_programs(bin_dir=None):
 
 
 class Progress:
-    """One line on stderr per finished task: count, what, where, seconds."""
+    """One line on stderr per finished task: count, what, where, seconds, and the time left at
+    the rate the tasks have finished so far (the workers' parallel throughput, every task counted
+    alike)."""
 
     def __init__(self, total, quiet=False, stream=None):
         self.total, self.done, self.quiet = total, 0, quiet
@@ -162,10 +164,19 @@ class Progress:
     def add(self, n):
         self.total += n
 
+    def left(self, now):
+        """Seconds left at the rate so far; None before a task has finished."""
+        if self.done == 0:
+            return None
+        return max((now - self.t0) / self.done * (self.total - self.done), 0.0)
+
     def step(self, what):
         self.done += 1
         if not self.quiet:
-            self.stream.write(f"csi-farm: [{self.done}/{self.total}] {what} ({time.perf_counter() - self.t0:.1f} s)\n")
+            now = time.perf_counter()
+            left = self.left(now)
+            eta = f", about {left:.0f} s left" if left is not None and self.done < self.total else ""
+            self.stream.write(f"csi-farm: [{self.done}/{self.total}] {what} ({now - self.t0:.1f} s{eta})\n")
             self.stream.flush()
 
 
