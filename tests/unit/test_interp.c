@@ -195,6 +195,21 @@ static void test_grid_end(csi_ctx *ctx)
  * columns: the windows that wrap, those whose block ends the row, those whose look-ahead would
  * reach past the grid), and samples scattered over the rest, against the taps summed in double
  * here with explicit wrap, within the 1e-5 above, on buffers that held 1e30 in every cell. */
+/* The taps of the sample at fine cell `fine` of a D-times finer grid over an mw x mh model grid:
+ * the model cells it reads (periodic) and their weights, phi(dx) phi(dy), in double. */
+static void sample_taps(uint32_t fine, size_t mw, size_t mh, unsigned D, size_t cell[], double weight[])
+{
+    const size_t fw = mw * D, px = fine % fw, py = fine / fw, mx = px / D, my = py / D;
+    const int o = CSI_INTERP_TAPS / 2 - 1;
+    for (int a = 0; a < CSI_INTERP_TAPS; a++)
+        for (int b = 0; b < CSI_INTERP_TAPS; b++) {
+            const size_t jx = (mx + mw + b - o) % mw, jy = (my + mh + a - o) % mh;
+            const double dx = (double)(px % D) / D - (b - o), dy = (double)(py % D) / D - (a - o);
+            cell[a * CSI_INTERP_TAPS + b] = jy * mw + jx;
+            weight[a * CSI_INTERP_TAPS + b] = csi_interp_kernel(dx) * csi_interp_kernel(dy);
+        }
+}
+
 static void test_large_grid(csi_ctx *ctx)
 {
     enum { MW = 2048, MH = 1040, D = 2 };
@@ -220,16 +235,14 @@ static void test_large_grid(csi_ctx *ctx)
     }
     for (size_t i = 0; i < n; i++)
         r[i] = (float)((i * 37) % 23) / 11.0f - 1.0f;
+    enum { TAPS = CSI_INTERP_TAPS * CSI_INTERP_TAPS };
+    size_t cell[TAPS];
+    double weight[TAPS];
     double *ref = calloc(k, sizeof *ref);
     for (size_t i = 0; i < n; i++) {
-        const size_t px = idx[i] % fw, py = idx[i] / fw, mx = px / D, my = py / D;
-        for (int a = 0; a < CSI_INTERP_TAPS; a++)
-            for (int b = 0; b < CSI_INTERP_TAPS; b++) {
-                const int o = CSI_INTERP_TAPS / 2 - 1;
-                const size_t jx = (mx + MW + b - o) % MW, jy = (my + MH + a - o) % MH;
-                const double dx = (double)(px % D) / D - (b - o), dy = (double)(py % D) / D - (a - o);
-                ref[jy * MW + jx] += r[i] * csi_interp_kernel(dx) * csi_interp_kernel(dy);
-            }
+        sample_taps(idx[i], MW, MH, D, cell, weight);
+        for (int t = 0; t < TAPS; t++)
+            ref[cell[t]] += r[i] * weight[t];
     }
     float *s = malloc(k * sizeof *s), *refs = malloc(k * sizeof *refs);
     for (size_t j = 0; j < k; j++) {
@@ -249,14 +262,9 @@ static void test_large_grid(csi_ctx *ctx)
             s[j] = (float)((j * 53) % 29) / 14.0f - 1.0f;
         double *yd = calloc(n, sizeof *yd);
         for (size_t i = 0; i < n; i++) {
-            const size_t px = idx[i] % fw, py = idx[i] / fw, mx = px / D, my = py / D;
-            for (int a = 0; a < CSI_INTERP_TAPS; a++)
-                for (int b = 0; b < CSI_INTERP_TAPS; b++) {
-                    const int o = CSI_INTERP_TAPS / 2 - 1;
-                    const size_t jx = (mx + MW + b - o) % MW, jy = (my + MH + a - o) % MH;
-                    const double dx = (double)(px % D) / D - (b - o), dy = (double)(py % D) / D - (a - o);
-                    yd[i] += s[jy * MW + jx] * csi_interp_kernel(dx) * csi_interp_kernel(dy);
-                }
+            sample_taps(idx[i], MW, MH, D, cell, weight);
+            for (int t = 0; t < TAPS; t++)
+                yd[i] += s[cell[t]] * weight[t];
         }
         float *y = malloc(n * sizeof *y), *yref = malloc(n * sizeof *yref);
         for (size_t i = 0; i < n; i++) {
