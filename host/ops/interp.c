@@ -96,13 +96,20 @@ typedef struct {
     size_t row_off[4]; /* rows of colour c: rows[row_off[c] .. row_off[c + 1]) */
 } interp_state;
 
+/* The model grid is larger than the cache: zeroed with non-temporal stores before the spreading,
+ * and read and written by prefetching gathers and spreadings (ZERO_CACHED_BYTES). */
+static cl_uint beyond_cache(const interp_state *s)
+{
+    return s->mw * s->mh * sizeof(float) > ZERO_CACHED_BYTES;
+}
+
 static csi_status interp_apply(const csi_linop *op, cl_mem c, cl_mem y)
 {
     interp_state *s = op->state;
     cl_kernel k;
     CSI_TRY(csi_kernel(op->ctx, "interp", "csi_interp_gather", &k));
     cl_uint mw = (cl_uint)s->mw, mh = (cl_uint)s->mh, chunk = GATHER_CHUNK, n = (cl_uint)s->n;
-    const cl_uint ahead = s->mw * s->mh * sizeof(float) > ZERO_CACHED_BYTES;
+    const cl_uint ahead = beyond_cache(s);
     CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_MEM(y), CSI_MEM(s->cell), CSI_MEM(s->ph), CSI_MEM(s->perm),
                      CSI_MEM(s->wt8), CSI_ARG(mw), CSI_ARG(mh), CSI_ARG(chunk), CSI_ARG(n),
                      CSI_ARG(ahead)));
@@ -116,7 +123,7 @@ static csi_status interp_adjoint(const csi_linop *op, cl_mem r, cl_mem c)
     csi_ctx *ctx = op->ctx;
     cl_kernel k;
     CSI_TRY(csi_kernel(ctx, "interp", "csi_interp_zero", &k));
-    const cl_uint cells = (cl_uint)(s->mw * s->mh), stream = s->mw * s->mh * sizeof(float) > ZERO_CACHED_BYTES;
+    const cl_uint cells = (cl_uint)(s->mw * s->mh), stream = beyond_cache(s);
     CSI_TRY(CSI_ARGS(k, CSI_MEM(c), CSI_ARG(cells), CSI_ARG(stream)));
     size_t zl = 1, zg = (s->mw * s->mh + ZERO_CELLS - 1) / ZERO_CELLS;
     CSI_TRY(csi_run(ctx, k, 1, &zg, &zl));
