@@ -320,6 +320,19 @@ csi_status csi_outset_dir_file(csi_outset *s, const char *dir, const char *name,
     return add_file(s, E_DIRFILE, di, path, canon, what);
 }
 
+/* A folder's file by "dir/name", the folder as stated or with slashes after it ("out//name" from
+ * "out/" + "/name"). */
+static int find_dir_file(const csi_outset *s, const char *path)
+{
+    char d[PATH_MAX];
+    dir_of(path, d, sizeof d);
+    const int di = find_dir(s, d);
+    for (size_t i = 0; di >= 0 && i < s->n; i++)
+        if (s->e[i].kind == E_DIRFILE && s->e[i].dir == di && !strcmp(base_of(s->e[i].path), base_of(path)))
+            return (int)i;
+    return -1;
+}
+
 /* A unique hidden name beside `path` ("<dir>/.<name>.<tag>XXXXXX"), created as an empty file
  * (mkstemp) or a directory (mkdtemp). */
 static csi_status make_temp(const char *path, const char *tag, bool dir, char **out)
@@ -359,7 +372,7 @@ csi_status csi_outset_tmp(csi_outset *s, const char *path, const char **tmp)
     *tmp = NULL;
     int i = find(s, path, E_FILE);
     if (i < 0)
-        i = find(s, path, E_DIRFILE);
+        i = find_dir_file(s, path);
     if (i < 0)
         return csi_fail(CSI_ERR_ARG, "%s: not a stated output", path);
     entry *e = &s->e[i];
