@@ -54,6 +54,8 @@ def main():
             ("no command", "required", []),
             ("unknown option", "unrecognized", ["reconstruct", p("tri.csid"), "-o", p("o.exr"), "--bogus"]),
             ("no worker", "--workers", ["--workers", "0", "reconstruct", p("tri.csid"), "-o", p("o.exr")]),
+            ("no worker, after the command", "--workers",
+             ["reconstruct", p("tri.csid"), "-o", p("o.exr"), "--workers", "0"]),
             ("no tile", "--tiles", ["--tiles", "0", "reconstruct", p("tri.csid"), "-o", p("o.exr")]),
             ("negative retries", "--retries", ["--retries", "-1", "reconstruct", p("tri.csid"), "-o", p("o.exr")]),
             ("zero spp", "--spp", ["render", p("tri.scene"), "-o", p("o_%d.exr"), "--spp", "0"]),

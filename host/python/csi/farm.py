@@ -413,29 +413,41 @@ def _seconds(text):
     return v
 
 
+def _farm_options(ap, after=False):
+    """The farm's own options, before the command or (after=True) after it: there they take
+    effect only when given (SUPPRESS), so one given before the command is not reset."""
+    d = (lambda v: argparse.SUPPRESS) if after else (lambda v: v)
+    ap.add_argument("--scheduler", default=d(None),
+                    help="address of a Dask scheduler (default: start a LocalCluster on 127.0.0.1)")
+    ap.add_argument("--connect-timeout", type=_seconds, default=d(CONNECT_TIMEOUT), metavar="S",
+                    help=f"seconds to wait for --scheduler to answer (default {CONNECT_TIMEOUT})")
+    ap.add_argument("--workers", type=_count(1), default=d(None),
+                    help="worker processes of the LocalCluster (default: half the cores, at least 1)")
+    ap.add_argument("--tiles", type=_count(1), default=d(None),
+                    help="tiles per image (default: as few as fit the memory budget)")
+    ap.add_argument("--retries", type=_count(0), default=d(2), help="times a failed task is run again (default 2)")
+    ap.add_argument("--bin", default=d(None),
+                    help="directory of csi-reconstruct, csi-render, csi-merge (default: $CSI_BIN, the build, $PATH)")
+    ap.add_argument("-q", "--quiet", action="store_true", default=d(False), help="no progress lines")
+
+
 def main(argv=None):
     ap = _Parser(
         prog="csi-farm",
         description="Tiles of a csi reconstruction, and frames of an animation, on a Dask cluster "
                     "(a LocalCluster on this machine by default). Options after -- go to the csi programs. "
                     "Exit status: 0 success, 2 bad input or usage, 1 other failure.")
-    ap.add_argument("--scheduler", help="address of a Dask scheduler (default: start a LocalCluster on 127.0.0.1)")
-    ap.add_argument("--connect-timeout", type=_seconds, default=CONNECT_TIMEOUT, metavar="S",
-                    help=f"seconds to wait for --scheduler to answer (default {CONNECT_TIMEOUT})")
-    ap.add_argument("--workers", type=_count(1),
-                    help="worker processes of the LocalCluster (default: half the cores, at least 1)")
-    ap.add_argument("--tiles", type=_count(1), help="tiles per image (default: as few as fit the memory budget)")
-    ap.add_argument("--retries", type=_count(0), default=2, help="times a failed task is run again (default 2)")
-    ap.add_argument("--bin", help="directory of csi-reconstruct, csi-render, csi-merge (default: $CSI_BIN, the build, $PATH)")
-    ap.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    _farm_options(ap)
     sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
     r = sub.add_parser("reconstruct", help="one dump, in tiles")
+    _farm_options(r, after=True)
     r.add_argument("dump")
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--png")
     r.add_argument("--frames", help="directory for every frame of a volume")
     r.add_argument("--stats")
     s = sub.add_parser("render", help="scenes (the frames of an animation): render, then tiles")
+    _farm_options(s, after=True)
     s.add_argument("scenes", nargs="+")
     s.add_argument("-o", "--output", required=True, help="output path; %%d (or %%04d ...) is the frame number")
     s.add_argument("--png", help="preview path pattern")
