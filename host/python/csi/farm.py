@@ -449,7 +449,7 @@ def main(argv=None):
     s = sub.add_parser("render", help="scenes (the frames of an animation): render, then tiles")
     _farm_options(s, after=True)
     s.add_argument("scenes", nargs="+")
-    s.add_argument("-o", "--output", required=True, help="output path; %%d (or %%04d ...) is the frame number")
+    s.add_argument("-o", "--output", required=True, help="output path; %%d (or %%04d ...) is the frame number: the scene's place in the list, from 0")
     s.add_argument("--png", help="preview path pattern")
     s.add_argument("--frames", help="directory pattern for every frame of a moving scene's volume")
     s.add_argument("--spp", type=_count(1), help="samples per pixel (csi-render --spp)")
