@@ -78,14 +78,20 @@ void cli_recon_usage(FILE *f)
             fprintf(f, "%28s", "");
             col = 28;
         }
-        char text[640];
-        if (o.kind == CSI_OPTION_FLAG)
-            snprintf(text, sizeof text, "%s", o.help);
-        else if (o.auto_rule)
-            snprintf(text, sizeof text, "%s [default: auto = %s]", o.help, o.auto_rule);
-        else
-            snprintf(text, sizeof text, "%s [default: %s]", o.help, o.def);
-        put_wrapped(f, text, col);
+        /* sized by the text: a fixed buffer once cut --correct's help off mid-word */
+        const char *dflt = o.kind == CSI_OPTION_FLAG ? NULL : o.auto_rule ? o.auto_rule : o.def;
+        const size_t len = strlen(o.help) + (dflt ? strlen(dflt) + 32 : 0) + 1;
+        char *text = malloc(len);
+        if (!text) {
+            fputs(o.help, f);
+        } else {
+            if (!dflt)
+                snprintf(text, len, "%s", o.help);
+            else
+                snprintf(text, len, o.auto_rule ? "%s [default: auto = %s]" : "%s [default: %s]", o.help, dflt);
+            put_wrapped(f, text, col);
+            free(text);
+        }
         fputc('\n', f);
     }
 }

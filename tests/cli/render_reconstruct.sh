@@ -14,6 +14,10 @@ fast=(--max-iter 40 -q)
 for p in csi-render csi-reconstruct; do
     "$B/$p" --help > "$T/help" 2>&1; check "[[ $? == 0 ]] && grep -q usage '$T/help'" "$p --help"
     "$B/$p" --version > "$T/ver" 2>&1; check "[[ $? == 0 ]] && grep -q '$p' '$T/ver'" "$p --version"
+    # every option's text whole, to its closing "[default: ...]" (a fixed buffer once cut one off)
+    cut=$(awk '/^      --|^  -|^[a-z]/ { if (blk ~ /\[default:/ && blk !~ /\][ ]*$/) print name; blk = ""; name = $1 }
+               { blk = blk " " $0 } END { if (blk ~ /\[default:/ && blk !~ /\][ ]*$/) print name }' "$T/help")
+    check "[[ -z '$cut' ]]" "$p --help: the text of $cut is cut short"
 done
 
 # --- the plan: only what the scene calls for -------------------------------------------------
