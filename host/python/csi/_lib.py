@@ -830,7 +830,8 @@ def read_dump(path: str) -> Dump:
 def reconstruct_dump(path: str, variance_path: Optional[str] = None, **kwargs) -> Result:
     """Reconstructs a dump as csi-reconstruct does (its seed is the solver's unless given, its
     exact flag the samples'); variance_path: csi-reconstruct's --variance, a dump of the same
-    positions whose values are the samples' variances."""
+    positions whose values are the samples' variances (not read unless named: csi-reconstruct
+    takes DUMP's stem .variance.csid by default where it exists)."""
     d = read_dump(path)
     if variance_path is not None:
         v = read_dump(variance_path)
