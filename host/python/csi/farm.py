@@ -435,10 +435,12 @@ def main(argv=None):
     ap = _Parser(
         prog="csi-farm",
         description="Tiles of a csi reconstruction, and frames of an animation, on a Dask cluster "
-                    "(a LocalCluster on this machine by default). Options after -- go to the csi programs. "
+                    "(a LocalCluster on this machine by default). The farm's options may come before or after "
+                    "the command; options after -- go to the csi programs. "
                     "Exit status: 0 success, 2 bad input or usage, 1 other failure.")
     _farm_options(ap)
-    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    sub = ap.add_subparsers(dest="cmd", metavar="COMMAND", required=True, parser_class=_Parser,
+                            help="reconstruct or render")
     r = sub.add_parser("reconstruct", help="one dump, in tiles")
     _farm_options(r, after=True)
     r.add_argument("dump")
