@@ -41,6 +41,7 @@ static void usage(FILE *f)
             "                        cv instead of blend (docs/dump-format.md)\n"
             "  -q, --quiet           no summary line\n"
             "  -h, --help            this text\n"
+            "  --version             version\n"
             "\n"
             "Exit status: 0 on success, 2 on bad arguments or input, or when the output cannot be\n"
             "written.\n",
@@ -147,6 +148,9 @@ int main(int argc, char **argv)
     } while (0)
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             usage(stdout);
+            return 0;
+        } else if (!strcmp(a, "--version")) {
+            printf("csi-mkdump %s\n", CSI_VERSION);
             return 0;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             quiet = true;

@@ -49,6 +49,7 @@ check_records() {
 
 # --help
 "$MK" --help | grep -q "usage: csi-mkdump" && ok || bad "--help"
+[[ "$("$MK" --version)" == "csi-mkdump "* ]] && ok || bad "--version"
 
 # 2-D, each method: header fields and values.
 for m in stratified poisson random; do
