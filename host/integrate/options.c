@@ -99,9 +99,9 @@ static const row table[] = {
      "whichever the two folds of the samples (each pixel's split in two) say is closer to the "
      "held-out pixel means (two more reconstructions, each from half the samples, on a coarser "
      "model grid where the filter allows it and to a looser stop, --tol at least 0.02)",
-     "on with the blend (noisy samples, not flagged exact) on an image reconstructed whole, "
-     "where it acts from 2 samples per pixel on average; off otherwise (another correction, "
-     "tiled runs, volumes, the baselines)"},
+     "on with the blend (noisy samples, not flagged exact), on the whole image or in each tile's "
+     "window, where it acts from 2 samples per pixel on average; off otherwise (another "
+     "correction, volumes, the baselines)"},
     {"cv-channels", K_CHOICE, AT(cv_channels), 0, 0, cv_channels, F_AUTO, "auto", "mean|each|auto",
      "samples of several channels: what the cross-validated choice's folds reconstruct, the mean "
      "of the channels (one solve per fold, the choice made on it) or each channel (a solve per "
