@@ -34,7 +34,27 @@ def digest(path):
         return hashlib.sha256(f.read()).hexdigest()
 
 
+def options_either_side():
+    """The farm's own options before or after the command, as docs/tiles.md writes them (parsed
+    only: the run is replaced by a recorder)."""
+    sys.path.insert(0, os.path.join(SOURCE, "host", "python"))
+    from csi import farm as csi_farm
+    seen = {}
+    run, csi_farm.reconstruct = csi_farm.reconstruct, lambda *a, **k: seen.update(k)
+    try:
+        for argv, workers, retries in ((["--workers", "3", "reconstruct", "d.csid", "-o", "o.exr"], 3, 2),
+                                       (["reconstruct", "d.csid", "-o", "o.exr", "--workers", "2"], 2, 2),
+                                       (["--retries", "5", "reconstruct", "d.csid", "-o", "o.exr", "-q"], None, 5)):
+            seen.clear()
+            rc = csi_farm.main(argv)
+            check(rc == 0 and seen.get("workers") == workers and seen.get("retries") == retries,
+                  f"csi-farm {' '.join(argv)}: exit {rc}, parsed {seen}")
+    finally:
+        csi_farm.reconstruct = run
+
+
 def main():
+    options_either_side()
     with tempfile.TemporaryDirectory() as T:
         p = lambda name: os.path.join(T, name)  # noqa: E731
         with open(os.path.join(SOURCE, "data", "scenes", "triangle.scene")) as f:
