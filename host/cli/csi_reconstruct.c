@@ -34,7 +34,8 @@ static void usage(FILE *f)
 "                            of their disagreement over the whole image (an HDR highlight that one of\n"
 "                            a pixel's few samples hit). Have the renderer evaluate it, then run\n"
 "                            --refine-with (csi-mitsuba --refine does both); not written when no\n"
-"                            pixel is picked (the summary says so)\n"
+"                            pixel is picked (the summary says so). The image is then the first\n"
+"                            pass's, which --refine-with completes (--settle off)\n"
 "      --refine-share S      the share, 0 < S <= 1 [default: 0.005]\n"
 "      --refine-with MORE.csid\n"
 "                            the second pass without a second reconstruction: MORE.csid is DUMP's\n"
@@ -380,6 +381,13 @@ int main(int argc, char **argv)
     if (!rc && refine && refine_with)
         rc = cli_error(prog, CSI_ERR_ARG, "--refine-request and --refine-with: the first pass asks, the second "
                        "applies; give one");
+    /* A first pass for a second (csi/settle.h): the pick and its completion need the pixels that
+     * decide the image as the fit left them; the second pass samples them instead of settling. */
+    if (!rc && (refine || refine_with) && option_is(opt, "settle", "on"))
+        rc = cli_error(prog, CSI_ERR_ARG, "--settle on and --refine-%s: the second pass samples the pixels that "
+                       "--settle would give their means; give one", refine ? "request" : "with");
+    if (!rc && (refine || refine_with))
+        csi_options_set(opt, "settle", "off");
     if (!rc && share_given && !refine && !refine_with) /* as csi-mitsuba: an option with nothing to act on */
         rc = cli_error(prog, CSI_ERR_ARG, "--refine-share applies to --refine-request or --refine-with only");
     if (rc) {

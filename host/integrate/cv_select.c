@@ -194,6 +194,9 @@ static csi_status fold_image(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
     csi_recon_options o = *opt;
     o.cv_select = CSI_SWITCH_OFF;
+    /* the choice weighs the fit against the mean; settling the pixels that decide the image is a
+     * step after it, on the whole image (csi/settle.h) */
+    o.settle = CSI_SWITCH_OFF;
     if (o.model_sigma_min == 0 /* auto: CSI_MODEL_SIGMA_MIN */ || o.model_sigma_min > CSI_CV_FOLD_SIGMA_MIN)
         o.model_sigma_min = CSI_CV_FOLD_SIGMA_MIN;
     /* The folds measure the blend against the mean; the peaks' test (csi/peak_noise.h) comes

@@ -116,6 +116,15 @@ static const row table[] = {
      "the blend, given each sample's variance (--variance): a pixel whose samples spread more than "
      "4 times their variances (a step or a highlight some of them hit) counts that spread, s^2 / n, "
      "in its mean's noise, scaled by 2 / sqrt(n) from 4 samples on (stratification)", "off"},
+    {"settle", K_CHOICE, AT(settle), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "images with the blend, last: a pixel where the image and the mean of its own samples "
+     "disagree by more than 0.5% of their disagreement over the whole image (its share) moves to "
+     "that mean, wholly from 2%, unless one of the two sees it dark (a firefly) or neither sees it "
+     "beyond 4 times the image's mean pixel (an ordinary range, where no pixel decides): one HDR "
+     "pixel cannot then put the image above the mean of the same samples (in a tile, shares and "
+     "mean of its window)",
+     "on with the blend (noisy samples) on an image; off otherwise, and with --refine-request or "
+     "--refine-with, whose second pass samples those pixels instead"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

@@ -9,6 +9,7 @@
 
 #include "csi/empty_pixels.h"
 #include "csi/peak_noise.h"
+#include "csi/settle.h"
 #include "internal.h"
 
 void csi_recon_state_free(csi_recon_state *st)
@@ -196,6 +197,17 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         out->options.correct == CSI_CORRECT_BLEND) {
         s = csi_peak_noise(grid, channels, pos, values, opt.sample_variance, n, csi_ctx_row_pool(ctx), out->image,
                            NULL);
+        if (s != CSI_OK) {
+            csi_recon_result_free(out);
+            return s;
+        }
+    }
+    /* The pixels that decide the image settled on their samples' mean (csi/settle.h): last, on
+     * the image every step before has made. A tiled run's tiles did it in their windows
+     * (tiled.c), as a tile run alone does. */
+    if (grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
+        out->options.settle == CSI_SWITCH_ON) {
+        s = csi_settle(grid, channels, pos, values, n, out->image, NULL, &out->settled);
         if (s != CSI_OK) {
             csi_recon_result_free(out);
             return s;

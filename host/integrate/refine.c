@@ -20,16 +20,13 @@
 #include <string.h>
 
 #include "csi/csi.h"
+#include "csi/settle.h"
 #include "csi/status.h"
 
 /* The share's default (csi-reconstruct --refine-share, csi-mitsuba --refine-share): a pixel
  * that holds 0.5% of the disagreement. At most 1 / share pixels can, so the request is bounded
  * by 200 pixels' cells whatever the image's size. */
 #define CSI_REFINE_SHARE_DEFAULT 0.005
-
-/* A relative difference this small between the image and the mean is float32's rounding of the
- * same value (2^-24 per operation, a few operations), not a disagreement. */
-#define CSI_REFINE_ROUNDING 1e-5
 
 double csi_refine_share_default(void)
 {
@@ -91,29 +88,11 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
         free(d2);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    for (size_t i = 0; i < s->count; i++) {
-        const size_t p = (size_t)(s->pos[i].y / bh) * g->out_w + s->pos[i].x / bw;
-        cnt[p]++;
-        for (uint32_t c = 0; c < C; c++)
-            sum[p * C + c] += s->values[i * C + c];
-    }
-    /* Each pixel's disagreement, summed over the channels; pixels without a sample have no mean
-     * to disagree with, and pixels already sampled in every cell nothing left to sample. */
+    /* Each pixel's disagreement, summed over the channels (csi/settle.h: the measure the blend's
+     * last step settles by); pixels without a sample have no mean to disagree with, and pixels
+     * already sampled in every cell nothing left to sample. */
     double total = 0;
-    for (size_t p = 0; p < np; p++) {
-        if (!cnt[p])
-            continue;
-        double d = 0;
-        for (uint32_t c = 0; c < C; c++) {
-            const double x = image->data[(size_t)c * np + p], m = sum[p * C + c] / cnt[p], e = x - m;
-            /* an image that is the mean in float32 (the mean estimator, a pixel the blend gave its
-             * mean) differs from the mean in double by its rounding: no disagreement */
-            if (fabs(e) > CSI_REFINE_ROUNDING * (fabs(x) + fabs(m)))
-                d += e * e;
-        }
-        d2[p] = d;
-        total += d;
-    }
+    csi_pixel_disagreement(g, C, s->pos, s->values, s->count, image->data, cnt, sum, d2, &total);
     size_t flagged = 0, n = 0;
     for (size_t p = 0; p < np; p++)
         if (cnt[p] && cnt[p] < cells && total > 0 && d2[p] >= share * total) {

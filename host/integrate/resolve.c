@@ -201,6 +201,11 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->blend_spread = o->blend_spread == CSI_SWITCH_ON && o->correct == CSI_CORRECT_BLEND
                               ? CSI_SWITCH_ON
                               : CSI_SWITCH_OFF;
+    /* The deciding pixels settled on their means (csi/settle.h): with the blend, the correction
+     * for noisy samples, so that one pixel cannot put the image above the mean (issue 9). */
+    const bool settles = o->correct == CSI_CORRECT_BLEND && o->estimator == CSI_EST_CS;
+    if (o->settle == CSI_SWITCH_AUTO || !settles)
+        o->settle = o->settle != CSI_SWITCH_OFF && settles ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)

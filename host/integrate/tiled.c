@@ -8,6 +8,7 @@
 #include "csi/buffer_keep.h"
 #include "csi/empty_pixels.h"
 #include "csi/peak_noise.h"
+#include "csi/settle.h"
 #include "csi/tiles.h"
 #include "internal.h"
 
@@ -184,7 +185,9 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
  *   floor, 1% of the samples' mean absolute value, is the window's, as the blend's is in a tile);
  * - isolated peaks against their own noise (csi/peak_noise.h), given the samples' variances: the
  *   rule looks one pixel around a pixel, and a tile's core lies margin pixels inside its window, so
- *   every pixel a tile's core contributes is judged as the whole image's would be.
+ *   every pixel a tile's core contributes is judged as the whole image's would be;
+ * - the pixels that decide the image settled on their means (csi/settle.h): a pixel's share is of
+ *   the window's disagreement, not the whole image's, which a tile does not have.
  * Tiles run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
 static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t index, uint32_t channels,
                                    const csi_sample_pos *pos, const float *values, size_t n,
@@ -209,6 +212,11 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
         s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, csi_ctx_row_pool(ctx), r->image);
     if (s == CSI_OK && p.variance)
         s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, csi_ctx_row_pool(ctx), r->image, NULL);
+    if (s == CSI_OK && r->options.settle == CSI_SWITCH_ON) {
+        const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
+                                  p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
+        s = csi_settle(&p.g, channels, p.pos, p.values, p.n, r->image, core, &r->settled);
+    }
     tile_problem_free(&p);
     return s;
 }
@@ -620,6 +628,7 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     out->t_programs += r->t_programs;
     out->t_cv += r->t_cv;
     out->cv_switched += r->cv_switched;
+    out->settled += r->settled;
     out->cpu_setup += r->cpu_setup;
     out->cpu_work += r->cpu_work;
     for (uint32_t c = 0; c < C && c < 4; c++)

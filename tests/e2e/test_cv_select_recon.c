@@ -67,6 +67,7 @@ static float *fold_image(csi_ctx *ctx, const csi_grid *g, const csi_sample_pos *
         }
     csi_recon_options o = *base;
     o.cv_select = CSI_SWITCH_OFF;
+    o.settle = CSI_SWITCH_OFF; /* as the library's folds */
     o.model_sigma_min = CSI_CV_FOLD_SIGMA_MIN;
     o.tol = tol;
     csi_recon_result r;
@@ -92,6 +93,7 @@ static void composed(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_s
     csi_recon_options o;
     csi_recon_defaults(&o);
     o.tol = caller_tol; /* 0: auto */
+    o.settle = CSI_SWITCH_OFF; /* the choice alone: the settling after it (csi/settle.h) has a test of its own */
     csi_recon_result auto_run, whole;
     CHECK_OK(csi_recon(ctx, g, 1, pos, val, n, &o, &auto_run));
     CHECK(auto_run.options.cv_select == CSI_SWITCH_ON, "the choice is not on for noisy samples at 4 spp");
@@ -147,6 +149,7 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
     }
     csi_recon_options on, off;
     csi_recon_defaults(&on);
+    on.settle = CSI_SWITCH_OFF; /* the choice alone, as above */
     on.tiles = 4;
     on.tile_margin = 4;
     off = on;
@@ -221,6 +224,7 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
     CHECK_OK(csi_recon(ctx2, g, 1, pos, val, n, &off, &t_off));
     csi_recon_options won, woff;
     csi_recon_defaults(&won);
+    won.settle = CSI_SWITCH_OFF;
     woff = won;
     woff.cv_select = CSI_SWITCH_OFF;
     CHECK_OK(csi_recon(ctx, g, 1, pos, val, n, &won, &w_on));

@@ -172,6 +172,9 @@ typedef struct csi_recon_options {
     csi_switch blend_spread;      /* the blend, given each sample's variance: a pixel whose samples
                                      spread beyond their variances counts that spread in its
                                      mean's noise (host/integrate/blend.c); auto: off */
+    csi_switch settle;            /* images with the blend, last: the pixels that decide the image
+                                     take their samples' mean (csi/settle.h); auto: on with the
+                                     blend */
     double tol;                   /* solver tolerance; 0 auto */
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
@@ -296,6 +299,8 @@ typedef struct csi_recon_result {
                                tiles, each tile's in its core) */
     size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
+    size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, each
+                               tile's in its core) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_cv;            /* the cross-validated choice (cv_select): its two folds' reconstructions,
                                whose solves and integration t_solve and t_integrate count, and the

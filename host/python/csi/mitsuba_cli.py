@@ -197,6 +197,9 @@ def reconstruction_options(args):
         if name not in kinds and name != "device":
             raise UsageError(f"'{word}' after '--' is not one of csi-reconstruct's reconstruction options "
                              f"(see csi-reconstruct --help)")
+        if name == "frames":  # an output, not a reconstruction option: the table holds it for the library's callers
+            raise UsageError(f"'{word}' after '--': csi-mitsuba writes no frames (csi-reconstruct --frames DIR on its "
+                             f"--dump does)")
         if kinds.get(name) == "flag" and not eq:
             value = "on"
         elif not eq:
@@ -303,8 +306,10 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
 
     t0 = time.perf_counter()
     # prog: csi-mitsuba's _Progress, or any callable for the renders alone (as the benchmarks pass)
-    first = reconstruct_result(req.with_values(s.values), extra, s.variance if a.variance_peaks else None,
-                               getattr(prog, "reconstruction", None))
+    # the first pass as the fit left the pixels that decide it: the passes sample those pixels
+    # instead of settling them on their few samples (csi-reconstruct --refine-request: the same)
+    first = reconstruct_result(req.with_values(s.values), [*extra, "--settle", "off"],
+                               s.variance if a.variance_peaks else None, getattr(prog, "reconstruction", None))
     t_first = time.perf_counter() - t0
     info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first,
             "image": "the first pass's reconstruction, each refined pixel its samples' mean"}
@@ -474,6 +479,9 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     if req is None:
         req = mb.positions_request(size, spp=a.spp, grid=a.grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
     seed = a.seed if not a.request else req.seed
+    if a.refine and reconstruction_options(extra)[0].get("settle") == "on":
+        raise UsageError("--refine and '-- --settle on': the second pass samples the pixels that --settle would give "
+                         "their means; give one (--no-refine for --settle)")
     if a.refine or a.output or a.png:
         check_fits(req, a, extra)
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,

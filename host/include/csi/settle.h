@@ -1,0 +1,67 @@
+/* The pixels that decide a still image, settled on their own samples' mean: the last step of a
+ * reconstruction with the blend (csi_recon_options.settle), and the disagreement that step and
+ * the second pass's pick (csi_refine_positions in csi/csi.h) both measure.
+ *
+ * Why. On a renderer's HDR samples at a few samples per pixel, one to three pixels can hold most
+ * of an image's error (a sun, a lamp, an emitter's edge that one of a pixel's few samples hit):
+ * there the fit and the pixel's own mean are a coin flip, and when the fit loses such a pixel the
+ * whole image is worse than the mean of the same samples (issue 9's bound). Where the two
+ * disagree by a large share of their disagreement over the whole image, one of them is that
+ * wrong, and the samples cannot say which (docs/bench/mitsuba.md, sessions 15 and 20). The mean
+ * is the unbiased one, so such a pixel takes it: no single pixel can then put the image above
+ * the mean. A renderer that can sample again settles those pixels better, by sampling every cell
+ * of them (the second pass: csi-mitsuba's default, csi-reconstruct --refine-request), and then
+ * this step is not wanted (the first pass's image is what the second completes).
+ *
+ * The rule. d_p = sum over channels of (x_p - m_p)^2 (x the image, m the mean of the pixel's
+ * samples, in double, a difference within float rounding counted as none), share_p = d_p / sum of
+ * d over the pixels with a sample. Pixel p moves towards m_p by
+ *
+ *     w = clamp((share_p - FROM) / (FULL - FROM), 0, 1),
+ *
+ * FROM the pick's share (0.5%), FULL four times it, unless one of the two sees the pixel dark
+ * (the lower of the channels' means of x_p and m_p under BRIGHT times the higher): that is a
+ * firefly, a rare bright path in the mean that the fit rightly leaves out, not a light whose
+ * extent the samples cannot tell; or unless neither sees it HDR (the higher under HDR times the
+ * image's mean pixel): in an image of ordinary range no pixel's error can dominate, and where
+ * few pixels hold the disagreement (a small image's edges) they are edges the fit has seen
+ * between the samples, which the mean of a few point samples has not. Measured on 300 Mitsuba
+ * cells and the analytic images (docs/bench/mitsuba.md, session 25). */
+#ifndef CSI_SETTLE_H
+#define CSI_SETTLE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/samples.h"
+#include "csi/status.h"
+
+/* The share from which a pixel moves (csi_refine_share_default's 0.5%, so that every pixel this
+ * step touches is one the second pass would sample), and the share from which it takes its mean
+ * whole. */
+#define CSI_SETTLE_FROM 0.005
+#define CSI_SETTLE_FULL 0.02
+/* A pixel both see bright: the lower channels' mean at least this fraction of the higher. */
+#define CSI_SETTLE_BRIGHT 0.3
+/* An HDR pixel: the higher of the two at least this many times the image's level (the mean of
+ * its pixels' means). Ordinary shading stays within about 4x of it (a diffuse wall in and out
+ * of shadow: fit_trust.c's TRUST_R0); the lights that decide an image are far beyond. */
+#define CSI_SETTLE_HDR 4.0
+/* A relative difference this small between the image and the mean is float32's rounding of the
+ * same value (2^-24 per operation, a few operations), not a disagreement. */
+#define CSI_SETTLE_ROUNDING 1e-5
+
+/* Each pixel's sample count cnt[p], channel sums sum[p * channels + c] (in double, in sample
+ * order) and disagreement d2[p] with image (planar, g->out_w * g->out_h * channels), and the sum
+ * of d2 over the pixels in *total. cnt, sum and d2 are the caller's, zeroed. g->t must be 1 and
+ * the samples inside g. */
+void csi_pixel_disagreement(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
+                            size_t n, const float *image, uint32_t *cnt, double *sum, double *d2, double *total);
+
+/* The step on a still image (planar, in and out) of the n samples: each pixel moved by the rule
+ * above. *settled (may be NULL) gets the pixels moved inside box (x0, y0, x1, y1; NULL: all).
+ * Deterministic. */
+csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
+                      float *image, const uint32_t box[4], size_t *settled);
+
+#endif

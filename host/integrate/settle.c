@@ -1,0 +1,101 @@
+/* The pixels that decide a still image settled on their own samples' mean (csi/settle.h says
+ * why and the rule). All in double, in sample order and pixel order: the same inputs give the
+ * same bits. */
+#include "csi/settle.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+#include "internal.h"
+
+void csi_pixel_disagreement(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
+                            size_t n, const float *image, uint32_t *cnt, double *sum, double *d2, double *total)
+{
+    const uint32_t C = channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    for (size_t i = 0; i < n; i++) {
+        const size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+        cnt[p]++;
+        for (uint32_t c = 0; c < C; c++)
+            sum[p * C + c] += values[i * C + c];
+    }
+    /* pixels without a sample have no mean to disagree with */
+    double t = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (!cnt[p])
+            continue;
+        double d = 0;
+        for (uint32_t c = 0; c < C; c++) {
+            const double x = image[(size_t)c * np + p], m = sum[p * C + c] / cnt[p], e = x - m;
+            /* an image that is the mean in float32 (the mean estimator, a pixel the blend gave its
+             * mean) differs from the mean in double by its rounding: no disagreement */
+            if (fabs(e) > CSI_SETTLE_ROUNDING * (fabs(x) + fabs(m)))
+                d += e * e;
+        }
+        d2[p] = d;
+        t += d;
+    }
+    *total = t;
+}
+
+csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
+                      float *image, const uint32_t box[4], size_t *settled)
+{
+    if (settled)
+        *settled = 0;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
+    const uint32_t C = channels;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    uint32_t *cnt = calloc(np ? np : 1, sizeof *cnt);
+    double *sum = calloc(np ? np * C : 1, sizeof *sum);
+    double *d2 = calloc(np ? np : 1, sizeof *d2);
+    if (!cnt || !sum || !d2) {
+        free(cnt);
+        free(sum);
+        free(d2);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    double total = 0;
+    csi_pixel_disagreement(g, C, pos, values, n, image, cnt, sum, d2, &total);
+    /* the image's level: the mean over the pixels with a sample of their means' channel sums */
+    double level = 0;
+    size_t sampled = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (!cnt[p])
+            continue;
+        for (uint32_t c = 0; c < C; c++)
+            level += sum[p * C + c] / cnt[p];
+        sampled++;
+    }
+    level = sampled ? level / (double)sampled : 0;
+    size_t k = 0;
+    for (size_t p = 0; p < np && total > 0; p++) {
+        const double share = d2[p] / total;
+        if (share <= CSI_SETTLE_FROM)
+            continue;
+        double xm = 0, mm = 0;
+        for (uint32_t c = 0; c < C; c++) {
+            xm += image[(size_t)c * np + p];
+            mm += sum[p * C + c] / cnt[p];
+        }
+        if (fmin(xm, mm) < CSI_SETTLE_BRIGHT * fmax(xm, mm))
+            continue; /* a firefly (or a pixel one of the two sees dark) */
+        if (fmax(xm, mm) < CSI_SETTLE_HDR * level)
+            continue; /* within ordinary shading: an edge the fit has seen, not an HDR light */
+        const double w = fmin((share - CSI_SETTLE_FROM) / (CSI_SETTLE_FULL - CSI_SETTLE_FROM), 1.0);
+        for (uint32_t c = 0; c < C; c++) {
+            float *x = image + (size_t)c * np + p;
+            *x = (float)(*x + w * (sum[p * C + c] / cnt[p] - *x));
+        }
+        const uint32_t px = (uint32_t)(p % g->out_w), py = (uint32_t)(p / g->out_w);
+        if (!box || (px >= box[0] && py >= box[1] && px < box[2] && py < box[3]))
+            k++;
+    }
+    free(cnt);
+    free(sum);
+    free(d2);
+    if (settled)
+        *settled = k;
+    return CSI_OK;
+}
