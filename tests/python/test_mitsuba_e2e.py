@@ -185,6 +185,7 @@ def main():
             ("samples as request", "not a positions request", [p("s.xml"), "--request", p("x.csid"), "--dump", p("o.csid")]),
             ("bad csi-reconstruct option", "--lambda", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--dump", p("o.csid"),
                                                         "--", "--lambda", "abc"]),
+            ("an unknown option alone", "--bogus", ["--bogus"]),
             ("frames after --", "writes no frames", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--frames", "d"]),
             ("settle with the second pass", "--settle", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--settle",
                                                          "on"]),

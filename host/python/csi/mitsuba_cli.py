@@ -543,6 +543,16 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     return msg
 
 
+def _unknown_options_first(p, argv):
+    """An option csi-mitsuba does not have is named before anything else is checked (argparse
+    would first say that SCENE is missing when the misspelt option is the only word)."""
+    known = list(p._option_string_actions)
+    for word in argv:
+        name = word.split("=", 1)[0]
+        if word.startswith("--") and len(word) > 2 and not any(k.startswith(name) for k in known):
+            raise UsageError(f"unrecognized argument: {word} (see --help)")
+
+
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     extra = []
@@ -550,7 +560,9 @@ def main(argv=None):
         i = argv.index("--")
         argv, extra = argv[:i], argv[i + 1:]
     try:
-        a = parser().parse_args(argv)
+        p = parser()
+        _unknown_options_first(p, argv)
+        a = p.parse_args(argv)
         return run(a, extra)
     except UsageError as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
