@@ -14,7 +14,9 @@ i.e. where csi and the mean disagree by a large share of the image's disagreemen
 csi-reconstruct --refine-request picks at, 0.5%), fully from `hi` on; a rule of the samples alone.
 "bright" rules move only a pixel both see bright (the lower of csi's and the mean's channel means
 at least 0.3 times the higher), which leaves a firefly (a mean far above csi) to csi, as session
-20's rule did.
+20's rule did, and (as csi/settle.h's rule, `--settle`) only a pixel one of them sees beyond 4
+times the image's mean pixel. csi's image is csi-reconstruct's with `--settle off`: the rules
+are measured on the fit as it was before that step.
 For every dump of each DATA directory (tools/bench/mitsuba_data.py's layout: SCENE/sSPP_pPATHS
 [_poisson].csid and SCENE/reference_SPP.npy), csi-reconstruct's default and `--estimator mean`,
 then per rule the MSE and relMSE over the mean's, grouped by spp x paths and in all.
@@ -39,7 +41,8 @@ from bench_real_samples import errors, reconstruct  # noqa: E402
 
 # (name, lo, hi): the share at which the move to the mean starts and where it is whole
 RULES = [("csi", None, None, False), ("ramp 0.5-2%", 0.005, 0.02, False),
-         ("bright ramp 0.5-2%", 0.005, 0.02, True), ("bright ramp 0.25-1%", 0.0025, 0.01, True)]
+         ("bright ramp 0.5-2%", 0.005, 0.02, True), ("bright ramp 0.5-5%", 0.005, 0.05, True),
+         ("bright ramp 0.5-10%", 0.005, 0.1, True), ("bright ramp 2-20%", 0.02, 0.2, True)]
 
 
 def dumps(data):
@@ -62,7 +65,7 @@ def moved(c, m, lo, hi, bright):
     w = np.clip((share - lo) / (hi - lo), 0.0, 1.0)
     if bright:
         cm, mm = c.mean(-1), m.mean(-1)
-        w = np.where(np.minimum(cm, mm) >= 0.3 * np.maximum(cm, mm), w, 0.0)
+        w = np.where((np.minimum(cm, mm) >= 0.3 * np.maximum(cm, mm)) & (np.maximum(cm, mm) >= 4 * mm.mean()), w, 0.0)
     return c + w[..., None] * (m - c)
 
 
@@ -82,7 +85,7 @@ def main():
         for data in a.data.split(","):
             for dump, refp, spp, paths in dumps(data):
                 ref = np.load(refp).astype(np.float64)[..., :3]
-                c = reconstruct(exe, dump, [], tmp)[..., :3]
+                c = reconstruct(exe, dump, ["--settle", "off"], tmp)[..., :3]
                 m = reconstruct(exe, dump, ["--estimator", "mean"], tmp)[..., :3]
                 m0, r0 = errors(m, ref)
                 row = dict(dump=dump, spp=spp, paths=paths, negative=int((c < 0).sum()))
