@@ -50,7 +50,7 @@ def recon(bins, dump, out, args, env):
 def cell(bins, env, tmp, d, scene, stem, share, scenes_cache, images=None):
     dump = os.path.join(d, scene, stem + ".csid")
     info = json.load(open(os.path.join(d, scene, stem + ".json")))
-    ref = np.load(os.path.join(d, scene, "reference_4096.npy"))
+    ref = np.load(md.reference_path(d, scene))
     req_path = os.path.join(tmp, "req.csid")
     if os.path.exists(req_path):
         os.remove(req_path)
@@ -183,7 +183,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", required=True, help="mitsuba_data.py directories, comma-separated")
     ap.add_argument("--build", default=None, help="csi build directory (default: ./build)")
-    ap.add_argument("--scenes", default=",".join(md.SCENES))
+    ap.add_argument("--scenes", default=",".join(md.SCENES),
+                    help="scene names, or scene files of one's own (as mitsuba_data.py --scenes)")
     ap.add_argument("--spp", default="4", help="comma-separated, e.g. 4,16")
     ap.add_argument("--paths", default="1,64")
     ap.add_argument("--methods", default="stratified,poisson")
@@ -193,6 +194,7 @@ def main(argv=None):
     ap.add_argument("--figure", metavar="OUT.png", help="crops of --figure-cells (of the first --data) instead")
     ap.add_argument("--figure-cells", default="horizon/s4_p64_poisson", help="SCENE/STEM, comma-separated")
     a = ap.parse_args(argv)
+    a.scenes = ",".join(md.scene_names(a.scenes))
     bins, env = binaries(a.build), default_env()
     if a.figure:
         with tempfile.TemporaryDirectory(prefix="bench_refine-") as tmp:

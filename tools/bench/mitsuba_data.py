@@ -16,6 +16,7 @@ Layout of DIR (README.txt, written here, says the same to a reader of the direct
 A file is written only when missing (all writes go through a temporary name and a rename), so
 an interrupted run leaves nothing partial and a rerun continues where it stopped.
 """
+import glob
 import json
 import os
 import sys
@@ -114,6 +115,16 @@ def scene_dir(data, scene):
     d = os.path.join(data, scene)
     os.makedirs(d, exist_ok=True)
     return d
+
+
+def reference_path(data, scene):
+    """The reference of DATA's scene with the most samples per pixel (reference_<SPP>.npy)."""
+    found = glob.glob(os.path.join(data, scene, "reference_*.npy"))
+    spp = lambda p: int(os.path.basename(p)[len("reference_"):-len(".npy")])  # noqa: E731
+    found = [p for p in found if os.path.basename(p)[len("reference_"):-len(".npy")].isdigit()]
+    if not found:
+        raise SystemExit(f"{os.path.join(data, scene)}: no reference_<SPP>.npy (mitsuba_data.py renders it)")
+    return max(found, key=spp)
 
 
 def _write_json(path, obj):
