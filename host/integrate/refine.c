@@ -79,20 +79,13 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
         if (!isfinite(image->data[i]))
             return csi_fail(CSI_ERR_ARG, "refinement: the image's value %zu is not finite", i);
 
-    uint32_t *cnt = calloc(np, sizeof *cnt);
-    double *sum = calloc(np * C, sizeof *sum);
-    double *d2 = calloc(np, sizeof *d2);
-    if (!cnt || !sum || !d2) {
-        free(cnt);
-        free(sum);
-        free(d2);
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
-    }
     /* Each pixel's disagreement, summed over the channels (csi/settle.h: the measure the blend's
      * last step settles by); pixels without a sample have no mean to disagree with, and pixels
      * already sampled in every cell nothing left to sample. */
-    double total = 0;
-    csi_pixel_disagreement(g, C, s->pos, s->values, s->count, image->data, cnt, sum, d2, &total);
+    csi_pixel_disagreement dis;
+    CSI_TRY(csi_pixel_disagreement_make(g, C, s->pos, s->values, s->count, image->data, &dis));
+    const uint32_t *cnt = dis.cnt;
+    const double *d2 = dis.d2, total = dis.total;
     size_t flagged = 0, n = 0;
     for (size_t p = 0; p < np; p++)
         if (cnt[p] && cnt[p] < cells && total > 0 && d2[p] >= share * total) {
@@ -133,9 +126,7 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
         }
         n = j; /* cells - cnt each, unless the samples repeat a cell (csi_samples forbids it) */
     }
-    free(cnt);
-    free(sum);
-    free(d2);
+    csi_pixel_disagreement_free(&dis);
     free(slot);
     free(taken);
     if (st != CSI_OK) {

@@ -8,11 +8,31 @@
 
 #include "internal.h"
 
-void csi_pixel_disagreement(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
-                            size_t n, const float *image, uint32_t *cnt, double *sum, double *d2, double *total)
+void csi_pixel_disagreement_free(csi_pixel_disagreement *d)
+{
+    free(d->cnt);
+    free(d->sum);
+    free(d->d2);
+    d->cnt = NULL;
+    d->sum = d->d2 = NULL;
+}
+
+csi_status csi_pixel_disagreement_make(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                       const float *values, size_t n, const float *image,
+                                       csi_pixel_disagreement *out)
 {
     const uint32_t C = channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
     const size_t np = (size_t)g->out_w * g->out_h;
+    out->cnt = calloc(np ? np : 1, sizeof *out->cnt);
+    out->sum = calloc(np ? np * C : 1, sizeof *out->sum);
+    out->d2 = calloc(np ? np : 1, sizeof *out->d2);
+    out->total = 0;
+    if (!out->cnt || !out->sum || !out->d2) {
+        csi_pixel_disagreement_free(out);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    uint32_t *cnt = out->cnt;
+    double *sum = out->sum;
     for (size_t i = 0; i < n; i++) {
         const size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
         cnt[p]++;
@@ -32,10 +52,11 @@ void csi_pixel_disagreement(const csi_grid *g, uint32_t channels, const csi_samp
             if (fabs(e) > CSI_SETTLE_ROUNDING * (fabs(x) + fabs(m)))
                 d += e * e;
         }
-        d2[p] = d;
+        out->d2[p] = d;
         t += d;
     }
-    *total = t;
+    out->total = t;
+    return CSI_OK;
 }
 
 csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
@@ -47,17 +68,10 @@ csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos
         return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
     const uint32_t C = channels;
     const size_t np = (size_t)g->out_w * g->out_h;
-    uint32_t *cnt = calloc(np ? np : 1, sizeof *cnt);
-    double *sum = calloc(np ? np * C : 1, sizeof *sum);
-    double *d2 = calloc(np ? np : 1, sizeof *d2);
-    if (!cnt || !sum || !d2) {
-        free(cnt);
-        free(sum);
-        free(d2);
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
-    }
-    double total = 0;
-    csi_pixel_disagreement(g, C, pos, values, n, image, cnt, sum, d2, &total);
+    csi_pixel_disagreement dis;
+    CSI_TRY(csi_pixel_disagreement_make(g, C, pos, values, n, image, &dis));
+    const uint32_t *cnt = dis.cnt;
+    const double *sum = dis.sum, *d2 = dis.d2, total = dis.total;
     /* the image's level: the mean over the pixels with a sample of their means' channel sums */
     double level = 0;
     size_t sampled = 0;
@@ -92,9 +106,7 @@ csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos
         if (!box || (px >= box[0] && py >= box[1] && px < box[2] && py < box[3]))
             k++;
     }
-    free(cnt);
-    free(sum);
-    free(d2);
+    csi_pixel_disagreement_free(&dis);
     if (settled)
         *settled = k;
     return CSI_OK;

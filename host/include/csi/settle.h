@@ -51,12 +51,20 @@
  * same value (2^-24 per operation, a few operations), not a disagreement. */
 #define CSI_SETTLE_ROUNDING 1e-5
 
-/* Each pixel's sample count cnt[p], channel sums sum[p * channels + c] (in double, in sample
- * order) and disagreement d2[p] with image (planar, g->out_w * g->out_h * channels), and the sum
- * of d2 over the pixels in *total. cnt, sum and d2 are the caller's, zeroed. g->t must be 1 and
- * the samples inside g. */
-void csi_pixel_disagreement(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
-                            size_t n, const float *image, uint32_t *cnt, double *sum, double *d2, double *total);
+/* Per pixel of an image and its samples: the sample count cnt[p], the channel sums
+ * sum[p * channels + c] (in double, in sample order) and the disagreement d2[p] with the image;
+ * total, the sum of d2 over the pixels. */
+typedef struct csi_pixel_disagreement {
+    uint32_t *cnt;
+    double *sum, *d2, total;
+} csi_pixel_disagreement;
+
+/* *out for image (planar, g->out_w * g->out_h * channels) and the n samples (inside g; g->t must
+ * be 1); freed with csi_pixel_disagreement_free (also after a failure). */
+csi_status csi_pixel_disagreement_make(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                       const float *values, size_t n, const float *image,
+                                       csi_pixel_disagreement *out);
+void csi_pixel_disagreement_free(csi_pixel_disagreement *d);
 
 /* The step on a still image (planar, in and out) of the n samples: each pixel moved by the rule
  * above. *settled (may be NULL) gets the pixels moved inside box (x0, y0, x1, y1; NULL: all).
