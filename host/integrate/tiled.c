@@ -200,11 +200,12 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, blend ? opt->sample_variance : NULL, n, &p));
     csi_status s = CSI_OK;
+    /* the tile's core in its window's pixels: what its counts of pixels changed cover */
+    const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
+                              p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
     if (choice) {
         csi_recon_options o = *opt;
         o.tiles = 1; /* a fold is the window's problem, whatever the layout asked of the whole */
-        const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
-                                  p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
         s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], core, channels, p.pos, p.values, p.n,
                                    &o, r);
     }
@@ -212,11 +213,8 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
         s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, csi_ctx_row_pool(ctx), r->image);
     if (s == CSI_OK && p.variance)
         s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, csi_ctx_row_pool(ctx), r->image, NULL);
-    if (s == CSI_OK && r->options.settle == CSI_SWITCH_ON) {
-        const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
-                                  p.tile.core1[0] - p.tile.win0[0], p.tile.core1[1] - p.tile.win0[1]};
+    if (s == CSI_OK && r->options.settle == CSI_SWITCH_ON)
         s = csi_settle(&p.g, channels, p.pos, p.values, p.n, r->image, core, &r->settled);
-    }
     tile_problem_free(&p);
     return s;
 }
