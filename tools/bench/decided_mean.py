@@ -22,6 +22,11 @@ For every dump of each DATA directory (tools/bench/mitsuba_data.py's layout: SCE
 then per rule the MSE and relMSE over the mean's, grouped by spp x paths and in all.
 
     .venv/bin/python tools/bench/decided_mean.py --data /work/mdata,/work/mdata_s2 --json out.json
+    .venv/bin/python tools/bench/decided_mean.py --figure settle.png --figure-cells DIR/SCENE/STEM,...
+
+--figure: per cell a column of crops around its most disagreeing pixel (the reference, the mean,
+csi without settling and csi-reconstruct's default), each tone-mapped on its own as
+bench_refine.py's figure, with the MSE of the whole image over the mean's under it.
 """
 import argparse
 import glob
@@ -69,17 +74,65 @@ def moved(c, m, lo, hi, bright):
     return c + w[..., None] * (m - c)
 
 
+CROP, ZOOM = 7, 8  # a crop is 15 x 15 pixels, each shown as 8 x 8
+
+
+def figure(exe, cells, out):
+    from PIL import Image, ImageDraw
+
+    names = ["reference", "mean", "csi, --settle off", "csi (default)"]
+    side, pad, label_w, head, foot = (2 * CROP + 1) * ZOOM, 4, 110, 16, 14
+    sheet = Image.new("RGB", (label_w + len(cells) * (side + pad), head + len(names) * (side + foot + pad)), "white")
+    draw = ImageDraw.Draw(sheet)
+    for r, name in enumerate(names):
+        draw.text((4, head + r * (side + foot + pad) + side // 2), name, fill="black")
+    with tempfile.TemporaryDirectory() as tmp:
+        for col, spec in enumerate(cells):
+            base, stem = os.path.split(spec)
+            dump = os.path.join(base, stem + ".csid")
+            refs = sorted(glob.glob(os.path.join(base, "reference_*.npy")))
+            ref = np.load(refs[-1]).astype(np.float64)[..., :3]
+            m = reconstruct(exe, dump, ["--estimator", "mean"], tmp)[..., :3]
+            off = reconstruct(exe, dump, ["--settle", "off"], tmp)[..., :3]
+            on = reconstruct(exe, dump, [], tmp)[..., :3]
+            h, w, _ = ref.shape
+            y, x = np.unravel_index(np.argmax(((off - m) ** 2).sum(-1)), (h, w))
+            y0, x0 = min(max(y - CROP, 0), h - 2 * CROP - 1), min(max(x - CROP, 0), w - 2 * CROP - 1)
+            m0 = errors(m, ref)[0]
+            imgs = [ref, m, off, on]
+            crops = [im[y0:y0 + 2 * CROP + 1, x0:x0 + 2 * CROP + 1] for im in imgs]
+            scale = max(float(np.median(crops[0])), 1e-6)
+            top = np.log1p(max(float(crops[0].max()), scale) / scale)
+            cx = label_w + col * (side + pad)
+            draw.text((cx, 2), f"{os.path.basename(base)} {stem}", fill="black")
+            for r, (im, c) in enumerate(zip(imgs, crops)):
+                v = np.clip(np.log1p(np.clip(c, 0, None) / scale) / top, 0, 1)
+                tile = Image.fromarray((255 * v ** (1 / 2.2)).astype(np.uint8)).resize((side, side), Image.NEAREST)
+                ty = head + r * (side + foot + pad)
+                sheet.paste(tile, (cx, ty))
+                if r:
+                    draw.text((cx, ty + side + 1), f"MSE {errors(im, ref)[0] / m0:.3f}x the mean's", fill="black")
+    sheet.save(out)
+
+
 def geo(v):
     return math.exp(sum(math.log(x) for x in v) / len(v))
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", required=True, help="mitsuba_data.py directories, separated by ','")
+    ap.add_argument("--data", help="mitsuba_data.py directories, separated by ','")
+    ap.add_argument("--figure", metavar="OUT.png", help="crops of --figure-cells instead of the tables")
+    ap.add_argument("--figure-cells", default="", help="DIR/SCENE/STEM of dumps, separated by ','")
     ap.add_argument("--build", help="build directory (default: the source tree's build/)")
     ap.add_argument("--json", help="write every cell's figures here")
     a = ap.parse_args()
     exe = binaries(a.build)["csi-reconstruct"]
+    if a.figure:
+        figure(exe, [c for c in a.figure_cells.split(",") if c], a.figure)
+        return
+    if not a.data:
+        ap.error("--data is needed (or --figure)")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for data in a.data.split(","):
