@@ -73,6 +73,7 @@ def main():
             # checked by the farm before any cluster
             ("no command", "required", []),
             ("unknown option", "unrecognized", ["reconstruct", p("tri.csid"), "-o", p("o.exr"), "--bogus"]),
+            ("an unknown option alone", "--bogus", ["--bogus"]),
             ("no worker", "--workers", ["--workers", "0", "reconstruct", p("tri.csid"), "-o", p("o.exr")]),
             ("no worker, after the command", "--workers",
              ["reconstruct", p("tri.csid"), "-o", p("o.exr"), "--workers", "0"]),

@@ -30,6 +30,8 @@ import sys
 import tempfile
 import time
 
+from ._argv import unknown_option
+
 
 class FarmError(RuntimeError):
     """A csi program failed (its one-line message), or the farm was misused."""
@@ -463,6 +465,9 @@ def main(argv=None):
         k = argv.index("--")
         argv, extra = argv[:k], argv[k + 1:]
     try:
+        bad = unknown_option([ap, r, s], argv)
+        if bad:
+            raise FarmError(f"unrecognized argument: {bad} (see --help)")
         a = ap.parse_args(argv)
         if a.cmd == "reconstruct":
             reconstruct(a.dump, a.output, png=a.png, frames_dir=a.frames, stats=a.stats, tiles=a.tiles,

@@ -14,6 +14,7 @@ from . import dump as csid
 from . import exr
 from . import mitsuba_bridge as mb
 from . import programs
+from ._argv import unknown_option
 from ._lib import CsiError
 
 PROG = "csi-mitsuba"
@@ -543,16 +544,6 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     return msg
 
 
-def _unknown_options_first(p, argv):
-    """An option csi-mitsuba does not have is named before anything else is checked (argparse
-    would first say that SCENE is missing when the misspelt option is the only word)."""
-    known = list(p._option_string_actions)
-    for word in argv:
-        name = word.split("=", 1)[0]
-        if word.startswith("--") and len(word) > 2 and not any(k.startswith(name) for k in known):
-            raise UsageError(f"unrecognized argument: {word} (see --help)")
-
-
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     extra = []
@@ -561,7 +552,9 @@ def main(argv=None):
         argv, extra = argv[:i], argv[i + 1:]
     try:
         p = parser()
-        _unknown_options_first(p, argv)
+        bad = unknown_option([p], argv)
+        if bad:
+            raise UsageError(f"unrecognized argument: {bad} (see --help)")
         a = p.parse_args(argv)
         return run(a, extra)
     except UsageError as e:
