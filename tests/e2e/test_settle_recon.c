@@ -60,15 +60,13 @@ int main(void)
     csi_ctx *ctx = test_ctx(), *ctx2 = NULL;
     REQUIRE_OK(csi_ctx_create(&ctx2, NULL));
     const csi_grid g = {GW, GW, 1, OW, OW};
-    const csi_pos_opts po = {.method = CSI_POS_STRATIFIED, .spp = 4, .seed = 5};
     csi_sample_pos *pos = NULL;
     size_t n = 0;
-    REQUIRE_OK(csi_positions(&g, &po, &pos, &n, NULL));
-    float *val = malloc(n * sizeof *val);
-    csi_rng rng;
-    csi_rng_seed(&rng, 17);
-    for (size_t i = 0; i < n; i++)
-        val[i] = (float)(scene(pos[i].x, pos[i].y) * (1.0 + 0.6 * (csi_rng_uniform(&rng) - 0.5)));
+    float *val = analytic_noisy_cells(&g, scene, 4, 5, 17, 0.6, &pos, &n);
+    if (!val) {
+        CHECK(false, "the samples: %s", csi_last_error());
+        return test_done();
+    }
     static double mean[OW * OW], truth[OW * OW];
     pixel_means(pos, val, n, mean);
     for (uint32_t p = 0; p < OW * OW; p++) { /* each pixel's box mean of the scene over its cells */

@@ -4,6 +4,8 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "csi/positions.h"
+
 double analytic_triangle(double x, double y)
 {
     const double a[2] = {0.13, 0.21}, b[2] = {0.87, 0.36}, c[2] = {0.38, 0.91};
@@ -73,6 +75,27 @@ float *analytic_sample(const analytic_scene *s, const csi_sample_pos *pos, size_
         }
         v[i] = (float)(s->fine[pos[i].y * GRID + pos[i].x] * f);
     }
+    return v;
+}
+
+float *analytic_noisy_cells(const csi_grid *g, analytic_cell_fn scene, uint32_t spp, uint64_t seed,
+                            uint64_t noise_seed, double spread, csi_sample_pos **pos, size_t *n)
+{
+    const csi_pos_opts po = {.method = CSI_POS_STRATIFIED, .spp = spp, .seed = seed};
+    *pos = NULL;
+    *n = 0;
+    if (csi_positions(g, &po, pos, n, NULL) != CSI_OK)
+        return NULL;
+    float *v = malloc((*n ? *n : 1) * sizeof *v);
+    if (!v) {
+        free(*pos);
+        *pos = NULL;
+        return NULL;
+    }
+    csi_rng rng;
+    csi_rng_seed(&rng, noise_seed);
+    for (size_t i = 0; i < *n; i++)
+        v[i] = (float)(scene((*pos)[i].x, (*pos)[i].y) * (1.0 + spread * (csi_rng_uniform(&rng) - 0.5)));
     return v;
 }
 

@@ -56,4 +56,13 @@ float *analytic_sample(const analytic_scene *s, const csi_sample_pos *pos, size_
 float *analytic_draw(const analytic_scene *s, csi_pos_method method, uint32_t spp, uint64_t seed,
                      uint64_t noise_seed, int paths, csi_sample_pos **pos, size_t *n);
 
+/* A scene given per cell of a grid: its value at the cell's centre. */
+typedef double (*analytic_cell_fn)(uint32_t x, uint32_t y);
+/* Stratified positions on g at `spp` (csi_positions, seed `seed`) in *pos (malloc'd, *n of
+ * them), and each one's value scene(x, y) times 1 + spread (u - 1/2), u uniform from csi_rng
+ * seeded with `noise_seed`, drawn in sample order: a path tracer's multiplicative noise. NULL
+ * (nothing allocated) if either fails. */
+float *analytic_noisy_cells(const csi_grid *g, analytic_cell_fn scene, uint32_t spp, uint64_t seed,
+                            uint64_t noise_seed, double spread, csi_sample_pos **pos, size_t *n);
+
 #endif
