@@ -13,8 +13,8 @@ against image size and against Dask worker count, and single large targets.
   .venv/bin/python tools/bench/bench_scale.py plot    --out bench-scale   # the figures of docs/bench/scale.md
   .venv/bin/python tools/bench/bench_scale.py mitsuba --out bench-scale --data DIR[,DIR] [--base BUILD]
 
-mitsuba: a real renderer's noisy samples (tools/bench/mitsuba_data.py's dumps, 128x128, 4 and 16
-spp, 1 and 64 paths, stratified and Poisson-disk) untiled and in 2 and 4 tiles (a layout that
+mitsuba: a real renderer's noisy samples (tools/bench/mitsuba_data.py's dumps, of any size; by
+default 4 and 16 spp, 1 and 64 paths, stratified and Poisson-disk) untiled and in 2 and 4 tiles (a layout that
 cannot be made is skipped), against the reference and the per-pixel mean of the same samples;
 with --base, another build's csi-reconstruct on the same dumps beside this one's.
 Every other input is rendered here by csi-render from a bundled scene (`bench_common.scene_variant` sets
@@ -580,7 +580,7 @@ def mitsuba(a, bins, env, work, logf):
             if not refs:
                 continue
             ref = np.load(os.path.join(sd, refs[-1])).astype(np.float64)
-            for stem in (f"s{spp}_p{p}{m}" for spp in a.mitsuba_spp.split(",") for p in (1, 64)
+            for stem in (f"s{spp}_p{p}{m}" for spp in a.mitsuba_spp.split(",") for p in a.mitsuba_paths.split(",")
                          for m in ("", "_poisson")):
                 dump = os.path.join(sd, stem + ".csid")
                 if not os.path.exists(dump):
@@ -646,6 +646,7 @@ def main():
                     help="long: csi-reconstruct arguments of a tiled run (repeatable; the first also runs on csi-farm)")
     ap.add_argument("--data", help="mitsuba: tools/bench/mitsuba_data.py directories, comma-separated")
     ap.add_argument("--mitsuba-spp", default="4,16", help="mitsuba: the dumps' spp")
+    ap.add_argument("--mitsuba-paths", default="1,64", help="mitsuba: the dumps' paths per sample")
     ap.add_argument("--mitsuba-tiles", type=int, nargs="+", default=[2, 4], help="mitsuba: tile counts")
     ap.add_argument("--base", help="mitsuba: another build directory to run beside this one")
     a = ap.parse_args()
