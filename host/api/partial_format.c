@@ -329,6 +329,7 @@ static void put_header(wbuf *w, const csi_partial *p)
     for (uint32_t c = 0; c < r->channels && c < 4; c++)
         put_report(w, &r->report[c]);
     put_u32(w, t->resid != NULL);
+    put_u32(w, t->px_cnt != NULL);
 }
 
 csi_status csi_partial_store(const char *path, const csi_partial *p)
@@ -342,6 +343,11 @@ csi_status csi_partial_store(const char *path, const csi_partial *p)
         put_f32s(&w, r->frames, plane * r->nframes);
     for (size_t i = 0; p->tile.resid && i < plane * CSI_RESID_SUMS; i++)
         put_f64(&w, p->tile.resid[i]);
+    const size_t pixels = (size_t)r->out_w * r->out_h;
+    for (size_t i = 0; p->tile.px_cnt && i < pixels; i++)
+        put_u32(&w, p->tile.px_cnt[i]);
+    for (size_t i = 0; p->tile.px_cnt && i < plane; i++)
+        put_f64(&w, p->tile.px_sum[i]);
     put_u64(&w, csi_hash64(0, w.b, w.n));
     if (w.oom) {
         free(w.b);
@@ -445,15 +451,16 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
             r.bad = true;
         for (uint32_t c = 0; c < res->channels && !r.bad; c++)
             get_report(&r, &res->report[c]);
-        const uint32_t has_resid = get_u32(&r);
-        const uint64_t plane = (uint64_t)res->out_w * res->out_h * res->channels;
-        if (has_resid > 1)
+        const uint32_t has_resid = get_u32(&r), has_sums = get_u32(&r);
+        const uint64_t pixels = (uint64_t)res->out_w * res->out_h, plane = pixels * res->channels;
+        if (has_resid > 1 || has_sums > 1)
             r.bad = true;
-        if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes) * 4 + has_resid * plane * CSI_RESID_SUMS * 8 !=
+        if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes) * 4 + has_resid * plane * CSI_RESID_SUMS * 8 +
+                                             has_sums * (pixels + plane) * 8 !=
                                          r.n - r.at))
-            s = csi_fail(CSI_ERR_FORMAT, "%s: a %ux%u window with %u channels, %u frames and%s residual sums does not "
-                         "match the %zu bytes of pixels", path, res->out_w, res->out_h, res->channels, res->nframes,
-                         has_resid ? "" : " no", r.n - r.at);
+            s = csi_fail(CSI_ERR_FORMAT, "%s: a %ux%u window with %u channels, %u frames,%s residual sums and%s pixel "
+                         "sums does not match the %zu bytes of pixels", path, res->out_w, res->out_h, res->channels,
+                         res->nframes, has_resid ? "" : " no", has_sums ? "" : " no", r.n - r.at);
         else if (r.bad)
             s = csi_fail(CSI_ERR_FORMAT, "%s: malformed header at byte %zu", path, r.at);
         else if (t->index >= out->tiling.count || out->tiling.count == 0)
@@ -479,7 +486,10 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
             res->image = malloc((size_t)plane * sizeof(float));
             res->frames = res->nframes ? malloc((size_t)plane * res->nframes * sizeof(float)) : NULL;
             t->resid = has_resid ? malloc((size_t)plane * CSI_RESID_SUMS * sizeof *t->resid) : NULL;
-            if (!res->image || (res->nframes && !res->frames) || (has_resid && !t->resid))
+            t->px_cnt = has_sums ? malloc((size_t)pixels * sizeof *t->px_cnt) : NULL;
+            t->px_sum = has_sums ? malloc((size_t)plane * sizeof *t->px_sum) : NULL;
+            if (!res->image || (res->nframes && !res->frames) || (has_resid && !t->resid) ||
+                (has_sums && (!t->px_cnt || !t->px_sum)))
                 s = csi_fail(CSI_ERR_NOMEM, "%s: out of memory for the tile's pixels", path);
             else {
                 get_f32s(&r, res->image, (size_t)plane);
@@ -487,6 +497,10 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
                     get_f32s(&r, res->frames, (size_t)plane * res->nframes);
                 for (size_t i = 0; has_resid && i < plane * CSI_RESID_SUMS; i++)
                     t->resid[i] = get_f64(&r);
+                for (size_t i = 0; has_sums && i < pixels; i++)
+                    t->px_cnt[i] = get_u32(&r);
+                for (size_t i = 0; has_sums && i < plane; i++)
+                    t->px_sum[i] = get_f64(&r);
             }
         }
     }

@@ -109,7 +109,7 @@ void csi_result_free(csi_result *r)
     if (!r)
         return;
     csi_recon_result_free(&r->r);
-    free(r->tile.resid);
+    csi_tile_result_free(&r->tile); /* its sums (its pixels are r->r's) */
     free(r->attrs);
     free(r);
 }

@@ -433,6 +433,14 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     CSI_TRY(csi_recon_plan_whole(ctx, &tg, channels, tn, &to, &scope, &tp));
     const uint64_t whole_result = (uint64_t)g->out_w * g->out_h * channels * 4 *
                                   (g->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN ? 1 + (uint64_t)g->t : 1);
+    /* the blend's per-pixel sums (csi/tiles.h), and a tile's own while it is blended: a time
+     * window's residual sums, or a still image's sample counts and sums when it may settle */
+    const uint64_t np = (uint64_t)g->out_w * g->out_h, wnp = (uint64_t)tl.window[0] * tl.window[1];
+    uint64_t sums = 0;
+    if (tl.n[2] > 1)
+        sums = (np + wnp) * channels * CSI_RESID_SUMS * 8;
+    else if (g->t == 1 && opt.estimator == CSI_EST_CS && opt.settle != CSI_SWITCH_OFF)
+        sums = (np + wnp) * (4 + 8 * (uint64_t)channels);
     out->tiles = tl.count;
     out->method = tp.method;
     out->unknowns = tp.unknowns;
@@ -440,9 +448,9 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     out->largest_buffer = tp.largest_buffer;
     out->largest_what = tp.largest_what;
     out->rows_unfused = tp.rows_unfused;
-    /* the whole result, one tile's problem (its samples copied: 12 + 4 per channel bytes each)
-     * and everything its reconstruction holds on the host */
-    out->host_bytes = scaled_copy + whole_result + (uint64_t)tn * (12 + 4 * (uint64_t)channels) + tp.host_bytes;
+    /* the whole result and the blend's sums, one tile's problem (its samples copied: 12 + 4 per
+     * channel bytes each) and everything its reconstruction holds on the host */
+    out->host_bytes = scaled_copy + whole_result + sums + (uint64_t)tn * (12 + 4 * (uint64_t)channels) + tp.host_bytes;
     return CSI_OK;
 }
 

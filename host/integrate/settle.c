@@ -17,61 +17,73 @@ void csi_pixel_disagreement_free(csi_pixel_disagreement *d)
     d->sum = d->d2 = NULL;
 }
 
+void csi_pixel_sums_add(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
+                        size_t n, const uint32_t box[4], uint32_t *cnt, double *sum)
+{
+    const uint32_t C = channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t px = pos[i].x / bw, py = pos[i].y / bh;
+        if (box && !(px >= box[0] && py >= box[1] && px < box[2] && py < box[3]))
+            continue;
+        const size_t p = (size_t)py * g->out_w + px;
+        cnt[p]++;
+        for (uint32_t c = 0; c < C; c++)
+            sum[p * C + c] += values[i * C + c];
+    }
+}
+
+/* Each pixel's disagreement d2[p] between image and the mean of its samples (cnt, sum), and
+ * their total. */
+static double disagreement_of(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                              const float *image, double *d2)
+{
+    const uint32_t C = channels;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    /* pixels without a sample have no mean to disagree with */
+    double t = 0;
+    for (size_t p = 0; p < np; p++) {
+        d2[p] = 0;
+        if (!cnt[p])
+            continue;
+        double e2 = 0;
+        for (uint32_t c = 0; c < C; c++) {
+            const double x = image[(size_t)c * np + p], m = sum[p * C + c] / cnt[p], e = x - m;
+            /* an image that is the mean in float32 (the mean estimator, a pixel the blend gave its
+             * mean) differs from the mean in double by its rounding: no disagreement */
+            if (fabs(e) > CSI_SETTLE_ROUNDING * (fabs(x) + fabs(m)))
+                e2 += e * e;
+        }
+        d2[p] = e2;
+        t += e2;
+    }
+    return t;
+}
+
 csi_status csi_pixel_disagreement_make(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                                        const float *values, size_t n, const float *image,
                                        csi_pixel_disagreement *out)
 {
-    const uint32_t C = channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
     const size_t np = (size_t)g->out_w * g->out_h;
     out->cnt = calloc(np ? np : 1, sizeof *out->cnt);
-    out->sum = calloc(np ? np * C : 1, sizeof *out->sum);
+    out->sum = calloc(np ? np * channels : 1, sizeof *out->sum);
     out->d2 = calloc(np ? np : 1, sizeof *out->d2);
     out->total = 0;
     if (!out->cnt || !out->sum || !out->d2) {
         csi_pixel_disagreement_free(out);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    uint32_t *cnt = out->cnt;
-    double *sum = out->sum;
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
-        cnt[p]++;
-        for (uint32_t c = 0; c < C; c++)
-            sum[p * C + c] += values[i * C + c];
-    }
-    /* pixels without a sample have no mean to disagree with */
-    double t = 0;
-    for (size_t p = 0; p < np; p++) {
-        if (!cnt[p])
-            continue;
-        double d = 0;
-        for (uint32_t c = 0; c < C; c++) {
-            const double x = image[(size_t)c * np + p], m = sum[p * C + c] / cnt[p], e = x - m;
-            /* an image that is the mean in float32 (the mean estimator, a pixel the blend gave its
-             * mean) differs from the mean in double by its rounding: no disagreement */
-            if (fabs(e) > CSI_SETTLE_ROUNDING * (fabs(x) + fabs(m)))
-                d += e * e;
-        }
-        out->d2[p] = d;
-        t += d;
-    }
-    out->total = t;
+    csi_pixel_sums_add(g, channels, pos, values, n, NULL, out->cnt, out->sum);
+    out->total = disagreement_of(g, channels, out->cnt, out->sum, image, out->d2);
     return CSI_OK;
 }
 
-csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
-                      float *image, const uint32_t box[4], size_t *settled)
+/* The rule (csi/settle.h) on image, given its pixels' samples (cnt, sum) and disagreement (d2,
+ * total); the pixels moved inside box. */
+static size_t settle_by(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                        const double *d2, double total, float *image, const uint32_t box[4])
 {
-    if (settled)
-        *settled = 0;
-    if (g->t != 1)
-        return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
     const uint32_t C = channels;
     const size_t np = (size_t)g->out_w * g->out_h;
-    csi_pixel_disagreement dis;
-    CSI_TRY(csi_pixel_disagreement_make(g, C, pos, values, n, image, &dis));
-    const uint32_t *cnt = dis.cnt;
-    const double *sum = dis.sum, *d2 = dis.d2, total = dis.total;
     /* the image's level: the mean over the pixels with a sample of their means' channel sums */
     double level = 0;
     size_t sampled = 0;
@@ -106,7 +118,39 @@ csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos
         if (!box || (px >= box[0] && py >= box[1] && px < box[2] && py < box[3]))
             k++;
     }
+    return k;
+}
+
+csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
+                      float *image, const uint32_t box[4], size_t *settled)
+{
+    if (settled)
+        *settled = 0;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
+    csi_pixel_disagreement dis;
+    CSI_TRY(csi_pixel_disagreement_make(g, channels, pos, values, n, image, &dis));
+    const size_t k = settle_by(g, channels, dis.cnt, dis.sum, dis.d2, dis.total, image, box);
     csi_pixel_disagreement_free(&dis);
+    if (settled)
+        *settled = k;
+    return CSI_OK;
+}
+
+csi_status csi_settle_sums(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                           float *image, const uint32_t box[4], size_t *settled)
+{
+    if (settled)
+        *settled = 0;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
+    const size_t np = (size_t)g->out_w * g->out_h;
+    double *d2 = malloc((np ? np : 1) * sizeof *d2);
+    if (!d2)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    const double total = disagreement_of(g, channels, cnt, sum, image, d2);
+    const size_t k = settle_by(g, channels, cnt, sum, d2, total, image, box);
+    free(d2);
     if (settled)
         *settled = k;
     return CSI_OK;

@@ -17,7 +17,11 @@ void csi_tile_result_free(csi_tile_result *t)
     if (t) {
         csi_recon_result_free(&t->r);
         free(t->resid);
+        free(t->px_cnt);
+        free(t->px_sum);
         t->resid = NULL;
+        t->px_cnt = NULL;
+        t->px_sum = NULL;
     }
 }
 
@@ -186,13 +190,15 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
  * - isolated peaks against their own noise (csi/peak_noise.h), given the samples' variances: the
  *   rule looks one pixel around a pixel, and a tile's core lies margin pixels inside its window, so
  *   every pixel a tile's core contributes is judged as the whole image's would be;
- * - the pixels that decide the image settled on their means (csi/settle.h): a pixel's share is of
- *   the window's disagreement, not the whole image's, which a tile does not have.
+ * - the pixels that decide the image settled on their means (csi/settle.h): not here but on the
+ *   blended image (csi_tiles_end), from the sums of its core's pixels the tile gives
+ *   (csi_tile_result).
  * Tiles run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
 static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t index, uint32_t channels,
                                    const csi_sample_pos *pos, const float *values, size_t n,
-                                   const csi_recon_options *opt, csi_recon_result *r)
+                                   const csi_recon_options *opt, csi_tile_result *out)
 {
+    csi_recon_result *r = &out->r;
     const bool choice = r->options.cv_select == CSI_SWITCH_ON; /* asked for with any correction, as untiled */
     const bool blend = r->options.correct == CSI_CORRECT_BLEND;
     if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || !(choice || blend))
@@ -213,8 +219,15 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
         s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, csi_ctx_row_pool(ctx), r->image);
     if (s == CSI_OK && p.variance)
         s = csi_peak_noise(&p.g, channels, p.pos, p.values, p.variance, p.n, csi_ctx_row_pool(ctx), r->image, NULL);
-    if (s == CSI_OK && r->options.settle == CSI_SWITCH_ON)
-        s = csi_settle(&p.g, channels, p.pos, p.values, p.n, r->image, core, &r->settled);
+    if (s == CSI_OK && r->options.settle == CSI_SWITCH_ON) {
+        const size_t np = (size_t)p.g.out_w * p.g.out_h;
+        out->px_cnt = calloc(np ? np : 1, sizeof *out->px_cnt);
+        out->px_sum = calloc(np ? np * channels : 1, sizeof *out->px_sum);
+        if (!out->px_cnt || !out->px_sum)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixel sums of tile %u", index);
+        else
+            csi_pixel_sums_add(&p.g, channels, p.pos, p.values, p.n, core, out->px_cnt, out->px_sum);
+    }
     tile_problem_free(&p);
     return s;
 }
@@ -232,7 +245,7 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(scaled);
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
-    if (s == CSI_OK && (s = tile_noisy_steps(ctx, tl, index, channels, pos, values, n, opt, &out->r)) != CSI_OK)
+    if (s == CSI_OK && (s = tile_noisy_steps(ctx, tl, index, channels, pos, values, n, opt, out)) != CSI_OK)
         csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)
@@ -474,7 +487,11 @@ csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
 void csi_tiles_release(csi_blend *b)
 {
     free(b->resid);
+    free(b->px_cnt);
+    free(b->px_sum);
     b->resid = NULL;
+    b->px_cnt = NULL;
+    b->px_sum = NULL;
 }
 
 /* A tile's residual sums into the whole image's: weights add, the means combine weighted, and
@@ -548,6 +565,15 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
                         tl->window[2]);
     const uint32_t W = tl->grid.out_w, H = tl->grid.out_h, C = out->channels;
     const size_t np = (size_t)W * H, tnp = (size_t)r->out_w * r->out_h;
+    if (t->index == 0 && t->px_cnt) {
+        b->px_cnt = calloc(np, sizeof *b->px_cnt);
+        b->px_sum = calloc(np * C, sizeof *b->px_sum);
+        if (!b->px_cnt || !b->px_sum)
+            return csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixel sums of the %ux%u output", W, H);
+    }
+    if (!b->px_cnt != !t->px_cnt)
+        return csi_fail(CSI_ERR_ARG, "tile %u %s pixel sums where tile 0 %s (tiles of another run?)", t->index,
+                        t->px_cnt ? "has" : "has no", t->px_cnt ? "has none" : "has them");
     double *wx = malloc(r->out_w * sizeof *wx), *wy = malloc(r->out_h * sizeof *wy);
     if (!wx || !wy) {
         free(wx);
@@ -581,6 +607,14 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     }
     free(wx);
     free(wy);
+    /* a tile's sums are its core's pixels' and zero elsewhere: added, the whole image's exactly */
+    for (uint32_t y = 0; b->px_cnt && y < r->out_h; y++)
+        for (uint32_t x = 0; x < r->out_w; x++) {
+            const size_t q = (size_t)y * r->out_w + x, p = (size_t)(t->y0 + y) * W + t->x0 + x;
+            b->px_cnt[p] += t->px_cnt[q];
+            for (uint32_t c = 0; c < C; c++)
+                b->px_sum[p * C + c] += t->px_sum[q * C + c];
+        }
     if (b->resid && !t->resid)
         b->resid_all = false;
     else if (b->resid)
@@ -626,7 +660,6 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     out->t_programs += r->t_programs;
     out->t_cv += r->t_cv;
     out->cv_switched += r->cv_switched;
-    out->settled += r->settled;
     out->cpu_setup += r->cpu_setup;
     out->cpu_work += r->cpu_work;
     for (uint32_t c = 0; c < C && c < 4; c++)
@@ -645,6 +678,8 @@ csi_status csi_tiles_end(csi_blend *b)
     csi_status s = CSI_OK;
     for (uint32_t c = 0; b->resid && b->resid_all && c < out->channels && s == CSI_OK; c++)
         s = resid_correct(b, c);
+    if (s == CSI_OK && b->px_cnt)
+        s = csi_settle_sums(&b->tl.grid, out->channels, b->px_cnt, b->px_sum, out->image, NULL, &out->settled);
     csi_tiles_release(b);
     CSI_TRY(s);
     /* a padded grid's pixels past the image's own (docs/tiles.md, "Limits") */

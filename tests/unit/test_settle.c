@@ -159,6 +159,39 @@ int main(void)
     CHECK_OK(csi_settle(&g, C, b.pos, b.val, b.n, b.img, NULL, NULL));
     CHECK(!memcmp(a.img, b.img, sizeof a.img), "two calls differ");
 
+    /* given each pixel's sample count and channel sums (made here by hand) instead of the samples:
+     * the same bits and count; and the sums of the samples inside a box are that box's */
+    make(&a);
+    make(&b);
+    static uint32_t cnt[NP];
+    static double sum[NP * C];
+    memset(cnt, 0, sizeof cnt);
+    memset(sum, 0, sizeof sum);
+    for (size_t i = 0; i < b.n; i++) {
+        const size_t p = (size_t)(b.pos[i].y / F) * OW + b.pos[i].x / F;
+        cnt[p]++;
+        for (int c = 0; c < C; c++)
+            sum[p * C + c] += b.val[i * C + c];
+    }
+    size_t ka = 0, kb = 0;
+    CHECK_OK(csi_settle(&g, C, a.pos, a.val, a.n, a.img, NULL, &ka));
+    CHECK_OK(csi_settle_sums(&g, C, cnt, sum, b.img, NULL, &kb));
+    CHECK(ka == 3 && kb == ka && !memcmp(a.img, b.img, sizeof a.img), "from sums: %zu moved, %zu from samples%s", kb,
+          ka, memcmp(a.img, b.img, sizeof a.img) ? ", other bits" : "");
+    static uint32_t bcnt[NP];
+    static double bsum[NP * C];
+    memset(bcnt, 0, sizeof bcnt);
+    memset(bsum, 0, sizeof bsum);
+    csi_pixel_sums_add(&g, C, b.pos, b.val, b.n, box, bcnt, bsum);
+    size_t off = 0;
+    for (int p = 0; p < NP; p++) {
+        const bool in = p % OW < 4 && p / OW < 8;
+        off += bcnt[p] != (in ? cnt[p] : 0u);
+        for (int c = 0; c < C; c++)
+            off += bsum[p * C + c] != (in ? sum[p * C + c] : 0.0);
+    }
+    CHECK(off == 0, "the sums inside a box: %zu counts or sums not the box's", off);
+
     /* the second pass's pick at its default share takes every pixel moved (and the firefly's) */
     make(&s);
     const csi_samples smp = {g, C, s.n, s.pos, s.val, 0, NULL};

@@ -299,8 +299,8 @@ typedef struct csi_recon_result {
                                tiles, each tile's in its core) */
     size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
-    size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, each
-                               tile's in its core) */
+    size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, on the
+                               blended image) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_cv;            /* the cross-validated choice (cv_select): its two folds' reconstructions,
                                whose solves and integration t_solve and t_integrate count, and the

@@ -51,6 +51,11 @@
  * same value (2^-24 per operation, a few operations), not a disagreement. */
 #define CSI_SETTLE_ROUNDING 1e-5
 
+/* Adds to cnt[p] and sum[p * channels + c] each pixel's sample count and channel sums (in double,
+ * in sample order) over the n samples inside box (x0, y0, x1, y1 in g's pixels; NULL: all). */
+void csi_pixel_sums_add(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
+                        size_t n, const uint32_t box[4], uint32_t *cnt, double *sum);
+
 /* Per pixel of an image and its samples: the sample count cnt[p], the channel sums
  * sum[p * channels + c] (in double, in sample order) and the disagreement d2[p] with the image;
  * total, the sum of d2 over the pixels. */
@@ -71,5 +76,12 @@ void csi_pixel_disagreement_free(csi_pixel_disagreement *d);
  * Deterministic. */
 csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
                       float *image, const uint32_t box[4], size_t *settled);
+
+/* The same step given each pixel's sample count and channel sums (csi_pixel_sums_add's) instead
+ * of the samples: the same bits as csi_settle on samples that give those sums. A tiled run
+ * settles this way once, on the blended image, from its tiles' sums (csi/tiles.h): a pixel's
+ * share is then of the whole image's disagreement, as untiled. */
+csi_status csi_settle_sums(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                           float *image, const uint32_t box[4], size_t *settled);
 
 #endif

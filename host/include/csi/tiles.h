@@ -205,11 +205,20 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
  * two windows share counts both windows' residuals). NULL when t is not split, and when the
  * window's basis is sheared (then no tile's image is corrected). */
 #define CSI_RESID_SUMS 5
+/* A still image whose pixels settle on their samples' mean (csi/settle.h) settles once, on the
+ * blended image, so that a pixel's share is of the whole image's disagreement as in an untiled
+ * run (settled in each window, on that window's smaller disagreement, more pixels settled than
+ * untiled and the tiled image lost against the untiled one: docs/bench/scale.md). Each tile gives the
+ * sample count px_cnt[p] and channel sums px_sum[p * channels + c] (csi_pixel_sums_add) of its
+ * window's pixels, counting only the samples of its core's pixels: every pixel lies in one core,
+ * so the tiles' sums added are the whole image's exactly. NULL when the image does not settle. */
 typedef struct csi_tile_result {
     uint32_t index;
     uint32_t x0, y0, t0;
     csi_recon_result r;
     double *resid;
+    uint32_t *px_cnt;
+    double *px_sum;
 } csi_tile_result;
 void csi_tile_result_free(csi_tile_result *t);
 
@@ -231,12 +240,15 @@ typedef struct csi_blend {
     csi_recon_result *out;
     double *resid;  /* time windows: the whole image's residual sums (csi_tile_result) */
     bool resid_all; /* every tile so far had them: the image is corrected at the end */
+    uint32_t *px_cnt; /* a still image that settles: the whole image's pixel sums (csi_tile_result) */
+    double *px_sum;
 } csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
                            csi_blend *b, csi_recon_result *out);
 csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
-/* Time windows: corrects the image by the residual sums of all tiles (see csi_tile_result); a
- * padded layout's result is then cut to the image's own size (image_w x image_h, image_t frames). */
+/* Time windows: corrects the image by the residual sums of all tiles; a still image whose tiles
+ * all carry pixel sums: settles it on them (see csi_tile_result). A padded layout's result is then
+ * cut to the image's own size (image_w x image_h, image_t frames). */
 csi_status csi_tiles_end(csi_blend *b);
 /* Releases what the blend holds besides out (csi_tiles_end does it too): for a blend given up. */
 void csi_tiles_release(csi_blend *b);
