@@ -439,7 +439,9 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     uint64_t sums = 0;
     if (tl.n[2] > 1)
         sums = (np + wnp) * channels * CSI_RESID_SUMS * 8;
-    else if (g->t == 1 && opt.estimator == CSI_EST_CS && opt.settle != CSI_SWITCH_OFF)
+    else if (g->t == 1 && opt.estimator == CSI_EST_CS && opt.settle != CSI_SWITCH_OFF &&
+             (opt.correct == CSI_CORRECT_BLEND ||
+              (opt.correct == CSI_CORRECT_AUTO && !(opt.sample_flags & CSI_SAMPLES_EXACT)))) /* resolve.c */
         sums = (np + wnp) * (4 + 8 * (uint64_t)channels);
     out->tiles = tl.count;
     out->method = tp.method;
