@@ -121,8 +121,8 @@ static const row table[] = {
      "disagree by more than 0.5% of their disagreement over the whole image (its share) moves to "
      "that mean, wholly from 2%, unless one of the two sees it dark (a firefly) or neither sees it "
      "beyond 4 times the image's mean pixel (an ordinary range, where no pixel decides): one HDR "
-     "pixel cannot then put the image above the mean of the same samples (in a tile, shares and "
-     "mean of its window)",
+     "pixel cannot then put the image above the mean of the same samples (tiled: once, on the "
+     "blended image)",
      "on with the blend (noisy samples) on an image; off otherwise, and with --refine-request or "
      "--refine-with, whose second pass samples those pixels instead"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
