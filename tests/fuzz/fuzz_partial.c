@@ -54,25 +54,36 @@ static bool same_info(const csi_partial_info *a, const csi_partial_info *b)
            a->frames == b->frames && a->samples == b->samples;
 }
 
-/* The image and frames of r are the pixel block that ends 8 bytes before the end of data. */
+/* The image and frames of r are the pixel block before the tile's sums, which end 8 bytes before
+ * the end of data (docs/partial-format.md): no sums, the residual sums, the pixel sums or both. */
+static bool pixels_at(const csi_result *r, const csi_image *img, uint32_t nf, const uint8_t *px, size_t plane)
+{
+    if (memcmp(img->data, px, plane))
+        return false;
+    for (uint32_t t = 0; t < nf; t++) {
+        csi_image f;
+        if (csi_result_frame(r, t, &f) != CSI_OK || f.w != img->w || f.h != img->h || f.channels != img->channels ||
+            memcmp(f.data, px + plane * (1 + (size_t)t), plane))
+            return false;
+    }
+    return true;
+}
+
 static void check_pixels(const csi_result *r, const uint8_t *data, size_t size)
 {
     csi_image img;
     if (csi_result_image(r, &img) != CSI_OK)
         abort();
     const uint32_t nf = csi_result_frame_count(r);
-    const size_t plane = (size_t)img.w * img.h * img.channels * sizeof(float);
-    if (plane == 0 || plane * (1 + (size_t)nf) > size - 8)
+    const size_t pixels = (size_t)img.w * img.h, plane = pixels * img.channels * sizeof(float);
+    const size_t resid = pixels * img.channels * 40, sums = pixels * (1 + (size_t)img.channels) * 8;
+    const size_t tails[4] = {0, resid, sums, resid + sums};
+    bool found = false;
+    for (int k = 0; k < 4 && !found && plane; k++)
+        if (plane * (1 + (size_t)nf) + tails[k] <= size - 8)
+            found = pixels_at(r, &img, nf, data + size - 8 - tails[k] - plane * (1 + (size_t)nf), plane);
+    if (!found)
         abort();
-    const uint8_t *px = data + size - 8 - plane * (1 + (size_t)nf);
-    if (memcmp(img.data, px, plane))
-        abort();
-    for (uint32_t t = 0; t < nf; t++) {
-        csi_image f;
-        if (csi_result_frame(r, t, &f) != CSI_OK || f.w != img.w || f.h != img.h || f.channels != img.channels ||
-            memcmp(f.data, px + plane * (1 + (size_t)t), plane))
-            abort();
-    }
 }
 
 static void one(const uint8_t *data, size_t size)
