@@ -112,6 +112,9 @@ void csi_result_stats(const csi_result *r, csi_json *j)
             csi_json_str(j, key, text);
     }
     csi_json_end(j);
+    /* settling is the last step of the whole image: a merge of tiles does it too */
+    if (r->options.o.settle == CSI_SWITCH_ON)
+        csi_json_int(j, "settled_pixels", (int64_t)res->settled);
     csi_json_num(j, "t_setup_s", res->t_setup);
     if (res->t_velocity > 0)
         csi_json_num(j, "t_velocity_s", res->t_velocity); /* of t_setup */
@@ -169,8 +172,6 @@ void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, do
         csi_json_int(j, "cv_switched_pixels", (int64_t)res->cv_switched);
     if (r->options.o.peak_range == CSI_SWITCH_ON)
         csi_json_int(j, "peak_range_pixels", (int64_t)res->peak_range_pixels);
-    if (r->options.o.settle == CSI_SWITCH_ON)
-        csi_json_int(j, "settled_pixels", (int64_t)res->settled);
     if (r->options.o.motion_image_cv == CSI_SWITCH_ON)
         csi_json_int(j, "motion_image_switched_pixels", (int64_t)res->motion_image_switched);
     csi_json_num(j, "fixed_s", read_s + device_s + res->t_setup);

@@ -80,6 +80,7 @@ for i in 2 0 3 1; do
 done
 "$B/csi-merge" "$T"/np?.csip -o "$T/nm.exr" --stats "$T/nm.json" -q
 check "[[ '$(json "$T/nm.json" image_fnv1a64)' == '$hn' ]]" "noisy: the merged tiles differ from the tiled run"
+check "[[ '$(json "$T/nm.json" settled_pixels)' == '$(json "$T/n.json" settled_pixels)' ]]" "noisy: the merge settled $(json "$T/nm.json" settled_pixels) pixels, the tiled run $(json "$T/n.json" settled_pixels)"
 
 # --- moving: time and space tiles, frames ---------------------------------------------------
 # (time windows only when asked: --tiles-t; the budget alone splits x and y first)
