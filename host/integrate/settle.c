@@ -126,15 +126,19 @@ csi_status csi_settle(const csi_grid *g, uint32_t channels, const csi_sample_pos
 {
     if (settled)
         *settled = 0;
-    if (g->t != 1)
-        return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
-    csi_pixel_disagreement dis;
-    CSI_TRY(csi_pixel_disagreement_make(g, channels, pos, values, n, image, &dis));
-    const size_t k = settle_by(g, channels, dis.cnt, dis.sum, dis.d2, dis.total, image, box);
-    csi_pixel_disagreement_free(&dis);
-    if (settled)
-        *settled = k;
-    return CSI_OK;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    uint32_t *cnt = calloc(np ? np : 1, sizeof *cnt);
+    double *sum = calloc(np ? np * channels : 1, sizeof *sum);
+    csi_status s = CSI_OK;
+    if (!cnt || !sum)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    else if (g->t == 1)
+        csi_pixel_sums_add(g, channels, pos, values, n, NULL, cnt, sum);
+    if (s == CSI_OK)
+        s = csi_settle_sums(g, channels, cnt, sum, image, box, settled);
+    free(cnt);
+    free(sum);
+    return s;
 }
 
 csi_status csi_settle_sums(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
