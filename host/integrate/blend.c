@@ -496,7 +496,8 @@ static void blend_pass6(void *arg, size_t r0, size_t r1)
 
 csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, const float *values,
                            uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                           const float *fine_at, size_t n, bool clamp, csi_row_pool *pool, float *plane)
+                           const float *fine_at, size_t n, bool clamp, csi_row_pool *pool, float *plane,
+                           size_t *multi_out)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     blend_state b = {
@@ -554,6 +555,8 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
     BLEND_PASS_DONE();
     BLEND_PASS_DONE();
     b.by_pixel = 2 * multi >= np;
+    if (multi_out)
+        *multi_out = multi;
     b.eps = csi_fmax(pow(CSI_BLEND_EPS_REL * (filled ? mabs / (double)filled : 0.0), 2), 1e-300);
     csi_row_pool_run(pool, oh, ow, blend_pass3, &b);
     BLEND_PASS_DONE();

@@ -49,12 +49,16 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction");
         if (box)
             memcpy(box, plane, np * sizeof *box);
+        size_t multi = 0;
         if (s == CSI_OK)
-            s = csi_recon_blend(g, opt, values, channels, c, pos, gs, n, clamp, csi_ctx_row_pool(ctx), plane);
-        /* a second host pass over every pixel and sample */
-        if (s == CSI_OK && box)
+            s = csi_recon_blend(g, opt, values, channels, c, pos, gs, n, clamp, csi_ctx_row_pool(ctx), plane,
+                                &multi);
+        /* a second host pass over every pixel and sample, where it can move a pixel (its own
+         * count of the pixels' samples would find the blend's) */
+        const bool trust = box && csi_recon_fit_trust_acts(g, multi);
+        if (s == CSI_OK && trust)
             s = csi_recon_progress_channel(opt, "fit trust", c, channels);
-        if (s == CSI_OK && box)
+        if (s == CSI_OK && trust)
             s = csi_recon_fit_trust(g, values, channels, c, pos, gs, n, opt->cv_n0, box, csi_ctx_row_pool(ctx),
                                     plane);
         free(box);

@@ -141,6 +141,17 @@ static void trust_pass_pixels(void *arg, size_t r0, size_t r1)
         }
 }
 
+bool csi_recon_fit_trust_acts(const csi_grid *g, size_t multi)
+{
+    /* Where most pixels hold two samples or more the blend has measured its noise within the
+     * pixels (blend.c), and the few single-sample pixels among them are its business: moving
+     * them changed the Mitsuba dumps' Poisson-disk 4-spp cells by < 0.1%, in both directions.
+     * With one cell per pixel the sample is exact. */
+    const csi_pixel_map map = csi_recon_pixel_map(g);
+    const bool full = (uint64_t)map.bw * map.bh * g->t <= 1;
+    return 2 * multi < (size_t)g->out_w * g->out_h && !full;
+}
+
 csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t channels,
                                uint32_t c, const csi_sample_pos *pos, const float *fine_at,
                                size_t n, double n0, const float *box, csi_row_pool *pool, float *plane)
@@ -166,14 +177,10 @@ csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t 
         trust_clear(&t, 0, np);
         trust_samples(&t, 0, n, 0, oh, false);
     }
-    /* Where most pixels hold two samples or more the blend has measured its noise within the
-     * pixels (blend.c), and the few single-sample pixels among them are its business: moving
-     * them changed the Mitsuba dumps' Poisson-disk 4-spp cells by < 0.1%, in both directions. */
     size_t multi = 0;
     for (size_t p = 0; p < np; p++)
         multi += t.cnt[p] >= 2;
-    const bool full = (uint64_t)t.map.bw * t.map.bh * g->t <= 1; /* one cell per pixel: the sample is exact */
-    if (2 * multi < np && !full) {
+    if (csi_recon_fit_trust_acts(g, multi)) {
         double sabs = 0;
         for (size_t i = 0; i < n; i++) /* in sample order: the same sum */
             sabs += fabs((double)values[i * channels + c]);

@@ -421,10 +421,12 @@ csi_status csi_recon_correct(csi_ctx *ctx, const csi_grid *g, const csi_recon_op
 /* The blend of the fine estimate's box integral (plane, in and out) with each pixel's sample
  * mean (blend.c). fine_at: the fine estimate at the n samples. Pixels span all t. opt's progress
  * hears "correct c/C" with the passes over the image done so far, after each of them. Its passes
- * run in bands of rows on pool (NULL: on the calling thread), the same bits either way. */
+ * run in bands of rows on pool (NULL: on the calling thread), the same bits either way. *multi
+ * (unless NULL): how many pixels hold two samples or more. */
 csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, const float *values,
                            uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                           const float *fine_at, size_t n, bool clamp, csi_row_pool *pool, float *plane);
+                           const float *fine_at, size_t n, bool clamp, csi_row_pool *pool, float *plane,
+                           size_t *multi);
 /* The blend's last step on a still image (fit_trust.c): each pixel of plane (the blend's
  * output, in and out) that holds one sample moves towards the control variate made from box
  * (b, the fine estimate's box integral before the blend) by how far the fit can be trusted
@@ -432,6 +434,9 @@ csi_status csi_recon_blend(const csi_grid *g, const csi_recon_options *opt, cons
 csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t channels,
                                uint32_t c, const csi_sample_pos *pos, const float *fine_at,
                                size_t n, double n0, const float *box, csi_row_pool *pool, float *plane);
+/* Whether csi_recon_fit_trust moves any pixel of an image of g in which `multi` pixels hold two
+ * samples or more (if not, a caller that knows multi need not run it). */
+bool csi_recon_fit_trust_acts(const csi_grid *g, size_t multi);
 /* Projects the fine estimate `fine` (the grid's w x h x t cells, on the device) onto the range
  * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
  * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame

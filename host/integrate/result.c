@@ -76,8 +76,10 @@ csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channe
     float all = 0;
     for (uint32_t c = 0; c < channels; c++) {
         float m = 0;
-        for (size_t i = 0; i < n; i++)
-            m = fmaxf(m, fabsf(values[i * channels + c]));
+        for (size_t i = 0; i < n; i++) { /* fmaxf's NaN rule without its call per sample */
+            const float a = fabsf(values[i * channels + c]);
+            m = a > m ? a : m;
+        }
         all = fmaxf(all, m);
         int ex = 0;
         if (m > 0)

@@ -136,7 +136,7 @@ static void run(const problem *pr, csi_row_pool *pool, bool spread, float *out, 
         for (size_t i = 0; i < pr->n; i++)
             fine_c[i] = pr->fine[i * C + c];
         float *plane = out + (size_t)c * np;
-        CHECK_OK(csi_recon_blend(&pr->g, &opt, pr->val, C, c, pr->pos, fine_c, pr->n, true, pool, plane));
+        CHECK_OK(csi_recon_blend(&pr->g, &opt, pr->val, C, c, pr->pos, fine_c, pr->n, true, pool, plane, NULL));
         CHECK_OK(csi_recon_fit_trust(&pr->g, pr->val, C, c, pr->pos, fine_c, pr->n, opt.cv_n0,
                                      pr->box + (size_t)c * np, pool, plane));
     }

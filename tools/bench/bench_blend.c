@@ -62,7 +62,7 @@ int main(int argc, char **argv)
     for (int r = 0; r < runs; r++) {
         memcpy(plane, box, np * sizeof *plane);
         const double w0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
-        if (csi_recon_blend(&g, &opt, val, 1, 0, pos, fine, n, true, pool, plane) != CSI_OK) {
+        if (csi_recon_blend(&g, &opt, val, 1, 0, pos, fine, n, true, pool, plane, NULL) != CSI_OK) {
             fprintf(stderr, "%s\n", csi_last_error());
             return 1;
         }
