@@ -26,7 +26,7 @@ ha="$(json "$T/s.json" image_fnv1a64)"
 check "[[ '$(json "$T/s2.json" image_fnv1a64)' == '$ha' ]]" "csi-reconstruct --tiles 4 differs from csi-render's"
 "$B/csi-reconstruct" "$T/s.csid" --tiles 4 --tile-info "${tiles[@]}" > "$T/info.json"
 check "[[ $? == 0 ]] && grep -q '\"tiles\": 4,' '$T/info.json'" "--tile-info: $(cat "$T/info.json")"
-scale="$(json "$T/info.json" tile_scale)"
+scale="$(json_text "$T/info.json" tile_scale)"
 check "[[ -n '$scale' ]]" "--tile-info gives the scale"
 for i in 3 1; do
     "$B/csi-reconstruct" "$T/s.csid" --tile $i/4 --tile-scale "$scale" -o "$T/p$i.csip" "${tiles[@]}"
@@ -123,7 +123,7 @@ padded pad_tiles 40 --tiles 2 --tile-margin 4 --max-iter 40 -q  # no 2 tiles of 
 padded pad_own 37 --tiles 4 --tile-margin 4 --max-iter 40 -q    # 2x2 tiles of its own grid
 for i in 0 1; do
     "$B/csi-render" "$T/pad.scene" --tile $i/2 --tile-margin 4 --max-iter 40 -q -o "$T/padr$i.csip" \
-        --tile-scale "$(json "$T/pad_tiles.info" tile_scale)"
+        --tile-scale "$(json_text "$T/pad_tiles.info" tile_scale)"
 done
 "$B/csi-merge" "$T"/padr?.csip -o "$T/padr.exr" --stats "$T/padr.json" -q
 check "[[ '$(json "$T/padr.json" image_fnv1a64)' == '$(json "$T/pad_tiles.json" image_fnv1a64)' ]]" \

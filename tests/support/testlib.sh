@@ -9,6 +9,8 @@ bad()   { fail=$((fail + 1)); echo "FAIL: $*" >&2; }
 check() { if eval "$1"; then ok; else bad "$2"; fi; }
 # json FILE KEY: the first value of KEY in a JSON file (strings without their quotes)
 json()  { sed -n "s/.*\"$2\": \"\\{0,1\\}\\([^\",]*\\).*/\\1/p" "$1" | head -1; }
+# json_text FILE KEY: the whole quoted string value of KEY (commas included, e.g. tile_scale's)
+json_text() { sed -n "s/.*\"$2\": \"\\([^\"]*\\)\".*/\\1/p" "$1" | head -1; }
 # expect_fail NAME WANT CMD...: CMD exits 2 with one line on stderr containing WANT, and leaves
 # neither $T/out.exr nor $T/out.csid nor a hidden temporary of either.
 expect_fail() {
