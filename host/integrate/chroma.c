@@ -19,6 +19,12 @@
  * `--model-sigma-min 0.75`, the coarser grid measured for whole images (D = 4 instead of 2 at
  * 4 spp on the default 8x grid). */
 #define CHROMA_SIGMA_MIN 0.75
+/* The luma and chroma solves' stop: this times the image's tolerance (2e-3 for the default 3e-3).
+ * One luma solve carries what three RGB solves did, and SpaRSA's objective stop sees the image's
+ * brightest light in it: at the RGB solves' 3e-3 luma ended after 11 steps on a sun's glossy
+ * highlight at 16 spp x 1 path where R took 19, and the image went from 0.94x to 1.03x the
+ * relMSE of the samples' mean; at 2e-3 it takes 0.8x (docs/bench/cost.md, session 27). */
+#define CHROMA_TOL_SCALE (2.0 / 3.0)
 
 bool csi_recon_chroma_on(const csi_grid *g, uint32_t channels, const csi_recon_options *opt)
 {
@@ -51,6 +57,7 @@ csi_recon_options csi_recon_chroma_options(const csi_recon_options *opt)
 {
     csi_recon_options o = *opt;
     o.model_sigma_min = fmin(opt->model_sigma_min, CHROMA_SIGMA_MIN);
+    o.tol = opt->tol * CHROMA_TOL_SCALE;
     return o;
 }
 
@@ -98,6 +105,8 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     const csi_recon_options oc = csi_recon_chroma_options(opt);
+    csi_recon_options ol = *opt; /* luma's: its own grid, the chroma solves' stop */
+    ol.tol = oc.tol;
     /* the estimate at the samples of each channel, kept on the host: each solve overwrites the
      * workspace that holds it */
     float *at = malloc(3 * n * sizeof *at);
@@ -141,7 +150,7 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
     double t_solve = 0, t_int = 0;
     for (uint32_t k = 0; k < 3 && s == CSI_OK; k++) {
         csi_recon_state *cs = k ? &sc : st;
-        const csi_recon_options *ok = k ? &oc : opt;
+        const csi_recon_options *ok = k ? &oc : &ol;
         cs->channel = k;
         cs->channels = 3;
         s = csi_recon_progress_channel(opt, "solve", k, 3);

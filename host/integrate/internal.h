@@ -214,8 +214,9 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
                                       csi_recon_result *res, csi_recon_state *st);
 void csi_recon_opponent(const float *rgb, size_t n, uint32_t k, float *plane);
 double csi_recon_chroma_tau_scale(double luma);
-/* The chroma channels' options (opt resolved): the coarser model grid. Their operator is a second
- * one beside luma's, on luma's solver workspace (plan.c counts it). */
+/* The chroma channels' options (opt resolved): the coarser model grid, and the stop that luma's
+ * solve shares (a fraction of opt's tol). Their operator is a second one beside luma's, on luma's
+ * solver workspace (plan.c counts it). */
 csi_recon_options csi_recon_chroma_options(const csi_recon_options *opt);
 
 /* The coarse start (coarse_start.c): the operator on the model grid of shape sh coarsened once
@@ -261,10 +262,10 @@ csi_status csi_recon_channel_begin(csi_recon_state *st, const csi_recon_options 
 csi_status csi_recon_scale_values(const float *values, size_t n, uint32_t channels, bool common, int e[4],
                                   float **scaled);
 /* Whether csi_recon_scale_values scales the channels in common for options opt (as given or
- * resolved; auto is off): RGB that may be solved as luma and chroma. */
+ * resolved; auto is on): RGB that may be solved as luma and chroma. */
 static inline bool csi_recon_scale_common(uint32_t channels, const csi_recon_options *opt)
 {
-    return channels == 3 && opt->chroma == CSI_SWITCH_ON;
+    return channels == 3 && opt->chroma != CSI_SWITCH_OFF;
 }
 void csi_recon_unscale_result(csi_recon_result *r, const int e[4]);
 

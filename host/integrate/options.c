@@ -223,9 +223,10 @@ static const row table[] = {
     {"chroma", K_CHOICE, AT(chroma), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on RGB: the samples turned into luma and two chroma channels (an orthonormal "
      "transform), luma solved as a channel is and the chroma on the coarser model grid of "
-     "--model-sigma-min 0.75, the fits turned back to RGB before the per-pixel correction: about "
-     "0.6x the CPU of an RGB image, the MSE within a few %",
-     "off"},
+     "--model-sigma-min 0.75, their solves stopped at 2/3 of --tol, the fits turned back to RGB "
+     "before the per-pixel correction: about 0.67x the CPU of three RGB solves, the MSE within "
+     "their stop's own spread; off: R, G and B solved one after another",
+     "on (RGB still images solved by SpaRSA on a model grid)"},
     /* Tiles (csi/tiles.h): bounded memory. */
     {"mem-budget", K_BYTES, AT(mem_budget), 1048576.0, 18446744073709551615.0, NULL, F_AUTO, "auto",
      "SIZE", "device memory one reconstruction may use, e.g. 512M, 2G (bytes, or K/M/G = "

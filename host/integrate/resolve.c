@@ -221,12 +221,13 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->warm_channels = CSI_SWITCH_OFF;
     if (o->coarse_start == CSI_SWITCH_AUTO)
         o->coarse_start = CSI_SWITCH_OFF;
-    /* RGB as luma and chroma (chroma.c) is cheaper than three RGB solves, but it moved the bundled
-     * checkerboard's MSE at 1 spp by more than the 2% the defaults may move, with the chroma on
-     * the coarser grid or on luma's: where the transform's solves stop, not the grid
-     * (docs/bench/cost.md, sessions 20 and 21). */
+    /* RGB as luma and chroma (chroma.c; where it applies, csi_recon_chroma_on): 0.67x the CPU of
+     * three RGB solves on the 1920x1080 garden, and on 70 bundled, analytic and Mitsuba dumps the
+     * MSE within 2% of the RGB solves' but one dump, whose +2.3% lies inside the spread the RGB
+     * solves' own stop makes (+2.8% at --tol 2e-3); on the 372 Mitsuba cells of issue 9 as often
+     * and as little above the mean (docs/bench/cost.md, sessions 20-22 and 27). */
     if (o->chroma == CSI_SWITCH_AUTO)
-        o->chroma = CSI_SWITCH_OFF;
+        o->chroma = CSI_SWITCH_ON;
     if (o->solver == CSI_SOLVER_ROMP) {
         image_romp(o, n, (size_t)g->w * g->h); /* each problem's own operator (tiles too) */
     } else {

@@ -5,6 +5,8 @@
  * passes over the image counting up; a cancel between two of them stops the run);
  * the per-pixel mean baseline "setup" then "integrate"; a channel whose samples repeat an earlier channel's bit for bit is not solved again and gets
  * that channel's result (the solve is deterministic, so the bits are the same as solving it).
+ * RGB on a still image solved as luma and chroma (the default, chroma.c): "solve k/3" and
+ * "integrate k/3" for Y, C1 and C2, then "correct c/3" for R, G and B, each channel solved.
  * Alg. 1 (static) and Alg. 2 (moving), small grids. */
 #include <math.h>
 #include <stdio.h>
@@ -51,8 +53,9 @@ static int find(const log_t *l, const char *phase)
     return -1;
 }
 
-/* Channels 0 and 2 bitwise equal, channel 1 different. */
-static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
+/* Channels 0 and 2 bitwise equal, channel 1 different; chroma: a still image's RGB as luma and
+ * chroma (else R, G and B one after another). */
+static void run(csi_ctx *ctx, uint32_t T, bool copy_equal, bool chroma)
 {
     const csi_grid g = {64, 64, T, 16, 16};
     const csi_pos_opts po = {.method = CSI_POS_POISSON, .spp = T > 1 ? 1 : 4, .seed = 3};
@@ -73,6 +76,8 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
     log_t l = {.n = 0};
     csi_recon_options o;
     csi_recon_defaults(&o);
+    o.chroma = chroma ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+    chroma = chroma && T == 1; /* a volume's channels are solved one after another either way */
     o.progress = record;
     o.user = &l;
     csi_recon_result r;
@@ -90,7 +95,26 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
         } else
             CHECK(vi < 0, "a still image reports a velocity search");
         CHECK(!l.backwards, "T = %u: %d reports went backwards within a phase", T, l.backwards);
-        for (int c = 1; c <= 3; c++) {
+        for (int c = 1; c <= 3 && chroma; c++) { /* Y, C1, C2 solved and integrated, then R, G, B corrected */
+            char sname[32], iname[32];
+            snprintf(sname, sizeof sname, "solve %d/3", c);
+            snprintf(iname, sizeof iname, "integrate %d/3", c);
+            const int si = find(&l, sname), ii = find(&l, iname);
+            /* C1 = (R - B) / sqrt 2 is zero (R = B: not solved, not integrated) or one ulp at one
+             * sample (nothing to step on) */
+            const bool empty = c == 2 && copy_equal;
+            CHECK(si > prev && (empty ? ii < 0 : ii > si) && (c == 2 || l.steps[si] > 0),
+                  "chroma: '%s' (%d steps) then '%s' after the previous channel", sname, si >= 0 ? l.steps[si] : 0, iname);
+            prev = empty ? si : ii;
+        }
+        for (int c = 1; c <= 3 && chroma; c++) {
+            char cname[32];
+            snprintf(cname, sizeof cname, "correct %d/3", c);
+            const int ci = find(&l, cname);
+            CHECK(ci > prev && l.steps[ci] > 1, "chroma: '%s' after every solve and the corrections before, with its passes", cname);
+            prev = ci;
+        }
+        for (int c = 1; c <= 3 && !chroma; c++) {
             char sname[32], iname[32], cname[32];
             snprintf(sname, sizeof sname, "solve %d/3", c);
             snprintf(iname, sizeof iname, "integrate %d/3", c);
@@ -113,11 +137,11 @@ static void run(csi_ctx *ctx, uint32_t T, bool copy_equal)
         const size_t np = 16 * 16;
         /* one ulp at one sample need not show in the image (the cross-validated choice's folds
          * see the channels' mean): channel 2 is told apart by its own solve's time */
-        if (copy_equal)
+        if (copy_equal && !chroma)
             CHECK(memcmp(r.image, r.image + 2 * np, np * sizeof(float)) == 0, "T = %u: channels 0 and 2 have the same bits", T);
         else
             CHECK(r.report[2].t_total > 0, "T = %u: channel 2 (one ulp off channel 0) is solved on its own", T);
-        if (copy_equal)
+        if (copy_equal && !chroma)
             CHECK(r.report[2].iterations == r.report[0].iterations && r.report[2].t_total == 0,
                   "T = %u: the repeated channel reports the first one's solve, no time", T);
         csi_recon_result_free(&r);
@@ -188,8 +212,9 @@ int main(void)
     csi_ctx *ctx = test_ctx();
     run_mean(ctx);
     for (int copy = 0; copy < 2; copy++) {
-        run(ctx, 1, copy == 1);
-        run(ctx, 4, copy == 1);
+        run(ctx, 1, copy == 1, false);
+        run(ctx, 1, copy == 1, true);
+        run(ctx, 4, copy == 1, false);
     }
     return test_done();
 }

@@ -187,8 +187,8 @@ typedef struct csi_recon_options {
     csi_switch coarse_start;      /* Alg. 1 on a model grid with SpaRSA's continuation: the stages
                                      before the last on a grid twice as coarse (coarse_start.c) */
     csi_switch chroma;            /* Alg. 1 on 3 channels (RGB): solved as luma and two chroma
-                                     channels, the chroma on a coarser model grid (chroma.c);
-                                     auto: off */
+                                     channels, the chroma on a coarser model grid (chroma.c),
+                                     their solves at 2/3 of tol; auto: on */
     csi_recon_stop stop;
     csi_switch continuation;      /* SpaRSA continuation on tau */
     double cont_step;             /* SpaRSA continuation: each stage's tau this times the previous
