@@ -76,6 +76,18 @@ static void chroma_state_free(csi_recon_state *sc, const csi_recon_state *st)
     csi_recon_state_free(sc);
 }
 
+/* Luma's operator released (its solver's workspace kept, which the chroma's shares): after
+ * luma's solve nothing reads it. */
+static void release_operator(csi_recon_state *st)
+{
+    csi_recon_coarse_free(st->coarse);
+    st->coarse = NULL;
+    csi_linop_free(st->A); /* owns S and inner, which own Psi and W */
+    csi_linop_free(st->Wbox);
+    csi_linop_free(st->Ipix);
+    st->A = st->S = st->inner = st->Psi = st->W = st->Wbox = st->Ipix = NULL;
+}
+
 /* A chroma channel's tau scale (SpaRSA's tau is tau_rel times it) from luma's, ||A^H Y||_inf.
  * tau_rel is relative to a channel's own level, and chroma's level can be near zero (a grey
  * region, a grey image), where its own ||A^H C||_inf would put the threshold at the noise and
@@ -117,24 +129,20 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
     sc.plane = st->plane;
     csi_status s = at ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the fits at %zu samples", n);
 
-    /* Luma's operator and workspace in st, as for any channel; chroma's in sc on the workspace's
-     * device buffers (the same rows, fewer columns, and the two never run at once). */
-    csi_aa_shape sh, shc;
+    /* Luma's operator and workspace in st, as for any channel; after luma's solve, chroma's
+     * operator in sc in its place, on the workspace's device buffers (the same rows, fewer
+     * columns): the two operators are never held at once (plan.c counts the larger). */
+    csi_aa_shape sh = {0}, shc = {0};
     if (s == CSI_OK)
         s = csi_recon_aa_operator(ctx, g, n, opt, st, &sh);
-    if (s == CSI_OK)
-        s = csi_recon_aa_operator(ctx, g, n, &oc, &sc, &shc);
     const size_t km = sh.mw * sh.mh;
     if (s == CSI_OK) {
         res->model_factor = sh.D;
-        res->chroma_model_factor = shc.D;
         res->unknowns = km;
         s = csi_solver_create(st->A, &st->solver);
     }
     if (s == CSI_OK)
         s = csi_recon_coarse_create(ctx, &sh, opt, st->idx, n, st->solver, &st->coarse);
-    if (s == CSI_OK)
-        s = csi_solver_create_sharing(sc.A, st->solver, &sc.solver);
     if (s == CSI_OK)
         s = csi_buffer(ctx, n * sizeof(float), CL_MEM_READ_WRITE, "the measurements", &st->y);
     if (s == CSI_OK)
@@ -151,6 +159,15 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
     for (uint32_t k = 0; k < 3 && s == CSI_OK; k++) {
         csi_recon_state *cs = k ? &sc : st;
         const csi_recon_options *ok = k ? &oc : &ol;
+        if (k == 1) {
+            release_operator(st);
+            s = csi_recon_aa_operator(ctx, g, n, &oc, &sc, &shc);
+            if (s == CSI_OK)
+                s = csi_solver_create_sharing(sc.A, st->solver, &sc.solver);
+            if (s != CSI_OK)
+                break;
+            res->chroma_model_factor = shc.D;
+        }
         cs->channel = k;
         cs->channels = 3;
         s = csi_recon_progress_channel(opt, "solve", k, 3);

@@ -115,25 +115,27 @@ static uint64_t interp_host(size_t mw, size_t mh, size_t n)
     return 16 * (uint64_t)n + 12 * ((uint64_t)mw + mh) + 16 * ((uint64_t)mw * mh / 512 + 1);
 }
 
-/* Alg. 1's operator of shape sh (csi_recon_aa_operator): on the fine grid, or on the model grid
- * D times coarser with the box means at the pixels; and the host tables made with it. */
-static void aa_operator_buffers(const csi_aa_shape *sh, const size_t dims[3], size_t n, size_t np, model *m)
+/* Alg. 1's operator of shape sh (csi_recon_aa_operator), its device buffers into t: on the fine
+ * grid, or on the model grid D times coarser with the box means at the pixels; and the host
+ * tables made with it. */
+static void aa_operator_buffers(const csi_aa_shape *sh, const size_t dims[3], size_t n, size_t np, model *m,
+                                csi_mem_tally *t)
 {
     const size_t km = sh->mw * sh->mh;
-    csi_wavelet_buffers(sh->mw, sh->mh, &m->dev);
+    csi_wavelet_buffers(sh->mw, sh->mh, t);
     if (sh->D > 1)
-        csi_model_filter_buffers(sh->mw, sh->mh, &m->dev);
+        csi_model_filter_buffers(sh->mw, sh->mh, t);
     else
-        csi_filter_buffers(dims, &m->dev);
-    csi_linop_compose_buffers(km, false, &m->dev); /* Phi^-1 Psi */
+        csi_filter_buffers(dims, t);
+    csi_linop_compose_buffers(km, false, t); /* Phi^-1 Psi */
     if (sh->D > 1)
-        csi_interp_buffers(sh->mw, sh->mh, sh->D, n, &m->dev);
+        csi_interp_buffers(sh->mw, sh->mh, sh->D, n, t);
     else
-        csi_sampling_buffers(n, &m->dev);
-    csi_linop_compose_buffers(km, false, &m->dev); /* S Phi^-1 Psi */
+        csi_sampling_buffers(n, t);
+    csi_linop_compose_buffers(km, false, t); /* S Phi^-1 Psi */
     if (sh->D > 1) { /* the box means at the pixels */
-        csi_model_filter_buffers(sh->mw, sh->mh, &m->dev);
-        csi_interp_buffers(sh->mw, sh->mh, sh->D, np, &m->dev);
+        csi_model_filter_buffers(sh->mw, sh->mh, t);
+        csi_interp_buffers(sh->mw, sh->mh, sh->D, np, t);
         transient_host(m, interp_host(sh->mw, sh->mh, n > np ? n : np) + (uint64_t)np * 4 +
                               fft_tables_host(dims));
     } else {
@@ -163,18 +165,27 @@ static csi_status plan_antialias(const csi_grid *g, size_t n, uint32_t channels,
     p->unknowns = km;
     const size_t mdims[3] = {sh.mw, sh.mh, 1};
     p->rows_unfused = !csi_filter_rows_fused(sh.D > 1 ? mdims : dims, m->dev.local_mem);
-    aa_operator_buffers(&sh, dims, n, np, m);
     if (csi_recon_chroma_on(g, channels, opt)) {
-        /* RGB as luma and chroma (chroma.c): the chroma channels' operator on their coarser grid
-         * beside luma's (on luma's solver workspace), and the three channels' fits at the samples
-         * on the host */
+        /* RGB as luma and chroma (chroma.c): luma's operator, then the chroma channels' on their
+         * coarser grid in its place (on luma's solver workspace), and the three channels' fits at
+         * the samples on the host */
         const csi_recon_options oc = csi_recon_chroma_options(opt);
         csi_aa_shape shc;
         CSI_TRY(csi_recon_aa_shape(g, n, &oc, &whole, &shc));
         CSI_TRY(check_wavelet(&shc, oc.wavelet));
-        aa_operator_buffers(&shc, dims, n, np, m);
-        csi_vec_ws_buffers(&m->dev); /* the sharing workspace's own reductions */
+        csi_mem_tally op[2] = {{.local_mem = m->dev.local_mem}, {.local_mem = m->dev.local_mem}};
+        aa_operator_buffers(&sh, dims, n, np, m, &op[0]);
+        aa_operator_buffers(&shc, dims, n, np, m, &op[1]);
+        csi_vec_ws_buffers(&op[1]); /* the sharing workspace's own reductions, made with it */
+        m->dev.total += op[0].total >= op[1].total ? op[0].total : op[1].total; /* one at a time */
+        for (int i = 0; i < 2; i++)
+            if (op[i].largest > m->dev.largest) {
+                m->dev.largest = op[i].largest;
+                m->dev.largest_what = op[i].largest_what;
+            }
         m->host += 3 * (uint64_t)n * 4 + csi_solver_host_bytes(n, shc.mw * shc.mh, false, false);
+    } else {
+        aa_operator_buffers(&sh, dims, n, np, m, &m->dev);
     }
     csi_solver_buffers(n, km, false, &m->dev);
     csi_recon_coarse_buffers(&sh, opt, n, &m->dev);
