@@ -221,7 +221,7 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         o->warm_channels = CSI_SWITCH_OFF;
     if (o->coarse_start == CSI_SWITCH_AUTO)
         o->coarse_start = CSI_SWITCH_OFF;
-    /* RGB as luma and chroma (chroma.c; where it applies, csi_recon_chroma_on): 0.67x the CPU of
+    /* RGB as luma and chroma (chroma.c; where it applies, csi_recon_chroma_on): 0.68x the CPU of
      * three RGB solves on the 1920x1080 garden, and on 70 bundled, analytic and Mitsuba dumps the
      * MSE within 2% of the RGB solves' but one dump, whose +2.3% lies inside the spread the RGB
      * solves' own stop makes (+2.8% at --tol 2e-3); on the 372 Mitsuba cells of issue 9 as often
