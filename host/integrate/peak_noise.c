@@ -67,6 +67,39 @@ static void peak_pass_means(void *arg, size_t r0, size_t r1)
     }
 }
 
+/* The level a peak of pixel (px, py) recurs at around it: the median of its 8 neighbours' means,
+ * or -inf where its pixel's `others` samples, all below the peak level CSI_PEAK_RATIO (hp + e),
+ * contradict it. A caustic or a highlight reached only through rare paths gives most samples
+ * around it one such path: each sample is then a peak its noise explains, and dropping every one
+ * of them to its pixel's darker others takes the light away (a caustic under glass at 4 spp x 64
+ * paths, 1.06x the mean's MSE; docs/bench/mitsuba.md, session 28). Where a fraction rho of the
+ * neighbours' samples reach the peak level, the pixel's others all staying below it has the
+ * probability (1 - rho)^others if the pixel shares that rate; below CSI_PEAK_SHARED_P the pixel
+ * is not the neighbourhood's (beside a bokeh disc or an emitter, many dark samples of its own). */
+static double shared_level(const peak_state *t, size_t px, size_t py, double hp, uint32_t others)
+{
+    const float *values = t->values;
+    const uint32_t channels = t->channels, c = t->c, *cnt = t->cnt;
+    const size_t *start = t->start, *idx = t->idx, p = py * t->ow + px;
+    size_t nb[9];
+    double w[8], reach = 0, total = 0;
+    int k = 0;
+    const int kn = csi_recon_window3_at(px, py, t->ow, t->oh, nb);
+    for (int j = 0; j < kn; j++) {
+        const size_t q = nb[j];
+        if (q == p || !cnt[q])
+            continue;
+        w[k++] = t->m[q];
+        for (size_t i = start[q]; i < start[q + 1]; i++) {
+            total++;
+            reach += values[idx[i] * channels + c] + t->e >= CSI_PEAK_RATIO * (hp + t->e);
+        }
+    }
+    if (!k || pow(1.0 - reach / total, (double)others) < CSI_PEAK_SHARED_P)
+        return -INFINITY;
+    return median_of(w, k);
+}
+
 /* The rule at each pixel of the band. */
 static void peak_pass_pixels(void *arg, size_t r0, size_t r1)
 {
@@ -97,9 +130,11 @@ static void peak_pass_pixels(void *arg, size_t r0, size_t r1)
                 if (y + e < CSI_PEAK_RATIO * (hp + e) ||
                     y - hp >= CSI_PEAK_Z * sqrt((double)variance[top * channels + c]))
                     continue;
-                /* Shrunk towards the mean of the others. */
-                plane[p] = peak_shrink((sum - y) / (double)(cnt[p] - 1), plane[p], y - hp,
-                                       variance[top * channels + c]);
+                /* Shrunk towards the mean of the others, or the neighbours' median where that is
+                 * higher and the others may share the neighbourhood's level. */
+                const double r = csi_fmax((sum - y) / (double)(cnt[p] - 1),
+                                          shared_level(t, px, py, hp, cnt[p] - 1));
+                plane[p] = peak_shrink(r, plane[p], y - hp, variance[top * channels + c]);
                 set++;
                 continue;
             }

@@ -28,7 +28,15 @@
  *        halfway between the others' mean 1 and x, 0.75 (1.25 in channel 1) exactly;
  *      - (8, 8) holds 1, 1, 20 of variance 1: 19 >= 3, the image's: untouched, 0.5;
  *      - (12, 4) holds 2, 3, 7 of variance 0: 7 < 4 x 3, no peak: untouched.
- *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set. */
+ *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set.
+ *   4. Three samples per pixel, every sample 1 (variance 0.01), two pixels holding 1, 1, 20 of
+ *      variance 400 (a one-path peak: w = 0) amid neighbours bright in the same way:
+ *      - (4, 4)'s 8 neighbours hold 20, 20, 1 (the 20s of variance 400, no peaks: each has a
+ *        twin): 16 of their 24 samples reach the peak level, and the pixel's 2 others both below
+ *        it has probability (1/3)^2 = 0.11 >= 5% at that rate: the pixel may share the level,
+ *        and the neighbours' median mean 41/3, above the others' 1, is the value, exactly;
+ *      - (11, 11)'s 8 neighbours hold 20, 20, 20: every sample reaches the level, two below it
+ *        have probability 0 < 5%: the pixel is not the neighbourhood's, the others' mean 1. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -86,6 +94,25 @@ static size_t make3(csi_sample_pos *pos, float *val, float *var)
             if (p == 12 * OW + 12)
                 v = s == 2 ? 9 : 1, vv = s == 2 ? 32 : 0.01f;
             pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1 + s), (uint32_t)(p / OW * F + 1 + s), 0};
+            val[n * 2] = v, val[n * 2 + 1] = 2 * v;
+            var[n * 2] = vv, var[n * 2 + 1] = 4 * vv;
+            n++;
+        }
+    return n;
+}
+
+/* Property 4's samples: three per pixel as make3's; bright is 20 of variance 400. */
+static size_t make4(csi_sample_pos *pos, float *val, float *var)
+{
+    size_t n = 0;
+    for (int p = 0; p < NP; p++)
+        for (int s = 0; s < 3; s++) {
+            const int x = p % OW, y = p / OW;
+            const int near_a = abs(x - 4) <= 1 && abs(y - 4) <= 1, near_b = abs(x - 11) <= 1 && abs(y - 11) <= 1;
+            const int centre = (x == 4 && y == 4) || (x == 11 && y == 11);
+            const int bright = centre ? s == 2 : near_a ? s < 2 : near_b;
+            const float v = bright ? 20 : 1, vv = bright ? 400 : 0.01f;
+            pos[n] = (csi_sample_pos){(uint32_t)(x * F + 1 + s), (uint32_t)(y * F + 1 + s), 0};
             val[n * 2] = v, val[n * 2 + 1] = 2 * v;
             var[n * 2] = vv, var[n * 2 + 1] = 4 * vv;
             n++;
@@ -177,6 +204,27 @@ int main(void)
     for (int i = 0; i < 2 * NP; i++)
         other += im[i] != 0.5f;
     CHECK(other == 0 && changed == 0, "one cell per pixel: %zu pixel-channels set", other);
+    free(im);
+
+    /* 4 */
+    n = make4(pos, val, var);
+    im = half_image();
+    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, NULL, im, &changed));
+    other = 0;
+    for (int c = 0; c < 2; c++)
+        for (int p = 0; p < NP; p++) {
+            const double s = c + 1;
+            if (p == 4 * OW + 4)
+                CHECK(im[c * NP + p] == (float)(41.0 / 3 * s), "channel %d: the peak amid its like %.9g, want %.9g", c,
+                      im[c * NP + p], 41.0 / 3 * s);
+            else if (p == 11 * OW + 11)
+                CHECK(im[c * NP + p] == (float)s, "channel %d: the peak its others contradict %.9g, want %.9g", c,
+                      im[c * NP + p], s);
+            else
+                other += im[c * NP + p] != 0.5f;
+        }
+    CHECK(other == 0 && changed == 4, "peaks amid bright neighbours: %zu other pixel-channels set (%zu reported, want 4)",
+          other, changed);
     free(im);
     return test_done();
 }

@@ -7,6 +7,8 @@ highlight on a bright sphere both show.
 
     .venv/bin/python tools/bench/peak_crops.py --data DATA --out peaks.png \\
         --crop envmap/s1_p64:91:52 --crop glossy_sun/s1_p64:92:114 --crop glints/s1_p64:64:90
+
+--base BUILD adds a row: csi with the variances from another build (a change's before).
 """
 import argparse
 import os
@@ -24,10 +26,13 @@ from bench_common import binaries, default_env, read_exr  # noqa: E402
 HALF, ZOOM = 7, 8  # a crop is 15 x 15 pixels, each shown as 8 x 8
 
 
-def images(exe, dump, tmp):
-    """The mean, csi, and csi with the variances, of one dump: (h, w, 3) float64 each."""
+def images(exe, dump, tmp, base=None):
+    """The mean, csi, (base's csi with the variances,) and csi with the variances, of one dump:
+    (h, w, 3) float64 each."""
     out = []
-    for args in (["--estimator", "mean"], [], ["--variance", dump[: -len(".csid")] + ".variance.csid"]):
+    with_var = ["--variance", dump[: -len(".csid")] + ".variance.csid"]
+    runs = [(exe, ["--estimator", "mean"]), (exe, [])] + ([(base, with_var)] if base else []) + [(exe, with_var)]
+    for exe, args in runs:
         path = os.path.join(tmp, "x.exr")
         p = subprocess.run([exe, dump, "-o", path, "-q"] + args, capture_output=True, env=default_env())
         if p.returncode:
@@ -43,10 +48,12 @@ def main():
                     help="a dump (without .csid) and the pixel at the crop's centre; repeatable")
     ap.add_argument("--out", required=True, help="the PNG")
     ap.add_argument("--build", help="build directory (default: the source tree's build/)")
+    ap.add_argument("--base", help="another build: its csi with the variances as a row before this build's")
     ap.add_argument("--reference-spp", type=int, default=4096)
     a = ap.parse_args()
     exe = binaries(a.build)["csi-reconstruct"]
-    rows = ["reference", "mean", "csi", "csi --variance"]
+    base = binaries(a.base)["csi-reconstruct"] if a.base else None
+    rows = ["reference", "mean", "csi"] + (["--variance, base"] if base else []) + ["csi --variance"]
     side = (2 * HALF + 1) * ZOOM
     pad, label_w, head = 4, 110, 16
     sheet = Image.new("RGB", (label_w + len(a.crop) * (side + pad), head + len(rows) * (side + pad)), "white")
@@ -59,7 +66,7 @@ def main():
             x, y = int(x), int(y)
             scene = stem.split("/")[0]
             ref = np.load(os.path.join(a.data, scene, f"reference_{a.reference_spp}.npy")).astype(np.float64)
-            imgs = [ref] + images(exe, os.path.join(a.data, stem + ".csid"), tmp)
+            imgs = [ref] + images(exe, os.path.join(a.data, stem + ".csid"), tmp, base)
             h, w, _ = ref.shape
             y0, x0 = min(max(y - HALF, 0), h - 2 * HALF - 1), min(max(x - HALF, 0), w - 2 * HALF - 1)
             crops = [im[y0:y0 + 2 * HALF + 1, x0:x0 + 2 * HALF + 1] for im in imgs]

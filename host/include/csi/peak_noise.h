@@ -21,7 +21,9 @@
  * (Chebyshev's inequality, whatever the paths' distribution; one path in 64 carrying all of a
  * sample's value gives v = y^2, z <= 1). Such a peak is shrunk by how much of it its noise
  * explains: with r the value without it (the mean of its pixel's other samples, or, for a
- * pixel's only sample, the median of its neighbours' means, a pixel without a sample), x the
+ * pixel's only sample, the median of its neighbours' means, a pixel without a sample; for a
+ * pixel of several samples the neighbours' median too where it is higher and the pixel's other
+ * samples may share the neighbourhood's rate of such peaks: a caustic, peak_noise.c), x the
  * reconstruction's value and d = y - h, the pixel becomes r + w (x - r), w = max(0, 1 - v / d^2):
  * the positive-part James-Stein (Wiener) weight, max(0, d^2 - v) estimating the excess's signal
  * power and d^2 its total. One path carrying a whole sample (v ~ y^2) gives w ~ 0, the peak
@@ -52,6 +54,9 @@
 /* Standard deviations of the sample's own noise its excess over the neighbours must reach to be
  * the image's (Chebyshev: noise passes it with probability at most 1/9). */
 #define CSI_PEAK_Z 3.0
+/* The probability below which a pixel's other samples, all below a peak's level, say that the
+ * pixel does not share its neighbours' rate of such samples (the usual 5% level). */
+#define CSI_PEAK_SHARED_P 0.05
 
 /* The rule above on a planar image (channel c's pixel p at c * out_w * out_h + p), in place.
  * values and variance: sample-major, `channels` per sample; variance >= 0. grid.t must be 1.
