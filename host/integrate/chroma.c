@@ -19,12 +19,18 @@
  * `--model-sigma-min 0.75`, the coarser grid measured for whole images (D = 4 instead of 2 at
  * 4 spp on the default 8x grid). */
 #define CHROMA_SIGMA_MIN 0.75
-/* The luma and chroma solves' stop: this times the image's tolerance (2e-3 for the default 3e-3).
- * One luma solve carries what three RGB solves did, and SpaRSA's objective stop sees the image's
- * brightest light in it: at the RGB solves' 3e-3 luma ended after 11 steps on a sun's glossy
- * highlight at 16 spp x 1 path where R took 19, and the image went from 0.94x to 1.03x the
- * relMSE of the samples' mean; at 2e-3 it takes 0.8x (docs/bench/cost.md, session 27). */
-#define CHROMA_TOL_SCALE (2.0 / 3.0)
+/* The luma solve's stop: this times the image's tolerance (2e-3 for the default 3e-3). One luma
+ * solve carries what three RGB solves did, and SpaRSA's objective stop sees the image's brightest
+ * light in it: at the RGB solves' 3e-3 luma ended after 11 steps on a sun's glossy highlight at
+ * 16 spp x 1 path where R took 19, and the image went from 0.94x to 1.03x the relMSE of the
+ * samples' mean; at 2e-3 it takes 0.8x (docs/bench/cost.md, session 27). */
+#define LUMA_TOL_SCALE (2.0 / 3.0)
+/* The chroma solves' stop: this times the image's tolerance (6e-3 for the default 3e-3). The
+ * chroma carries a small part of an image's energy, on a coarser grid, and its tau is luma's
+ * (csi_recon_chroma_tau_scale): a looser stop leaves out little. Against the luma's stop it took
+ * 0.88x the CPU of a 1920x1080 image at 4 spp, every image's MSE within 1.5% of before on 70
+ * quality dumps and 300 Mitsuba cells (docs/bench/cost.md, session 28). */
+#define CHROMA_TOL_SCALE 2.0
 
 bool csi_recon_chroma_on(const csi_grid *g, uint32_t channels, const csi_recon_options *opt)
 {
@@ -117,8 +123,8 @@ csi_status csi_recon_antialias_chroma(csi_ctx *ctx, const csi_grid *g, const csi
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     const csi_recon_options oc = csi_recon_chroma_options(opt);
-    csi_recon_options ol = *opt; /* luma's: its own grid, the chroma solves' stop */
-    ol.tol = oc.tol;
+    csi_recon_options ol = *opt; /* luma's: its own grid, its own stop */
+    ol.tol = opt->tol * LUMA_TOL_SCALE;
     /* the estimate at the samples of each channel, kept on the host: each solve overwrites the
      * workspace that holds it */
     float *at = malloc(3 * n * sizeof *at);
