@@ -32,9 +32,9 @@ def images(exe, dump, tmp, base=None):
     out = []
     with_var = ["--variance", dump[: -len(".csid")] + ".variance.csid"]
     runs = [(exe, ["--estimator", "mean"]), (exe, [])] + ([(base, with_var)] if base else []) + [(exe, with_var)]
-    for exe, args in runs:
+    for prog, args in runs:
         path = os.path.join(tmp, "x.exr")
-        p = subprocess.run([exe, dump, "-o", path, "-q"] + args, capture_output=True, env=default_env())
+        p = subprocess.run([prog, dump, "-o", path, "-q"] + args, capture_output=True, env=default_env())
         if p.returncode:
             sys.exit(f"peak_crops: {dump}: {p.stderr.decode(errors='replace').strip()}")
         out.append(read_exr(path).astype(np.float64))
