@@ -97,6 +97,9 @@
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stdlib.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "internal.h"
 
@@ -115,11 +118,72 @@
  * chi^2 with 3 degrees of freedom above 12, p ~ 0.007. */
 #define CSI_BLEND_SPREAD 4.0
 
-/* The median of three values that are not NaN. */
+/* Four selections, each exactly its ternary for every input (NaN, -0 and ties included):
+ *
+ *   lt_min(a, b) = a < b ? a : b,         gt_max(a, b) = a > b ? a : b,
+ *   run_min(acc, v) = v <= acc ? v : acc, run_max(acc, v) = v >= acc ? v : acc.
+ *
+ * The first two are x86's minsd and maxsd. The last two are csi_fmin(acc, v) and csi_fmax(acc, v)
+ * for a running bound acc that is never NaN (one started at +-INFINITY): v where it is not NaN and
+ * at or beyond acc (of two equal values the second, as csi_fmin's), else acc. Written in SSE2's
+ * instructions where the target has them: from the ternaries the compiler branches (wherever one
+ * comparison chooses two values, as lt_min(a, b) beside gt_max(b, a), or a bound in memory is
+ * rewritten), and on noisy values such a branch mispredicts about half the time (the blend took
+ * 1.7x the CPU with them: csi-bench-blend, docs/bench/cost.md, session 29). */
+#ifdef __SSE2__
+static inline double lt_min(double a, double b)
+{
+    return _mm_cvtsd_f64(_mm_min_sd(_mm_set_sd(a), _mm_set_sd(b)));
+}
+static inline double gt_max(double a, double b)
+{
+    return _mm_cvtsd_f64(_mm_max_sd(_mm_set_sd(a), _mm_set_sd(b)));
+}
+/* v where the comparison's mask is set, else acc */
+static inline double masked(__m128d take, double v, double acc)
+{
+    return _mm_cvtsd_f64(_mm_or_pd(_mm_and_pd(take, _mm_set_sd(v)), _mm_andnot_pd(take, _mm_set_sd(acc))));
+}
+static inline double run_min(double acc, double v)
+{
+    return masked(_mm_cmple_sd(_mm_set_sd(v), _mm_set_sd(acc)), v, acc);
+}
+static inline double run_max(double acc, double v)
+{
+    return masked(_mm_cmpge_sd(_mm_set_sd(v), _mm_set_sd(acc)), v, acc);
+}
+#else
+#define lt_min(a, b) ((a) < (b) ? (a) : (b))
+#define gt_max(a, b) ((a) > (b) ? (a) : (b))
+#define run_min(acc, v) ((v) <= (acc) ? (v) : (acc))
+#define run_max(acc, v) ((v) >= (acc) ? (v) : (acc))
+#endif
+
+/* csi_fminf(csi_fmaxf(v, lo), hi) for lo and hi that are not NaN (v may be): maxss, then minss. */
+static inline float clampf(float v, float lo, float hi)
+{
+    const float t = v > lo ? v : lo;
+    return t < hi ? t : hi;
+}
+
+/* Whether the pixel at column x, row y of an ow x oh image is inside its border: its 3 x 3 window
+ * is whole, the j-th of its pixels (j < 9) window3_inside(p, ow, j), in csi_recon_window3_at's
+ * order (rows from the top, each from the left). */
+static inline bool inside(size_t x, size_t y, size_t ow, size_t oh)
+{
+    return x > 0 && y > 0 && x + 1 < ow && y + 1 < oh;
+}
+static inline size_t window3_inside(size_t p, size_t ow, int j)
+{
+    return p + (size_t)(j / 3 - 1) * ow + (size_t)(j % 3) - 1; /* wraps below p, then adds back */
+}
+
+/* The median of three values that are not NaN: the third clamped to the range of the first two
+ * (c < lo ? lo : c > hi ? hi : c, in minsd and maxsd). */
 static inline double median3(double a, double b, double c)
 {
-    const double lo = a < b ? a : b, hi = a < b ? b : a;
-    return c < lo ? lo : c > hi ? hi : c;
+    const double lo = lt_min(a, b), hi = gt_max(b, a);
+    return lt_min(hi, gt_max(lo, c));
 }
 
 /* The median of 9 values that are not NaN, without sorting them: of the rows of a 3 x 3 array,
@@ -130,15 +194,16 @@ static inline double median3(double a, double b, double c)
 static double median9(const double *w)
 {
     double lo[3], mid[3], hi[3];
+#pragma GCC unroll 3
     for (int r = 0; r < 3; r++) {
         const double a = w[3 * r], b = w[3 * r + 1], c = w[3 * r + 2];
-        const double l = a < b ? a : b, h = a < b ? b : a;
-        lo[r] = c < l ? c : l;
-        hi[r] = c > h ? c : h;
-        mid[r] = c < l ? l : c > h ? h : c;
+        const double l = lt_min(a, b), h = gt_max(b, a);
+        lo[r] = lt_min(c, l);
+        hi[r] = gt_max(c, h);
+        mid[r] = lt_min(h, gt_max(l, c));
     }
-    const double lmax = lo[0] > lo[1] ? (lo[0] > lo[2] ? lo[0] : lo[2]) : (lo[1] > lo[2] ? lo[1] : lo[2]);
-    const double hmin = hi[0] < hi[1] ? (hi[0] < hi[2] ? hi[0] : hi[2]) : (hi[1] < hi[2] ? hi[1] : hi[2]);
+    const double lmax = gt_max(gt_max(lo[0], lo[1]), lo[2]);
+    const double hmin = lt_min(lt_min(hi[0], hi[1]), hi[2]);
     return median3(lmax, median3(mid[0], mid[1], mid[2]), hmin);
 }
 
@@ -177,6 +242,21 @@ static double window_median(const double *a, const size_t *nb, int k)
     for (int i = 0; i < k; i++)
         if (!isnan(a[nb[i]]))
             w[m++] = a[nb[i]];
+    return m ? median_upto9(w, m) : INFINITY;
+}
+
+/* The same over the window of a pixel p inside the image (inside()), unrolled: each value is
+ * written at w[m], and kept (m advanced) unless it is NaN. */
+static double window_median_inside(const double *a, size_t p, size_t ow)
+{
+    double w[9];
+    int m = 0;
+#pragma GCC unroll 9
+    for (int j = 0; j < 9; j++) {
+        const double v = a[window3_inside(p, ow, j)];
+        w[m] = v;
+        m += !isnan(v);
+    }
     return m ? median_upto9(w, m) : INFINITY;
 }
 
@@ -221,8 +301,8 @@ static bool blend_samples_first(blend_state *b, size_t i0, size_t i1, size_t r0,
             return false;
         const double v = values[i * channels + c];
         pix[i] = (uint32_t)p;
-        V[p] = csi_fmin(V[p], v);
-        q[p] = csi_fmax(q[p], v);
+        V[p] = run_min(V[p], v);
+        q[p] = run_max(q[p], v);
         cnt[p]++;
         m[p] += v;
     }
@@ -266,14 +346,23 @@ static void blend_range(blend_state *b, size_t r0, size_t r1)
         for (size_t x = 0; x < ow; x++) {
             const size_t p = y * ow + x;
             double l = INFINITY, h = -INFINITY;
-            const int k = csi_recon_window3_at(x, y, ow, oh, nb);
-            for (int j = 0; j < k; j++) {
-                l = csi_fmin(l, V[nb[j]]);
-                h = csi_fmax(h, q[nb[j]]);
+            if (inside(x, y, ow, oh)) {
+#pragma GCC unroll 9
+                for (int j = 0; j < 9; j++) {
+                    const size_t i = window3_inside(p, ow, j);
+                    l = run_min(l, V[i]);
+                    h = run_max(h, q[i]);
+                }
+            } else {
+                const int k = csi_recon_window3_at(x, y, ow, oh, nb);
+                for (int j = 0; j < k; j++) {
+                    l = run_min(l, V[nb[j]]);
+                    h = run_max(h, q[nb[j]]);
+                }
             }
             lo[p] = l <= h ? (float)l : -INFINITY; /* no sample around: nothing to project onto */
             hi[p] = l <= h ? (float)h : INFINITY;
-            plane[p] = csi_fminf(csi_fmaxf(plane[p], lo[p]), hi[p]);
+            plane[p] = clampf(plane[p], lo[p], hi[p]);
         }
 }
 
@@ -288,7 +377,7 @@ static void blend_samples_second(blend_state *b, size_t i0, size_t i1)
     double *gbar = b->gbar, *ss = b->ss, *vsum = b->vsum;
     for (size_t i = i0; i < i1; i++) {
         const size_t p = pix[i];
-        gbar[p] += csi_fminf(csi_fmaxf(fine_at[i], lo[p]), hi[p]);
+        gbar[p] += clampf(fine_at[i], lo[p], hi[p]);
         const double e = values[i * channels + c] - m[p];
         ss[p] += e * e;
         if (var)
@@ -383,7 +472,8 @@ static void blend_pass4(void *arg, size_t r0, size_t r1)
                 V[p] = INFINITY;
             } else {
                 double fpc = 1.0 - (double)cp / cells;
-                double med = window_median(rel, nb, csi_recon_window3_at(x, y, ow, oh, nb));
+                double med = inside(x, y, ow, oh) ? window_median_inside(rel, p, ow)
+                                                  : window_median(rel, nb, csi_recon_window3_at(x, y, ow, oh, nb));
                 if (!by_pixel && !isnan(rel[p]))
                     med = csi_fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
                 double noise = fpc > 0 && isfinite(med) ? med / (double)cp * fpc : 0.0;
@@ -423,18 +513,34 @@ static void blend_pass5(void *arg, size_t r0, size_t r1)
             rel[p] = NAN;
             if (!cnt[p])
                 continue;
-            int k = csi_recon_window3_at(x, y, ow, oh, nb), kf = 0;
+            int k, kf = 0;
             double qs = 0, ds = 0, vs = 0;
-            for (int j = 0; j < k; j++) {
-                qs += q[nb[j]];
-                if (cnt[nb[j]]) {
-                    ds += d[nb[j]];
-                    vs += isfinite(V[nb[j]]) ? V[nb[j]] : 0.0;
-                    kf++;
+            if (inside(x, y, ow, oh)) {
+                k = 9;
+#pragma GCC unroll 9
+                for (int j = 0; j < 9; j++) {
+                    const size_t i = window3_inside(p, ow, j);
+                    qs += q[i];
+                    if (cnt[i]) {
+                        ds += d[i];
+                        vs += isfinite(V[i]) ? V[i] : 0.0;
+                        kf++;
+                    }
+                }
+            } else {
+                k = csi_recon_window3_at(x, y, ow, oh, nb);
+                for (int j = 0; j < k; j++) {
+                    qs += q[nb[j]];
+                    if (cnt[nb[j]]) {
+                        ds += d[nb[j]];
+                        vs += isfinite(V[nb[j]]) ? V[nb[j]] : 0.0;
+                        kf++;
+                    }
                 }
             }
             double dbar = ds / kf;
-            double B2 = csi_fmax(csi_fmax(qs / k, q[p]), dbar * dbar - vs / kf / kf);
+            /* csi_fmax's (q is never NaN, the running bound neither) */
+            double B2 = run_max(gt_max(qs / k, q[p]), dbar * dbar - vs / kf / kf);
             rel[p] = B2 + V[p] > 0 ? B2 / (B2 + V[p]) : 1.0;
         }
 }
@@ -452,15 +558,25 @@ static void blend_pass6(void *arg, size_t r0, size_t r1)
     for (size_t y = r0; y < r1; y++)
         for (size_t x = 0; x < ow; x++) {
             const size_t p = y * ow + x;
-            const int k = csi_recon_window3_at(x, y, ow, oh, nb);
             double ml = INFINITY, mh = -INFINITY;
-            for (int j = 0; j < k; j++)
-                if (cnt[nb[j]]) {
-                    ml = csi_fmin(ml, m[nb[j]]);
-                    mh = csi_fmax(mh, m[nb[j]]);
+            if (inside(x, y, ow, oh)) {
+#pragma GCC unroll 9
+                for (int j = 0; j < 9; j++) {
+                    const size_t i = window3_inside(p, ow, j);
+                    const double v = cnt[i] ? m[i] : NAN; /* NaN: skipped */
+                    ml = run_min(ml, v);
+                    mh = run_max(mh, v);
                 }
-            if (ml <= mh)
-                plane[p] = (float)csi_fmin(csi_fmax(plane[p], ml), mh);
+            } else {
+                const int k = csi_recon_window3_at(x, y, ow, oh, nb);
+                for (int j = 0; j < k; j++) {
+                    const double v = cnt[nb[j]] ? m[nb[j]] : NAN;
+                    ml = run_min(ml, v);
+                    mh = run_max(mh, v);
+                }
+            }
+            if (ml <= mh) /* csi_fmin(csi_fmax(plane, ml), mh) for ml and mh that are not NaN */
+                plane[p] = (float)lt_min(gt_max(plane[p], ml), mh);
             double out = plane[p];
             if (cnt[p] && (double)cnt[p] >= cells) {
                 out = m[p]; /* every cell sampled: the exact cell mean (beta is 1 here anyway) */
@@ -472,6 +588,7 @@ static void blend_pass6(void *arg, size_t r0, size_t r1)
                  * unsampled dark pixel as readily as into a sampled one). */
                 double w[9], bs = 0;
                 int kf = 0;
+                const int k = csi_recon_window3_at(x, y, ow, oh, nb);
                 for (int j = 0; j < k; j++)
                     if (cnt[nb[j]]) {
                         w[kf++] = m[nb[j]];
