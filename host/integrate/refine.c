@@ -24,8 +24,9 @@
 #include "csi/status.h"
 
 /* The share's default (csi-reconstruct --refine-share, csi-mitsuba --refine-share): a pixel
- * that holds 0.5% of the disagreement. At most 1 / share pixels can, so the request is bounded
- * by 200 pixels' cells whatever the image's size. */
+ * that holds 0.5% of the disagreement. At most 1 / share pixels can, and the neighbours of at
+ * most 50 pixels holding 2% (csi/settle.h), so the request is bounded by 200 + 400 pixels' cells
+ * whatever the image's size. */
 #define CSI_REFINE_SHARE_DEFAULT 0.005
 
 double csi_refine_share_default(void)
@@ -86,9 +87,17 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     CSI_TRY(csi_pixel_disagreement_make(g, C, s->pos, s->values, s->count, image->data, &dis));
     const uint32_t *cnt = dis.cnt;
     const double *d2 = dis.d2, total = dis.total;
+    /* and the neighbours of the pixels that settle wholly, which settling counts as holding 2%
+     * (csi_settle_shares) */
+    double *sh = malloc((np ? np : 1) * sizeof *sh);
+    csi_status st = sh ? csi_settle_shares(g, C, cnt, dis.sum, image->data, d2, total, sh)
+                       : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     size_t flagged = 0, n = 0;
-    for (size_t p = 0; p < np; p++)
-        if (cnt[p] && cnt[p] < cells && total > 0 && d2[p] >= share * total) {
+#define PICKED(p)                                                                                  \
+    (cnt[p] && cnt[p] < cells && total > 0 &&                                                      \
+     (d2[p] >= share * total || sh[p] >= share))
+    for (size_t p = 0; p < np && st == CSI_OK; p++)
+        if (PICKED(p)) {
             flagged++;
             n += cells - cnt[p];
         }
@@ -96,8 +105,7 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     size_t *slot = NULL;
     unsigned char *taken = NULL;
     csi_sample_pos *cellv = NULL;
-    csi_status st = CSI_OK;
-    if (flagged) {
+    if (st == CSI_OK && flagged) {
         slot = malloc(np * sizeof *slot);
         taken = calloc(flagged * cells, 1);
         cellv = malloc(flagged * cells * sizeof *cellv);
@@ -107,7 +115,7 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     if (st == CSI_OK && flagged) {
         size_t k = 0;
         for (size_t p = 0; p < np; p++)
-            slot[p] = cnt[p] && cnt[p] < cells && d2[p] >= share * total ? k++ : SIZE_MAX;
+            slot[p] = PICKED(p) ? k++ : SIZE_MAX;
         for (size_t i = 0; i < s->count; i++) {
             const csi_sample_pos q = s->pos[i];
             const size_t p = (size_t)(q.y / bh) * g->out_w + q.x / bw;
@@ -126,7 +134,9 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
         }
         n = j; /* cells - cnt each, unless the samples repeat a cell (csi_samples forbids it) */
     }
+#undef PICKED
     csi_pixel_disagreement_free(&dis);
+    free(sh);
     free(slot);
     free(taken);
     if (st != CSI_OK) {

@@ -4,6 +4,7 @@
 #include "csi/settle.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 
 #include "internal.h"
@@ -77,14 +78,9 @@ csi_status csi_pixel_disagreement_make(const csi_grid *g, uint32_t channels, con
     return CSI_OK;
 }
 
-/* The rule (csi/settle.h) on image, given its pixels' samples (cnt, sum) and disagreement (d2,
- * total); the pixels moved inside box. */
-static size_t settle_by(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
-                        const double *d2, double total, float *image, const uint32_t box[4])
+/* The image's level: the mean over the pixels with a sample of their means' channel sums. */
+static double level_of(size_t np, uint32_t C, const uint32_t *cnt, const double *sum)
 {
-    const uint32_t C = channels;
-    const size_t np = (size_t)g->out_w * g->out_h;
-    /* the image's level: the mean over the pixels with a sample of their means' channel sums */
     double level = 0;
     size_t sampled = 0;
     for (size_t p = 0; p < np; p++) {
@@ -94,22 +90,68 @@ static size_t settle_by(const csi_grid *g, uint32_t channels, const uint32_t *cn
             level += sum[p * C + c] / cnt[p];
         sampled++;
     }
-    level = sampled ? level / (double)sampled : 0;
-    size_t k = 0;
-    for (size_t p = 0; p < np && total > 0; p++) {
-        const double share = d2[p] / total;
-        if (share <= CSI_SETTLE_FROM)
+    return sampled ? level / (double)sampled : 0;
+}
+
+/* Whether the rule may move pixel p (it has a sample): neither a firefly nor within ordinary
+ * shading (csi/settle.h). */
+static bool movable(size_t np, uint32_t C, const uint32_t *cnt, const double *sum, const float *image,
+                    double level, size_t p)
+{
+    double xm = 0, mm = 0;
+    for (uint32_t c = 0; c < C; c++) {
+        xm += image[(size_t)c * np + p];
+        mm += sum[p * C + c] / cnt[p];
+    }
+    if (fmin(xm, mm) < CSI_SETTLE_BRIGHT * fmax(xm, mm))
+        return false; /* a firefly (or a pixel one of the two sees dark) */
+    return fmax(xm, mm) >= CSI_SETTLE_HDR * level; /* beyond ordinary shading: an HDR light */
+}
+
+csi_status csi_settle_shares(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                             const float *image, const double *d2, double total, double *share)
+{
+    const uint32_t C = channels;
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    for (size_t p = 0; p < np; p++)
+        share[p] = cnt[p] && total > 0 ? d2[p] / total : 0;
+    if (!(total > 0))
+        return CSI_OK;
+    /* the pixels that take their mean whole, marked, then their neighbours raised to that share */
+    unsigned char *whole = calloc(np ? np : 1, 1);
+    if (!whole)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    const double level = level_of(np, C, cnt, sum);
+    for (size_t p = 0; p < np; p++)
+        whole[p] = share[p] >= CSI_SETTLE_FULL && movable(np, C, cnt, sum, image, level, p);
+    size_t nb[9];
+    for (size_t p = 0; p < np; p++) {
+        if (!cnt[p] || !(d2[p] > 0) || share[p] >= CSI_SETTLE_FULL)
             continue;
-        double xm = 0, mm = 0;
-        for (uint32_t c = 0; c < C; c++) {
-            xm += image[(size_t)c * np + p];
-            mm += sum[p * C + c] / cnt[p];
-        }
-        if (fmin(xm, mm) < CSI_SETTLE_BRIGHT * fmax(xm, mm))
-            continue; /* a firefly (or a pixel one of the two sees dark) */
-        if (fmax(xm, mm) < CSI_SETTLE_HDR * level)
-            continue; /* within ordinary shading: an edge the fit has seen, not an HDR light */
-        const double w = fmin((share - CSI_SETTLE_FROM) / (CSI_SETTLE_FULL - CSI_SETTLE_FROM), 1.0);
+        const int k = csi_recon_window3_at(p % ow, p / ow, ow, oh, nb);
+        for (int j = 0; j < k; j++)
+            if (whole[nb[j]]) {
+                share[p] = CSI_SETTLE_FULL;
+                break;
+            }
+    }
+    free(whole);
+    return CSI_OK;
+}
+
+/* The rule (csi/settle.h) on image, given its pixels' samples (cnt, sum) and shares; the pixels
+ * moved inside box. */
+static size_t settle_by(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                        const double *share, float *image, const uint32_t box[4])
+{
+    const uint32_t C = channels;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const double level = level_of(np, C, cnt, sum);
+    size_t k = 0;
+    for (size_t p = 0; p < np; p++) {
+        if (share[p] <= CSI_SETTLE_FROM || !movable(np, C, cnt, sum, image, level, p))
+            continue;
+        const double w = fmin((share[p] - CSI_SETTLE_FROM) / (CSI_SETTLE_FULL - CSI_SETTLE_FROM), 1.0);
         for (uint32_t c = 0; c < C; c++) {
             float *x = image + (size_t)c * np + p;
             *x = (float)(*x + w * (sum[p * C + c] / cnt[p] - *x));
@@ -149,13 +191,18 @@ csi_status csi_settle_sums(const csi_grid *g, uint32_t channels, const uint32_t 
     if (g->t != 1)
         return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
     const size_t np = (size_t)g->out_w * g->out_h;
-    double *d2 = malloc((np ? np : 1) * sizeof *d2);
-    if (!d2)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
-    const double total = disagreement_of(g, channels, cnt, sum, image, d2);
-    const size_t k = settle_by(g, channels, cnt, sum, d2, total, image, box);
+    double *d2 = malloc((np ? np : 1) * sizeof *d2), *share = malloc((np ? np : 1) * sizeof *share);
+    csi_status s = d2 && share ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    if (s == CSI_OK) {
+        const double total = disagreement_of(g, channels, cnt, sum, image, d2);
+        s = csi_settle_shares(g, channels, cnt, sum, image, d2, total, share);
+    }
+    if (s == CSI_OK) {
+        const size_t k = settle_by(g, channels, cnt, sum, share, image, box);
+        if (settled)
+            *settled = k;
+    }
     free(d2);
-    if (settled)
-        *settled = k;
-    return CSI_OK;
+    free(share);
+    return s;
 }

@@ -20,8 +20,9 @@
  * ordinary range (every sample (1, 2), the same disagreements) moves nothing, however large a
  * pixel's share; an image equal to the means up to float rounding moves nothing.
  * Also: the count inside a box; the same call twice gives the same bits; a volume is refused;
- * and the second pass's pick (csi_refine_positions) at its default share takes every pixel this
- * step moves. */
+ * the second pass's pick (csi_refine_positions) at its default share takes every pixel this
+ * step moves; and a pixel beside one that takes its mean whole, on the same light, takes its own
+ * whole however small its own share. */
 #include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
@@ -201,6 +202,39 @@ int main(void)
     CHECK_OK(csi_refine_positions(&smp, &im, csi_refine_share_default(), &req, &cells, &pixels));
     CHECK(pixels == 3, "the pick takes %zu pixels, want the 3 moved", pixels);
     csi_free(req);
+
+    /* a light's neighbours: (2, 4) made HDR too (samples (40, 40)), beside (2, 5), which takes its
+     * mean whole. (2, 4)'s own share, 0.00390625 / 18.25390625 = 0.02%, is far below the ramp, yet
+     * it takes its mean whole as well; (1, 5), beside (2, 5) too but of ordinary range (its share
+     * 1.4%), is kept. The image's level is now (58 x 3 + 5 x 80) / 63 = 9.1: the five are HDR.
+     * The pick takes the three (it does not test the range). */
+    make_base(&s, true);
+    const size_t p24 = 4 * OW + 2; /* pixel p's samples are 2p and 2p + 1 */
+    for (size_t i = 2 * p24; i < 2 * p24 + 2; i++)
+        s.val[i * C] = s.val[i * C + 1] = 40;
+    set_px(&s, 2, 4, 40.0625f, 40);
+    set_px(&s, 2, 5, 43, 43);
+    set_px(&s, 1, 5, 1.5f, 2);
+    before = s;
+    CHECK_OK(csi_settle(&g, C, s.pos, s.val, s.n, s.img, NULL, &k));
+    CHECK(k == 2, "%zu pixels moved beside the light, want 2: (2, 5), (2, 4)", k);
+    CHECK(at(&s, 2, 4, 0) == 40 && at(&s, 2, 4, 1) == 40, "(2, 4) beside the light takes its mean: (%.9g, %g)",
+          at(&s, 2, 4, 0), at(&s, 2, 4, 1));
+    CHECK(at(&s, 2, 5, 0) == 40 && at(&s, 2, 5, 1) == 40, "(2, 5) takes its mean");
+    CHECK(at(&s, 1, 5, 0) == 1.5f && at(&s, 1, 5, 1) == 2, "(1, 5) of ordinary range moved");
+    int moved = 0;
+    for (int p = 0; p < NP; p++)
+        if (p != 4 * OW + 2 && p != 5 * OW + 2)
+            moved += s.img[p] != before.img[p] || s.img[NP + p] != before.img[NP + p];
+    CHECK(moved == 0, "%d other pixels moved beside the light", moved);
+    s = before;
+    {
+        const csi_samples ls = {g, C, s.n, s.pos, s.val, 0, NULL};
+        const csi_image li = {OW, OW, C, s.img};
+        CHECK_OK(csi_refine_positions(&ls, &li, csi_refine_share_default(), &req, &cells, &pixels));
+        CHECK(pixels == 3, "the pick beside the light takes %zu pixels, want 3", pixels);
+        csi_free(req);
+    }
 
     /* an image that is its means up to float rounding: nothing to settle */
     make_base(&s, true);

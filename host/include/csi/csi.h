@@ -435,12 +435,13 @@ CSI_API csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channe
 /* A second pass for a renderer: the grid cells to sample next so that the pixels the image
  * cannot decide are decided. A pixel is picked when (image - mean of its samples)^2, summed over
  * the channels, is at least `share` of that sum over the whole image (share 0 < s <= 1; the
- * default, csi_refine_share_default(), 0.005); *out gets every cell of the picked pixels that
- * holds no sample (pixels in row order, each block's cells in row order), *count how many and
- * *pixels (may be NULL) the pixels picked. Evaluate them, append them to the samples and
- * reconstruct again: a pixel sampled in every cell is its samples' mean. Images only (grid.t ==
- * 1); image is the reconstruction of these samples (csi_result_image). *out is freed with
- * csi_free (NULL when nothing is picked). Deterministic. Measured in docs/bench/mitsuba.md. */
+ * default, csi_refine_share_default(), 0.005), and, for a share up to 0.02, when it lies beside
+ * a bright pixel holding 0.02 or more (the same light: csi/settle.h); *out gets every cell of
+ * the picked pixels that holds no sample (pixels in row order, each block's cells in row order),
+ * *count how many and *pixels (may be NULL) the pixels picked. Evaluate them, append them to the
+ * samples and reconstruct again: a pixel sampled in every cell is its samples' mean. Images only
+ * (grid.t == 1); image is the reconstruction of these samples (csi_result_image). *out is freed
+ * with csi_free (NULL when nothing is picked). Deterministic. Measured in docs/bench/mitsuba.md. */
 CSI_API csi_status csi_refine_positions(const csi_samples *samples, const csi_image *image, double share,
                                         csi_sample_pos **out, size_t *count, size_t *pixels);
 CSI_API double csi_refine_share_default(void);

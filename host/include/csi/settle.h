@@ -26,7 +26,16 @@
  * image's mean pixel): in an image of ordinary range no pixel's error can dominate, and where
  * few pixels hold the disagreement (a small image's edges) they are edges the fit has seen
  * between the samples, which the mean of a few point samples has not. Measured on 300 Mitsuba
- * cells and the analytic images (docs/bench/mitsuba.md, session 25). */
+ * cells and the analytic images (docs/bench/mitsuba.md, session 25).
+ *
+ * A light's neighbours. A pixel beside one that takes its mean whole (share >= FULL, and moved by
+ * the tests above) counts as holding FULL itself, when it disagrees with its mean at all: it lies
+ * on the same light, whose extent within it the samples cannot tell either. At higher resolution
+ * one light spans more pixels, each with a smaller share of an image whose disagreement grew with
+ * its pixel count: by its own share alone the ring around a sun's glint stays unsettled, and at
+ * 512 x 512 its few pixels put the whole image above the mean (docs/bench/mitsuba.md, session
+ * 29). The pick counts the same neighbours, so every pixel this step moves is still one the
+ * second pass samples. */
 #ifndef CSI_SETTLE_H
 #define CSI_SETTLE_H
 
@@ -70,6 +79,12 @@ csi_status csi_pixel_disagreement_make(const csi_grid *g, uint32_t channels, con
                                        const float *values, size_t n, const float *image,
                                        csi_pixel_disagreement *out);
 void csi_pixel_disagreement_free(csi_pixel_disagreement *d);
+
+/* share[p] for every pixel of image (planar) given its samples (cnt, sum) and its disagreement
+ * (d2, total: csi_pixel_disagreement's): d2[p] / total, raised to CSI_SETTLE_FULL beside a pixel
+ * that takes its mean whole (the header); 0 without a sample. */
+csi_status csi_settle_shares(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                             const float *image, const double *d2, double total, double *share);
 
 /* The step on a still image (planar, in and out) of the n samples: each pixel moved by the rule
  * above. *settled (may be NULL) gets the pixels moved inside box (x0, y0, x1, y1; NULL: all).
