@@ -102,24 +102,12 @@ static uint32_t win_start(uint32_t L, uint32_t n, uint32_t align, uint32_t e, ui
     return (uint32_t)s;
 }
 
-/* The window length for n tiles along an axis (0 when n tiles cannot be laid out: cores under
- * one alignment unit, or no valid length shorter than the axis). */
-static uint32_t axis_window(const axis_req *a, uint32_t n)
+/* The shortest valid window length from `from` up to the axis's that gives each of n cores its
+ * margin on both sides (up to the image's edge where that is nearer); 0 if none. */
+static uint32_t covering_window(const axis_req *a, uint32_t n, uint64_t from)
 {
     const uint32_t L = a->length;
-    if (n == 1)
-        return L;
-    if (L / a->align < n)
-        return 0;
-    uint32_t core = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t c = core_bound(L, n, a->align, i + 1) - core_bound(L, n, a->align, i);
-        if (c == 0)
-            return 0;
-        if (c > core)
-            core = c;
-    }
-    for (uint64_t e = (uint64_t)core + 2ull * a->margin; e < L; e++) {
+    for (uint64_t e = from; e < L; e++) {
         if (!len_ok(a, (uint32_t)e))
             continue;
         bool covers = true;
@@ -134,6 +122,31 @@ static uint32_t axis_window(const axis_req *a, uint32_t n)
             return (uint32_t)e;
     }
     return 0;
+}
+
+/* The window length for n tiles along an axis (0 when n tiles cannot be laid out: cores under
+ * one alignment unit, or no valid length shorter than the axis). Windows are searched from the
+ * core and two margins; where none is shorter than the axis and `edge_margin` (the image's x and
+ * y), from the core and one margin: two tiles' windows each reach the image's edge on one side
+ * and need the margin only on the other (128 pixels in two tiles with margins of 32: windows of
+ * 96). Time windows keep the search from two margins (one was not measured for them). */
+static uint32_t axis_window(const axis_req *a, uint32_t n, bool edge_margin)
+{
+    const uint32_t L = a->length;
+    if (n == 1)
+        return L;
+    if (L / a->align < n)
+        return 0;
+    uint32_t core = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t c = core_bound(L, n, a->align, i + 1) - core_bound(L, n, a->align, i);
+        if (c == 0)
+            return 0;
+        if (c > core)
+            core = c;
+    }
+    const uint32_t e = covering_window(a, n, (uint64_t)core + 2ull * a->margin);
+    return e || !edge_margin ? e : covering_window(a, n, (uint64_t)core + a->margin);
 }
 
 static uint32_t min_core(uint32_t L, uint32_t n, uint32_t align)
@@ -173,7 +186,7 @@ static bool evaluate(const plan_ctx *p, const csi_recon_options *opt, const uint
         if (a == 2 && p->auto_margin_t)
             ax.margin = margin_t_auto(ax.length, n[2]);
         c->n[a] = n[a];
-        c->window[a] = axis_window(&ax, n[a]);
+        c->window[a] = axis_window(&ax, n[a], a < 2);
         if (!c->window[a])
             return false;
     }
@@ -405,7 +418,7 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
                 axis_req at = p.ax[2];
                 if (p.auto_margin_t)
                     at.margin = margin_t_auto(at.length, nt);
-                const uint32_t wt = axis_window(&at, nt);
+                const uint32_t wt = axis_window(&at, nt, false);
                 candidate lb = {.n = {1, 1, nt}, .work = p.k / at.length * wt * nt};
                 if (!wt || price(&lb) >= price(&best))
                     continue;

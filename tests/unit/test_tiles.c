@@ -138,6 +138,23 @@ int main(void)
             }
     CHECK(laid >= 80, "only %d layouts were made", laid);
 
+    /* Two tiles whose windows cannot hold both margins shorter than the image: 128 x 128 pixels
+     * on an 8x grid with margins of 32 pixels. Each window reaches the image's edge on one side
+     * and holds the margin on the other: 96 pixels along the split. */
+    {
+        const csi_grid g = {1024, 1024, 1, 128, 128};
+        o.tiles = 2;
+        o.tile_margin = 32;
+        o.mem_budget = UINT64_C(1) << 50;
+        csi_tiling tl;
+        CHECK_OK(csi_tiling_plan(NULL, &g, 3, 128 * 128 * 4, &o, &tl));
+        const int split = tl.n[0] == 2 ? 0 : 1;
+        CHECK(tl.count == 2 && tl.n[split] == 2 && tl.window[split] == 96 && tl.window[1 - split] == 128,
+              "2 tiles of 128 x 128 with 32-pixel margins: %ux%u tiles, windows %ux%u", tl.n[0], tl.n[1],
+              tl.window[0], tl.window[1]);
+        check_layout(&tl, "128x128 x8, 2 tiles, margins of 32");
+    }
+
     /* Volumes: tiles along t too. */
     {
         const csi_grid g = {64, 48, 64, 64, 48};
