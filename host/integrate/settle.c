@@ -108,8 +108,9 @@ static bool movable(size_t np, uint32_t C, const uint32_t *cnt, const double *su
     return fmax(xm, mm) >= CSI_SETTLE_HDR * level; /* beyond ordinary shading: an HDR light */
 }
 
-csi_status csi_settle_shares(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
-                             const float *image, const double *d2, double total, double *share)
+/* csi_settle_shares given the image's level (level_of). */
+static csi_status shares_at_level(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                                  const float *image, const double *d2, double total, double level, double *share)
 {
     const uint32_t C = channels;
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
@@ -121,7 +122,6 @@ csi_status csi_settle_shares(const csi_grid *g, uint32_t channels, const uint32_
     unsigned char *whole = calloc(np ? np : 1, 1);
     if (!whole)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
-    const double level = level_of(np, C, cnt, sum);
     for (size_t p = 0; p < np; p++)
         whole[p] = share[p] >= CSI_SETTLE_FULL && movable(np, C, cnt, sum, image, level, p);
     size_t nb[9];
@@ -139,14 +139,20 @@ csi_status csi_settle_shares(const csi_grid *g, uint32_t channels, const uint32_
     return CSI_OK;
 }
 
-/* The rule (csi/settle.h) on image, given its pixels' samples (cnt, sum) and shares; the pixels
- * moved inside box. */
+csi_status csi_settle_shares(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
+                             const float *image, const double *d2, double total, double *share)
+{
+    const double level = level_of((size_t)g->out_w * g->out_h, channels, cnt, sum);
+    return shares_at_level(g, channels, cnt, sum, image, d2, total, level, share);
+}
+
+/* The rule (csi/settle.h) on image, given its pixels' samples (cnt, sum), shares and the image's
+ * level; the pixels moved inside box. */
 static size_t settle_by(const csi_grid *g, uint32_t channels, const uint32_t *cnt, const double *sum,
-                        const double *share, float *image, const uint32_t box[4])
+                        const double *share, double level, float *image, const uint32_t box[4])
 {
     const uint32_t C = channels;
     const size_t np = (size_t)g->out_w * g->out_h;
-    const double level = level_of(np, C, cnt, sum);
     size_t k = 0;
     for (size_t p = 0; p < np; p++) {
         if (share[p] <= CSI_SETTLE_FROM || !movable(np, C, cnt, sum, image, level, p))
@@ -191,14 +197,15 @@ csi_status csi_settle_sums(const csi_grid *g, uint32_t channels, const uint32_t 
     if (g->t != 1)
         return csi_fail(CSI_ERR_ARG, "settling pixels: the samples are a volume (%u frames), not an image", g->t);
     const size_t np = (size_t)g->out_w * g->out_h;
+    const double level = level_of(np, channels, cnt, sum);
     double *d2 = malloc((np ? np : 1) * sizeof *d2), *share = malloc((np ? np : 1) * sizeof *share);
     csi_status s = d2 && share ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     if (s == CSI_OK) {
         const double total = disagreement_of(g, channels, cnt, sum, image, d2);
-        s = csi_settle_shares(g, channels, cnt, sum, image, d2, total, share);
+        s = shares_at_level(g, channels, cnt, sum, image, d2, total, level, share);
     }
     if (s == CSI_OK) {
-        const size_t k = settle_by(g, channels, cnt, sum, share, image, box);
+        const size_t k = settle_by(g, channels, cnt, sum, share, level, image, box);
         if (settled)
             *settled = k;
     }
