@@ -442,8 +442,9 @@ bool csi_recon_fit_trust_acts(const csi_grid *g, size_t multi);
  * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
  * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame
  * (the pixel at x - vx (t - tc), y - vy (t - tc); with v = 0 its own output pixel and the 8
- * around it). Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is
- * not signal; with non-negative samples this also makes `fine` non-negative. */
+ * around it, or the wider window of csi_recon_sample_ranges where the pixels change over t).
+ * Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is not signal;
+ * with non-negative samples this also makes `fine` non-negative. */
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
                                         size_t n, double vx, double vy, bool wide, cl_mem fine);
@@ -455,7 +456,7 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
 /* Alg. 2's image with a still basis (csi_aa_correct AUTO): each pixel of plane (channel c, the
  * box mean of the fitted volume, in and out) moved by the mean of its samples' residuals
  * y - fine_at, shrunk by that correction's estimated risk, then projected onto the range of the
- * samples in the pixel and its 8 neighbours (motion_correct.c). fine_at: the volume at the n
+ * samples that bounds the volume (motion_correct.c). fine_at: the volume at the n
  * samples. */
 csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
                                     uint32_t c, const csi_sample_pos *pos, const float *fine_at,
@@ -469,7 +470,19 @@ typedef struct {
     uint32_t n;
     float lo, hi;
 } csi_px_resid;
-void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, float *plane);
+/* lohi: each pixel's bound (csi_recon_sample_ranges), or NULL for the range of the samples in the
+ * pixel and its 8 neighbours. */
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *lohi, float *plane);
+/* The range that bounds the volume and the image (sample_range.c): lohi[2 p], lohi[2 p + 1] for each
+ * pixel p of a w x h frame (the output's, or one that moves with the basis), from channel c's
+ * samples (sample i in pixel pix[i]; none where pix[i] >= w h) in the pixel and its 8
+ * neighbours, or in the smallest wider window holding 8 samples where the pixels around change
+ * over t about as much as their windows vary; the range of all the samples where no window has
+ * any. */
+csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const float *values, uint32_t channels,
+                                   uint32_t c, size_t n, float *lohi);
+/* Its host memory while it runs: bytes per pixel of the frame (and a row of prefix sums more). */
+#define CSI_SAMPLE_RANGE_PIXEL_BYTES 80
 
 /* The blurred image of time window `tile`'s x/y window over the whole shutter, binned in t to
  * the layout's window length (binned.c, csi_recon_options.tile_image_binned): one solve of the

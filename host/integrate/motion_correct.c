@@ -29,10 +29,10 @@
  *       clipped at 0: a fit's bias spans regions (a texture it cannot represent), and one
  *       pixel's d^2 is as noisy as V.
  *
- * The result is then projected onto the range of the samples in the pixel and its 8
- * neighbours, like the volume (motion_range.c): no halo, and non-negative samples give a
- * non-negative image. Frames are left as the fit gave them. All in double, in sample order
- * (deterministic). */
+ * The result is then projected onto the range the volume was (sample_range.c: the samples in
+ * the pixel and its 8 neighbours, a wider window where the pixel's values change over t): no
+ * halo, and non-negative samples give a non-negative image. Frames are left as the fit gave
+ * them. All in double, in sample order (deterministic). */
 #include <math.h>
 #include <stdlib.h>
 
@@ -56,8 +56,21 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     csi_px_resid *st = calloc(np, sizeof *st);
-    if (!st)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
+    float *lohi = malloc(2 * np * sizeof *lohi);
+    size_t *pix = malloc((n ? n : 1) * sizeof *pix);
+    csi_status s = st && lohi && pix
+                       ? CSI_OK
+                       : csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
+    for (size_t i = 0; s == CSI_OK && i < n; i++)
+        pix[i] = csi_recon_pixel_of(pos[i], bw, bh, ow);
+    if (s == CSI_OK)
+        s = csi_recon_sample_ranges(ow, oh, pix, values, channels, c, n, lohi);
+    free(pix);
+    if (s != CSI_OK) {
+        free(st);
+        free(lohi);
+        return s;
+    }
     for (size_t p = 0; p < np; p++) {
         st[p].lo = INFINITY;
         st[p].hi = -INFINITY;
@@ -79,12 +92,13 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         const double r = (double)values[i * channels + c] - (double)fine_at[i] - s->d;
         s->ss += r * r;
     }
-    csi_recon_motion_correct_pixels(g, st, plane);
+    csi_recon_motion_correct_pixels(g, st, lohi, plane);
     free(st);
+    free(lohi);
     return CSI_OK;
 }
 
-void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, float *plane)
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *lohi, float *plane)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const double cells = (double)(g->w / g->out_w) * (g->h / g->out_h) * g->t;
@@ -131,6 +145,10 @@ void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, float 
                 lo = fminf(lo, q->lo);
                 hi = fmaxf(hi, q->hi);
             }
+        if (lohi) {
+            lo = lohi[2 * p];
+            hi = lohi[2 * p + 1];
+        }
         const double b2 = fmax(e / m, 0.0), v = st[p].v;
         const double k = b2 + v > 0 ? b2 / (b2 + v) : 1.0;
         const double out = (double)plane[p] + k * st[p].d;

@@ -7,8 +7,11 @@
  * neighbourhood's handful of samples saw only part of that: the projection cut what moved in
  * (a pan at 3% of the cells went from 0.41x to 0.85x the tuned Gaussian's image MSE). In the
  * frame that moves with the basis's velocity the pan is still, so the neighbourhood is taken
- * there: cell (x, y, t) belongs to the aligned pixel at x - vx (t - tc), y - vy (t - tc). */
+ * there: cell (x, y, t) belongs to the aligned pixel at x - vx (t - tc), y - vy (t - tc). With a
+ * still basis the window is the pixel's own, grown where its values change over t
+ * (sample_range.c). */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 
 #include "internal.h"
@@ -65,7 +68,25 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         all_lo = -INFINITY; /* no sample at all: nothing to clamp to */
         all_hi = INFINITY;
     }
-    for (size_t i = 0; i < n; i++) {
+    /* A still basis: the pixel's own window, grown where the pixel's values change over t
+     * (sample_range.c). The same rule in the frame of a sheared basis cost the Mitsuba camera
+     * slide 1-7% of its image MSE (docs/bench/animation.md, session 30): there the window stays. */
+    const bool still = fvx == 0 && fvy == 0 && na == np;
+    if (still) {
+        size_t *pix = malloc((n ? n : 1) * sizeof *pix);
+        if (!pix) {
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range along the motion");
+            goto done;
+        }
+        for (size_t i = 0; i < n; i++) {
+            const long ax = aligned(pos[i].x, pos[i].t, fvx, tc, bw, ox);
+            const long ay = aligned(pos[i].y, pos[i].t, fvy, tc, bh, oy);
+            pix[i] = ax < 0 || ay < 0 || ax >= (long)aw || ay >= (long)ah ? SIZE_MAX : (size_t)ay * aw + (size_t)ax;
+        }
+        s = csi_recon_sample_ranges(aw, ah, pix, values, channels, c, n, lohi);
+        free(pix);
+    }
+    for (size_t i = 0; !still && i < n; i++) {
         const long ax = aligned(pos[i].x, pos[i].t, fvx, tc, bw, ox);
         const long ay = aligned(pos[i].y, pos[i].t, fvy, tc, bh, oy);
         if (ax < 0 || ay < 0 || ax >= (long)aw || ay >= (long)ah)
@@ -75,7 +96,7 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         lo[p] = fminf(lo[p], v);
         hi[p] = fmaxf(hi[p], v);
     }
-    for (size_t p = 0; p < na; p++) {
+    for (size_t p = 0; !still && p < na; p++) {
         const long px = (long)(p % aw), py = (long)(p / aw);
         float l = INFINITY, h = -INFINITY;
         for (long y = py - 1; y <= py + 1; y++)
@@ -90,6 +111,8 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         lohi[2 * p] = l <= h ? l : all_lo;
         lohi[2 * p + 1] = l <= h ? h : all_hi;
     }
+    if (s != CSI_OK)
+        goto done;
     cl_kernel kc;
     const cl_uint w = g->w, hh = g->h, cbw = bw, cbh = bh, caw = (cl_uint)aw, cah = (cl_uint)ah;
     const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);

@@ -291,21 +291,25 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
     if (opt->correct == CSI_CORRECT_AUTO || opt->correct == CSI_CORRECT_BLEND) {
         /* blend.c: the samples' range per pixel (freed after each channel's projection), the
          * exact means of fully sampled pixels; along a motion (motion_range.c) per pixel of the
-         * frame that moves with it, at most CSI_MOTION_RANGE_MAX_PIXELS times as many */
+         * frame that moves with it, at most CSI_MOTION_RANGE_MAX_PIXELS times as many; with a
+         * still basis (the velocity is not known yet: counted always) the grown windows' sums
+         * (sample_range.c: CSI_SAMPLE_RANGE_PIXEL_BYTES per pixel, a pixel index per sample) */
         const uint64_t rp = (uint64_t)np * (moved ? CSI_MOTION_RANGE_MAX_PIXELS : 1);
         csi_mem_tally r = {0};
         csi_mem_tally_add(&r, rp * 8, "the sample range");
         transient_dev(m, &r);
-        transient_host(m, rp * 16);
+        transient_host(m, rp * 16 + (uint64_t)np * CSI_SAMPLE_RANGE_PIXEL_BYTES + (uint64_t)n * 8);
     }
     if (opt->correct == CSI_CORRECT_BLEND || opt->correct == CSI_CORRECT_CV) {
         csi_sampling_buffers(n, &m->dev); /* the volume gathered at the samples */
         transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 92);
     } else if (opt->correct == CSI_CORRECT_AUTO) {
         /* motion_correct.c, with a still basis (the velocity is not known yet: counted always):
-         * the volume at the samples, on the device and the host, and 48 bytes per pixel */
+         * the volume at the samples, on the device and the host, 48 bytes per pixel, and the
+         * range it projects onto (sample_range.c: 8 bytes per pixel, its sums, a pixel index per
+         * sample) */
         csi_sampling_buffers(n, &m->dev);
-        transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 48);
+        transient_host(m, (uint64_t)n * 12 + (uint64_t)np * (56 + CSI_SAMPLE_RANGE_PIXEL_BYTES));
     }
     return CSI_OK;
 }

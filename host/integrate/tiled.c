@@ -533,7 +533,9 @@ static csi_status resid_correct(csi_blend *b, uint32_t c)
         st[q].lo = (float)a[3];
         st[q].hi = (float)a[4];
     }
-    csi_recon_motion_correct_pixels(g, st, b->out->image + (size_t)c * np);
+    /* the windows' sums hold each pixel's range, not its values' spread over t: the 3 x 3 range
+     * (sample_range.c's rule needs the samples) */
+    csi_recon_motion_correct_pixels(g, st, NULL, b->out->image + (size_t)c * np);
     free(st);
     return CSI_OK;
 }

@@ -1,0 +1,179 @@
+/* The range of the samples that bounds Alg. 2's volume and image where the basis is still
+ * (motion_range.c, motion_correct.c; issue 12, docs/bench/animation.md session 30).
+ *
+ * Each output pixel's cells over all t are bounded by [min, max] of the samples in the pixel
+ * and its 8 neighbours. Where the picture is still that window's few samples are the pixel's
+ * own values (exact samples of a still photograph: its own sample is the pixel's value at
+ * every t), and the tight bound is what makes a still basis good at one sample per pixel.
+ * Where something moves through the pixel, a sample is the pixel's value at one time only: a
+ * window holding one or two samples of a passing ball pins the pixel to the ball's value at
+ * every t (the blocks of docs/bench/animation.md's figure, session 30).
+ *
+ * Which of the two a region is, the samples say: in a still region the samples of one pixel
+ * at different times agree (up to their noise), so their spread within the pixel is a small
+ * part of the window's. The ratio
+ *
+ *     rho = (pooled variance of the samples about their own pixel's mean)
+ *         / (pooled variance of the samples about their 3 x 3 window's mean),
+ *
+ * both pooled over the (2 POOL + 1)^2 pixels around (the pairs of samples sharing a pixel are
+ * few at these rates), is near 0 where a pixel holds still and near 1 where its values over t
+ * span what its window saw. Where rho > 1/2 (most of the window's spread is the pixels' own
+ * change over t) the window grows until it holds MIN_SAMPLES samples, so that the bound is the
+ * range of what passes rather than of one moment; elsewhere it stays 3 x 3. A window with no
+ * sample, or one that would have to grow beyond MAX_RADIUS pixels, takes the range of all the
+ * samples. All in double, pixels in order: the same bits for the same samples. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "internal.h"
+
+/* How far around a pixel the two variances are pooled (pixels): 17 x 17 pixels hold a few tens
+ * of pairs of samples sharing a pixel at half a sample per pixel. */
+#define POOL 8
+/* The samples a grown window holds at least (4 to 16 measured, docs/bench/animation.md session
+ * 30: 6 and more about alike, 4 kept part of the loss). */
+#define MIN_SAMPLES 8
+/* The widest grown window's half side (pixels); beyond, the range of all the samples. */
+#define MAX_RADIUS 8
+
+/* Sliding sums of a[0 .. len) over [i - r, i + r] (clipped), stride `step`, into out. */
+static void box1(const double *a, double *out, size_t len, size_t step, size_t r)
+{
+    double s = 0;
+    for (size_t i = 0; i < len && i < r; i++)
+        s += a[i * step];
+    for (size_t i = 0; i < len; i++) {
+        if (i + r < len)
+            s += a[(i + r) * step];
+        out[i * step] = s;
+        if (i >= r)
+            s -= a[(i - r) * step];
+    }
+}
+
+/* a (w x h) replaced by its (2r + 1)^2 box sums; tmp holds w x h. */
+static void box2(double *a, double *tmp, size_t w, size_t h, size_t r)
+{
+    for (size_t y = 0; y < h; y++)
+        box1(a + y * w, tmp + y * w, w, 1, r);
+    for (size_t x = 0; x < w; x++)
+        box1(tmp + x, a + x, h, w, r);
+}
+
+/* The samples in pixels [x0, x1] x [y0, y1] (clipped to the frame), from the counts' prefix sums
+ * cum ((w + 1) x (h + 1)). */
+static uint64_t count_in(const uint64_t *cum, size_t w, long x0, long y0, long x1, long y1, size_t h)
+{
+    const size_t a = (size_t)(x0 < 0 ? 0 : x0), b = (size_t)(y0 < 0 ? 0 : y0);
+    const size_t c = (size_t)(x1 >= (long)w ? (long)w - 1 : x1) + 1, d = (size_t)(y1 >= (long)h ? (long)h - 1 : y1) + 1;
+    const size_t W1 = w + 1;
+    return cum[d * W1 + c] - cum[b * W1 + c] - cum[d * W1 + a] + cum[b * W1 + a];
+}
+
+csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, const float *values, uint32_t channels,
+                                   uint32_t c, size_t n, float *lohi)
+{
+    const size_t np = ow * oh;
+    /* per pixel: count, mean, spread about the mean, range; then the pooled sums */
+    double *mean = calloc(np, sizeof *mean), *ssw = calloc(np, sizeof *ssw);
+    double *sw = malloc(np * sizeof *sw), *dw = malloc(np * sizeof *dw), *sb = malloc(np * sizeof *sb);
+    double *db = malloc(np * sizeof *db), *tmp = malloc(np * sizeof *tmp);
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    uint64_t *cum = calloc((ow + 1) * (oh + 1), sizeof *cum);
+    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
+    csi_status s = CSI_OK;
+    if (!mean || !ssw || !sw || !dw || !sb || !db || !tmp || !cnt || !cum || !lo || !hi) {
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
+        goto done;
+    }
+    float all_lo = INFINITY, all_hi = -INFINITY;
+    for (size_t p = 0; p < np; p++) {
+        lo[p] = INFINITY;
+        hi[p] = -INFINITY;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const size_t p = pix[i];
+        const float v = values[i * channels + c];
+        all_lo = fminf(all_lo, v);
+        all_hi = fmaxf(all_hi, v);
+        if (p >= np)
+            continue;
+        cnt[p]++;
+        mean[p] += v;
+        lo[p] = fminf(lo[p], v);
+        hi[p] = fmaxf(hi[p], v);
+    }
+    if (!(all_lo <= all_hi)) {
+        all_lo = -INFINITY; /* no sample at all: nothing to bound by */
+        all_hi = INFINITY;
+    }
+    for (size_t p = 0; p < np; p++)
+        if (cnt[p])
+            mean[p] /= cnt[p];
+    for (size_t i = 0; i < n; i++) { /* a second pass: no cancellation */
+        const size_t p = pix[i];
+        if (p >= np)
+            continue;
+        const double r = (double)values[i * channels + c] - mean[p];
+        ssw[p] += r * r;
+    }
+    /* the 3 x 3 window's spread about its own mean: within its pixels plus between their means */
+    for (size_t y = 0; y < oh; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t y0 = y ? y - 1 : 0, y1 = y + 1 < oh ? y + 1 : y;
+            const size_t x0 = x ? x - 1 : 0, x1 = x + 1 < ow ? x + 1 : x;
+            double num = 0, sum = 0, ss = 0;
+            for (size_t yy = y0; yy <= y1; yy++)
+                for (size_t xx = x0; xx <= x1; xx++) {
+                    num += cnt[yy * ow + xx];
+                    sum += cnt[yy * ow + xx] * mean[yy * ow + xx];
+                    ss += ssw[yy * ow + xx];
+                }
+            const double m = num > 0 ? sum / num : 0;
+            for (size_t yy = y0; yy <= y1; yy++)
+                for (size_t xx = x0; xx <= x1; xx++) {
+                    const double d = mean[yy * ow + xx] - m;
+                    ss += cnt[yy * ow + xx] * d * d;
+                }
+            const size_t p = y * ow + x;
+            sb[p] = ss;
+            db[p] = num > 1 ? num - 1 : 0;
+            sw[p] = ssw[p];
+            dw[p] = cnt[p] > 1 ? cnt[p] - 1.0 : 0;
+        }
+    box2(sw, tmp, ow, oh, POOL);
+    box2(dw, tmp, ow, oh, POOL);
+    box2(sb, tmp, ow, oh, POOL);
+    box2(db, tmp, ow, oh, POOL);
+    for (size_t y = 0; y < oh; y++)
+        for (size_t x = 0; x < ow; x++)
+            cum[(y + 1) * (ow + 1) + x + 1] = cum[y * (ow + 1) + x + 1] + cum[(y + 1) * (ow + 1) + x] -
+                                              cum[y * (ow + 1) + x] + cnt[y * ow + x];
+    for (size_t y = 0; y < oh; y++)
+        for (size_t x = 0; x < ow; x++) {
+            const size_t p = y * ow + x;
+            const double within = sw[p] / fmax(dw[p], 1), window = sb[p] / fmax(db[p], 1);
+            const bool moves = window > 0 && within > 0.5 * window;
+            long r = 1;
+            while (moves && r <= MAX_RADIUS &&
+                   count_in(cum, ow, (long)x - r, (long)y - r, (long)x + r, (long)y + r, oh) < MIN_SAMPLES)
+                r++;
+            float l = INFINITY, h = -INFINITY;
+            if (r <= MAX_RADIUS) {
+                const size_t y0 = y > (size_t)r ? y - (size_t)r : 0, y1 = y + (size_t)r < oh ? y + (size_t)r : oh - 1;
+                const size_t x0 = x > (size_t)r ? x - (size_t)r : 0, x1 = x + (size_t)r < ow ? x + (size_t)r : ow - 1;
+                for (size_t yy = y0; yy <= y1; yy++)
+                    for (size_t xx = x0; xx <= x1; xx++) {
+                        l = fminf(l, lo[yy * ow + xx]);
+                        h = fmaxf(h, hi[yy * ow + xx]);
+                    }
+            }
+            lohi[2 * p] = l <= h ? l : all_lo;
+            lohi[2 * p + 1] = l <= h ? h : all_hi;
+        }
+done:
+    free(mean), free(ssw), free(sw), free(dw), free(sb), free(db), free(tmp), free(cnt), free(cum);
+    free(lo), free(hi);
+    return s;
+}
