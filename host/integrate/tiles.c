@@ -129,7 +129,8 @@ static uint32_t covering_window(const axis_req *a, uint32_t n, uint64_t from)
  * core and two margins; where none is shorter than the axis and `edge_margin` (the image's x and
  * y), from the core and one margin: two tiles' windows each reach the image's edge on one side
  * and need the margin only on the other (128 pixels in two tiles with margins of 32: windows of
- * 96). Time windows keep the search from two margins (one was not measured for them). */
+ * 96). Time windows keep the search from two margins: from one, two windows of a 16-frame volume
+ * lost too much and too unevenly against the whole (docs/bench/scale.md, session 30). */
 static uint32_t axis_window(const axis_req *a, uint32_t n, bool edge_margin)
 {
     const uint32_t L = a->length;
