@@ -483,6 +483,17 @@ csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const 
                                    uint32_t c, size_t n, float *lohi);
 /* Its host memory while it runs: bytes per pixel of the frame (and a row of prefix sums more). */
 #define CSI_SAMPLE_RANGE_PIXEL_BYTES 80
+/* Its two halves, for sums made elsewhere (a time window's, csi/tiles.h): what one pixel's samples
+ * of a channel say (their count, mean, sum of squared deviations from it, range), gathered from
+ * the samples into px (w x h) with all = the range of every sample; and the ranges from them. */
+typedef struct {
+    double mean, ss;
+    uint32_t n;
+    float lo, hi;
+} csi_px_values;
+csi_status csi_recon_pixel_values(size_t w, size_t h, const size_t *pix, const float *values, uint32_t channels,
+                                  uint32_t c, size_t n, csi_px_values *px, float all[2]);
+csi_status csi_recon_value_ranges(size_t w, size_t h, const csi_px_values *px, const float all[2], float *lohi);
 
 /* The blurred image of time window `tile`'s x/y window over the whole shutter, binned in t to
  * the layout's window length (binned.c, csi_recon_options.tile_image_binned): one solve of the

@@ -71,53 +71,52 @@ static uint64_t count_in(const uint64_t *cum, size_t w, long x0, long y0, long x
     return cum[d * W1 + c] - cum[b * W1 + c] - cum[d * W1 + a] + cum[b * W1 + a];
 }
 
-csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, const float *values, uint32_t channels,
-                                   uint32_t c, size_t n, float *lohi)
+csi_status csi_recon_pixel_values(size_t ow, size_t oh, const size_t *pix, const float *values, uint32_t channels,
+                                  uint32_t c, size_t n, csi_px_values *px, float all[2])
 {
     const size_t np = ow * oh;
-    /* per pixel: count, mean, spread about the mean, range; then the pooled sums */
-    double *mean = calloc(np, sizeof *mean), *ssw = calloc(np, sizeof *ssw);
-    double *sw = malloc(np * sizeof *sw), *dw = malloc(np * sizeof *dw), *sb = malloc(np * sizeof *sb);
-    double *db = malloc(np * sizeof *db), *tmp = malloc(np * sizeof *tmp);
-    uint32_t *cnt = calloc(np, sizeof *cnt);
-    uint64_t *cum = calloc((ow + 1) * (oh + 1), sizeof *cum);
-    float *lo = malloc(np * sizeof *lo), *hi = malloc(np * sizeof *hi);
-    csi_status s = CSI_OK;
-    if (!mean || !ssw || !sw || !dw || !sb || !db || !tmp || !cnt || !cum || !lo || !hi) {
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
-        goto done;
-    }
-    float all_lo = INFINITY, all_hi = -INFINITY;
-    for (size_t p = 0; p < np; p++) {
-        lo[p] = INFINITY;
-        hi[p] = -INFINITY;
-    }
+    for (size_t p = 0; p < np; p++)
+        px[p] = (csi_px_values){.lo = INFINITY, .hi = -INFINITY};
+    all[0] = INFINITY;
+    all[1] = -INFINITY;
     for (size_t i = 0; i < n; i++) {
         const size_t p = pix[i];
         const float v = values[i * channels + c];
-        all_lo = fminf(all_lo, v);
-        all_hi = fmaxf(all_hi, v);
+        all[0] = fminf(all[0], v);
+        all[1] = fmaxf(all[1], v);
         if (p >= np)
             continue;
-        cnt[p]++;
-        mean[p] += v;
-        lo[p] = fminf(lo[p], v);
-        hi[p] = fmaxf(hi[p], v);
-    }
-    if (!(all_lo <= all_hi)) {
-        all_lo = -INFINITY; /* no sample at all: nothing to bound by */
-        all_hi = INFINITY;
+        px[p].n++;
+        px[p].mean += v;
+        px[p].lo = fminf(px[p].lo, v);
+        px[p].hi = fmaxf(px[p].hi, v);
     }
     for (size_t p = 0; p < np; p++)
-        if (cnt[p])
-            mean[p] /= cnt[p];
+        if (px[p].n)
+            px[p].mean /= px[p].n;
     for (size_t i = 0; i < n; i++) { /* a second pass: no cancellation */
         const size_t p = pix[i];
         if (p >= np)
             continue;
-        const double r = (double)values[i * channels + c] - mean[p];
-        ssw[p] += r * r;
+        const double r = (double)values[i * channels + c] - px[p].mean;
+        px[p].ss += r * r;
     }
+    return CSI_OK;
+}
+
+csi_status csi_recon_value_ranges(size_t ow, size_t oh, const csi_px_values *px, const float all[2], float *lohi)
+{
+    const size_t np = ow * oh;
+    double *sw = malloc(np * sizeof *sw), *dw = malloc(np * sizeof *dw), *sb = malloc(np * sizeof *sb);
+    double *db = malloc(np * sizeof *db), *tmp = malloc(np * sizeof *tmp);
+    uint64_t *cum = calloc((ow + 1) * (oh + 1), sizeof *cum);
+    csi_status s = CSI_OK;
+    if (!sw || !dw || !sb || !db || !tmp || !cum) {
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
+        goto done;
+    }
+    /* no sample at all: nothing to bound by */
+    const float all_lo = all[0] <= all[1] ? all[0] : -INFINITY, all_hi = all[0] <= all[1] ? all[1] : INFINITY;
     /* the 3 x 3 window's spread about its own mean: within its pixels plus between their means */
     for (size_t y = 0; y < oh; y++)
         for (size_t x = 0; x < ow; x++) {
@@ -126,21 +125,22 @@ csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, cons
             double num = 0, sum = 0, ss = 0;
             for (size_t yy = y0; yy <= y1; yy++)
                 for (size_t xx = x0; xx <= x1; xx++) {
-                    num += cnt[yy * ow + xx];
-                    sum += cnt[yy * ow + xx] * mean[yy * ow + xx];
-                    ss += ssw[yy * ow + xx];
+                    const csi_px_values *q = &px[yy * ow + xx];
+                    num += q->n;
+                    sum += q->n * q->mean;
+                    ss += q->ss;
                 }
             const double m = num > 0 ? sum / num : 0;
             for (size_t yy = y0; yy <= y1; yy++)
                 for (size_t xx = x0; xx <= x1; xx++) {
-                    const double d = mean[yy * ow + xx] - m;
-                    ss += cnt[yy * ow + xx] * d * d;
+                    const csi_px_values *q = &px[yy * ow + xx];
+                    ss += q->n * (q->mean - m) * (q->mean - m);
                 }
             const size_t p = y * ow + x;
             sb[p] = ss;
             db[p] = num > 1 ? num - 1 : 0;
-            sw[p] = ssw[p];
-            dw[p] = cnt[p] > 1 ? cnt[p] - 1.0 : 0;
+            sw[p] = px[p].ss;
+            dw[p] = px[p].n > 1 ? px[p].n - 1.0 : 0;
         }
     box2(sw, tmp, ow, oh, POOL);
     box2(dw, tmp, ow, oh, POOL);
@@ -149,7 +149,7 @@ csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, cons
     for (size_t y = 0; y < oh; y++)
         for (size_t x = 0; x < ow; x++)
             cum[(y + 1) * (ow + 1) + x + 1] = cum[y * (ow + 1) + x + 1] + cum[(y + 1) * (ow + 1) + x] -
-                                              cum[y * (ow + 1) + x] + cnt[y * ow + x];
+                                              cum[y * (ow + 1) + x] + px[y * ow + x].n;
     for (size_t y = 0; y < oh; y++)
         for (size_t x = 0; x < ow; x++) {
             const size_t p = y * ow + x;
@@ -165,15 +165,29 @@ csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, cons
                 const size_t x0 = x > (size_t)r ? x - (size_t)r : 0, x1 = x + (size_t)r < ow ? x + (size_t)r : ow - 1;
                 for (size_t yy = y0; yy <= y1; yy++)
                     for (size_t xx = x0; xx <= x1; xx++) {
-                        l = fminf(l, lo[yy * ow + xx]);
-                        h = fmaxf(h, hi[yy * ow + xx]);
+                        l = fminf(l, px[yy * ow + xx].lo);
+                        h = fmaxf(h, px[yy * ow + xx].hi);
                     }
             }
             lohi[2 * p] = l <= h ? l : all_lo;
             lohi[2 * p + 1] = l <= h ? h : all_hi;
         }
 done:
-    free(mean), free(ssw), free(sw), free(dw), free(sb), free(db), free(tmp), free(cnt), free(cum);
-    free(lo), free(hi);
+    free(sw), free(dw), free(sb), free(db), free(tmp), free(cum);
+    return s;
+}
+
+csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, const float *values, uint32_t channels,
+                                   uint32_t c, size_t n, float *lohi)
+{
+    const size_t np = ow * oh;
+    csi_px_values *px = malloc((np ? np : 1) * sizeof *px);
+    if (!px)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
+    float all[2];
+    csi_status s = csi_recon_pixel_values(ow, oh, pix, values, channels, c, n, px, all);
+    if (s == CSI_OK)
+        s = csi_recon_value_ranges(ow, oh, px, all, lohi);
+    free(px);
     return s;
 }

@@ -255,6 +255,8 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             a[2] = ldexp(a[2], 2 * e[c]);
             a[3] = ldexp(a[3], e[c]);
             a[4] = ldexp(a[4], e[c]);
+            a[5] = ldexp(a[5], e[c]);
+            a[6] = ldexp(a[6], 2 * e[c]);
         }
     return s;
 }
@@ -264,7 +266,7 @@ static void resid_clear(double *r, size_t pixels)
 {
     for (size_t q = 0; q < pixels; q++) {
         double *a = r + q * CSI_RESID_SUMS;
-        a[0] = a[1] = a[2] = 0;
+        a[0] = a[1] = a[2] = a[5] = a[6] = 0;
         a[3] = INFINITY;
         a[4] = -INFINITY;
     }
@@ -302,18 +304,24 @@ static csi_status resid_sums(const csi_tiling *tl, const csi_tile *tile, const t
             if (w[i] > 0) {
                 a[0] += w[i];
                 a[1] += w[i] * ((double)y - (double)g[i]);
+                a[5] += w[i] * (double)y;
                 a[3] = fmin(a[3], y);
                 a[4] = fmax(a[4], y);
             }
         }
         for (size_t q = 0; q < np; q++)
-            if (rc[q * CSI_RESID_SUMS] > 0)
+            if (rc[q * CSI_RESID_SUMS] > 0) {
                 rc[q * CSI_RESID_SUMS + 1] /= rc[q * CSI_RESID_SUMS];
+                rc[q * CSI_RESID_SUMS + 5] /= rc[q * CSI_RESID_SUMS];
+            }
         for (size_t i = 0; i < n; i++) {
             double *a = rc + px[i];
             const double d = (double)p->values[i * channels + c] - (double)g[i] - a[1];
-            if (w[i] > 0)
+            const double dv = (double)p->values[i * channels + c] - a[5];
+            if (w[i] > 0) {
                 a[2] += w[i] * d * d;
+                a[6] += w[i] * dv * dv;
+            }
         }
     }
     free(w), free(px);
@@ -508,36 +516,48 @@ static void resid_add(csi_blend *b, const csi_tile_result *t)
                 if (!(a[0] > 0))
                     continue;
                 double *s = b->resid + ((size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x) * CSI_RESID_SUMS;
-                const double w = s[0] + a[0], delta = a[1] - s[1];
+                const double w = s[0] + a[0], delta = a[1] - s[1], dv = a[5] - s[5];
                 s[2] += a[2] + delta * delta * (s[0] * a[0] / w);
                 s[1] += delta * (a[0] / w);
+                s[6] += a[6] + dv * dv * (s[0] * a[0] / w);
+                s[5] += dv * (a[0] / w);
                 s[0] = w;
                 s[3] = fmin(s[3], a[3]);
                 s[4] = fmax(s[4], a[4]);
             }
 }
 
-/* The whole shutter's correction of channel c from the blended sums (csi_tile_result). */
+/* The whole shutter's correction of channel c from the blended sums (csi_tile_result): projected
+ * onto the range an untiled run's has (sample_range.c), from the sums of the samples' values. */
 static csi_status resid_correct(csi_blend *b, uint32_t c)
 {
     const csi_grid *g = &b->tl.grid;
     const size_t np = (size_t)g->out_w * g->out_h;
     csi_px_resid *st = calloc(np, sizeof *st);
-    if (!st)
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
-    for (size_t q = 0; q < np; q++) {
+    csi_px_values *px = malloc(np * sizeof *px);
+    float *lohi = malloc(2 * np * sizeof *lohi), all[2] = {INFINITY, -INFINITY};
+    csi_status s = CSI_OK;
+    if (!st || !px || !lohi)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
+    for (size_t q = 0; s == CSI_OK && q < np; q++) {
         const double *a = b->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
         st[q].n = (uint32_t)llround(a[0]); /* the weights of a sample's tiles sum to 1 */
         st[q].d = a[1];
         st[q].ss = a[2];
         st[q].lo = (float)a[3];
         st[q].hi = (float)a[4];
+        px[q] = (csi_px_values){.mean = a[5], .ss = a[6], .n = st[q].n, .lo = st[q].lo, .hi = st[q].hi};
+        all[0] = fminf(all[0], st[q].lo);
+        all[1] = fmaxf(all[1], st[q].hi);
     }
-    /* the windows' sums hold each pixel's range, not its values' spread over t: the 3 x 3 range
-     * (sample_range.c's rule needs the samples) */
-    csi_recon_motion_correct_pixels(g, st, NULL, b->out->image + (size_t)c * np);
+    if (s == CSI_OK)
+        s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, lohi);
+    if (s == CSI_OK)
+        csi_recon_motion_correct_pixels(g, st, lohi, b->out->image + (size_t)c * np);
     free(st);
-    return CSI_OK;
+    free(px);
+    free(lohi);
+    return s;
 }
 
 /* acc += w v in double, rounded once to float: the same bits for the same order of tiles. */

@@ -197,14 +197,16 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
  * residuals of every sample against the blended volume (Alg. 2's per-pixel correction with a
  * still basis, csi_aa_correct AUTO): each window's samples weighted by its blend weight there
  * (w = w_x w_y w_t, summing to 1 over the tiles that hold a sample) give, per channel and
- * window pixel, CSI_RESID_SUMS doubles in `resid` ([c][y][x][5]): the weight of the pixel's
+ * window pixel, CSI_RESID_SUMS doubles in `resid` ([c][y][x][7]): the weight of the pixel's
  * samples, their weighted mean residual against the window's volume, the weighted sum of
- * squared deviations from it, and the smallest and largest value of the samples of weight > 0.
+ * squared deviations from it, the smallest and largest value of the samples of weight > 0, and
+ * the weighted mean of their values and sum of squared deviations from it (the range the
+ * corrected image is projected onto grows where a pixel's values change over t).
  * Blended over the tiles they give each pixel's sample count and mean residual against the
  * blended volume exactly, and a sum of squares no smaller than the blended volume's (a sample
  * two windows share counts both windows' residuals). NULL when t is not split, and when the
  * window's basis is sheared (then no tile's image is corrected). */
-#define CSI_RESID_SUMS 5
+#define CSI_RESID_SUMS 7
 /* A still image whose pixels settle on their samples' mean (csi/settle.h) settles once, on the
  * blended image, so that a pixel's share is of the whole image's disagreement as in an untiled
  * run (settled in each window, on that window's smaller disagreement, more pixels settled than
