@@ -483,6 +483,11 @@ csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const 
                                    uint32_t c, size_t n, float *lohi);
 /* Its host memory while it runs: bytes per pixel of the frame (and a row of prefix sums more). */
 #define CSI_SAMPLE_RANGE_PIXEL_BYTES 80
+/* The share of the output pixels holding two samples or more whose samples are all equal, bit
+ * for bit in every channel (still_samples.c): near 1 for exact samples of a still picture, 0 for a
+ * renderer's noisy ones; 0 when no pixel holds two. */
+csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
+                                       uint32_t channels, size_t n, double *share);
 /* Its two halves, for sums made elsewhere (a time window's, csi/tiles.h): what one pixel's samples
  * of a channel say (their count, mean, sum of squared deviations from it, range), gathered from
  * the samples into px (w x h) with all = the range of every sample; and the ranges from them. */

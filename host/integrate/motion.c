@@ -185,12 +185,24 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     }
     /* The time-constant layer's own l1 weight (csi_half_fourier_set_still_gain): a gain of
      * 1 / weight on its plane (the still content, or with a velocity what moves at it), tau
-     * staying the unweighted problem's (the channel loop below). Reported in res->options (0,
-     * a caller's unset field, is 1). One weight by default: half of it gained on every
-     * procedural volume and on the train against its T time cells' mean, and lost on the
-     * path-traced animations and on the train against the shutter's continuous-time reference
-     * (docs/bench/animation.md, round 7). */
-    const double still_weight = half && opt->motion_still_weight > 0 ? opt->motion_still_weight : 1;
+     * staying the unweighted problem's (the channel loop below). Reported in res->options. Auto
+     * (0, also a caller's unset field): half with a still basis whose samples are a noise-free
+     * still picture (most pixels holding two samples hold equal ones, still_samples.c), else
+     * one. Half gained on every procedural volume, whose samples are exact, and lost on the
+     * path-traced animations (docs/bench/animation.md, round 7 and session 30); with a sheared
+     * basis it also lost on the train against the shutter's continuous-time reference. Its
+     * buffers are reserved with auto, as the filter's are, so that the plan need not know. */
+    double still_weight = 1;
+    if (s == CSI_OK && half && opt->motion_still_weight > 0) {
+        still_weight = opt->motion_still_weight;
+    } else if (s == CSI_OK && half) {
+        const bool still = !moved || (res->options.motion_vx == 0 && res->options.motion_vy == 0);
+        double share = 0;
+        s = csi_half_fourier_filter_reserve(st->A);
+        if (s == CSI_OK && still)
+            s = csi_recon_still_exact_share(g, pos, values, channels, n, &share);
+        still_weight = share > 0.5 ? 0.5 : 1;
+    }
     res->options.motion_still_weight = still_weight;
     const bool still_weighted = still_weight != 1;
     if (s == CSI_OK && still_weighted)

@@ -195,10 +195,12 @@ static const row table[] = {
      "and y, seen by the samples through its Wiener inverse (Alg. 1's model); off: the paper's",
      "with a still basis and fewer than 2 samples per pixel over t, sigma-spacing x sqrt(w h / N), "
      "at least the paper's width; else none"},
-    {"motion-still-weight", K_DOUBLE, AT(motion_still_weight), 1e-6, 1e6, NULL, 0, "1", "W",
+    {"motion-still-weight", K_DOUBLE, AT(motion_still_weight), 1e-6, 1e6, NULL, F_AUTO, "auto", "W",
      "volumes (half spectrum): the l1 weight of the coefficients constant along t in the basis's "
      "frame (the still layer; with a velocity, what moves at it) relative to the others'; tau "
-     "is still set from the unweighted problem (0.5: docs/bench/animation.md, round 7)", NULL},
+     "is still set from the unweighted problem (docs/bench/animation.md, round 7, session 30)",
+     "0.5 with a still basis whose samples are a noise-free still picture (most pixels holding two "
+     "samples hold equal ones), else 1"},
     {"motion-reweight", K_INT, AT(motion_reweight), 0, 16, NULL, 0, "0", "N",
      "volumes: reweighted l1 (Candes, Wakin & Boyd 2008): N re-solves, each with an l1 weight per "
      "coefficient c / (|z| + eps) from the previous solution z (c: its weighted l1 is its l1), "

@@ -192,6 +192,7 @@ int main(void)
             of.motion_resid_sigma = -1.0; /* compare the solves alone */
             of.motion_time = CSI_MOTION_TIME_DFT;
             of.motion_velocity = CSI_VELOCITY_NONE;
+            of.motion_still_weight = 1; /* the full spectrum's one weight */
             of.frames = false;
             csi_recon_result a, b;
             CHECK_OK(csi_recon(ctx, &d.grid, 1, d.pos, d.values, d.count, &of, &a));

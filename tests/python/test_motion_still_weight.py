@@ -19,9 +19,12 @@ it, half of the cells sampled. Checks, for W = 0.25 and W = 4:
    for other float32 orderings (devices, FFT plans) and stays far below check 2's distances.
 2. the weight matters at that tolerance: the reference's weighted and unweighted (W = 1)
    minimisers differ by more than 5x the tolerance, and the library is nearer the weighted one.
-3. W = 1 given is the default's bits (the unweighted operator, not a gain of 1), exact samples
-   too; a time window reports the weight given.
-4. bad input: W < 0 or above the range is refused with a message naming the option.
+3. W = 1 given is the unweighted operator (not a gain of 1): the float64 unweighted minimiser.
+4. auto (the default): on these exact samples of a mostly still volume, the share of the pixels
+   holding two samples or more whose samples are all equal (counted here in numpy) is above one
+   half, so auto is W = 0.5, the same bits as 0.5 given; the same samples with 1% multiplicative
+   noise (no two equal) give W = 1, the bits of 1 given. A time window reports the weight given.
+5. bad input: W < 0 or above the range is refused with a message naming the option.
 """
 import os
 import sys
@@ -46,26 +49,48 @@ def reference(shape, idx, y, weight):
     return np.real(np.fft.ifftn(fista(m, ys, tau * w), norm="ortho"))
 
 
+def equal_share(pos, vals, grid):
+    """The share of the output pixels holding two samples or more whose samples are all equal."""
+    w, h, _, ow, oh = grid
+    pix = (pos[:, 1] // (h // oh)).astype(np.int64) * ow + pos[:, 0] // (w // ow)
+    held, equal = 0, 0
+    for p in np.unique(pix):
+        v = vals[pix == p]
+        if len(v) >= 2:
+            held += 1
+            equal += bool(np.all(v == v[0]))
+    return equal / held if held else 0.0
+
+
 def main():
     f = volume()
     idx, pos, vals = samples(f)
     peak = f.max()
     ref1 = reference(f.shape, idx, vals[:, 0].astype(np.float64), 1.0)
-    base = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, **PAPER)
+    base = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, **PAPER)  # W = 1 given
     for W in (0.25, 4.0):
         want = reference(f.shape, idx, vals[:, 0].astype(np.float64), W)
-        res = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, motion_still_weight=W, **PAPER)
+        res = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, **dict(PAPER, motion_still_weight=W))
         check_minimiser(res.frames[..., 0].astype(np.float64), want, ref1, peak, TOL, f"W = {W}", "weighted",
                         "unweighted")
     e0 = np.abs(base.frames[..., 0] - ref1).max() / peak
-    check(e0 <= TOL, f"W = 1 (the default): {e0:.2e} from the float64 unweighted minimiser")
-    same = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, motion_still_weight=1, **PAPER)
-    check(np.array_equal(same.frames, base.frames) and np.array_equal(same.image, base.image),
-          "W = 1 given: the default's bits")
-    # the weight is given, not inferred: exact samples keep the default's bits
-    ex = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, exact=True, **PAPER)
-    check(float(ex.options["motion_still_weight"]) == 1 and np.array_equal(ex.frames, base.frames),
-          f"exact samples: weight {ex.options['motion_still_weight']}, the default's bits")
+    check(e0 <= TOL, f"W = 1 given: {e0:.2e} from the float64 unweighted minimiser")
+    # auto: decided by whether most pixels' samples agree exactly over t
+    auto = {k: v for k, v in PAPER.items() if k != "motion_still_weight"}
+    share = equal_share(pos, vals, GRID)
+    check(share > 0.5, f"the test volume's pixels with equal samples: {share:.3f} of those holding two")
+    half = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, **dict(PAPER, motion_still_weight=0.5))
+    got = csi.reconstruct(pos, vals, GRID, tau=TAU_REL, **auto)
+    check(float(got.options["motion_still_weight"]) == 0.5 and np.array_equal(got.frames, half.frames)
+          and np.array_equal(got.image, half.image),
+          f"auto on exact still samples: weight {got.options['motion_still_weight']}, the bits of 0.5 given")
+    rng = np.random.default_rng(7)
+    noisy = (vals * (1 + 0.01 * rng.standard_normal(vals.shape))).astype(np.float32)
+    check(equal_share(pos, noisy, GRID) == 0, "the noisy samples: no pixel's samples all equal")
+    one = csi.reconstruct(pos, noisy, GRID, tau=TAU_REL, **PAPER)
+    got = csi.reconstruct(pos, noisy, GRID, tau=TAU_REL, **auto)
+    check(float(got.options["motion_still_weight"]) == 1 and np.array_equal(got.frames, one.frames),
+          f"auto on noisy samples: weight {got.options['motion_still_weight']}, the bits of 1 given")
     # a time window takes the weight given (its tau from the whole's scale, as before)
     big = (N, N, 48, N, N)
     bpos = csi.positions(big, method="random", fraction=0.3, seed=2)

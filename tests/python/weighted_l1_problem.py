@@ -5,7 +5,7 @@ sampled, the library's options that leave the solve alone, and a float64 referen
 min_x 0.5 ||y - S F^H x||^2 + sum_u thr_u |x_u| over the complex 3-D spectrum x (F the unitary
 3-D DFT, numpy's fftn with norm="ortho"; S the sampled cells). The library's frames with the
 paper's basis and every step after the solve switched off (no residual correction, no range
-projection, no filter, no debiasing; PAPER) are Re(F^H x). The reference is FISTA (Beck &
+projection, no filter, no debiasing, one l1 weight unless a test gives another; PAPER) are Re(F^H x). The reference is FISTA (Beck &
 Teboulle 2009) in float64 with the weighted complex soft threshold, step 1 (||S F^H|| <= 1), run
 to a change below 1e-13: an independent solver of the same convex problem."""
 import numpy as np
@@ -16,7 +16,7 @@ T = 8
 GRID = (N, N, T, N, N)
 TAU_REL = 0.03
 PAPER = dict(motion_velocity="none", motion_time="dft", motion_filter=-1, motion_resid_sigma=-1,
-             correct="none", stop="gap", tol=1e-7, max_iter=20000, frames="on")
+             correct="none", stop="gap", tol=1e-7, max_iter=20000, frames="on", motion_still_weight=1)
 
 
 def volume():

@@ -225,7 +225,8 @@ typedef struct csi_recon_options {
                                      auto */
     double motion_still_weight;   /* the l1 weight of the coefficients constant along t in the
                                      basis's frame (csi_half_fourier_set_still_gain), relative
-                                     to the others' (1: one weight, the paper's; 0 is 1) */
+                                     to the others' (1: one weight, the paper's; 0 auto: 0.5
+                                     for a noise-free still picture, else 1) */
     int motion_reweight;          /* reweighted l1 (host/integrate/motion_reweight.c): re-solves
                                      with weights from the previous solution; 0 none */
     double motion_reweight_eps;   /* its eps, relative to the mean non-zero coefficient magnitude */
