@@ -442,12 +442,13 @@ bool csi_recon_fit_trust_acts(const csi_grid *g, size_t multi);
  * of the samples (motion_range.c): each cell (x, y, t) into [min, max] of channel c's samples
  * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame
  * (the pixel at x - vx (t - tc), y - vy (t - tc); with v = 0 its own output pixel and the 8
- * around it, or the wider window of csi_recon_sample_ranges where the pixels change over t).
- * Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is not signal;
+ * around it; or, given still_range (with v = 0), each output pixel's range from
+ * csi_recon_sample_ranges). Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is not signal;
  * with non-negative samples this also makes `fine` non-negative. */
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                        size_t n, double vx, double vy, bool wide, cl_mem fine);
+                                        size_t n, double vx, double vy, bool wide, const float *still_range,
+                                        cl_mem fine);
 /* The aligned pixels it uses at most (wide: when the volume's basis can be sheared; else as many
  * as the output pixels), as a multiple of the output pixels; beyond, it projects onto the range
  * of all the samples. Its device buffer holds that many. A pixel with no sample around takes
@@ -455,12 +456,12 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
 #define CSI_MOTION_RANGE_MAX_PIXELS 4
 /* Alg. 2's image with a still basis (csi_aa_correct AUTO): each pixel of plane (channel c, the
  * box mean of the fitted volume, in and out) moved by the mean of its samples' residuals
- * y - fine_at, shrunk by that correction's estimated risk, then projected onto the range of the
- * samples that bounds the volume (motion_correct.c). fine_at: the volume at the n
- * samples. */
+ * y - fine_at, shrunk by that correction's estimated risk, then projected onto `range`, the range
+ * that bounded the volume (csi_recon_sample_ranges; motion_correct.c). fine_at: the volume at
+ * the n samples. */
 csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
                                     uint32_t c, const csi_sample_pos *pos, const float *fine_at,
-                                    size_t n, float *plane);
+                                    size_t n, const float *range, float *plane);
 /* Its per-pixel part, from what each pixel's samples say (a whole-shutter image blended from
  * time windows has them from the windows' sums, csi/tiles.h): n samples, d their mean residual,
  * ss the sum of their squared deviations from d, lo and hi the range of their values; v and e

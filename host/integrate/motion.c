@@ -174,9 +174,9 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * velocities on the samples alone; by default only with a still basis. Its buffers are
      * reserved wherever it may be used, so that the plan (plan.c) need not know the velocity.
      * Its width is reported in res->options (-1: none). */
+    const bool still = !moved || (res->options.motion_vx == 0 && res->options.motion_vy == 0);
     if (s == CSI_OK) {
         const double width = half ? csi_recon_motion_filter_width(g, n, opt, st->scope) : -1;
-        const bool still = !moved || (res->options.motion_vx == 0 && res->options.motion_vy == 0);
         res->options.motion_filter = width > 0 && (still || opt->motion_filter > 0) ? width : -1;
         if (width > 0)
             s = csi_half_fourier_filter_reserve(st->A);
@@ -196,7 +196,6 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK && half && opt->motion_still_weight > 0) {
         still_weight = opt->motion_still_weight;
     } else if (s == CSI_OK && half) {
-        const bool still = !moved || (res->options.motion_vx == 0 && res->options.motion_vy == 0);
         double share = 0;
         s = csi_half_fourier_filter_reserve(st->A);
         if (s == CSI_OK && still)
@@ -287,6 +286,19 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         s = csi_sampling_create(ctx, k, st->idx, n, false, &Sr);
     if (s == CSI_OK && own && !(fine_at = malloc(n * sizeof *fine_at)))
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the volume at %zu samples", n);
+    /* With a still basis the range that bounds the volume and the corrected image, per channel
+     * (sample_range.c), from each sample's pixel */
+    size_t *pix = NULL;
+    float *range = NULL;
+    if (s == CSI_OK && blend && !sheared) {
+        pix = malloc((n ? n : 1) * sizeof *pix);
+        range = malloc(2 * np * sizeof *range);
+        if (!pix || !range)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
+        const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+        for (size_t i = 0; s == CSI_OK && i < n; i++)
+            pix[i] = csi_recon_pixel_of(pos[i], bw, bh, g->out_w);
+    }
     res->t_setup = csi_recon_now();
     res->cpu_setup = csi_recon_cpu_now();
 
@@ -347,9 +359,11 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
         if (s == CSI_OK && correct)
             s = csi_nc_correct(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
+        if (s == CSI_OK && range)
+            s = csi_recon_sample_ranges(g->out_w, g->out_h, pix, values, channels, c, n, range);
         if (s == CSI_OK && blend)
             s = csi_recon_motion_range_clamp(ctx, g, values, channels, c, pos, n, sheared ? res->options.motion_vx : 0,
-                                             sheared ? res->options.motion_vy : 0, moved, st->tmp);
+                                             sheared ? res->options.motion_vy : 0, moved, range, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         if (s == CSI_OK && own)
@@ -360,7 +374,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             memcpy(st->fit->at + (size_t)c * n, fine_at, n * sizeof *fine_at);
             st->fit->kept = true;
         } else if (s == CSI_OK && own) {
-            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, res->image + (size_t)c * np);
+            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, range, res->image + (size_t)c * np);
         }
         if (s == CSI_OK && blend)
             csi_recon_exact_full(&shutter, values, channels, c, pos, n, res->image + (size_t)c * np);
@@ -377,6 +391,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     csi_linop_free(G);
     csi_linop_free(Sr);
     free(fine_at);
+    free(pix);
+    free(range);
     free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);

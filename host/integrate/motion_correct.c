@@ -51,26 +51,13 @@ static box3 around(size_t p, size_t ow, size_t oh)
 
 csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
                                     uint32_t c, const csi_sample_pos *pos, const float *fine_at,
-                                    size_t n, float *plane)
+                                    size_t n, const float *range, float *plane)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     csi_px_resid *st = calloc(np, sizeof *st);
-    float *lohi = malloc(2 * np * sizeof *lohi);
-    size_t *pix = malloc((n ? n : 1) * sizeof *pix);
-    csi_status s = st && lohi && pix
-                       ? CSI_OK
-                       : csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
-    for (size_t i = 0; s == CSI_OK && i < n; i++)
-        pix[i] = csi_recon_pixel_of(pos[i], bw, bh, ow);
-    if (s == CSI_OK)
-        s = csi_recon_sample_ranges(ow, oh, pix, values, channels, c, n, lohi);
-    free(pix);
-    if (s != CSI_OK) {
-        free(st);
-        free(lohi);
-        return s;
-    }
+    if (!st)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
     for (size_t p = 0; p < np; p++) {
         st[p].lo = INFINITY;
         st[p].hi = -INFINITY;
@@ -92,9 +79,8 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
         const double r = (double)values[i * channels + c] - (double)fine_at[i] - s->d;
         s->ss += r * r;
     }
-    csi_recon_motion_correct_pixels(g, st, lohi, plane);
+    csi_recon_motion_correct_pixels(g, st, range, plane);
     free(st);
-    free(lohi);
     return CSI_OK;
 }
 

@@ -11,8 +11,8 @@
  * still basis the window is the pixel's own, grown where its values change over t
  * (sample_range.c). */
 #include <math.h>
-#include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "internal.h"
 
@@ -26,7 +26,8 @@ static long aligned(uint32_t x, uint32_t t, float v, float tc, uint32_t b, float
 
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
-                                        size_t n, double vx, double vy, bool wide, cl_mem fine)
+                                        size_t n, double vx, double vy, bool wide, const float *still_range,
+                                        cl_mem fine)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
@@ -68,24 +69,13 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         all_lo = -INFINITY; /* no sample at all: nothing to clamp to */
         all_hi = INFINITY;
     }
-    /* A still basis: the pixel's own window, grown where the pixel's values change over t
-     * (sample_range.c). The same rule in the frame of a sheared basis cost the Mitsuba camera
-     * slide 1-7% of its image MSE (docs/bench/animation.md, session 30): there the window stays. */
-    const bool still = fvx == 0 && fvy == 0 && na == np;
-    if (still) {
-        size_t *pix = malloc((n ? n : 1) * sizeof *pix);
-        if (!pix) {
-            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range along the motion");
-            goto done;
-        }
-        for (size_t i = 0; i < n; i++) {
-            const long ax = aligned(pos[i].x, pos[i].t, fvx, tc, bw, ox);
-            const long ay = aligned(pos[i].y, pos[i].t, fvy, tc, bh, oy);
-            pix[i] = ax < 0 || ay < 0 || ax >= (long)aw || ay >= (long)ah ? SIZE_MAX : (size_t)ay * aw + (size_t)ax;
-        }
-        s = csi_recon_sample_ranges(aw, ah, pix, values, channels, c, n, lohi);
-        free(pix);
-    }
+    /* A still basis: the caller's range of each output pixel (sample_range.c: the pixel's own
+     * window, grown where its values change over t). The same rule in the frame of a sheared
+     * basis cost the Mitsuba camera slide 1-7% of its image MSE (docs/bench/animation.md,
+     * session 30): there the window stays 3 x 3. */
+    const bool still = still_range && fvx == 0 && fvy == 0 && na == np;
+    if (still)
+        memcpy(lohi, still_range, 2 * np * sizeof *lohi);
     for (size_t i = 0; !still && i < n; i++) {
         const long ax = aligned(pos[i].x, pos[i].t, fvx, tc, bw, ox);
         const long ay = aligned(pos[i].y, pos[i].t, fvy, tc, bh, oy);
@@ -111,8 +101,6 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         lohi[2 * p] = l <= h ? l : all_lo;
         lohi[2 * p + 1] = l <= h ? h : all_hi;
     }
-    if (s != CSI_OK)
-        goto done;
     cl_kernel kc;
     const cl_uint w = g->w, hh = g->h, cbw = bw, cbh = bh, caw = (cl_uint)aw, cah = (cl_uint)ah;
     const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);
