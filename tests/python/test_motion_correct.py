@@ -1,6 +1,8 @@
 """Alg. 2's image with a still basis (host/integrate/motion_correct.c; issue 12): each pixel's box
 mean b of the fitted volume g is moved by the mean d of its samples' residuals y - g, shrunk by
-k = B^2 / (B^2 + V), then projected onto the range of the samples in its 3 x 3 pixels.
+k = B^2 / (B^2 + V), then projected onto the range of the samples in its 3 x 3 pixels (the wider
+window of host/integrate/sample_range.c is not reached here: every 3 x 3 window holds 72 samples;
+tests/python/test_motion_range_rule.py is the case where it is).
 
 Scene (closed form, evaluated at the cells' centres): a still texture (two gratings and a
 checker of 3-cell blocks, which a sparse Fourier fit of half the cells does not reproduce
