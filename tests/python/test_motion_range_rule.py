@@ -11,8 +11,9 @@ the shutter, so a pixel's 3 x 3 window holds about four samples.
 The failure this guards against: bounding every cell of a pixel by its 3 x 3 window's samples
 when those few samples all caught the disc pins the pixel to the disc's value at every t, though
 the disc covers it for a few frames only: the image overshoots the truth (the volume's mean over
-t) by about the whole step there. Measured before the rule (main at 3217a5e): 8-15 pixels of the
-image above the truth by more than half the step (0.6) on each of 4 seeds; with it, none.
+t) by about the whole step there. Measured before the rule (a build of 728ae3e, whose Alg. 2 is
+3217a5e's): 8-15 pixels of the image above the truth by more than half the step (0.6) on each of
+4 seeds; with it, none.
 
 Check, on 3 seeds: no pixel of the image exceeds the truth by half the step. Half the step is the
 scale of a pinned pixel's error (a pixel the disc covers for k of 16 frames has truth 0.3 + 1.2 k /
