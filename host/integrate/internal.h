@@ -464,16 +464,13 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
                                     size_t n, const float *range, float *plane);
 /* Its per-pixel part, from what each pixel's samples say (a whole-shutter image blended from
  * time windows has them from the windows' sums, csi/tiles.h): n samples, d their mean residual,
- * ss the sum of their squared deviations from d, lo and hi the range of their values; v and e
- * are scratch. g: the whole image's grid (its cells per pixel over all t). */
+ * ss the sum of their squared deviations from d; v and e are scratch. g: the whole image's grid
+ * (its cells per pixel over all t); range: each pixel's bound (csi_recon_value_ranges). */
 typedef struct {
     double d, ss, v, e;
     uint32_t n;
-    float lo, hi;
 } csi_px_resid;
-/* lohi: each pixel's bound (csi_recon_sample_ranges), or NULL for the range of the samples in the
- * pixel and its 8 neighbours. */
-void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *lohi, float *plane);
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *range, float *plane);
 /* The range that bounds the volume and the image (sample_range.c): lohi[2 p], lohi[2 p + 1] for each
  * pixel p of a w x h frame (the output's, or one that moves with the basis), from channel c's
  * samples (sample i in pixel pix[i]; none where pix[i] >= w h) in the pixel and its 8
@@ -497,8 +494,8 @@ typedef struct {
     uint32_t n;
     float lo, hi;
 } csi_px_values;
-csi_status csi_recon_pixel_values(size_t w, size_t h, const size_t *pix, const float *values, uint32_t channels,
-                                  uint32_t c, size_t n, csi_px_values *px, float all[2]);
+void csi_recon_pixel_values(size_t w, size_t h, const size_t *pix, const float *values, uint32_t channels,
+                            uint32_t c, size_t n, csi_px_values *px, float all[2]);
 csi_status csi_recon_value_ranges(size_t w, size_t h, const csi_px_values *px, const float all[2], float *lohi);
 
 /* The blurred image of time window `tile`'s x/y window over the whole shutter, binned in t to

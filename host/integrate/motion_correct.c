@@ -58,17 +58,11 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
     csi_px_resid *st = calloc(np, sizeof *st);
     if (!st)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
-    for (size_t p = 0; p < np; p++) {
-        st[p].lo = INFINITY;
-        st[p].hi = -INFINITY;
-    }
     for (size_t i = 0; i < n; i++) {
         csi_px_resid *s = &st[csi_recon_pixel_of(pos[i], bw, bh, ow)];
         const float y = values[i * channels + c];
         s->d += (double)y - (double)fine_at[i];
         s->n++;
-        s->lo = fminf(s->lo, y);
-        s->hi = fmaxf(s->hi, y);
     }
     for (size_t p = 0; p < np; p++)
         if (st[p].n)
@@ -84,7 +78,7 @@ csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint
     return CSI_OK;
 }
 
-void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *lohi, float *plane)
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *range, float *plane)
 {
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     const double cells = (double)(g->w / g->out_w) * (g->h / g->out_h) * g->t;
@@ -119,7 +113,6 @@ void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const 
         if (!st[p].n)
             continue;
         double e = 0, m = 0;
-        float lo = INFINITY, hi = -INFINITY;
         const box3 r = around(p, ow, oh);
         for (size_t y = r.y0; y <= r.y1; y++)
             for (size_t x = r.x0; x <= r.x1; x++) {
@@ -128,13 +121,8 @@ void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const 
                     e += q->e;
                     m += 1;
                 }
-                lo = fminf(lo, q->lo);
-                hi = fmaxf(hi, q->hi);
             }
-        if (lohi) {
-            lo = lohi[2 * p];
-            hi = lohi[2 * p + 1];
-        }
+        const float lo = range[2 * p], hi = range[2 * p + 1];
         const double b2 = fmax(e / m, 0.0), v = st[p].v;
         const double k = b2 + v > 0 ? b2 / (b2 + v) : 1.0;
         const double out = (double)plane[p] + k * st[p].d;

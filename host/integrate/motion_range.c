@@ -12,7 +12,6 @@
  * (sample_range.c). */
 #include <math.h>
 #include <stdlib.h>
-#include <string.h>
 
 #include "internal.h"
 
@@ -48,20 +47,25 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         bh = g->h;
     }
     const size_t na = aw * ah;
-    float *lo = malloc(na * sizeof *lo), *hi = malloc(na * sizeof *hi);
-    float *lohi = malloc(2 * na * sizeof *lohi);
+    /* A still basis: the caller's range of each output pixel (sample_range.c: the pixel's own
+     * window, grown where its values change over t). The same rule in the frame of a sheared
+     * basis cost the Mitsuba camera slide 1-7% of its image MSE (docs/bench/animation.md,
+     * session 30): there the window stays 3 x 3, found here. */
+    const bool still = still_range && fvx == 0 && fvy == 0 && na == np;
+    float *lo = NULL, *hi = NULL, *lohi = NULL;
     cl_mem dev = NULL;
     csi_status s = CSI_OK;
-    if (!lo || !hi || !lohi) {
+    if (!still && (!(lo = malloc(na * sizeof *lo)) || !(hi = malloc(na * sizeof *hi)) ||
+                   !(lohi = malloc(2 * na * sizeof *lohi)))) {
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range along the motion");
         goto done;
     }
-    for (size_t p = 0; p < na; p++) {
+    for (size_t p = 0; !still && p < na; p++) {
         lo[p] = INFINITY;
         hi[p] = -INFINITY;
     }
     float all_lo = INFINITY, all_hi = -INFINITY;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; !still && i < n; i++) {
         all_lo = fminf(all_lo, values[i * channels + c]);
         all_hi = fmaxf(all_hi, values[i * channels + c]);
     }
@@ -69,13 +73,6 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
         all_lo = -INFINITY; /* no sample at all: nothing to clamp to */
         all_hi = INFINITY;
     }
-    /* A still basis: the caller's range of each output pixel (sample_range.c: the pixel's own
-     * window, grown where its values change over t). The same rule in the frame of a sheared
-     * basis cost the Mitsuba camera slide 1-7% of its image MSE (docs/bench/animation.md,
-     * session 30): there the window stays 3 x 3. */
-    const bool still = still_range && fvx == 0 && fvy == 0 && na == np;
-    if (still)
-        memcpy(lohi, still_range, 2 * np * sizeof *lohi);
     for (size_t i = 0; !still && i < n; i++) {
         const long ax = aligned(pos[i].x, pos[i].t, fvx, tc, bw, ox);
         const long ay = aligned(pos[i].y, pos[i].t, fvy, tc, bh, oy);
@@ -108,7 +105,7 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
     const size_t cap = wide ? CSI_MOTION_RANGE_MAX_PIXELS * np : np;
     s = csi_buffer(ctx, 2 * cap * sizeof(float), CL_MEM_READ_ONLY, "the sample range", &dev);
     if (s == CSI_OK)
-        s = csi_write(ctx, dev, 0, 2 * na * sizeof(float), lohi);
+        s = csi_write(ctx, dev, 0, 2 * na * sizeof(float), still ? still_range : lohi);
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_clamp_aligned_range", &kc);
     if (s == CSI_OK)

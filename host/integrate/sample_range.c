@@ -71,8 +71,8 @@ static uint64_t count_in(const uint64_t *cum, size_t w, long x0, long y0, long x
     return cum[d * W1 + c] - cum[b * W1 + c] - cum[d * W1 + a] + cum[b * W1 + a];
 }
 
-csi_status csi_recon_pixel_values(size_t ow, size_t oh, const size_t *pix, const float *values, uint32_t channels,
-                                  uint32_t c, size_t n, csi_px_values *px, float all[2])
+void csi_recon_pixel_values(size_t ow, size_t oh, const size_t *pix, const float *values, uint32_t channels,
+                            uint32_t c, size_t n, csi_px_values *px, float all[2])
 {
     const size_t np = ow * oh;
     for (size_t p = 0; p < np; p++)
@@ -101,7 +101,6 @@ csi_status csi_recon_pixel_values(size_t ow, size_t oh, const size_t *pix, const
         const double r = (double)values[i * channels + c] - px[p].mean;
         px[p].ss += r * r;
     }
-    return CSI_OK;
 }
 
 csi_status csi_recon_value_ranges(size_t ow, size_t oh, const csi_px_values *px, const float all[2], float *lohi)
@@ -185,9 +184,8 @@ csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, cons
     if (!px)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
     float all[2];
-    csi_status s = csi_recon_pixel_values(ow, oh, pix, values, channels, c, n, px, all);
-    if (s == CSI_OK)
-        s = csi_recon_value_ranges(ow, oh, px, all, lohi);
+    csi_recon_pixel_values(ow, oh, pix, values, channels, c, n, px, all);
+    const csi_status s = csi_recon_value_ranges(ow, oh, px, all, lohi);
     free(px);
     return s;
 }

@@ -544,11 +544,9 @@ static csi_status resid_correct(csi_blend *b, uint32_t c)
         st[q].n = (uint32_t)llround(a[0]); /* the weights of a sample's tiles sum to 1 */
         st[q].d = a[1];
         st[q].ss = a[2];
-        st[q].lo = (float)a[3];
-        st[q].hi = (float)a[4];
-        px[q] = (csi_px_values){.mean = a[5], .ss = a[6], .n = st[q].n, .lo = st[q].lo, .hi = st[q].hi};
-        all[0] = fminf(all[0], st[q].lo);
-        all[1] = fmaxf(all[1], st[q].hi);
+        px[q] = (csi_px_values){.mean = a[5], .ss = a[6], .n = st[q].n, .lo = (float)a[3], .hi = (float)a[4]};
+        all[0] = fminf(all[0], px[q].lo);
+        all[1] = fmaxf(all[1], px[q].hi);
     }
     if (s == CSI_OK)
         s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, lohi);
