@@ -157,6 +157,9 @@ static csi_status reconstruct_tile(csi_device *dev, const csi_samples *s, size_t
     csi_api_progress pr = {progress, user};
     o.progress = progress ? csi_api_progress_relay : NULL;
     o.user = &pr;
+    /* the samples' noise, as csi_recon takes it from the whole's: here from the samples given */
+    if (s->grid.t > 1)
+        csi_recon_sample_noise(s->values, o.sample_variance, s->count, s->channels, o.sample_noise);
     csi_status st = csi_tiling_layout(dev->ctx, &s->grid, s->channels, whole, &o, &r->tiling);
     /* the grid the layout lies on (padded for the FFT or not): the samples are its cells too */
     const csi_grid *g = &r->tiling.grid;

@@ -107,6 +107,8 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
     CSI_TRY(csi_recon_check_variance(opt.sample_variance, n, channels));
+    if (grid->t > 1) /* the whole's noise, before any scaling or tiling (motion.c's tau) */
+        csi_recon_sample_noise(values, opt.sample_variance, n, channels, opt.sample_noise);
     /* The layout (csi_tiling_layout: what a tile run alone, --tile, lays out too). Sides the
      * transforms cannot take (internal.h): the padded grid, on which the samples' positions are
      * the same cells (it grows right and down), unless tiles of the image's own grid are laid out

@@ -106,10 +106,11 @@ def log(msg):
 # ---- cases: a truth volume (T, H, W, C) and samples ------------------------------------------
 
 class Case:
-    def __init__(self, source, name, seed, rate, truth, pos, vals, info=None, extra=None):
+    def __init__(self, source, name, seed, rate, truth, pos, vals, info=None, extra=None, variance=None):
         self.source, self.name, self.seed, self.rate = source, name, seed, rate
         self.truth = truth  # (T, H, W, C) float32
         self.pos, self.vals = pos, vals  # (n, 3) uint32 x, y, t; (n, C) float32
+        self.variance = variance  # (n, C) float32: each value's variance (a renderer's), or None
         self.info = info or []
         self.extra = extra or {}
 
@@ -178,20 +179,35 @@ def mitsuba_case(name, seed, rate, size, data, ref_spp, paths):
         req = mb.positions_request((W, H), method="random", seed=seed + 1, time_steps=T, fraction=rate)
         s = mb.render_request(scene, req, paths=paths, seed=seed + 1)
         csid.write(dump_path, req.with_values(s.values))
+        if paths > 1:
+            csid.write(dump_path[:-5] + ".variance.csid", req.with_values(s.variance))
         with open(meta_path + ".tmp", "w") as f:
             json.dump({"timing": s.timing, "nonfinite": s.nonfinite, "paths": paths, "grid": list(req.grid)}, f)
         os.replace(meta_path + ".tmp", meta_path)
     dump = csid.read(dump_path)
+    # Each sample's variance beside it, as csi-mitsuba writes it (X.variance.csid), which csi
+    # reads with the samples. A dump cached before the variances were kept is rendered again for
+    # them: Mitsuba gives the same values for the same seed (checked).
+    var_path = dump_path[:-5] + ".variance.csid"
+    if paths > 1 and not os.path.exists(var_path):
+        log(f"mitsuba: {name} variances of {os.path.basename(dump_path)}")
+        scene = mb.load_scene(MITSUBA_SCENES[name], size=(W, H))
+        s = mb.render_request(scene, dump, paths=paths, seed=seed + 1)
+        if not np.array_equal(np.asarray(s.values, np.float32), np.asarray(dump.values, np.float32)):
+            raise SystemExit(f"bench_animation: {dump_path}: Mitsuba no longer renders these values; "
+                             "remove the dump to render it again")
+        csid.write(var_path, dump.with_values(s.variance))
+    variance = csid.read(var_path).values.astype(np.float32) if paths > 1 else None
     meta = json.load(open(meta_path)) if os.path.exists(meta_path) else {}
     return Case("mitsuba", name, seed, rate, truth, dump.xyt.astype(np.uint32), dump.values.astype(np.float32),
-                extra={"mitsuba": meta.get("timing", {}), "paths": paths})
+                extra={"mitsuba": meta.get("timing", {}), "paths": paths}, variance=variance)
 
 
 # ---- methods: each returns (image (H, W, C), frames (T, H, W, C), seconds, notes) -----------
 
 def run_csi(case, **opts):
     t0 = time.perf_counter()
-    r = csi.reconstruct(case.pos, case.vals, case.grid, frames="on", **opts)
+    r = csi.reconstruct(case.pos, case.vals, case.grid, frames="on", variance=case.variance, **opts)
     sec = time.perf_counter() - t0
     notes = {"iterations": max(rep["iterations"] for rep in r.reports),
              "vx": r.options.get("motion_vx"), "vy": r.options.get("motion_vy"),
@@ -318,7 +334,8 @@ def run_cs2d(case):
             continue
         p = case.pos[sel].copy()
         p[:, 2] = 0
-        r = csi.reconstruct(p, case.vals[sel], (W, H, 1, W, H))
+        r = csi.reconstruct(p, case.vals[sel], (W, H, 1, W, H),
+                            variance=None if case.variance is None else case.variance[sel])
         frames[t] = r.image
         its.append(max(rep["iterations"] for rep in r.reports))
     sec = time.perf_counter() - t0
@@ -456,7 +473,9 @@ def main():
     ap.add_argument("--methods", default=",".join(DEFAULT_METHODS))
     ap.add_argument("--data", default=os.path.join(os.path.expanduser("~"), ".cache", "csi", "bench-anim"),
                     help="cache of the volumes and of Mitsuba's references and samples")
-    ap.add_argument("--ref-spp", type=int, default=256, help="Mitsuba reference samples per pixel per frame")
+    ap.add_argument("--ref-spp", type=int, default=1024,
+                    help="Mitsuba reference samples per pixel per frame (at 64 the reference's own noise was a "
+                    "quarter of the image error on anim_ball at 10%%: docs/bench/animation.md, session 31)")
     ap.add_argument("--paths", type=int, default=16, help="Mitsuba paths per sample")
     ap.add_argument("--figures", default="0.03", help="rates whose first seed gets figures")
     ap.add_argument("--variant", action="append", default=[], metavar="NAME=OPT:VALUE[,OPT:VALUE]",

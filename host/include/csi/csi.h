@@ -338,11 +338,15 @@ typedef struct csi_samples {
                                    that an initialiser without it means 0 */
     const float *variance;      /* NULL (unknown), or N x channels like values: each value's
                                    variance as an estimate of the signal at its cell's centre
-                                   (a renderer's paths' sample variance / paths), >= 0. An
-                                   isolated bright sample its own noise explains is then taken
-                                   as noise (csi/peak_noise.h in the source tree), in a
-                                   whole image and in every tile alike. Last, so that an
-                                   initialiser without it means NULL */
+                                   (a renderer's paths' sample variance / paths), >= 0. In an
+                                   image, an isolated bright sample its own noise explains is
+                                   then taken as noise (csi/peak_noise.h in the source tree);
+                                   in a volume, the solve's tau is at least a multiple of the
+                                   samples' noise (CSI_MOTION_TAU_NOISE in csi/reconstruct.h);
+                                   in a whole problem and in every tile alike (with
+                                   csi_reconstruct_tile_window, the noise of the window's
+                                   samples). Last, so that an initialiser without it means
+                                   NULL */
 } csi_samples;
 
 /* What the reconstruction is doing, for a progress display. */
@@ -506,7 +510,7 @@ CSI_API csi_status csi_tile_window(csi_device *dev, const csi_samples *samples, 
  * window alone: `samples` are those (positions on the whole grid), whole_count decides the layout
  * and the defaults as it would with every sample at hand. Without the whole's scale (NULL: it
  * needs every sample) the tile scales tau by its own samples, as an untiled run of its window
- * would. */
+ * would; a volume's noise (samples->variance) is always its own samples'. */
 CSI_API csi_status csi_reconstruct_tile_window(csi_device *dev, const csi_samples *samples, size_t whole_count,
                                                const csi_options *options, uint32_t index, const double *scale,
                                                csi_progress_fn progress, void *user, csi_result **out);

@@ -142,10 +142,21 @@ double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims);
  * (n 4096 and 6554: tau_rel 3-4e-3) and at 512^2 x 128 (n = 335544: 4.3e-4), see
  * docs/bench/motion.md; the solver's own default (1e-4) costs 3-10x the iterations at the small
  * sizes for a worse result. */
+/* With the samples' variances (csi_samples.variance) a coefficient the scene does not have also
+ * receives their noise, about sqrt(n) sigma / sqrt(k): relative to the maximum, (sigma / mean) /
+ * sqrt(n), the same form as the aliasing floor above. Alg. 2's tau_rel is then at least
+ * CSI_MOTION_TAU_NOISE (sigma / mean) / sqrt(n) per channel (csi_recon_options.sample_noise,
+ * motion.c): 3 was the best image and frames on Mitsuba's path-traced animations at 1-10% of the
+ * cells (2-4 within 2%; docs/bench/animation.md, session 31). */
+#define CSI_MOTION_TAU_NOISE 3.0
 #define CSI_MOTION_TAU_C 0.25
 #define CSI_MOTION_TAU_MIN 1e-4
 #define CSI_MOTION_TAU_MAX 3e-2
 double csi_motion_tau_rel(size_t n);
+/* Each channel's noise relative to its level (sample_noise.c): sqrt(mean variance) / mean |value|
+ * over the n samples (channels <= 4); all 0 without variances (variance NULL). */
+void csi_recon_sample_noise(const float *values, const float *variance, size_t n, uint32_t channels,
+                            double noise[4]);
 
 /* The fields; each one's meaning, range and default are in its row of the table (options.c,
  * printed by the programs' --help). */
@@ -251,8 +262,13 @@ typedef struct csi_recon_options {
     uint32_t sample_flags;
     /* Not an option either: csi_samples.variance (NULL: unknown), read on a still image
      * reconstructed by csi with the blend (csi/peak_noise.h): by csi_recon on the whole image,
-     * by each tile in its window (csi_recon_tile). */
+     * by each tile in its window (csi_recon_tile); on a volume, only for sample_noise below. */
     const float *sample_variance;
+    /* Not an option either: each channel's noise relative to its level over the whole problem's
+     * samples, from sample_variance (csi_recon_sample_noise; 0 without variances), set where the
+     * whole's samples are at hand (csi_recon, csi_reconstruct_tile) and copied to every tile;
+     * Alg. 2's tau follows it (CSI_MOTION_TAU_NOISE). */
+    double sample_noise[4];
     /* Not an option either: how many of the grid's frames are the shutter's, the first ones
      * (0: all). A volume whose frame count the FFT cannot take is solved on more frames, which
      * hold no sample (padding.c); its image is the mean over these frames only. */

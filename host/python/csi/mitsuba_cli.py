@@ -96,7 +96,8 @@ def parser():
     s.add_argument("--variance-peaks", action=argparse.BooleanOptionalAction, default=None,
                    help="reconstruct with each sample's variance (csi-reconstruct --variance, which takes the "
                         "X.variance.csid beside a dump by default): an isolated bright sample its own noise explains "
-                        "is shrunk by how much of it that noise explains. Default: on with --paths above 1 "
+                        "is shrunk by how much of it that noise explains, and an animation's solve regularises "
+                        "as much as the samples' noise asks. Default: on with --paths above 1 "
                         "(one path has no variance), docs/bench/mitsuba.md")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
