@@ -457,8 +457,8 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
 /* Alg. 2's image with a still basis (csi_aa_correct AUTO): each pixel of plane (channel c, the
  * box mean of the fitted volume, in and out) moved by the mean of its samples' residuals
  * y - fine_at, shrunk by that correction's estimated risk, then projected onto `range`, the range
- * that bounded the volume (csi_recon_sample_ranges; motion_correct.c). fine_at: the volume at
- * the n samples. */
+ * that bounded the volume (csi_recon_sample_ranges; motion_correct.c); a pixel without a sample
+ * then kept within its 8 neighbours' range. fine_at: the volume at the n samples. */
 csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
                                     uint32_t c, const csi_sample_pos *pos, const float *fine_at,
                                     size_t n, const float *range, float *plane);

@@ -31,8 +31,9 @@
  *
  * The result is then projected onto the range the volume was (sample_range.c: the samples in
  * the pixel and its 8 neighbours, a wider window where the pixel's values change over t): no
- * halo, and non-negative samples give a non-negative image. Frames are left as the fit gave
- * them. All in double, in sample order (deterministic). */
+ * halo, and non-negative samples give a non-negative image. A pixel without a sample, which has
+ * no correction, is last kept within the range of its 8 neighbours. Frames are left as the fit
+ * gave them. All in double, in sample order (deterministic). */
 #include <math.h>
 #include <stdlib.h>
 
@@ -128,4 +129,28 @@ void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const 
         const double out = (double)plane[p] + k * st[p].d;
         plane[p] = fminf(fmaxf((float)out, lo), hi);
     }
+    /* A pixel without a sample has nothing of its own to say: it is not allowed an extremum
+     * among its 8 neighbours either, each channel within their range. Where the basis fits a
+     * mover poorly the fit gives such a pixel a value off on its own (a speck of another colour
+     * beside a path-traced ball, docs/bench/animation.md session 31); on a still photograph's
+     * exact samples the fit between the samples rarely leaves that range. The bounds are all
+     * taken before any is applied (v and e, scratch of the pixels with samples only, hold them),
+     * so the order of the pixels does not matter. */
+    for (size_t p = 0; p < np; p++) {
+        if (st[p].n)
+            continue;
+        const box3 r = around(p, ow, oh);
+        double lo = INFINITY, hi = -INFINITY;
+        for (size_t y = r.y0; y <= r.y1; y++)
+            for (size_t x = r.x0; x <= r.x1; x++)
+                if (y * ow + x != p) {
+                    lo = fmin(lo, (double)plane[y * ow + x]);
+                    hi = fmax(hi, (double)plane[y * ow + x]);
+                }
+        st[p].v = lo;
+        st[p].e = hi;
+    }
+    for (size_t p = 0; p < np; p++)
+        if (!st[p].n && st[p].v <= st[p].e)
+            plane[p] = (float)fmin(fmax((double)plane[p], st[p].v), st[p].e);
 }
