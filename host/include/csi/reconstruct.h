@@ -142,17 +142,18 @@ double csi_gauss_nc_default_sigma(size_t k, size_t n, int dims);
  * (n 4096 and 6554: tau_rel 3-4e-3) and at 512^2 x 128 (n = 335544: 4.3e-4), see
  * docs/bench/motion.md; the solver's own default (1e-4) costs 3-10x the iterations at the small
  * sizes for a worse result. */
-/* With the samples' variances (csi_samples.variance) a coefficient the scene does not have also
- * receives their noise, about sqrt(n) sigma / sqrt(k): relative to the maximum, (sigma / mean) /
- * sqrt(n), the same form as the aliasing floor above. Alg. 2's tau_rel is then at least
- * CSI_MOTION_TAU_NOISE (sigma / mean) / sqrt(n) per channel (csi_recon_options.sample_noise,
- * motion.c): 3 was the best image and frames on Mitsuba's path-traced animations at 1-10% of the
- * cells (2-4 within 2%; docs/bench/animation.md, session 31). */
-#define CSI_MOTION_TAU_NOISE 3.0
 #define CSI_MOTION_TAU_C 0.25
 #define CSI_MOTION_TAU_MIN 1e-4
 #define CSI_MOTION_TAU_MAX 3e-2
 double csi_motion_tau_rel(size_t n);
+/* With the samples' variances (csi_samples.variance) a coefficient the scene does not have also
+ * receives their noise, about sqrt(n) sigma / sqrt(k): relative to the maximum, (sigma / mean) /
+ * sqrt(n), the same form as the aliasing floor above. Alg. 2's tau_rel is then at least
+ * CSI_MOTION_TAU_NOISE (sigma / mean) / sqrt(n) per channel (csi_recon_options.sample_noise,
+ * motion.c): 3 was within 1% of the best image and 0.15 dB of the best frames on Mitsuba's
+ * path-traced animations at 3-10% of the cells (2 and 4 within 3%; docs/bench/animation.md,
+ * session 31). */
+#define CSI_MOTION_TAU_NOISE 3.0
 /* Each channel's noise relative to its level (sample_noise.c): sqrt(mean variance) / mean |value|
  * over the n samples (channels <= 4); all 0 without variances (variance NULL). */
 void csi_recon_sample_noise(const float *values, const float *variance, size_t n, uint32_t channels,
