@@ -337,9 +337,11 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                 s = csi_half_fourier_set_still_gain(st->A, 1.0 / still_weight);
         }
         /* Samples with variances: tau_rel at least CSI_MOTION_TAU_NOISE times their noise
-         * relative to their level over sqrt(n) (csi/reconstruct.h), the whole problem's noise in
-         * a tile, which scales it by its own level as it scales tau. */
-        const double noise_rel = CSI_MOTION_TAU_NOISE * opt->sample_noise[c] / sqrt((double)n);
+         * relative to their level, at most CSI_MOTION_TAU_NOISE_MAX, over sqrt(n)
+         * (csi/reconstruct.h); the whole problem's noise in a tile, which scales it by its own
+         * level as it scales tau. */
+        const double noise_rel =
+            fmin(CSI_MOTION_TAU_NOISE * opt->sample_noise[c], CSI_MOTION_TAU_NOISE_MAX) / sqrt((double)n);
         if (s == CSI_OK && noise_rel > opt->tau_rel) {
             if (tau_scale == 0)
                 s = csi_solver_adjoint_amax(st->solver, st->y, &tau_scale);

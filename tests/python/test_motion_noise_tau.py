@@ -2,8 +2,9 @@
 checked against its closed form and for the properties the library promises around it:
 
 - the rule: per channel, tau with the variances is tau without them times
-  max(1, 3 (sqrt(mean variance) / mean |value|) / (sqrt(n) tau_rel)), the noise ratio computed
-  here in numpy (double); a channel whose noise is below the floor keeps the image it has without
+  max(1, min(3 (sqrt(mean variance) / mean |value|), 1) / (sqrt(n) tau_rel)), the noise ratio
+  computed here in numpy (double; the first channel's noise, a half of its level, meets the cap);
+  a channel whose noise is below the floor keeps the image it has without
   the variances, bit for bit (channels are solved one at a time);
 - on a noisy volume (a still pattern and a moving disc, 25% of the cells, Gaussian noise of a
   half and a third of the level: Mitsuba's samples of 16 paths are at 0.27-0.29) the frames and
@@ -64,7 +65,7 @@ tau_rel = float(plain.options["tau"])
 for c in range(3):
     v, y = var[:, c].astype(np.float64), val[:, c].astype(np.float64)
     ratio = np.sqrt(v.mean()) / np.abs(y).mean()
-    want = max(1.0, 3.0 * ratio / (np.sqrt(n) * tau_rel))
+    want = max(1.0, min(3.0 * ratio, 1.0) / (np.sqrt(n) * tau_rel))
     got = noisy.reports[c]["tau"] / plain.reports[c]["tau"]
     check(abs(got - want) <= 1e-9 * want, f"channel {c}: tau with / without the variances {got}, want {want}")
 check(3.0 * 0.002 / np.sqrt(n) < tau_rel, "the third channel's noise is below the floor (the test's premise)")

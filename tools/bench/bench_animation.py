@@ -186,18 +186,27 @@ def mitsuba_case(name, seed, rate, size, data, ref_spp, paths):
         os.replace(meta_path + ".tmp", meta_path)
     dump = csid.read(dump_path)
     # Each sample's variance beside it, as csi-mitsuba writes it (X.variance.csid), which csi
-    # reads with the samples. A dump cached before the variances were kept is rendered again for
-    # them: Mitsuba gives the same values for the same seed (checked).
+    # reads with the samples; with one path per sample, one path's variance from a second path
+    # through some of the cells (mb.path_noise, csi-mitsuba's for an animation). A dump cached before the
+    # variances were kept is rendered again for them: Mitsuba gives the same values for the same
+    # seed (checked).
     var_path = dump_path[:-5] + ".variance.csid"
-    if paths > 1 and not os.path.exists(var_path):
+    if not os.path.exists(var_path):
         log(f"mitsuba: {name} variances of {os.path.basename(dump_path)}")
         scene = mb.load_scene(MITSUBA_SCENES[name], size=(W, H))
-        s = mb.render_request(scene, dump, paths=paths, seed=seed + 1)
-        if not np.array_equal(np.asarray(s.values, np.float32), np.asarray(dump.values, np.float32)):
-            raise SystemExit(f"bench_animation: {dump_path}: Mitsuba no longer renders these values; "
-                             "remove the dump to render it again")
-        csid.write(var_path, dump.with_values(s.variance))
-    variance = csid.read(var_path).values.astype(np.float32) if paths > 1 else None
+        if paths > 1:
+            s = mb.render_request(scene, dump, paths=paths, seed=seed + 1)
+            if not np.array_equal(np.asarray(s.values, np.float32), np.asarray(dump.values, np.float32)):
+                raise SystemExit(f"bench_animation: {dump_path}: Mitsuba no longer renders these values; "
+                                 "remove the dump to render it again")
+            var = s.variance
+        else:
+            from csi.mitsuba_cli import noise_seed
+
+            v, _ = mb.path_noise(scene, dump, dump.values, seed=noise_seed(seed + 1))
+            var = np.broadcast_to(v.astype(np.float32), dump.values.shape)
+        csid.write(var_path, dump.with_values(var))
+    variance = csid.read(var_path).values.astype(np.float32)
     meta = json.load(open(meta_path)) if os.path.exists(meta_path) else {}
     return Case("mitsuba", name, seed, rate, truth, dump.xyt.astype(np.uint32), dump.values.astype(np.float32),
                 extra={"mitsuba": meta.get("timing", {}), "paths": paths}, variance=variance)

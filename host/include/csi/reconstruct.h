@@ -151,9 +151,14 @@ double csi_motion_tau_rel(size_t n);
  * sqrt(n), the same form as the aliasing floor above. Alg. 2's tau_rel is then at least
  * CSI_MOTION_TAU_NOISE (sigma / mean) / sqrt(n) per channel (csi_recon_options.sample_noise,
  * motion.c): 3 was within 1% of the best image and 0.15 dB of the best frames on Mitsuba's
- * path-traced animations at 3-10% of the cells (2 and 4 within 3%; docs/bench/animation.md,
- * session 31). */
+ * path-traced animations at 3-10% of the cells (16 paths per sample: noise 0.27-0.29 of the
+ * level; 2 and 4 within 3%; docs/bench/animation.md, session 31). Not beyond
+ * CSI_MOTION_TAU_NOISE_MAX / sqrt(n), 4 times the default: with one path per sample (noise
+ * about the level) 3 (sigma / mean) smoothed the frames more but lost the blurred image 7-25% on
+ * two of three scenes, where this cap (about 0.9 sigma / mean there) kept it at or below the
+ * image without the variances. */
 #define CSI_MOTION_TAU_NOISE 3.0
+#define CSI_MOTION_TAU_NOISE_MAX 1.0
 /* Each channel's noise relative to its level (sample_noise.c): sqrt(mean variance) / mean |value|
  * over the n samples (channels <= 4); all 0 without variances (variance NULL). */
 void csi_recon_sample_noise(const float *values, const float *variance, size_t n, uint32_t channels,

@@ -485,6 +485,29 @@ def render_reference(scene: Scene, spp: int, seed=0, progress=None) -> np.ndarra
     return (acc / passes).astype(np.float32)
 
 
+PATH_NOISE_CELLS = 1024
+
+
+def path_noise(scene: Scene, req: csid.Dump, values, seed, cells=None):
+    """The variance of one path's radiance per channel, averaged over a request's cells, for
+    samples of one path (`values`, which carry no variance of their own): one more path through
+    `cells` of the samples (default one in 16, at least 64 and at most PATH_NOISE_CELLS), spread
+    evenly over the request's order (every frame of an animation); each pair, the sample's own
+    path and the new one, independent estimates of the same cell, gives (a - b)^2 / 2, and these
+    are averaged. An animation's solve needs only this mean (csi_samples.variance;
+    CSI_MOTION_TAU_NOISE in csi/reconstruct.h), so csi-mitsuba hands it to csi as every sample's
+    variance. Returns ((3,) float64, Mitsuba's timing of the extra paths)."""
+    n = len(req.xyt)
+    if n == 0:
+        return np.zeros(3), {}
+    m = min(n, int(cells) if cells else max(64, min(PATH_NOISE_CELLS, n // 16)))
+    idx = np.unique(np.linspace(0, n - 1, m).round().astype(np.int64))
+    sub = csid.Dump(grid=req.grid, out=req.out, xyt=req.xyt[idx], values=None, seed=req.seed)
+    s = render_request(scene, sub, paths=1, seed=seed)
+    d = np.asarray(values, np.float64)[idx] - s.values.astype(np.float64)
+    return 0.5 * (d * d).mean(axis=0), s.timing
+
+
 def render_reference_frames(scene: Scene, frames: int, spp: int, seed=0, progress=None) -> np.ndarray:
     """The reference of an animation: render_reference of each of `frames` time steps with the
     scene posed at (t + 0.5) / frames, (frames, h, w, 3) float32. Every frame is rendered with

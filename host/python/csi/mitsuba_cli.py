@@ -97,8 +97,9 @@ def parser():
                    help="reconstruct with each sample's variance (csi-reconstruct --variance, which takes the "
                         "X.variance.csid beside a dump by default): an isolated bright sample its own noise explains "
                         "is shrunk by how much of it that noise explains, and an animation's solve regularises "
-                        "as much as the samples' noise asks. Default: on with --paths above 1 "
-                        "(one path has no variance), docs/bench/mitsuba.md")
+                        "as much as the samples' noise asks (with one path per sample, one path's variance is "
+                        "estimated from a second path through one cell in 16, at most 1024). Default: on with --paths above 1 or --time-steps above 1 "
+                        "(docs/bench/mitsuba.md, docs/bench/animation.md)")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
@@ -293,6 +294,12 @@ def refine_seed(seed: int, k: int = 0) -> int:
     return ((int(seed) ^ 0x72656669_6E650000) + k) % (1 << 64)
 
 
+def noise_seed(seed: int) -> int:
+    """The seed of the paths that estimate one path's variance (mb.path_noise): their own, as
+    refine_seed's are."""
+    return ((int(seed) ^ 0x6E6F6973_65000000) + 1) % (1 << 64)
+
+
 def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     """The passes after the first (--refine, --refine-passes): the cells csi_refine_positions
     picks, rendered as the first ones were and merged with them in csi's cell order; each further
@@ -386,9 +393,10 @@ def run(a, extra):
             raise UsageError("--aov needs --dump FILE.csid (the albedo and normal go beside it)")
         reconstruction_options(extra)  # bad options refused before any rendering
     if a.variance_peaks is None:
-        a.variance_peaks = a.paths > 1
-    if a.variance_peaks and a.paths < 2:
-        raise UsageError("--variance-peaks needs --paths above 1 (one path has no sample variance)")
+        a.variance_peaks = a.paths > 1 or a.time_steps > 1
+    if a.variance_peaks and a.paths < 2 and a.time_steps < 2:
+        raise UsageError("--variance-peaks needs --paths above 1 (one path has no sample variance) or, for an "
+                         "animation, --time-steps above 1")
     estimator = _estimator(extra)
     if a.refine is None:  # the default: on where csi reconstructs an image from its own positions
         a.refine = not (a.reference or a.request or a.time_steps > 1 or estimator in ("mean", "gauss"))
@@ -411,7 +419,7 @@ def run(a, extra):
     aov_paths = var_path = None
     if a.dump:
         stem = a.dump[:-5] if a.dump.endswith(".csid") else a.dump
-        if a.paths > 1:  # each sample's variance beside its value (csi-reconstruct --variance)
+        if a.paths > 1 or (a.time_steps > 1 and a.variance_peaks):  # beside the values (csi-reconstruct --variance)
             var_path = stem + ".variance.csid"
         if a.aov:
             aov_paths = (stem + ".albedo.csid", stem + ".normal.csid")
@@ -489,6 +497,17 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
                           progress=lambda d, n: prog("samples", d, n))
     prog.end()
+    noise = None
+    if s.variance is None and a.time_steps > 1 and a.variance_peaks:
+        # one path per sample: one path's variance from a second path through some of the
+        # cells, every sample's variance for csi (an animation's solve needs only their mean)
+        import dataclasses
+
+        import numpy as np
+
+        v, t_noise = mb.path_noise(scene, req, s.values, seed=noise_seed(seed))
+        s = dataclasses.replace(s, variance=np.broadcast_to(v.astype(np.float32), s.values.shape).copy())
+        noise = {"cells": t_noise.get("samples", 0), "variance": v.tolist(), "mitsuba": t_noise}
     refined = refined_result = None
     if a.refine:
         req, s, refined, refined_result = refine(scene, req, s, a, extra, prog)
@@ -499,6 +518,8 @@ def _run(a, extra, prog, files, var_path, aov_paths):
              "t_load_s": t_load, "mitsuba": s.timing}
     if refined is not None:
         stats["refine"] = refined
+    if noise is not None:
+        stats["path_noise"] = noise
     t_recon = None
     if refined_result is not None:
         import csi
