@@ -15,9 +15,11 @@ Sources:
               anim_ball.py: animated objects), re-posed per time step (the bridge's
               render_request / render_reference_frames; Mitsuba has no motion blur of its own),
               sampled at csi's positions (csi-positions --method random --fraction F
-              --time-steps T), PATHS paths per sample; the truth is Mitsuba's box-filtered render
-              of every frame (same sampler seed in every frame, so static pixels are identical
-              from frame to frame), cached in --data.
+              --time-steps T), PATHS paths per sample, each sample's variance beside it as
+              csi-mitsuba gives it (one path's from mb.path_noise with PATHS = 1); the truth is
+              Mitsuba's box-filtered render of every frame at --ref-spp (same sampler seed in
+              every frame, so static pixels are identical from frame to frame, and the blurred
+              image carries one frame's noise), cached in --data.
 
 Every method gets the very same samples (uniformly random distinct cells, the paper's Alg. 2
 step 2, at each --rates fraction, per --seeds):
