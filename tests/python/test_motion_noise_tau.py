@@ -14,9 +14,9 @@ checked against its closed form and for the properties the library promises arou
   session 31);
 - it is a ratio: values and variances scaled by powers of two (2^-20, 2^-40) give the image
   scaled by 2^-20, bit for bit;
-- tiles: time windows made one at a time (csi.reconstruct_tile with the whole's samples and
-  variances) and merged give the in-process tiled image bit for bit, and that image is not the
-  one without the variances;
+- tiles: time windows, and x/y tiles, made one at a time (csi.reconstruct_tile with the whole's
+  samples and variances) and merged give the in-process tiled image bit for bit, and that image
+  is not the one without the variances;
 - csi-reconstruct takes the variances beside a volume's dump (X.variance.csid) and writes the
   image csi.reconstruct(variance=...) gives (the stats' FNV-1a hash)."""
 import json
@@ -81,20 +81,20 @@ for c in range(2):
 s = csi.reconstruct(pos, np.ldexp(val, -20), GRID, frames="on", variance=np.ldexp(var, -40))
 check(np.array_equal(s.image, np.ldexp(noisy.image, -20)), "values and variances scaled by powers of two: the image scaled")
 
-topts = dict(tiles_t=2)
-tiled = csi.reconstruct(pos, val, GRID, variance=var, **topts)
-untiled_novar = csi.reconstruct(pos, val, GRID, **topts)
-check(tiled.info["tiles"] == 2, f"time windows: {tiled.info['tiles']}")
-check(not np.array_equal(tiled.image, untiled_novar.image), "the tiled image follows the variances")
 with tempfile.TemporaryDirectory() as d:
-    parts = []
-    for i in (1, 0):
-        t = csi.reconstruct_tile(pos, val, GRID, i, variance=var, **topts)
-        parts.append(os.path.join(d, f"t{i}.csip"))
-        t.write_partial(parts[-1], "s.csid")
-    m = csi.merge_partials(parts)
-    check(m.stats["image_fnv1a64"] == tiled.stats["image_fnv1a64"],
-          f"windows made one at a time {m.stats['image_fnv1a64']} vs in process {tiled.stats['image_fnv1a64']}")
+    for topts, count in ((dict(tiles_t=2), 2), (dict(tiles=4, tiles_t=1, tile_margin=8), 4)):
+        tiled = csi.reconstruct(pos, val, GRID, variance=var, **topts)
+        tiled_novar = csi.reconstruct(pos, val, GRID, **topts)
+        check(tiled.info["tiles"] == count, f"{topts}: {tiled.info['tiles']} tiles")
+        check(not np.array_equal(tiled.image, tiled_novar.image), f"{topts}: the tiled image follows the variances")
+        parts = []
+        for i in reversed(range(count)):
+            t = csi.reconstruct_tile(pos, val, GRID, i, variance=var, **topts)
+            parts.append(os.path.join(d, f"t{i}.csip"))
+            t.write_partial(parts[-1], "s.csid")
+        m = csi.merge_partials(parts)
+        check(m.stats["image_fnv1a64"] == tiled.stats["image_fnv1a64"],
+              f"{topts}: tiles made one at a time {m.stats['image_fnv1a64']} vs in process {tiled.stats['image_fnv1a64']}")
 
     req = csid.Dump(grid=GRID[:3], out=GRID[3:], xyt=pos, values=None, seed=4)
     csid.write(os.path.join(d, "v.csid"), req.with_values(val))
