@@ -98,8 +98,8 @@ def parser():
                         "X.variance.csid beside a dump by default): an isolated bright sample its own noise explains "
                         "is shrunk by how much of it that noise explains, and an animation's solve regularises "
                         "as much as the samples' noise asks (with one path per sample, one path's variance is "
-                        "estimated from a second path through one cell in 16, at most 1024). Default: on with --paths above 1 or --time-steps above 1 "
-                        "(docs/bench/mitsuba.md, docs/bench/animation.md)")
+                        "estimated from a second path through one cell in 16, at most 1024). Default: on with "
+                        "--paths above 1 or --time-steps above 1 (docs/bench/mitsuba.md, docs/bench/animation.md)")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
@@ -280,7 +280,7 @@ def check_fits(req: csid.Dump, a, extra):
 
     kw, device = reconstruction_options(extra)
     n = len(req.xyt)
-    held = n * (12 + 12 + (12 if a.paths > 1 else 0))
+    held = n * (12 + 12 + (12 if a.paths > 1 or (a.time_steps > 1 and a.variance_peaks) else 0))
     try:
         csi.reconstruct_check((*req.grid, *req.out), 3, n, device=csi.Device(device) if device else None,
                               extra_host=held, input=a.request or a.scene, **kw)
