@@ -193,8 +193,10 @@ csi_status csi_recon_fit_trust(const csi_grid *g, const float *values, uint32_t 
                 mabs += fabs(t.y[p]);
                 filled++;
             }
-        t.e = TRUST_EPS_REL * (n ? sabs / (double)n : 0.0);
-        t.eps = pow(filled ? TRUST_EPS_REL * mabs / (double)filled : 0.0, 2);
+        /* floored as blend.c's eps: a channel whose samples are all 0 (a black image, the G and
+         * B of a red one with --chroma off) would make both ratios 0 / 0 */
+        t.e = csi_fmax(TRUST_EPS_REL * (n ? sabs / (double)n : 0.0), 1e-150);
+        t.eps = csi_fmax(pow(filled ? TRUST_EPS_REL * mabs / (double)filled : 0.0, 2), 1e-300);
         csi_row_pool_run(pool, oh, ow, trust_pass_pixels, &t);
     }
     free(start), free(t.cnt), free(t.y), free(t.gx), free(t.lo), free(t.hi);

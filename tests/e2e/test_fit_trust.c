@@ -18,6 +18,9 @@
  *      standard errors of the ratio (the per-seed ratios' spread, as in test_blend.c).
  *   3. A grid of one cell per pixel: every pixel is its one sample, bit for bit (the sample is
  *      the exact box mean; no trust in a fit improves on it).
+ *   4. Samples that are all 0 (a scene whose sensor sees nothing), or one channel of them (the G
+ *      and B of a red scene solved channel by channel), at 1 spp: the image is 0 there, exactly
+ *      (the trust's ratios once divided 0 by 0 and the run failed on a non-finite image).
  */
 #include <math.h>
 #include <stdio.h>
@@ -136,6 +139,40 @@ static void one_cell_pixels(csi_ctx *ctx)
     csi_recon_result_free(&res);
 }
 
+/* Property 4: 1 spp on a 4x grid, RGB, channels solved one by one; all zero, then G and B zero. */
+static void zero_samples(csi_ctx *ctx)
+{
+    enum { P = 16, F = 4 };
+    const csi_grid g = {P * F, P * F, 1, P, P};
+    csi_sample_pos pos[P * P];
+    float v[P * P * 3];
+    test_rng r;
+    test_rng_seed(&r, 5);
+    for (int red = 0; red < 2; red++) {
+        for (uint32_t i = 0; i < P * P; i++) {
+            pos[i] = (csi_sample_pos){(i % P) * F + (uint32_t)(test_rng_uniform(&r) * F),
+                                      (i / P) * F + (uint32_t)(test_rng_uniform(&r) * F), 0};
+            v[3 * i] = red ? (float)(0.1 + test_rng_uniform(&r)) : 0.0f;
+            v[3 * i + 1] = v[3 * i + 2] = 0.0f;
+        }
+        csi_recon_options o;
+        csi_recon_defaults(&o);
+        o.chroma = CSI_SWITCH_OFF;
+        csi_recon_result res;
+        csi_status st = csi_recon(ctx, &g, 3, pos, v, P * P, &o, &res);
+        CHECK(st == CSI_OK, "%s samples at 1 spp: %s", red ? "red" : "all-zero", csi_last_error());
+        if (st != CSI_OK)
+            continue;
+        size_t nonzero = 0;
+        for (uint32_t c = red; c < 3; c++)
+            for (uint32_t q = 0; q < P * P; q++)
+                nonzero += res.image[(size_t)c * P * P + q] != 0.0f;
+        CHECK(nonzero == 0, "%s samples at 1 spp: %zu values of the zero channels are not 0", red ? "red" : "all-zero",
+              nonzero);
+        csi_recon_result_free(&res);
+    }
+}
+
 int main(void)
 {
     csi_ctx *ctx = test_ctx();
@@ -143,5 +180,6 @@ int main(void)
     for (int i = 0; i < ANALYTIC_IMAGES; i++)
         image_cases(ctx, &analytic_images[i], &sc);
     one_cell_pixels(ctx);
+    zero_samples(ctx);
     return test_done();
 }
