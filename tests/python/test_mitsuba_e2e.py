@@ -1,7 +1,10 @@
 """csi-mitsuba end to end, as a user runs it: positions -> Mitsuba -> csi's library in-process
 (the bits of csi-reconstruct on the dump), compared with Mitsuba's own box-filtered reference;
-determinism; Mitsuba XML scenes; positions requests; bad input (exit 2, one line on stderr,
-nothing left behind).
+determinism; Mitsuba XML scenes (as users write them too: a film by <ref>, the sensor in an
+<include>d file, a luminance film, a scene that renders black); positions requests; bad input
+(exit 2, one line on stderr, nothing left behind: also no integrator, a crop window with --out,
+--time-steps on a still scene, a plugin RGB cannot render, an XML error named at its file's line);
+the outputs' file modes alike.
 
 Scene: Mitsuba's Cornell box at 64x64, 4 samples per pixel of 16 paths each (csi's default grid
 for 4 spp: 8x, 512x512 cells), reference 256 spp.
@@ -63,6 +66,9 @@ def main():
            "render + csi without the variances")
         ok(cli("cornell", "--out", "64x64", "--reference", 256, "--npy", p("ref.npy"), "-o", p("ref.exr"), "-q"),
            "reference")
+        modes = {f: os.stat(p(f)).st_mode & 0o777 for f in ("a.json", "cs.exr", "a.csid", "ref.npy", "ref.exr")
+                 if os.path.exists(p(f))}
+        check(len(set(modes.values())) == 1, f"the outputs' modes differ: {modes}")
         d = csid.read(p("a.csid"), want="samples")
         check(d.grid == (512, 512, 1) and d.out == (64, 64) and len(d.xyt) == 4 * 64 * 64 and d.channels == 3,
               f"dump header: grid {d.grid}, out {d.out}, {len(d.xyt)} samples, {d.channels} channels")
@@ -164,7 +170,45 @@ def main():
         centre = (np.abs(u - 0.5) < 0.1) & (np.abs(vv - 0.5) < 0.1)
         check(centre.any() and (x.values[centre][:, 0] > x.values[centre][:, 2]).all(), "the red sphere in the middle")
 
+        # Scenes as users write them: the film given by <ref>, the sensor in an <include>d file
+        # (the bridge edits the film through Mitsuba's own parser); a luminance film whose
+        # reference is still RGB; a scene whose sensor sees nothing gives a black image at 1 spp.
+        sensor = XML[XML.index("<sensor"):XML.index("</sensor>") + len("</sensor>")]
+        with open(p("cam.xml"), "w") as f:
+            f.write('<scene version="3.0.0">' + sensor + "</scene>")
+        with open(p("inc.xml"), "w") as f:
+            f.write(XML.replace(sensor, '<include filename="cam.xml"/>'))
+        film = sensor[sensor.index("<film"):sensor.index("</film>") + len("</film>")]
+        with open(p("ref.xml"), "w") as f:
+            f.write(XML.replace(film, '<ref id="myfilm"/>').replace("<sensor", film.replace(
+                '<film type="hdrfilm">', '<film type="hdrfilm" id="myfilm">') + "<sensor", 1))
+        for name in ("inc", "ref"):
+            if ok(cli(p(name + ".xml"), "--out", "16x12", "--spp", 1, "-o", p(name + ".exr"), "-q"), f"XML: {name}"):
+                im = exr.read(p(name + ".exr"))
+                check(im.shape == (12, 16, 3) and im[6, 8, 0] > im[6, 8, 2], f"XML {name}: {im.shape}, the red sphere")
+        with open(p("lum.xml"), "w") as f:
+            f.write(XML.replace('<film type="hdrfilm">', '<film type="hdrfilm"><string name="pixel_format" '
+                                'value="luminance"/>'))
+        ok(cli(p("lum.xml"), "--out", "16x12", "--reference", 16, "--npy", p("lum.npy"), "-q"), "luminance film reference")
+        lum = np.load(p("lum.npy")) if os.path.exists(p("lum.npy")) else np.zeros((1, 1, 3))
+        check(lum.shape == (12, 16, 3) and lum[6, 8, 0] > 1.5 * lum[6, 8, 2],
+              f"a luminance film's reference is csi's RGB: {lum.shape}, centre {lum[6, 8] if lum.shape[0] > 6 else None}")
+        with open(p("black.xml"), "w") as f:
+            f.write(XML.replace('<emitter type="constant"><rgb name="radiance" value="0.8, 0.9, 1.0"/></emitter>', ""))
+        if ok(cli(p("black.xml"), "--out", "16x12", "--spp", 1, "-o", p("black.exr"), "-q"), "a black scene at 1 spp"):
+            check(not exr.read(p("black.exr")).any(), "a black scene at 1 spp: the image is 0")
+
         # Bad input: exit 2, one line, nothing written.
+        with open(p("noint.xml"), "w") as f:
+            f.write(XML.replace('<integrator type="path"><integer name="max_depth" value="4"/></integrator>', ""))
+        with open(p("crop.xml"), "w") as f:
+            f.write(XML.replace('<rfilter type="gaussian"/>', '<integer name="crop_width" value="20"/>'))
+        with open(p("bb.xml"), "w") as f:
+            f.write(XML.replace('<rgb name="radiance" value="0.8, 0.9, 1.0"/>',
+                                '<spectrum type="blackbody" name="radiance"><float name="temperature" value="3000"/></spectrum>'))
+        with open(p("line.xml"), "w") as f:  # the declaration and comments kept: the error's line is the file's
+            f.write('<?xml version="1.0"?>\n<!-- a comment -->\n' + XML.replace('value="0.7, 0.3, 0.2"', 'value="0.7, 0.3"'))
+        bad_line = 2 + XML.split("\n").index(next(l for l in XML.split("\n") if "0.7, 0.3, 0.2" in l)) + 1
         with open(p("bad.xml"), "w") as f:
             f.write('<scene version="3.0.0"><sensor type="perspective">')
         with open(p("bad2.xml"), "w") as f:
@@ -186,6 +230,12 @@ def main():
             ("bad csi-reconstruct option", "--lambda", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--dump", p("o.csid"),
                                                         "--", "--lambda", "abc"]),
             ("an unknown option alone", "--bogus", ["--bogus"]),
+            ("no integrator", "no integrator", [p("noint.xml"), "--out", "8x8", "-o", p("o.exr")]),
+            ("a crop window and --out", "crop window", [p("crop.xml"), "--out", "8x8", "-o", p("o.exr")]),
+            ("--time-steps on a still scene", "is still", [p("s.xml"), "--out", "8x8", "--time-steps", "4", "-o",
+                                                          p("o.exr")]),
+            ("a plugin RGB cannot render", "cannot render", [p("bb.xml"), "--out", "8x8", "--spp", "1", "-o", p("o.exr")]),
+            ("an error named at its line", f"line.xml (line {bad_line},", [p("line.xml"), "--out", "8x8", "-o", p("o.exr")]),
             ("frames after --", "writes no frames", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--frames", "d"]),
             ("settle with the second pass", "--settle", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--settle",
                                                          "on"]),

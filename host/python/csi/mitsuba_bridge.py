@@ -118,6 +118,14 @@ def _one_line(e) -> str:
     return re.sub(r"\[[\w./-]+\.cpp:\d+\]\s*", "", msg)
 
 
+def _root_cause(e) -> str:
+    """The innermost exception's message on one line (Dr.Jit wraps a plugin's error raised
+    inside mi.render in "error while performing a custom differentiable operation")."""
+    while e.__cause__ is not None or e.__context__ is not None:
+        e = e.__cause__ or e.__context__
+    return _one_line(e)
+
+
 # ---- scenes -----------------------------------------------------------------------------------
 
 @dataclasses.dataclass
@@ -151,39 +159,91 @@ def _film_dict_override(d, size, box_filter):
         raise BridgeError("the scene has no sensor")
     film = sensor.setdefault("film", {"type": "hdrfilm"})
     if size:
+        _no_crop(film.keys(), size)
         film["width"], film["height"] = int(size[0]), int(size[1])
     if box_filter:
         film["rfilter"] = {"type": "box"}
+        film["pixel_format"] = "rgb"  # the samples are RGB: a luminance or XYZ film would not be
     return d
 
 
-def _xml_override(path, size, box_filter) -> str:
+#: A film's crop window: csi's image is the film's crop, so a new size cannot keep it.
+CROP_KEYS = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")
+
+
+def _no_crop(keys, size):
+    crop = sorted(k for k in keys if k in CROP_KEYS)
+    if crop:
+        raise BridgeError(f"the film has a crop window ({', '.join(crop)}): its size cannot be set to "
+                          f"{int(size[0])}x{int(size[1])}; render the crop at its own size (no --out) or remove "
+                          f"the crop window from the scene")
+
+
+def _xml_check(path):
+    """What can be said about an XML file without Mitsuba: well-formed, a <scene> root."""
     try:
-        tree = ET.parse(path)
+        root = ET.parse(path).getroot()
     except ET.ParseError as e:
         raise BridgeError(f"{path}: not well-formed XML: {e}") from None
     except OSError as e:
         raise BridgeError(f"{path}: cannot read: {e.strerror}") from None
-    root = tree.getroot()
     if root.tag != "scene":
         raise BridgeError(f"{path}: the root element is <{root.tag}>, not a Mitsuba <scene>")
-    sensor = root.find("sensor")
-    if sensor is None:
-        raise BridgeError(f"{path}: the scene has no <sensor>")
-    film = sensor.find("film")
-    if film is None:
-        film = ET.SubElement(sensor, "film", {"type": "hdrfilm"})
-    if size:
-        for name, v in (("width", size[0]), ("height", size[1])):
-            el = next((e for e in film if e.get("name") == name), None)
-            if el is None:
-                el = ET.SubElement(film, "integer", {"name": name})
-            el.set("value", str(int(v)))
-    if box_filter:
-        for rf in film.findall("rfilter"):
-            film.remove(rf)
-        ET.SubElement(film, "rfilter", {"type": "box"})
-    return ET.tostring(root, encoding="unicode")
+
+
+def _xml_load(mi, path, size, box_filter):
+    """The XML scene through Mitsuba's own parser (mi.parser, Mitsuba >= 3.7), the first sensor's
+    film overridden in the parsed state: includes, <ref>'d films and sensors in included files
+    are Mitsuba's, and an error names the user's file and line (not a rewritten copy's)."""
+    P = mi.parser
+    cfg = P.ParserConfig(VARIANT)
+    state = P.parse_file(cfg, os.path.abspath(path))
+    P.transform_all(cfg, state)
+    nodes = state.nodes
+    RR = mi.Properties.Type.ResolvedReference
+
+    def children(node, kind):
+        return [nodes[node.props[k].index()] for k in node.props.keys()
+                if node.props.type(k) == RR and nodes[node.props[k].index()].type == kind]
+
+    if size or box_filter:
+        sensor = next((n for n in nodes if n.type == mi.ObjectType.Sensor), None)
+        if sensor is None:
+            raise BridgeError(f"{path}: the scene has no <sensor>")
+        films = children(sensor, mi.ObjectType.Film)
+        if films:
+            film = films[0].props
+            if size:
+                _no_crop(film.keys(), size)
+                film["width"], film["height"] = int(size[0]), int(size[1])
+            if box_filter:
+                for k in list(film.keys()):
+                    if film.type(k) == RR and nodes[film[k].index()].type == mi.ObjectType.ReconstructionFilter:
+                        film.remove_property(k)
+                film["rfilter"] = mi.load_dict({"type": "box"})
+                film["pixel_format"] = "rgb"  # the samples are RGB: a luminance or XYZ film would not be
+        else:
+            d = {"type": "hdrfilm", **({"width": int(size[0]), "height": int(size[1])} if size else {}),
+                 **({"rfilter": {"type": "box"}} if box_filter else {})}
+            sensor.props["film"] = mi.load_dict(d)
+    scene = P.instantiate(cfg, state)
+    if size and scene.sensors() and tuple(int(v) for v in scene.sensors()[0].film().crop_size()) != tuple(size):
+        raise BridgeError(f"{path}: cannot set the first sensor's film to {size[0]}x{size[1]}")
+    return scene
+
+
+def _check_integrator(mi, scene, spec):
+    """The scene's integrator is one csi-mitsuba can evaluate along a sensor ray."""
+    integ = scene.integrator()
+    if integ is None:
+        raise BridgeError(f"{spec}: the scene has no integrator (add one, e.g. <integrator type=\"path\"/>)")
+    name = integ.class_name() if hasattr(integ, "class_name") else type(integ).__name__
+    if not isinstance(integ, mi.SamplingIntegrator):
+        raise BridgeError(f"{spec}: the scene's integrator ({name}) does not trace paths from the sensor (csi-mitsuba "
+                          f"evaluates radiance along the sensor's rays: path, volpath, direct, prb, ...)")
+    if name == "AOVIntegrator" and not any(a.endswith(".R") for a in integ.aov_names()):
+        raise BridgeError(f"{spec}: the scene's aov integrator has no nested integrator: it renders no radiance "
+                          f"(nest one, e.g. <integrator type=\"path\"/>, or use the path integrator)")
 
 
 def load_scene(spec, size=None, box_filter=False) -> Scene:
@@ -201,7 +261,8 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
         raise BridgeError(f"{spec}: not a regular file, not a scene file")
     if spec != "cornell" and not os.path.isfile(spec):
         raise BridgeError(f"{spec}: no such scene file (give a Mitsuba XML file, a .py with scene(), or 'cornell')")
-    text = _xml_override(spec, size, box_filter) if spec != "cornell" and not spec.endswith(".py") else None
+    if spec != "cornell" and not spec.endswith(".py"):
+        _xml_check(spec)
     mi = mitsuba()
     animate = None
     try:
@@ -218,13 +279,14 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
         else:
             resolver = mi.Thread.thread().file_resolver()
             resolver.prepend(os.path.dirname(os.path.abspath(spec)))
-            scene = mi.load_string(text)
+            scene = _xml_load(mi, spec, size, box_filter)
     except BridgeError as e:
         raise BridgeError(str(e) if str(e).startswith(spec) else f"{spec}: {e}") from None
     except Exception as e:  # Mitsuba's parser and plugins raise RuntimeError with the reason
         raise BridgeError(f"{spec}: Mitsuba cannot load the scene: {_one_line(e)}") from None
     if not scene.sensors():
         raise BridgeError(f"{spec}: the scene has no sensor")
+    _check_integrator(mi, scene, spec)
     film = scene.sensors()[0].film()
     w, h = (int(v) for v in film.crop_size())
     out = Scene(mi_scene=scene, size=(w, h), name=os.path.basename(spec), animate=animate,
@@ -322,13 +384,21 @@ def _launch(scene, integrator, u, v, time_, seed, aov=False):
     sampler.seed(dr.opaque(mi.UInt32, seed), m)  # opaque: the seed is a kernel input, not a constant baked into (and recompiling) the kernel
     pos = mi.Point2f(mi.Float(_aligned_lanes(u, m)), mi.Float(_aligned_lanes(v, m)))
     t = mi.Float(_aligned_lanes(time_, m))
-    ray, weight = sensor.sample_ray(t, sampler.next_1d(), pos, sampler.next_2d())
-    L, _, aovs = integrator.sample(scene, sampler, ray)
-    if aov:
-        out = np.stack([np.asarray(a)[:n] for a in aovs], axis=1)
-    else:
-        out = np.asarray(L * weight)[:, :n].T
-    dr.sync_thread()
+    try:
+        ray, weight = sensor.sample_ray(t, sampler.next_1d(), pos, sampler.next_2d())
+        L, _, aovs = integrator.sample(scene, sampler, ray)
+        if aov:
+            out = np.stack([np.asarray(a)[:n] for a in aovs], axis=1)
+        else:
+            out = np.asarray(L * weight)
+            if out.ndim != 2 or out.shape[1] != m:  # a constant: the integrator computes no radiance per ray
+                raise BridgeError("the scene's integrator returns no radiance along the sensor's rays")
+            out = out[:, :n].T
+        dr.sync_thread()
+    except BridgeError:
+        raise
+    except Exception as e:  # a plugin that cannot run in this variant (blackbody in RGB, ...)
+        raise BridgeError(f"Mitsuba cannot render the scene: {_root_cause(e)}") from None
     return out.astype(np.float32, copy=False)
 
 
@@ -478,7 +548,12 @@ def render_reference(scene: Scene, spp: int, seed=0, progress=None) -> np.ndarra
     acc = np.zeros((h, w, 3))
     passes = spp // per
     for i in range(passes):
-        img = np.asarray(mi.render(scene.mi_scene, spp=per, seed=_batch_seed(seed, i)), dtype=np.float64)
+        try:
+            img = np.asarray(mi.render(scene.mi_scene, spp=per, seed=_batch_seed(seed, i)), dtype=np.float64)
+        except Exception as e:
+            raise BridgeError(f"{scene.name}: Mitsuba cannot render the scene: {_root_cause(e)}") from None
+        if img.ndim != 3 or img.shape[2] < 3:
+            raise BridgeError(f"{scene.name}: Mitsuba's image has {img.shape[-1]} channel(s), not RGB")
         acc += img[..., :3]
         if progress:
             progress(i + 1, passes)

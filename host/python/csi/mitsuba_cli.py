@@ -363,9 +363,18 @@ class ReconstructError(Exception):
                                       "CSI_ERR_TOO_LARGE") else 1  # as csi-reconstruct exits
 
 
+def _umask_mode(path):
+    """The mode a new file gets (0666 less the umask), for an output written into the temporary
+    csi.OutputSet made (mkstemp: 0600), as the EXR and dump writers' files get."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(path, 0o666 & ~mask)
+
+
 def _write_json(path, obj):
     with open(path, "w") as f:
         json.dump(obj, f, indent=1)
+    _umask_mode(path)
 
 
 def _estimator(extra):
@@ -466,6 +475,10 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         scene = mb.load_scene(a.scene, size=req.out)
     t_load = time.perf_counter() - t_load
     size = scene.size
+    if a.time_steps > 1 and scene.animate is None and not a.reference:
+        raise UsageError(f"--time-steps {a.time_steps}: {scene.name} is still (a Mitsuba XML scene, or a .py without "
+                         f"animate(params, time)): its frames would all be alike, on a grid of fewer cells per pixel "
+                         f"than a still image's; give a .py scene with animate(), or leave out --time-steps")
 
     if a.reference:
         t0 = time.perf_counter()
@@ -479,6 +492,7 @@ def _run(a, extra, prog, files, var_path, aov_paths):
 
             with open(tmp(a.npy), "wb") as f:
                 np.save(f, ref)
+            _umask_mode(tmp(a.npy))
         if a.stats:
             _write_json(tmp(a.stats), {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
                                   "seed": a.seed, "t_load_s": t_load, "t_render_s": t_ref,
