@@ -174,6 +174,11 @@ void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, do
         csi_json_int(j, "peak_range_pixels", (int64_t)res->peak_range_pixels);
     if (r->options.o.motion_image_cv == CSI_SWITCH_ON)
         csi_json_int(j, "motion_image_switched_pixels", (int64_t)res->motion_image_switched);
+    /* the frames' Gaussian frames_denoise chose (one choice per tile in a tiled run: not here) */
+    if (r->options.o.frames_denoise == CSI_SWITCH_ON && r->options.o.tiles <= 1 && res->frames_sigma[0] >= 0) {
+        csi_json_num(j, "frames_sigma_xy", res->frames_sigma[0]);
+        csi_json_num(j, "frames_sigma_t", res->frames_sigma[1]);
+    }
     csi_json_num(j, "fixed_s", read_s + device_s + res->t_setup);
     csi_json_num(j, "per_sample_us", res->n ? 1e6 * (res->t_solve + res->t_integrate) / (double)res->n : 0);
     csi_json_num(j, "cpu_setup_s", res->cpu_setup);

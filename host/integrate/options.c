@@ -212,6 +212,11 @@ static const row table[] = {
      "volumes solved whole: per region of 8 or 16 pixels, the blurred image of the volume solve or "
      "of a solve of the shutter binned to 4 frames (samples sharing a cell averaged), whichever "
      "two folds of the samples say is closer to the held-out pixel means (up to five more solves)", "off"},
+    {"frames-denoise", K_CHOICE, AT(frames_denoise), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "volumes: the frames (not the blurred image) of noisy samples: each sampled cell takes its "
+     "unsampled neighbours' value and its samples' mean weighted by the samples' noise, then a "
+     "Gaussian (at most 1 cell, 1 frame) chosen by how well it predicts the samples "
+     "(docs/bench/animation.md, session 32)", "on when the samples come with their variances"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "csi/empty_pixels.h"
+#include "csi/frames_denoise.h"
 #include "csi/peak_noise.h"
 #include "csi/settle.h"
 #include "internal.h"
@@ -94,6 +95,20 @@ typedef csi_status (*whole_step)(csi_ctx *ctx, const csi_grid *g, uint32_t chann
                                  const float *values, size_t n, const csi_recon_options *opt,
                                  csi_recon_result *out);
 
+/* The frames of noisy samples on an untiled result (its frames_sigma -1 where it does not run). */
+static csi_status frames_step(const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
+                              const float *values, size_t n, const csi_recon_options *opt,
+                              csi_recon_result *out)
+{
+    out->frames_sigma[0] = out->frames_sigma[1] = -1;
+    if (grid->t == 1 || !out->nframes || !out->frames || out->options.tiles > 1 ||
+        out->options.estimator != CSI_EST_CS || out->options.frames_denoise != CSI_SWITCH_ON)
+        return CSI_OK;
+    const double v[2] = {out->options.motion_vx, out->options.motion_vy}; /* the basis's, resolved */
+    return csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v, out->frames,
+                              out->frames_sigma);
+}
+
 csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
                      const float *values, size_t n, const csi_recon_options *opt_in,
                      csi_recon_result *out)
@@ -128,6 +143,8 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
                             : csi_recon(ctx, &padded, channels, pos, values, n, &po, out);
         if (ps == CSI_OK)
             ps = csi_recon_crop(out, grid->out_w, grid->out_h, grid->t);
+        if (ps == CSI_OK)
+            ps = frames_step(grid, channels, pos, values, n, &opt, out);
         if (ps == CSI_OK) {
             out->options.shutter_frames = 0; /* internal: not the result's */
             out->options.tiles_t = opt.tiles_t;
@@ -214,6 +231,13 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
             csi_recon_result_free(out);
             return s;
         }
+    }
+    /* The frames of noisy samples (csi/frames_denoise.h), after every step of the image: the
+     * whole volume's here; a padded run's after its crop (above); a tiled run's tiles did it in
+     * their windows (tiled.c). */
+    if (!opt.shutter_frames && (s = frames_step(grid, channels, pos, values, n, &opt, out)) != CSI_OK) {
+        csi_recon_result_free(out);
+        return s;
     }
     return CSI_OK;
 }

@@ -2,6 +2,7 @@
  * uses, so that a caller (and the statistics) can see what ran. See csi/reconstruct.h. */
 #include <math.h>
 
+#include "csi/frames_denoise.h"
 #include "csi/model_grid.h"
 #include "csi/solve.h"
 #include "csi/tiles.h"
@@ -153,6 +154,11 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
          * unless asked for (docs/bench/animation.md, session 10) */
         if (o->motion_image_cv == CSI_SWITCH_AUTO)
             o->motion_image_cv = CSI_SWITCH_OFF;
+        /* the frames of noisy samples (csi/frames_denoise.h): where the samples' variances
+         * say they are noisy */
+        if (o->frames_denoise == CSI_SWITCH_AUTO)
+            o->frames_denoise = o->frames && csi_frames_denoise_noisy(o->sample_noise, 4) ? CSI_SWITCH_ON
+                                                                                          : CSI_SWITCH_OFF;
         /* the paper's form (the full spectrum) has no filter; on the half spectrum auto waits for
          * the velocity too (motion.c) */
         if (o->motion_full_spectrum)

@@ -7,6 +7,7 @@
 
 #include "csi/buffer_keep.h"
 #include "csi/empty_pixels.h"
+#include "csi/frames_denoise.h"
 #include "csi/peak_noise.h"
 #include "csi/settle.h"
 #include "csi/tiles.h"
@@ -232,6 +233,28 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
     return s;
 }
 
+/* The frames of noisy samples (csi/frames_denoise.h) in a tile's window, on the window's samples
+ * as given, as an untiled run does on the whole volume's (reconstruct.c): after the window's
+ * share of the image was taken from its frames (reconstruct_tile), so that only the frames
+ * change. A window's frames past the shutter's (padding) are left out. */
+static csi_status tile_frames_step(const csi_tiling *tl, uint32_t index, uint32_t channels,
+                                   const csi_sample_pos *pos, const float *values, size_t n,
+                                   const csi_recon_options *opt, csi_tile_result *out)
+{
+    csi_recon_result *r = &out->r;
+    if (tl->grid.t == 1 || !opt->frames || !r->nframes || !r->frames || r->options.estimator != CSI_EST_CS ||
+        r->options.frames_denoise != CSI_SWITCH_ON || out->t0 >= tl->image_t)
+        return CSI_OK;
+    const uint32_t valid = tl->image_t - out->t0 < r->nframes ? tl->image_t - out->t0 : r->nframes;
+    tile_problem p;
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
+    const double v[2] = {r->options.motion_vx, r->options.motion_vy}; /* the window's basis's */
+    csi_status s = csi_frames_denoise(&p.g, valid, channels, p.pos, p.values, p.n, opt->sample_noise, v, r->frames,
+                                      NULL);
+    tile_problem_free(&p);
+    return s;
+}
+
 csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                                 const csi_sample_pos *pos, const float *values, size_t n,
                                 const csi_recon_options *opt, const csi_tiling *tl,
@@ -246,6 +269,8 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK)
         csi_recon_unscale_result(&out->r, e);
     if (s == CSI_OK && (s = tile_noisy_steps(ctx, tl, index, channels, pos, values, n, opt, out)) != CSI_OK)
+        csi_tile_result_free(out);
+    if (s == CSI_OK && (s = tile_frames_step(tl, index, channels, pos, values, n, opt, out)) != CSI_OK)
         csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)

@@ -343,7 +343,8 @@ typedef struct csi_samples {
                                    then taken as noise (csi/peak_noise.h in the source tree);
                                    in a volume, the solve's tau is at least a multiple of the
                                    samples' noise (CSI_MOTION_TAU_NOISE, csi/reconstruct.h in
-                                   the source tree);
+                                   the source tree) and its frames are denoised by it
+                                   (option frames-denoise, csi/frames_denoise.h there);
                                    in a whole problem and in every tile alike (with
                                    csi_reconstruct_tile_window, the noise of the window's
                                    samples). Last, so that an initialiser without it means

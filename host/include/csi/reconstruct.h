@@ -250,6 +250,11 @@ typedef struct csi_recon_options {
     csi_switch motion_image_cv;   /* a volume solved whole: per region its image or that of a
                                      solve of the shutter binned in t, by two-fold
                                      cross-validation (host/integrate/motion_image.c); auto: off */
+    csi_switch frames_denoise;    /* a volume's frames from noisy samples: each sampled cell given
+                                     its neighbours' estimate by its samples' known noise, then a
+                                     Gaussian chosen by how well it predicts the samples
+                                     (csi/frames_denoise.h); auto: on with frames and samples that
+                                     come with their variances (sample_noise) */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */
@@ -324,6 +329,9 @@ typedef struct csi_recon_result {
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
     size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, on the
                                blended image) */
+    double frames_sigma[2]; /* the frames' Gaussian chosen by frames_denoise, along x and y
+                               and along t; -1 where it did not run (and in tiles, each of
+                               which chooses its own) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_cv;            /* the cross-validated choice (cv_select): its two folds' reconstructions,
                                whose solves and integration t_solve and t_integrate count, and the

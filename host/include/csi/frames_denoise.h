@@ -1,0 +1,64 @@
+/* A volume's frames when its samples are noisy: the last step of Alg. 2's frames (not of its
+ * blurred image) when the samples come with their variances (csi_samples.variance: a path
+ * tracer's samples, csi-mitsuba's; issue 12, docs/bench/animation.md session 32).
+ *
+ * Why. The solve fits the samples: at each sampled cell its frames keep most of that sample's
+ * Monte Carlo noise, and the rest spreads to the cells around (measured on Mitsuba's animations
+ * at one path per sample: 55-73% of each sample's noise at its own cell). The blurred image has
+ * its own per-pixel correction (motion_correct.c); the frames had nothing, and at one path per
+ * sample they were 1.3-3 dB below a 3-D Gaussian's whose width was tuned against the truth.
+ *
+ * What, per channel, on the frames of a grid of one cell per pixel (csi's default grid for every
+ * volume), all in double and in a fixed order (deterministic):
+ * 1. each sampled cell takes the estimate a sample of known noise gives beside a prediction of
+ *    unknown error (the Wiener / positive-part James-Stein weight, as peak_noise.h and the blend
+ *    use): D, the mean of the cell's unsampled 8 neighbours in its frame (the cell's own value
+ *    when all of them hold samples), and the mean ybar of the cell's m samples; the cell becomes
+ *    D + k (ybar - D), k = v / (v + s^2 / m), where s^2 is the samples' noise variance (from
+ *    csi_recon_options.sample_noise: the noise relative to the level, times the mean |sample|)
+ *    and v = max(0, mean over the sampled cells of (ybar - D)^2 - s^2 / m) the prediction's own
+ *    error. Noisy samples (one path each) give k near 0, the neighbours' value; precise ones k
+ *    near 1, their own;
+ * 2. then the frames are smoothed by a Gaussian along t (sigma_t) on the path of the basis's
+ *    velocity (bilinear between cells: a pan's content is followed, not blurred; a still basis's
+ *    path is the pixel), then along x and y (sigma_xy), each cut at the volume's sides (the
+ *    weights inside renormalised), one width for every channel, chosen
+ *    from CSI_FRAMES_DENOISE_WIDTHS by how well the frames predict the samples they were
+ *    made from: the squared error at the samples of the frames of step 1 with each sampled
+ *    cell at its neighbours' D (its own sample left out) smoothed by each width, summed over
+ *    channels; the least wins (no smoothing among them, so where smoothing does not predict the
+ *    samples better nothing is smoothed). The cells around a sample still carry part of its
+ *    noise, so this errs towards less smoothing than the truth would choose (measured:
+ *    docs/bench/animation.md, session 32).
+ * The blurred image is not touched. Grids of several cells per pixel keep their frames as the
+ * fit gave them (a frame pixel there is the mean of its cells, where one sample's noise is
+ * already spread over them). */
+#ifndef CSI_FRAMES_DENOISE_H
+#define CSI_FRAMES_DENOISE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/samples.h"
+#include "csi/status.h"
+
+/* The widths step 2 chooses from (sigma_xy 0, 0.5, 0.75, 1 cell x sigma_t 0, 0.5, 1 frame, none
+ * of the first with sigma_t > 0; the first none); a volume of more than 2^17 samples is judged
+ * on every k-th sample in cell order, about 2^17 of them. */
+#define CSI_FRAMES_DENOISE_WIDTHS 10
+
+/* Whether per-channel relative noise (csi_recon_options.sample_noise) says the samples are noisy. */
+int csi_frames_denoise_noisy(const double noise[4], uint32_t channels);
+
+/* Step 1 and 2 on frames (nframes * channels * out_w * out_h floats, frame-major then planar,
+ * csi_recon_result.frames) of grid g (one cell per pixel; otherwise nothing is done and chosen
+ * gets -1, -1). Samples at frames >= nframes (padding) are not used. noise: per channel, the
+ * samples' noise relative to their mean |value| (0: exact, step 1 then keeps the samples' own
+ * values). velocity: the basis's (csi_recon_options.motion_vx, _vy: cells per frame; NULL
+ * still). chosen (may be NULL) gets sigma_xy, sigma_t. */
+csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t channels,
+                              const csi_sample_pos *pos, const float *values, size_t n,
+                              const double noise[4], const double velocity[2], float *frames,
+                              double chosen[2]);
+
+#endif
