@@ -3,8 +3,9 @@
 determinism; Mitsuba XML scenes (as users write them too: a film by <ref>, the sensor in an
 <include>d file, a luminance film, a scene that renders black); positions requests; bad input
 (exit 2, one line on stderr, nothing left behind: also no integrator, a crop window with --out,
---time-steps on a still scene, a plugin RGB cannot render, an XML error named at its file's line);
-the outputs' file modes alike.
+--time-steps on a still scene, a plugin RGB cannot render, an XML error named at its file's line,
+bad -D parameters); -D for an XML scene's $parameters; NaN samples and references said in one
+warning line even with -q; the outputs' file modes alike.
 
 Scene: Mitsuba's Cornell box at 64x64, 4 samples per pixel of 16 paths each (csi's default grid
 for 4 spp: 8x, 512x512 cells), reference 256 spp.
@@ -198,6 +199,20 @@ def main():
         if ok(cli(p("black.xml"), "--out", "16x12", "--spp", 1, "-o", p("black.exr"), "-q"), "a black scene at 1 spp"):
             check(not exr.read(p("black.exr")).any(), "a black scene at 1 spp: the image is 0")
 
+        # -D gives an XML scene's $parameters (as mitsuba -D); what is wrong with the samples is
+        # said even with -q, in one line, and Mitsuba's own warnings are not
+        with open(p("param.xml"), "w") as f:
+            f.write(XML.replace('<integer name="width" value="40"/>', '<integer name="width" value="$w"/>'))
+        if ok(cli(p("param.xml"), "-D", "w=20", "--spp", 1, "-o", p("param.exr"), "-q"), "-D w=20"):
+            check(exr.read(p("param.exr")).shape == (30, 20, 3), "-D w=20: the film 20 wide")
+        with open(p("nan.xml"), "w") as f:
+            f.write(XML.replace('value="0.8, 0.9, 1.0"', 'value="nan, 0.9, 1.0"'))
+        for what, args, want in (("samples", ["--spp", 1, "-o", p("nan.exr")], "paths were NaN or Inf"),
+                                 ("reference", ["--reference", 4, "-o", p("nanref.exr")], "reference's pixels are NaN")):
+            r = cli(p("nan.xml"), "--out", "16x12", "-q", *args)
+            check(r.returncode == 0 and len(r.stderr.strip().splitlines()) == 1 and want in r.stderr,
+                  f"NaN {what} with -q: exit {r.returncode}, stderr {r.stderr.strip()!r}")
+
         # Bad input: exit 2, one line, nothing written.
         with open(p("noint.xml"), "w") as f:
             f.write(XML.replace('<integrator type="path"><integer name="max_depth" value="4"/></integrator>', ""))
@@ -230,6 +245,10 @@ def main():
             ("bad csi-reconstruct option", "--lambda", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--dump", p("o.csid"),
                                                         "--", "--lambda", "abc"]),
             ("an unknown option alone", "--bogus", ["--bogus"]),
+            ("-D without a value", "NAME=VALUE", [p("s.xml"), "-D", "w", "-o", p("o.exr")]),
+            ("-D on the Cornell box", "has none", ["cornell", "-D", "w=1", "-o", p("o.exr")]),
+            ("an undefined $parameter", "undefined parameter", [p("param.xml"), "--out", "8x8", "-o", p("o.exr")]),
+            ("an unused -D", "unused parameters", [p("s.xml"), "-D", "bogus=1", "--out", "8x8", "-o", p("o.exr")]),
             ("no integrator", "no integrator", [p("noint.xml"), "--out", "8x8", "-o", p("o.exr")]),
             ("a crop window and --out", "crop window", [p("crop.xml"), "--out", "8x8", "-o", p("o.exr")]),
             ("--time-steps on a still scene", "is still", [p("s.xml"), "--out", "8x8", "--time-steps", "4", "-o",

@@ -113,6 +113,12 @@ def mitsuba():
     return mi
 
 
+def quiet():
+    """Mitsuba's own log (its warnings while loading or rendering a scene) down to errors."""
+    mi = mitsuba()
+    mi.set_log_level(mi.LogLevel.Error)
+
+
 def _one_line(e) -> str:
     msg = " ".join(str(e).split())
     return re.sub(r"\[[\w./-]+\.cpp:\d+\]\s*", "", msg)
@@ -191,13 +197,13 @@ def _xml_check(path):
         raise BridgeError(f"{path}: the root element is <{root.tag}>, not a Mitsuba <scene>")
 
 
-def _xml_load(mi, path, size, box_filter):
+def _xml_load(mi, path, size, box_filter, params=None):
     """The XML scene through Mitsuba's own parser (mi.parser, Mitsuba >= 3.7), the first sensor's
     film overridden in the parsed state: includes, <ref>'d films and sensors in included files
     are Mitsuba's, and an error names the user's file and line (not a rewritten copy's)."""
     P = mi.parser
     cfg = P.ParserConfig(VARIANT)
-    state = P.parse_file(cfg, os.path.abspath(path))
+    state = P.parse_file(cfg, os.path.abspath(path), **(params or {}))  # $name parameters, as mitsuba -D
     P.transform_all(cfg, state)
     nodes = state.nodes
     RR = mi.Properties.Type.ResolvedReference
@@ -246,11 +252,15 @@ def _check_integrator(mi, scene, spec):
                           f"(nest one, e.g. <integrator type=\"path\"/>, or use the path integrator)")
 
 
-def load_scene(spec, size=None, box_filter=False) -> Scene:
+def load_scene(spec, size=None, box_filter=False, params=None) -> Scene:
     """spec: "cornell" (Mitsuba's built-in Cornell box), a Mitsuba XML file, or a Python file
     defining scene() that returns a scene dictionary. size (w, h) overrides the film's; with
-    box_filter the film's reconstruction filter becomes a box (for references)."""
+    box_filter the film's reconstruction filter becomes a box (for references). params: values of
+    an XML scene's $name parameters ({name: text}, Mitsuba's -D name=value)."""
     spec = os.fspath(spec)
+    if params and (spec == "cornell" or spec.endswith(".py")):
+        raise BridgeError(f"{spec}: parameters ({', '.join(sorted(params))}) are an XML scene's $name values; "
+                          f"{'the Cornell box' if spec == 'cornell' else 'a Python scene'} has none")
     if size is not None and (size[0] < 1 or size[1] < 1 or size[0] > csid.MAX_SIDE or size[1] > csid.MAX_SIDE):
         raise BridgeError(f"image size {size[0]}x{size[1]} is not from 1x1 to {csid.MAX_SIDE}x{csid.MAX_SIDE}")
     # What can be checked without Mitsuba first: a bad path fails fast and without the import.
@@ -279,7 +289,7 @@ def load_scene(spec, size=None, box_filter=False) -> Scene:
         else:
             resolver = mi.Thread.thread().file_resolver()
             resolver.prepend(os.path.dirname(os.path.abspath(spec)))
-            scene = _xml_load(mi, spec, size, box_filter)
+            scene = _xml_load(mi, spec, size, box_filter, params)
     except BridgeError as e:
         raise BridgeError(str(e) if str(e).startswith(spec) else f"{spec}: {e}") from None
     except Exception as e:  # Mitsuba's parser and plugins raise RuntimeError with the reason

@@ -126,7 +126,10 @@ def parser():
                         "of the same samples (docs/bench/mitsuba.md, session 21)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
                    "with SPP samples per pixel instead of samples")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
+    s.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE",
+                   help="the value of an XML scene's $NAME parameter (as mitsuba -D; repeatable)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr, and none of "
+                   "Mitsuba's own warnings (csi-mitsuba's warnings about the samples are still said)")
     return p
 
 
@@ -425,6 +428,14 @@ def run(a, extra):
                                                                            "--time-steps above 1"))
     if not (a.output or a.png or a.dump or a.npy):
         raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
+    a.params = {}
+    for d in a.define:
+        name, eq, value = d.partition("=")
+        if not eq or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+            raise UsageError(f"-D {d}: not NAME=VALUE (the value of an XML scene's $NAME parameter)")
+        if name in a.params:
+            raise UsageError(f"-D {name}: given twice")
+        a.params[name] = value
     aov_paths = var_path = None
     if a.dump:
         stem = a.dump[:-5] if a.dump.endswith(".csid") else a.dump
@@ -447,19 +458,21 @@ def run(a, extra):
                     files.file(path, what)
         except csi.CsiError as e:
             raise UsageError(str(e)) from None
-        summary = _run(a, extra, prog, files, var_path, aov_paths)
+        summary, warnings = _run(a, extra, prog, files, var_path, aov_paths)
         try:
             files.commit()
         except csi.CsiError as e:
             raise ReconstructError(e) from None
     if not a.quiet:
         print(summary, file=sys.stderr)
+    for w in warnings:  # what is wrong with the samples is said even with -q
+        print(f"{PROG}: warning: {w}", file=sys.stderr)
     return 0
 
 
 def _run(a, extra, prog, files, var_path, aov_paths):
     """The work of run(), every output written to its temporary name in `files`; returns the
-    summary line."""
+    summary line and the warnings."""
     tmp = lambda path: files.tmp(path) if path else None  # noqa: E731
     req = None
     if a.request:
@@ -470,9 +483,11 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         if a.refine and req.grid[2] > 1:
             raise UsageError(f"--refine picks pixels of an image: {a.request} is a volume (grid_t = {req.grid[2]})")
     t_load = time.perf_counter()
-    scene = mb.load_scene(a.scene, size=a.out, box_filter=bool(a.reference))
+    if a.quiet:
+        mb.quiet()
+    scene = mb.load_scene(a.scene, size=a.out, box_filter=bool(a.reference), params=a.params)
     if req is not None and scene.size != req.out:
-        scene = mb.load_scene(a.scene, size=req.out)
+        scene = mb.load_scene(a.scene, size=req.out, params=a.params)
     t_load = time.perf_counter() - t_load
     size = scene.size
     if a.time_steps > 1 and scene.animate is None and not a.reference:
@@ -481,6 +496,8 @@ def _run(a, extra, prog, files, var_path, aov_paths):
                          f"than a still image's; give a .py scene with animate(), or leave out --time-steps")
 
     if a.reference:
+        import numpy as np
+
         t0 = time.perf_counter()
         ref = mb.render_reference(scene, a.reference, seed=a.seed, progress=lambda d, n: prog("reference pass", d, n))
         t_ref = time.perf_counter() - t0
@@ -488,8 +505,6 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         if a.output:
             exr.write(tmp(a.output), ref)
         if a.npy:
-            import numpy as np
-
             with open(tmp(a.npy), "wb") as f:
                 np.save(f, ref)
             _umask_mode(tmp(a.npy))
@@ -497,8 +512,11 @@ def _run(a, extra, prog, files, var_path, aov_paths):
             _write_json(tmp(a.stats), {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
                                   "seed": a.seed, "t_load_s": t_load, "t_render_s": t_ref,
                                   "per_path_us": 1e6 * t_ref / (a.reference * size[0] * size[1])})
+        bad = int((~np.isfinite(ref)).any(axis=-1).sum())
         return (f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {a.reference} spp, box filter: {t_ref:.2f} s "
-                f"-> {a.output or a.npy}")
+                f"-> {a.output or a.npy}",
+                [f"{bad} of the reference's pixels are NaN or Inf (the scene's paths give them): written as "
+                 f"Mitsuba renders them"] if bad else [])
 
     if req is None:
         req = mb.positions_request(size, spp=a.spp, grid=a.grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
@@ -575,9 +593,8 @@ def _run(a, extra, prog, files, var_path, aov_paths):
                 + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else ""))
     if t_recon is not None:
         msg += f", csi {t_recon:.2f} s"
-    if s.nonfinite:
-        msg += f"; warning: {s.nonfinite} NaN/Inf paths counted as 0"
-    return msg
+    warnings = [f"{s.nonfinite} of Mitsuba's paths were NaN or Inf and are counted as 0"] if s.nonfinite else []
+    return msg, warnings
 
 
 def main(argv=None):
