@@ -178,6 +178,7 @@ void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, do
     if (r->options.o.frames_denoise == CSI_SWITCH_ON && r->options.o.tiles <= 1 && res->frames_sigma[0] >= 0) {
         csi_json_num(j, "frames_sigma_xy", res->frames_sigma[0]);
         csi_json_num(j, "frames_sigma_t", res->frames_sigma[1]);
+        csi_json_num(j, "frames_denoise_s", res->t_frames);
     }
     csi_json_num(j, "fixed_s", read_s + device_s + res->t_setup);
     csi_json_num(j, "per_sample_us", res->n ? 1e6 * (res->t_solve + res->t_integrate) / (double)res->n : 0);

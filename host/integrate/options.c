@@ -215,8 +215,10 @@ static const row table[] = {
     {"frames-denoise", K_CHOICE, AT(frames_denoise), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "volumes: the frames (not the blurred image) of noisy samples: each sampled cell takes its "
      "unsampled neighbours' value and its samples' mean weighted by the samples' noise, then a "
-     "Gaussian (at most 1 cell, 1 frame) chosen by how well it predicts the samples "
-     "(docs/bench/animation.md, session 32)", "on when the samples come with their variances"},
+     "Gaussian along the basis's motion and x, y (at most 1.5 cells and frames) chosen by two "
+     "folds of the samples, each half solved alone predicting the other (two more solves of half "
+     "the samples; docs/bench/animation.md, session 32)",
+     "on when the samples come with their variances and their noise is at least a fifth of their level"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -95,8 +95,53 @@ typedef csi_status (*whole_step)(csi_ctx *ctx, const csi_grid *g, uint32_t chann
                                  const float *values, size_t n, const csi_recon_options *opt,
                                  csi_recon_result *out);
 
+/* A fold of the frames' step (csi/frames_denoise.h): its samples solved as the whole was (the
+ * same options, their own variances), for their frames alone. */
+typedef struct {
+    csi_ctx *ctx;
+    const csi_grid *grid;
+    uint32_t channels;
+    const csi_sample_pos *pos;
+    const float *values;
+    const csi_recon_options *opt;
+} frames_fold;
+
+static csi_status frames_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
+{
+    const frames_fold *f = user;
+    const uint32_t C = f->channels;
+    const float *var = f->opt->sample_variance;
+    csi_sample_pos *p = malloc(count * sizeof *p);
+    float *v = malloc(count * C * sizeof *v), *vv = var ? malloc(count * C * sizeof *vv) : NULL;
+    if (!p || !v || (var && !vv)) {
+        free(p), free(v), free(vv);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a fold of %zu samples", count);
+    }
+    for (size_t j = 0; j < count; j++) {
+        p[j] = f->pos[index[j]];
+        memcpy(v + j * C, f->values + index[j] * C, C * sizeof *v);
+        if (var)
+            memcpy(vv + j * C, var + index[j] * C, C * sizeof *vv);
+    }
+    csi_recon_options o = *f->opt;
+    o.frames = true;
+    o.frames_denoise = CSI_SWITCH_OFF;
+    o.motion_image_cv = CSI_SWITCH_OFF; /* the image is not asked for */
+    o.sample_variance = vv;
+    csi_recon_result r;
+    csi_status s = csi_recon(f->ctx, f->grid, C, p, v, count, &o, &r);
+    free(p), free(v), free(vv);
+    CSI_TRY(s);
+    *frames = r.frames;
+    r.frames = NULL;
+    vel[0] = r.options.motion_vx;
+    vel[1] = r.options.motion_vy;
+    csi_recon_result_free(&r);
+    return CSI_OK;
+}
+
 /* The frames of noisy samples on an untiled result (its frames_sigma -1 where it does not run). */
-static csi_status frames_step(const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
+static csi_status frames_step(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
                               const float *values, size_t n, const csi_recon_options *opt,
                               csi_recon_result *out)
 {
@@ -104,9 +149,13 @@ static csi_status frames_step(const csi_grid *grid, uint32_t channels, const csi
     if (grid->t == 1 || !out->nframes || !out->frames || out->options.tiles > 1 ||
         out->options.estimator != CSI_EST_CS || out->options.frames_denoise != CSI_SWITCH_ON)
         return CSI_OK;
+    const double t0 = csi_recon_now();
     const double v[2] = {out->options.motion_vx, out->options.motion_vy}; /* the basis's, resolved */
-    return csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v, out->frames,
-                              out->frames_sigma);
+    frames_fold fold = {ctx, grid, channels, pos, values, opt};
+    csi_status s = csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v,
+                                      frames_fold_solve, &fold, out->frames, out->frames_sigma);
+    out->t_frames = csi_recon_now() - t0;
+    return s;
 }
 
 csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
@@ -144,7 +193,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
         if (ps == CSI_OK)
             ps = csi_recon_crop(out, grid->out_w, grid->out_h, grid->t);
         if (ps == CSI_OK)
-            ps = frames_step(grid, channels, pos, values, n, &opt, out);
+            ps = frames_step(ctx, grid, channels, pos, values, n, &opt, out);
         if (ps == CSI_OK) {
             out->options.shutter_frames = 0; /* internal: not the result's */
             out->options.tiles_t = opt.tiles_t;
@@ -235,7 +284,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     /* The frames of noisy samples (csi/frames_denoise.h), after every step of the image: the
      * whole volume's here; a padded run's after its crop (above); a tiled run's tiles did it in
      * their windows (tiled.c). */
-    if (!opt.shutter_frames && (s = frames_step(grid, channels, pos, values, n, &opt, out)) != CSI_OK) {
+    if (!opt.shutter_frames && (s = frames_step(ctx, grid, channels, pos, values, n, &opt, out)) != CSI_OK) {
         csi_recon_result_free(out);
         return s;
     }

@@ -233,12 +233,53 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
     return s;
 }
 
+/* A fold of a window's frames' step (csi/frames_denoise.h): the window's samples of the fold, at
+ * their cells in the whole grid, solved as the tile is (csi_recon_tile), for its frames alone. */
+typedef struct {
+    csi_ctx *ctx;
+    const csi_tiling *tl;
+    const csi_tile_scope *scope;
+    uint32_t index, channels;
+    const tile_problem *p;
+    const csi_recon_options *opt;
+} tile_fold;
+
+static csi_status tile_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
+{
+    const tile_fold *f = user;
+    const uint32_t C = f->channels, bw = f->tl->grid.w / f->tl->grid.out_w, bh = f->tl->grid.h / f->tl->grid.out_h;
+    csi_sample_pos *p = malloc(count * sizeof *p);
+    float *v = malloc(count * C * sizeof *v);
+    if (!p || !v) {
+        free(p), free(v);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a fold of %zu samples", count);
+    }
+    for (size_t j = 0; j < count; j++) {
+        const csi_sample_pos q = f->p->pos[index[j]];
+        p[j] = (csi_sample_pos){q.x + f->p->tile.win0[0] * bw, q.y + f->p->tile.win0[1] * bh, q.t + f->p->tile.win0[2]};
+        memcpy(v + j * C, f->p->values + index[j] * C, C * sizeof *v);
+    }
+    csi_recon_options o = *f->opt;
+    o.frames = true;
+    o.frames_denoise = CSI_SWITCH_OFF;
+    csi_tile_result r;
+    csi_status s = csi_recon_tile(f->ctx, &f->tl->grid, C, p, v, count, &o, f->tl, f->scope, f->index, &r);
+    free(p), free(v);
+    CSI_TRY(s);
+    *frames = r.r.frames;
+    r.r.frames = NULL;
+    vel[0] = r.r.options.motion_vx;
+    vel[1] = r.r.options.motion_vy;
+    csi_tile_result_free(&r);
+    return CSI_OK;
+}
+
 /* The frames of noisy samples (csi/frames_denoise.h) in a tile's window, on the window's samples
  * as given, as an untiled run does on the whole volume's (reconstruct.c): after the window's
  * share of the image was taken from its frames (reconstruct_tile), so that only the frames
  * change. A window's frames past the shutter's (padding) are left out. */
-static csi_status tile_frames_step(const csi_tiling *tl, uint32_t index, uint32_t channels,
-                                   const csi_sample_pos *pos, const float *values, size_t n,
+static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi_tile_scope *scope, uint32_t index,
+                                   uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
                                    const csi_recon_options *opt, csi_tile_result *out)
 {
     csi_recon_result *r = &out->r;
@@ -249,8 +290,9 @@ static csi_status tile_frames_step(const csi_tiling *tl, uint32_t index, uint32_
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
     const double v[2] = {r->options.motion_vx, r->options.motion_vy}; /* the window's basis's */
-    csi_status s = csi_frames_denoise(&p.g, valid, channels, p.pos, p.values, p.n, opt->sample_noise, v, r->frames,
-                                      NULL);
+    tile_fold fold = {ctx, tl, scope, index, channels, &p, opt};
+    csi_status s = csi_frames_denoise(&p.g, valid, channels, p.pos, p.values, p.n, opt->sample_noise, v,
+                                      tile_fold_solve, &fold, r->frames, NULL);
     tile_problem_free(&p);
     return s;
 }
@@ -270,7 +312,7 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         csi_recon_unscale_result(&out->r, e);
     if (s == CSI_OK && (s = tile_noisy_steps(ctx, tl, index, channels, pos, values, n, opt, out)) != CSI_OK)
         csi_tile_result_free(out);
-    if (s == CSI_OK && (s = tile_frames_step(tl, index, channels, pos, values, n, opt, out)) != CSI_OK)
+    if (s == CSI_OK && (s = tile_frames_step(ctx, tl, scope, index, channels, pos, values, n, opt, out)) != CSI_OK)
         csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)

@@ -22,14 +22,17 @@
  * 2. then the frames are smoothed by a Gaussian along t (sigma_t) on the path of the basis's
  *    velocity (bilinear between cells: a pan's content is followed, not blurred; a still basis's
  *    path is the pixel), then along x and y (sigma_xy), each cut at the volume's sides (the
- *    weights inside renormalised), one width for every channel, chosen
- *    from CSI_FRAMES_DENOISE_WIDTHS by how well the frames predict the samples they were
- *    made from: the squared error at the samples of the frames of step 1 with each sampled
- *    cell at its neighbours' D (its own sample left out) smoothed by each width, summed over
- *    channels; the least wins (no smoothing among them, so where smoothing does not predict the
- *    samples better nothing is smoothed). The cells around a sample still carry part of its
- *    noise, so this errs towards less smoothing than the truth would choose (measured:
- *    docs/bench/animation.md, session 32).
+ *    weights inside renormalised), one width for every channel, chosen from
+ *    CSI_FRAMES_DENOISE_WIDTHS by two folds: the samples split in two by their cell, each half
+ *    solved alone (the caller's solve), its frames taken through step 1 and smoothed by each
+ *    width predict the other half's samples; the width of the least squared error over both
+ *    folds and all channels wins (no smoothing among them). A fold's frames have never seen the
+ *    samples they predict: the frames of the whole solve, even with a sample's own cell left
+ *    out, carry its noise and its value into the cells around it, and chose less smoothing than
+ *    the truth where the noise is large and more where it is small (measured). A fold has half
+ *    the samples, so its frames want a little more smoothing than the whole's: below
+ *    CSI_FRAMES_DENOISE_NOISE_MIN, where the frames hardly need any, that bias lost more than
+ *    the step gained, and nothing is done.
  * The blurred image is not touched. Grids of several cells per pixel keep their frames as the
  * fit gave them (a frame pixel there is the mean of its cells, where one sample's noise is
  * already spread over them). */
@@ -42,23 +45,36 @@
 #include "csi/samples.h"
 #include "csi/status.h"
 
-/* The widths step 2 chooses from (sigma_xy 0, 0.5, 0.75, 1 cell x sigma_t 0, 0.5, 1 frame, none
- * of the first with sigma_t > 0; the first none); a volume of more than 2^17 samples is judged
- * on every k-th sample in cell order, about 2^17 of them. */
-#define CSI_FRAMES_DENOISE_WIDTHS 10
+/* The widths step 2 chooses from: none, and sigma_xy 0.5, 0.75, 1, 1.5 cells x sigma_t 0,
+ * 0.5, 1, 1.5 frames. A volume of more than 2^17 samples is judged on every k-th sample in cell
+ * order, about 2^17 of them. */
+#define CSI_FRAMES_DENOISE_WIDTHS 17
 
-/* Whether per-channel relative noise (csi_recon_options.sample_noise) says the samples are noisy. */
+/* The samples' noise relative to their level (csi_recon_options.sample_noise, its largest
+ * channel) below which the step does nothing: at a tenth of the level the folds' choice lost up
+ * to 0.6 dB on the procedural volumes, at a fifth it gained (docs/bench/animation.md, session 32). */
+#define CSI_FRAMES_DENOISE_NOISE_MIN 0.2
+
+/* Whether the step applies to samples of this per-channel relative noise. */
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels);
 
-/* Step 1 and 2 on frames (nframes * channels * out_w * out_h floats, frame-major then planar,
- * csi_recon_result.frames) of grid g (one cell per pixel; otherwise nothing is done and chosen
- * gets -1, -1). Samples at frames >= nframes (padding) are not used. noise: per channel, the
- * samples' noise relative to their mean |value| (0: exact, step 1 then keeps the samples' own
- * values). velocity: the basis's (csi_recon_options.motion_vx, _vy: cells per frame; NULL
- * still). chosen (may be NULL) gets sigma_xy, sigma_t. */
+/* A fold's solve: the frames of the volume from the caller's samples index[0 .. count) alone
+ * (indices into the arrays given to csi_frames_denoise, in the order of their cells), in *frames
+ * (malloc'd, in the layout of csi_frames_denoise's frames; csi_frames_denoise frees it), and the
+ * velocity its basis used. */
+typedef csi_status (*csi_frames_fold_solve)(void *user, const size_t *index, size_t count, float **frames,
+                                            double velocity[2]);
+
+/* Steps 1 and 2 on frames (nframes * channels * out_w * out_h floats, frame-major then planar,
+ * csi_recon_result.frames) of grid g, from the samples they were solved from (samples at frames
+ * >= nframes, padding, are not used). noise: per channel, the samples' noise relative to their
+ * mean |value|; velocity: the basis's (csi_recon_options.motion_vx, _vy: cells per frame; NULL
+ * still); solve, user: a fold's solve. Nothing is done (chosen -1, -1) on a grid of several
+ * cells per pixel or below CSI_FRAMES_DENOISE_NOISE_MIN; chosen (may be NULL) gets sigma_xy,
+ * sigma_t. */
 csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t channels,
                               const csi_sample_pos *pos, const float *values, size_t n,
-                              const double noise[4], const double velocity[2], float *frames,
-                              double chosen[2]);
+                              const double noise[4], const double velocity[2], csi_frames_fold_solve solve,
+                              void *user, float *frames, double chosen[2]);
 
 #endif

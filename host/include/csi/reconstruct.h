@@ -252,9 +252,10 @@ typedef struct csi_recon_options {
                                      cross-validation (host/integrate/motion_image.c); auto: off */
     csi_switch frames_denoise;    /* a volume's frames from noisy samples: each sampled cell given
                                      its neighbours' estimate by its samples' known noise, then a
-                                     Gaussian chosen by how well it predicts the samples
-                                     (csi/frames_denoise.h); auto: on with frames and samples that
-                                     come with their variances (sample_noise) */
+                                     Gaussian chosen by two folds of the samples
+                                     (csi/frames_denoise.h); auto: on with frames and samples whose
+                                     variances say their noise is at least
+                                     CSI_FRAMES_DENOISE_NOISE_MIN of their level (sample_noise) */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */
@@ -332,6 +333,7 @@ typedef struct csi_recon_result {
     double frames_sigma[2]; /* the frames' Gaussian chosen by frames_denoise, along x and y
                                and along t; -1 where it did not run (and in tiles, each of
                                which chooses its own) */
+    double t_frames;        /* seconds of frames_denoise, its folds' solves included (untiled) */
     double t_setup, t_solve, t_integrate; /* seconds */
     double t_cv;            /* the cross-validated choice (cv_select): its two folds' reconstructions,
                                whose solves and integration t_solve and t_integrate count, and the
