@@ -385,8 +385,14 @@ csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t chan
         return CSI_OK;
     const vol v = {g->w, g->h, nframes, (size_t)g->w * g->h};
     const double vel[2] = {velocity ? velocity[0] : 0, velocity ? velocity[1] : 0};
+    /* both folds' errors on a small volume; on a large one, where one fold's errors already pin
+     * the width down, the first fold's alone (half the cost) */
+    size_t used = 0;
+    for (size_t i = 0; i < n; i++)
+        used += pos[i].t < nframes;
+    const int folds = used >= CSI_FRAMES_DENOISE_ONE_FOLD ? 1 : 2;
     double err[CSI_FRAMES_DENOISE_WIDTHS] = {0};
-    for (int f = 0; f < 2; f++)
+    for (int f = 0; f < folds; f++)
         CSI_TRY(fold_errors(&v, channels, pos, values, n, noise, f, solve, user, err));
     int best = 0;
     for (int k = 1; k < CSI_FRAMES_DENOISE_WIDTHS; k++)
