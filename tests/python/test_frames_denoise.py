@@ -15,6 +15,7 @@ again here in numpy (double) and for what the library promises around it:
 - the point of it: on that volume the frames are closer to the noise-free truth with it than
   without it, by 30% or more in MSE (about half measured; on Mitsuba's animations:
   docs/bench/animation.md, session 32);
+- non-negative samples (one path's exponential noise) give non-negative frames;
 - auto: without variances the step is off (the options say so) and the frames are those of
   "off"; on a grid of 2 x 2 cells per pixel nothing changes either;
 - tiles: time windows and x/y tiles made one at a time (csi.reconstruct_tile) and merged give
@@ -219,6 +220,16 @@ for label, vol, rel, want_smoothing in (("one path's noise", F, (1.0, 0.9, 1.1),
             e0 = float(np.mean((off.frames[..., c] - F[..., c]) ** 2))
             e1 = float(np.mean((on.frames[..., c] - F[..., c]) ** 2))
             check(e1 < 0.7 * e0, f"{label}, channel {c}: frames MSE with the step {e1:.4e}, without {e0:.4e}")
+
+# Non-negative samples (each a unit-mean exponential times the truth: a path tracer's one-path
+# noise, about the level's size) give non-negative frames: step 1 is a convex combination of
+# the neighbours' and the samples' values, step 2 a mean with positive weights.
+clean = F[pos[:, 2], pos[:, 1], pos[:, 0]]
+val = (clean * np.random.default_rng(13).exponential(1.0, clean.shape)).astype(np.float32)
+var = np.broadcast_to((clean ** 2).mean(axis=0).astype(np.float32), val.shape).copy()
+on = csi.reconstruct(pos, val, GRID, frames="on", variance=var)
+check(on.options["frames_denoise"] == "on" and on.frames.min() >= 0,
+      f"non-negative samples: the frames' least value {on.frames.min():.4g} ({on.options['frames_denoise']})")
 
 plain = csi.reconstruct(pos, val, GRID, frames="on")
 plain_off = csi.reconstruct(pos, val, GRID, frames="on", frames_denoise="off")
