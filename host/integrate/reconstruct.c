@@ -104,11 +104,21 @@ typedef struct {
     const csi_sample_pos *pos;
     const float *values;
     const csi_recon_options *opt;
+    unsigned solved; /* folds solved so far: the progress's "frames fold 1" and "2" */
 } frames_fold;
+
+/* A fold's phases for the caller's progress callback: "frames fold 1 solve 2/3" and so on. */
+static bool on_fold_progress(void *user, const char *phase, int iter, double res)
+{
+    const frames_fold *f = user;
+    char name[64];
+    snprintf(name, sizeof name, "frames fold %u %s", f->solved + 1, phase);
+    return f->opt->progress(f->opt->user, name, iter, res);
+}
 
 static csi_status frames_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
 {
-    const frames_fold *f = user;
+    frames_fold *f = user;
     const uint32_t C = f->channels;
     const float *var = f->opt->sample_variance;
     csi_sample_pos *p = malloc(count * sizeof *p);
@@ -128,9 +138,14 @@ static csi_status frames_fold_solve(void *user, const size_t *index, size_t coun
     o.frames_denoise = CSI_SWITCH_OFF;
     o.motion_image_cv = CSI_SWITCH_OFF; /* the image is not asked for */
     o.sample_variance = vv;
+    if (f->opt->progress) {
+        o.progress = on_fold_progress;
+        o.user = f;
+    }
     csi_recon_result r;
     csi_status s = csi_recon(f->ctx, f->grid, C, p, v, count, &o, &r);
     free(p), free(v), free(vv);
+    f->solved++;
     CSI_TRY(s);
     *frames = r.frames;
     r.frames = NULL;
@@ -151,7 +166,7 @@ static csi_status frames_step(csi_ctx *ctx, const csi_grid *grid, uint32_t chann
         return CSI_OK;
     const double t0 = csi_recon_now();
     const double v[2] = {out->options.motion_vx, out->options.motion_vy}; /* the basis's, resolved */
-    frames_fold fold = {ctx, grid, channels, pos, values, opt};
+    frames_fold fold = {ctx, grid, channels, pos, values, opt, 0};
     csi_status s = csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v,
                                       frames_fold_solve, &fold, out->frames, out->frames_sigma);
     out->t_frames = csi_recon_now() - t0;

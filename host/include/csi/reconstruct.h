@@ -287,8 +287,9 @@ typedef struct csi_recon_options {
     uint32_t shutter_frames;
     csi_solve_progress_fn progress; /* phases: "setup", then per channel c of C "solve c/C"
                                      (with the solver's step and relative residual) and
-                                     "integrate c/C"; returning false cancels
-                                     (CSI_ERR_CANCELLED) */
+                                     "integrate c/C" (a volume's frames denoised: then the
+                                     same of each fold, "frames fold 1 setup" ...); returning
+                                     false cancels (CSI_ERR_CANCELLED) */
     void *user;
 } csi_recon_options;
 
