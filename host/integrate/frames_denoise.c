@@ -15,8 +15,8 @@ static const uint8_t WIDTH_AT[CSI_FRAMES_DENOISE_WIDTHS][2] = {
 static const double SXY[NXY] = {0, 0.5, 0.75, 1.0, 1.5};
 static const double ST[NT] = {0, 0.5, 1.0, 1.5};
 #define RMAX 5 /* ceil(3 sigma) of the widest */
-/* Samples a fold's errors are judged on at most (one width for a whole volume: this many squared
- * errors pin it down, and each costs a few thousand bilinear reads) */
+/* Twice the samples a fold's errors are judged on at most (one width for a whole volume: this
+ * many squared errors pin it down, and each costs a few thousand bilinear reads) */
 #define CV_SAMPLES ((size_t)1 << 15)
 
 /* Gaussian taps exp(-d^2 / (2 sigma^2)) for d = 0..RMAX, 0 beyond ceil(3 sigma) (sigma 0: the

@@ -47,8 +47,8 @@
 #include "csi/status.h"
 
 /* The widths step 2 chooses from: none, and sigma_xy 0.5, 0.75, 1, 1.5 cells x sigma_t 0,
- * 0.5, 1, 1.5 frames. A volume of more than 2^17 samples is judged on every k-th sample in cell
- * order, about 2^17 of them. */
+ * 0.5, 1, 1.5 frames. A fold's errors are taken at most at about 2^14 of the other fold's
+ * samples (every k-th in cell order). */
 #define CSI_FRAMES_DENOISE_WIDTHS 17
 
 /* From this many samples on, one fold's errors choose the width (the first fold solved, the
