@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/reconstruct.h"
+
 /* Step 2's widths, (sigma_xy, sigma_t), tried in this order (a tie keeps the earlier: the
  * smaller). Each is an index into SXY and ST below. */
 static const uint8_t WIDTH_AT[CSI_FRAMES_DENOISE_WIDTHS][2] = {
@@ -26,6 +28,18 @@ static void taps(double sigma, double g[RMAX + 1])
     const int r = sigma > 0 ? (int)ceil(3 * sigma) : 0;
     for (int d = 0; d <= RMAX; d++)
         g[d] = d > r ? 0 : (sigma > 0 ? exp(-(double)(d * d) / (2 * sigma * sigma)) : 1);
+}
+
+int csi_frames_fold_max_iter(const struct csi_recon_result *whole)
+{
+    int most = 0;
+    for (uint32_t c = 0; c < whole->channels && c < 4; c++)
+        if (whole->report[c].iterations > most)
+            most = whole->report[c].iterations;
+    int cap = 2 * most > CSI_FRAMES_FOLD_MIN_ITER ? 2 * most : CSI_FRAMES_FOLD_MIN_ITER;
+    if (whole->options.max_iter > 0 && cap > whole->options.max_iter)
+        cap = whole->options.max_iter;
+    return cap;
 }
 
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels)

@@ -104,6 +104,7 @@ typedef struct {
     const csi_sample_pos *pos;
     const float *values;
     const csi_recon_options *opt;
+    int max_iter;    /* the folds' step cap (csi_frames_fold_max_iter) */
     unsigned solved; /* folds solved so far: the progress's "frames fold 1" and "2" */
 } frames_fold;
 
@@ -138,6 +139,7 @@ static csi_status frames_fold_solve(void *user, const size_t *index, size_t coun
     o.frames_denoise = CSI_SWITCH_OFF;
     o.motion_image_cv = CSI_SWITCH_OFF; /* the image is not asked for */
     o.sample_variance = vv;
+    o.max_iter = f->max_iter;
     if (f->opt->progress) {
         o.progress = on_fold_progress;
         o.user = f;
@@ -166,7 +168,7 @@ static csi_status frames_step(csi_ctx *ctx, const csi_grid *grid, uint32_t chann
         return CSI_OK;
     const double t0 = csi_recon_now();
     const double v[2] = {out->options.motion_vx, out->options.motion_vy}; /* the basis's, resolved */
-    frames_fold fold = {ctx, grid, channels, pos, values, opt, 0};
+    frames_fold fold = {ctx, grid, channels, pos, values, opt, csi_frames_fold_max_iter(out), 0};
     csi_status s = csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v,
                                       frames_fold_solve, &fold, out->frames, out->frames_sigma);
     out->t_frames = csi_recon_now() - t0;

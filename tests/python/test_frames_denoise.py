@@ -6,7 +6,8 @@ again here in numpy (double) and for what the library promises around it:
   neighbours' mean and k = v / (v + s^2 / m), then the Gaussian (along t on the path of the
   basis's velocity, bilinear, then along x and y, cut at the volume's sides) of the width whose
   smoothing of two folds' frames (the samples split by a hash of their cell, each half solved
-  here by csi.reconstruct and taken through the same D + k step) predicts the other half's
+  here by csi.reconstruct, to at most twice the whole solve's steps, and taken through the same
+  D + k step) predicts the other half's
   samples best; to float32 rounding, and the same width chosen (the stats' frames_sigma_xy /
   _t), on a volume with one path's noise (the level's size: a smoothing is chosen), with a third
   of it, and on a pan (the basis's velocity found: the smoothing along t follows it); below a
@@ -156,9 +157,9 @@ def fold_of(pos):
     return (z & np.uint64(1)).astype(np.int64), cell
 
 
-def rule(frames, pos, val, var, vel):
+def rule(frames, pos, val, var, vel, steps):
     """The documented step on the fit's frames (T, H, W, C), its two folds solved here through
-    csi.reconstruct: (frames, (sigma_xy, sigma_t))."""
+    csi.reconstruct, each to at most `steps` steps: (frames, (sigma_xy, sigma_t))."""
     noise = [np.sqrt(var[:, c].astype(np.float64).mean()) / np.abs(val[:, c].astype(np.float64)).mean()
              for c in range(val.shape[1])]
     fold, cell = fold_of(pos)
@@ -168,7 +169,7 @@ def rule(frames, pos, val, var, vel):
         mine = mine[np.lexsort((mine, cell[mine]))]  # by cell, then index: the library's order
         other = np.nonzero(fold != f)[0]
         r = csi.reconstruct(pos[mine], val[mine], GRID, frames="on", variance=var[mine], frames_denoise="off",
-                            motion_image_cv="off")
+                            motion_image_cv="off", max_iter=steps)
         fv = (float(r.options["motion_vx"]), float(r.options["motion_vy"]))
         P = cells_step(r.frames, pos[mine], val[mine], noise)
         t, y, x = (pos[other][:, i].astype(np.int64) for i in (2, 1, 0))
@@ -208,7 +209,9 @@ for label, vol, rel, want_smoothing in (("one path's noise", F, (1.0, 0.9, 1.1),
     vel = (float(off.options["motion_vx"]), float(off.options["motion_vy"]))
     if vol is not F:
         check(abs(vel[0] - 0.8) < 0.1 and abs(vel[1]) < 0.1, f"{label}: the basis follows the pan ({vel})")
-    want, width = rule(off.frames, pos, val, var, vel)
+    # the folds' step cap: twice the whole solve's steps (its largest channel's), 20 to its own cap
+    steps = min(max(2 * max(rep["iterations"] for rep in off.reports), 20), int(off.options["max_iter"]))
+    want, width = rule(off.frames, pos, val, var, vel, steps)
     got = (on.stats.get("frames_sigma_xy"), on.stats.get("frames_sigma_t"))
     check(got == width, f"{label}: the width chosen {got}, the rule's {width}")
     err = float(np.abs(on.frames - want).max())

@@ -62,6 +62,14 @@
  * to 0.6 dB on the procedural volumes, at a fifth it gained (docs/bench/animation.md, session 32). */
 #define CSI_FRAMES_DENOISE_NOISE_MIN 0.2
 
+/* A fold's solve stops at twice the steps the whole's solve took (its largest channel's), at
+ * least CSI_FRAMES_FOLD_MIN_ITER, at most the whole's cap: with half the samples a solve can
+ * stall where the whole's did not (one path per sample at 30% of the cells: 2000 steps, the cap,
+ * where the whole took 160-180), and frames it would reach by then choose no better width. */
+#define CSI_FRAMES_FOLD_MIN_ITER 20
+struct csi_recon_result;
+int csi_frames_fold_max_iter(const struct csi_recon_result *whole);
+
 /* Whether the step applies to samples of this per-channel relative noise. */
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels);
 
