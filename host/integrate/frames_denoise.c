@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/positions.h"
 #include "csi/reconstruct.h"
 
 /* Step 2's widths, (sigma_xy, sigma_t), tried in this order (a tie keeps the earlier: the
@@ -95,10 +96,7 @@ static void cell_set_free(cell_set *s)
  * are in one fold and the folds interleave everywhere. */
 static int fold_of(size_t cell)
 {
-    uint64_t z = (uint64_t)cell + 0x9e3779b97f4a7c15ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return (int)((z ^ (z >> 31)) & 1);
+    return (int)(csi_mix64((uint64_t)cell + 0x9e3779b97f4a7c15ull) & 1);
 }
 
 /* The samples at frames < v->t (and of fold `fold`, or all with -1). */
@@ -399,22 +397,21 @@ csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t chan
         return CSI_OK;
     const vol v = {g->w, g->h, nframes, (size_t)g->w * g->h};
     const double vel[2] = {velocity ? velocity[0] : 0, velocity ? velocity[1] : 0};
+    cell_set all;
+    CSI_TRY(cell_set_make(&v, pos, n, -1, &all));
     /* both folds' errors on a small volume; on a large one, where one fold's errors already pin
      * the width down, the first fold's alone (half the cost) */
-    size_t used = 0;
-    for (size_t i = 0; i < n; i++)
-        used += pos[i].t < nframes;
-    const int folds = used >= CSI_FRAMES_DENOISE_ONE_FOLD ? 1 : 2;
+    const int folds = all.used >= CSI_FRAMES_DENOISE_ONE_FOLD ? 1 : 2;
     double err[CSI_FRAMES_DENOISE_WIDTHS] = {0};
-    for (int f = 0; f < folds; f++)
-        CSI_TRY(fold_errors(&v, channels, pos, values, n, noise, f, solve, user, err));
+    csi_status s = CSI_OK;
+    for (int f = 0; f < folds && s == CSI_OK; f++)
+        s = fold_errors(&v, channels, pos, values, n, noise, f, solve, user, err);
     int best = 0;
     for (int k = 1; k < CSI_FRAMES_DENOISE_WIDTHS; k++)
         if (err[k] < err[best])
             best = k;
-    cell_set all;
-    CSI_TRY(cell_set_make(&v, pos, n, -1, &all));
-    csi_status s = cells_step(&v, channels, values, &all, noise, frames);
+    if (s == CSI_OK)
+        s = cells_step(&v, channels, values, &all, noise, frames);
     cell_set_free(&all);
     if (s == CSI_OK)
         s = smooth(&v, channels, vel, best, frames);

@@ -345,18 +345,19 @@ static csi_status make_temp(const char *path, const char *tag, bool dir, char **
         return csi_fail(CSI_ERR_NOMEM, "out of memory");
     snprintf(t, n, "%s/.%s.%sXXXXXX", d, base_of(path), tag);
     bool ok;
+    mode_t mask = umask(0);
+    umask(mask);
     if (dir) {
         ok = mkdtemp(t) != NULL;
-        if (ok) { /* mkdtemp makes 0700; a folder gets what mkdir would give it */
-            mode_t mask = umask(0);
-            umask(mask);
+        if (ok) /* mkdtemp makes 0700; a folder gets what mkdir would give it */
             chmod(t, 0777 & ~mask);
-        }
     } else {
         int fd = mkstemp(t);
         ok = fd >= 0;
-        if (ok)
+        if (ok) { /* mkstemp makes 0600; a file gets what fopen would give it, whoever writes it */
+            (void)fchmod(fd, 0666 & ~mask);
             close(fd);
+        }
     }
     if (!ok) {
         int e = errno;

@@ -366,18 +366,9 @@ class ReconstructError(Exception):
                                       "CSI_ERR_TOO_LARGE") else 1  # as csi-reconstruct exits
 
 
-def _umask_mode(path):
-    """The mode a new file gets (0666 less the umask), for an output written into the temporary
-    csi.OutputSet made (mkstemp: 0600), as the EXR and dump writers' files get."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(path, 0o666 & ~mask)
-
-
 def _write_json(path, obj):
     with open(path, "w") as f:
         json.dump(obj, f, indent=1)
-    _umask_mode(path)
 
 
 def _estimator(extra):
@@ -507,7 +498,6 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         if a.npy:
             with open(tmp(a.npy), "wb") as f:
                 np.save(f, ref)
-            _umask_mode(tmp(a.npy))
         if a.stats:
             _write_json(tmp(a.stats), {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
                                   "seed": a.seed, "t_load_s": t_load, "t_render_s": t_ref,
