@@ -14,6 +14,9 @@
 
 #define SPARSA_MAX_MEMORY 64
 #define SPARSA_STALL_STEPS 10
+/* The steps without the gap halving after which a stage whose objective has also stopped
+ * moving (by less than the stage's tolerance over those steps) ends above the gap's floor. */
+#define SPARSA_STALL_LONG 100
 
 void csi_sparsa_defaults(csi_sparsa_options *o)
 {
@@ -167,7 +170,7 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
         phi = 0.5 * rn2 + tau_k * l1;
         hist[0] = phi;
         bool stage_done = false;
-        double best_gap = INFINITY;
+        double best_gap = INFINITY, phi_at_best = phi;
         int since_best = 0;
         while (!stage_done) {
             if (it >= o.max_iter) {
@@ -279,12 +282,20 @@ csi_status csi_sparsa_run(csi_solver *S, cl_mem y, cl_mem x, const csi_sparsa_op
                  * has not halved for STALL_STEPS steps: the float32 optimum. */
                 if (gap < 0.5 * best_gap) {
                     best_gap = gap;
+                    phi_at_best = phi;
                     since_best = 0;
                 } else {
                     since_best++;
                 }
+                /* Above the floor the gap can still stall where float32 rounding of A x and
+                 * A^H r leaves it (HDR samples, a sheared basis: the iterate stops moving with
+                 * the gap a few times the floor, and the stage runs to the step cap). Once the
+                 * gap has not halved for SPARSA_STALL_LONG steps and the objective has fallen
+                 * by less than the stage's tolerance over them, the objective stop's own test
+                 * holds a hundred times over: the stage ends. */
                 stage_done = gap <= stage_tol * phi ||
-                             (gap <= gap_floor && since_best >= SPARSA_STALL_STEPS);
+                             (gap <= gap_floor && since_best >= SPARSA_STALL_STEPS) ||
+                             (since_best >= SPARSA_STALL_LONG && phi_at_best - phi <= stage_tol * phi);
             }
             if (stage_done && !last) {
                 /* Adaptive continuation: the next tau from the current correlations. A stage

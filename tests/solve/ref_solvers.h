@@ -252,7 +252,7 @@ static inline ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, do
     double phi = 0.5 * ref_dot(r, r, nN), alpha = 1.0;
     double hist[64];
     int nh = 1, hpos = 0, since = 0;
-    double best_gap = INFINITY;
+    double best_gap = INFINITY, phi_at_best = phi;
     hist[0] = phi;
     while (R.iterations < max_iter) {
         double ref = hist[0];
@@ -307,15 +307,18 @@ static inline ref_sparsa_result ref_sparsa(const ref_mat *M, const double *y, do
         double sc = hr > tau ? tau / hr : 1.0;
         double dual = -0.5 * sc * sc * rn2 + sc * ref_dot(r, y, nN);
         /* the device's float32 floor (csi/solve.h): below 32 u ||y||^2, stop after 10 steps
-         * in which the gap has not halved */
+         * in which the gap has not halved; above it, after 100 such steps over which phi fell by
+         * at most tol phi */
         double gap = phi - dual;
         if (gap < 0.5 * best_gap) {
             best_gap = gap;
+            phi_at_best = phi;
             since = 0;
         } else {
             since++;
         }
-        if (gap <= tol * phi || (gap <= 32.0 * 0x1.0p-24 * ref_dot(y, y, nN) && since >= 10))
+        if (gap <= tol * phi || (gap <= 32.0 * 0x1.0p-24 * ref_dot(y, y, nN) && since >= 10) ||
+            (since >= 100 && phi_at_best - phi <= tol * phi))
             break;
     }
     free(r);

@@ -178,7 +178,9 @@ void csi_column_norms_buffers(size_t rows, size_t cols, bool complex_valued, csi
  * (a step that raised phi, which the non-monotone acceptance allows, never stops a stage);
  * STOP_GAP, the duality gap (with the feasible dual point w = r min(1, tau / ||A^H r||_inf))
  * divided by phi <= tol, or the gap below its float32 rounding level 32 u ||y||^2 (u = 2^-24)
- * and not halved for 10 steps (float32 cannot resolve it further).
+ * and not halved for 10 steps (float32 cannot resolve it further), or the gap not halved for
+ * 100 steps over which phi fell by at most tol phi (the rounding of A^H r can hold the gap
+ * above that level: the iterate has stopped moving, and the stage would run to the cap).
  * Debiasing: CGLS on the non-zero set of x (skipped when it has more
  * than N/2 elements, reported NOT_IDENTIFIABLE). tau >= ||A^H y||_inf: x = 0 at once (ZERO). */
 typedef enum { CSI_SPARSA_STOP_GAP = 0, CSI_SPARSA_STOP_OBJECTIVE = 1 } csi_sparsa_stop;
