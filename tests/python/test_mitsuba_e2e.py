@@ -4,8 +4,9 @@ determinism; Mitsuba XML scenes (as users write them too: a film by <ref>, the s
 <include>d file, a luminance film, a scene that renders black); positions requests; bad input
 (exit 2, one line on stderr, nothing left behind: also no integrator, a crop window with --out,
 --time-steps on a still scene, a plugin RGB cannot render, an XML error named at its file's line,
-bad -D parameters); -D for an XML scene's $parameters; NaN samples and references said in one
-warning line even with -q; the outputs' file modes alike.
+bad -D parameters, a --sensor the scene lacks); -D for an XML scene's $parameters; --sensor by id
+and by index; NaN samples and references said in one warning line even with -q; the outputs' file
+modes alike.
 
 Scene: Mitsuba's Cornell box at 64x64, 4 samples per pixel of 16 paths each (csi's default grid
 for 4 spp: 8x, 512x512 cells), reference 256 spp.
@@ -213,6 +214,26 @@ def main():
             check(r.returncode == 0 and len(r.stderr.strip().splitlines()) == 1 and want in r.stderr,
                   f"NaN {what} with -q: exit {r.returncode}, stderr {r.stderr.strip()!r}")
 
+        # --sensor picks one of the scene's sensors, by id or by index in declaration order: a
+        # second one (id "sky", a 12 x 10 film) looks away from the sphere, so that every
+        # pixel it sees is the constant emitter's radiance
+        sky = ('  <sensor type="perspective" id="sky">\n'
+               '    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 8" up="0, 1, 0"/></transform>\n'
+               '    <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="10"/></film>\n'
+               '  </sensor>\n')
+        with open(p("two.xml"), "w") as f:
+            f.write(XML.replace("  <emitter", sky + "  <emitter"))
+        if (ok(cli(p("two.xml"), "--sensor", "sky", "--spp", 1, "-o", p("sky.exr"), "-q"), "--sensor sky")
+                and ok(cli(p("two.xml"), "--sensor", 1, "--spp", 1, "-o", p("sky1.exr"), "-q"), "--sensor 1")
+                and ok(cli(p("two.xml"), "--out", "16x12", "--spp", 1, "-o", p("first.exr"), "-q"), "no --sensor")):
+            a = exr.read(p("sky.exr"))
+            check(a.shape == (10, 12, 3) and np.allclose(a, [0.8, 0.9, 1.0], rtol=1e-5, atol=0),
+                  f"--sensor sky: {a.shape}, values {a.reshape(-1, 3).min(axis=0)} .. {a.reshape(-1, 3).max(axis=0)}")
+            check(np.array_equal(a, exr.read(p("sky1.exr"))), "--sensor 1 and --sensor sky: the same image")
+            first = exr.read(p("first.exr"))
+            check(first.shape == (12, 16, 3) and first[6, 8, 0] > 1.5 * first[6, 8, 2],
+                  f"without --sensor, the first sensor (the sphere at the centre): {first[6, 8]}")
+
         # Bad input: exit 2, one line, nothing written.
         with open(p("noint.xml"), "w") as f:
             f.write(XML.replace('<integrator type="path"><integer name="max_depth" value="4"/></integrator>', ""))
@@ -255,6 +276,9 @@ def main():
                                                           p("o.exr")]),
             ("a plugin RGB cannot render", "cannot render", [p("bb.xml"), "--out", "8x8", "--spp", "1", "-o", p("o.exr")]),
             ("an error named at its line", f"line.xml (line {bad_line},", [p("line.xml"), "--out", "8x8", "-o", p("o.exr")]),
+            ("a sensor index beyond the scene's", "has 2 sensors: 0, 1 (sky)", [p("two.xml"), "--sensor", "2", "-o",
+                                                                             p("o.exr")]),
+            ("a sensor id the scene lacks", "no sensor has that id", [p("two.xml"), "--sensor", "top", "-o", p("o.exr")]),
             ("frames after --", "writes no frames", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--frames", "d"]),
             ("settle with the second pass", "--settle", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--settle",
                                                          "on"]),

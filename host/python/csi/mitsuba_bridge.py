@@ -159,10 +159,31 @@ SENSOR_TYPES = ("perspective", "thinlens", "orthographic", "telecentric", "radia
                 "distant", "batch")
 
 
-def _film_dict_override(d, size, box_filter):
-    sensor = next((v for v in d.values() if isinstance(v, dict) and v.get("type") in SENSOR_TYPES), None)
-    if sensor is None:
+def _pick_sensor(names, which):
+    """The index of the sensor `which` names among the scene's, in declaration order: None (the
+    first), an index (as mi.render's sensor argument counts) or an id (a string)."""
+    if not names:
         raise BridgeError("the scene has no sensor")
+    if which is None:
+        return 0
+    listed = ", ".join(f"{i}" + (f" ({n})" if n else "") for i, n in enumerate(names))
+    if isinstance(which, int) or str(which).isdigit():
+        i = int(which)
+        if i >= len(names):
+            raise BridgeError(f"--sensor {i}: the scene has {len(names)} sensor{'s' if len(names) > 1 else ''}: {listed}")
+        return i
+    if which not in names:
+        raise BridgeError(f"--sensor {which}: no sensor has that id; the scene's sensors: {listed}")
+    return names.index(which)
+
+
+def _film_dict_override(d, size, box_filter, which=None):
+    keys = [k for k, v in d.items() if isinstance(v, dict) and v.get("type") in SENSOR_TYPES]
+    chosen = keys[_pick_sensor(keys, which)]
+    for k in keys:  # the scene keeps the chosen sensor only: it is then the scene's first
+        if k != chosen:
+            del d[k]
+    sensor = d[chosen]
     film = sensor.setdefault("film", {"type": "hdrfilm"})
     if size:
         _no_crop(film.keys(), size)
@@ -197,10 +218,11 @@ def _xml_check(path):
         raise BridgeError(f"{path}: the root element is <{root.tag}>, not a Mitsuba <scene>")
 
 
-def _xml_load(mi, path, size, box_filter, params=None):
-    """The XML scene through Mitsuba's own parser (mi.parser, Mitsuba >= 3.7), the first sensor's
-    film overridden in the parsed state: includes, <ref>'d films and sensors in included files
-    are Mitsuba's, and an error names the user's file and line (not a rewritten copy's)."""
+def _xml_load(mi, path, size, box_filter, params=None, which=None):
+    """The XML scene through Mitsuba's own parser (mi.parser, Mitsuba >= 3.7), the chosen sensor
+    (`which`, _pick_sensor's; the others removed from the parsed state) with its film overridden:
+    includes, <ref>'d films and sensors in included files are Mitsuba's, and an error names the
+    user's file and line (not a rewritten copy's)."""
     P = mi.parser
     cfg = P.ParserConfig(VARIANT)
     state = P.parse_file(cfg, os.path.abspath(path), **(params or {}))  # $name parameters, as mitsuba -D
@@ -212,10 +234,17 @@ def _xml_load(mi, path, size, box_filter, params=None):
         return [nodes[node.props[k].index()] for k in node.props.keys()
                 if node.props.type(k) == RR and nodes[node.props[k].index()].type == kind]
 
+    sensors = [i for i, n in enumerate(nodes) if n.type == mi.ObjectType.Sensor]
+    if not sensors:
+        raise BridgeError(f"{path}: the scene has no <sensor>")
+    chosen = sensors[_pick_sensor([nodes[i].props.id() for i in sensors], which)]
+    others = set(sensors) - {chosen}
+    for n in nodes:  # every reference to another sensor: the scene keeps the chosen one only
+        for k in list(n.props.keys()):
+            if n.props.type(k) == RR and n.props[k].index() in others:
+                n.props.remove_property(k)
     if size or box_filter:
-        sensor = next((n for n in nodes if n.type == mi.ObjectType.Sensor), None)
-        if sensor is None:
-            raise BridgeError(f"{path}: the scene has no <sensor>")
+        sensor = nodes[chosen]
         films = children(sensor, mi.ObjectType.Film)
         if films:
             film = films[0].props
@@ -234,7 +263,7 @@ def _xml_load(mi, path, size, box_filter, params=None):
             sensor.props["film"] = mi.load_dict(d)
     scene = P.instantiate(cfg, state)
     if size and scene.sensors() and tuple(int(v) for v in scene.sensors()[0].film().crop_size()) != tuple(size):
-        raise BridgeError(f"{path}: cannot set the first sensor's film to {size[0]}x{size[1]}")
+        raise BridgeError(f"{path}: cannot set the sensor's film to {size[0]}x{size[1]}")
     return scene
 
 
@@ -252,11 +281,13 @@ def _check_integrator(mi, scene, spec):
                           f"(nest one, e.g. <integrator type=\"path\"/>, or use the path integrator)")
 
 
-def load_scene(spec, size=None, box_filter=False, params=None) -> Scene:
+def load_scene(spec, size=None, box_filter=False, params=None, sensor=None) -> Scene:
     """spec: "cornell" (Mitsuba's built-in Cornell box), a Mitsuba XML file, or a Python file
     defining scene() that returns a scene dictionary. size (w, h) overrides the film's; with
     box_filter the film's reconstruction filter becomes a box (for references). params: values of
-    an XML scene's $name parameters ({name: text}, Mitsuba's -D name=value)."""
+    an XML scene's $name parameters ({name: text}, Mitsuba's -D name=value). sensor: which of
+    the scene's sensors renders, an index in declaration order (as mi.render counts) or an id;
+    None, the first. The scene is loaded with that sensor alone."""
     spec = os.fspath(spec)
     if params and (spec == "cornell" or spec.endswith(".py")):
         raise BridgeError(f"{spec}: parameters ({', '.join(sorted(params))}) are an XML scene's $name values; "
@@ -277,19 +308,19 @@ def load_scene(spec, size=None, box_filter=False, params=None) -> Scene:
     animate = None
     try:
         if spec == "cornell":
-            scene = mi.load_dict(_film_dict_override(mi.cornell_box(), size, box_filter))
+            scene = mi.load_dict(_film_dict_override(mi.cornell_box(), size, box_filter, sensor))
         elif spec.endswith(".py"):
             ns = runpy.run_path(spec)
             if not callable(ns.get("scene")):
                 raise BridgeError(f"{spec}: defines no scene() function returning a Mitsuba scene dictionary")
-            scene = mi.load_dict(_film_dict_override(ns["scene"](), size, box_filter))
+            scene = mi.load_dict(_film_dict_override(ns["scene"](), size, box_filter, sensor))
             animate = ns.get("animate")
             if animate is not None and not callable(animate):
                 raise BridgeError(f"{spec}: animate is not a function animate(params, time)")
         else:
             resolver = mi.Thread.thread().file_resolver()
             resolver.prepend(os.path.dirname(os.path.abspath(spec)))
-            scene = _xml_load(mi, spec, size, box_filter, params)
+            scene = _xml_load(mi, spec, size, box_filter, params, sensor)
     except BridgeError as e:
         raise BridgeError(str(e) if str(e).startswith(spec) else f"{spec}: {e}") from None
     except Exception as e:  # Mitsuba's parser and plugins raise RuntimeError with the reason

@@ -126,6 +126,8 @@ def parser():
                         "of the same samples (docs/bench/mitsuba.md, session 21)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
                    "with SPP samples per pixel instead of samples")
+    s.add_argument("--sensor", metavar="ID|N", help="which of the scene's sensors renders: its id, or its index in "
+                   "declaration order from 0 (as mi.render counts); default: the first")
     s.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE",
                    help="the value of an XML scene's $NAME parameter (as mitsuba -D; repeatable)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr, and none of "
@@ -476,9 +478,9 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     t_load = time.perf_counter()
     if a.quiet:
         mb.quiet()
-    scene = mb.load_scene(a.scene, size=a.out, box_filter=bool(a.reference), params=a.params)
+    scene = mb.load_scene(a.scene, size=a.out, box_filter=bool(a.reference), params=a.params, sensor=a.sensor)
     if req is not None and scene.size != req.out:
-        scene = mb.load_scene(a.scene, size=req.out, params=a.params)
+        scene = mb.load_scene(a.scene, size=req.out, params=a.params, sensor=a.sensor)
     t_load = time.perf_counter() - t_load
     size = scene.size
     if a.time_steps > 1 and scene.animate is None and not a.reference:
