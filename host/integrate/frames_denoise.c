@@ -421,3 +421,14 @@ csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t chan
     }
     return s;
 }
+
+void csi_frames_denoise_image(const float *frames, uint32_t nframes, uint32_t channels, size_t np, float *image)
+{
+    for (uint32_t c = 0; c < channels; c++)
+        for (size_t p = 0; p < np; p++) {
+            double m = 0;
+            for (uint32_t t = 0; t < nframes; t++)
+                m += frames[((size_t)t * channels + c) * np + p];
+            image[(size_t)c * np + p] = (float)(0.5 * ((double)image[(size_t)c * np + p] + m / nframes));
+        }
+}

@@ -367,7 +367,8 @@ csi_status csi_recon_plan_whole(const csi_ctx *ctx, const csi_grid *g, uint32_t 
     m.dev.local_mem = ctx ? csi_ctx_local_mem(ctx) : 0;
     /* The result (reconstruct.c) */
     m.host += np * channels * 4;
-    if (g->t > 1 && opt->frames && opt->estimator != CSI_EST_MEAN)
+    /* the frames, asked for or made for the image's average with them (image_frames) */
+    if (g->t > 1 && (opt->frames || opt->image_frames == CSI_SWITCH_ON) && opt->estimator != CSI_EST_MEAN)
         m.host += np * channels * g->t * 4;
     csi_status st;
     if (opt->estimator == CSI_EST_MEAN) {
@@ -449,8 +450,12 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
     csi_tile_scope scope;
     csi_tile_scope_init(g, channels, n, &scope);
     CSI_TRY(csi_recon_plan_whole(ctx, &tg, channels, tn, &to, &scope, &tp));
+    /* the frames, asked for or made for the image's average with them (reconstruct.c's rule) */
+    csi_recon_options ro;
+    const bool frames = opt.frames || (tl.n[2] == 1 && csi_recon_resolve(&opt, g, n, &ro) == CSI_OK &&
+                                       ro.image_frames == CSI_SWITCH_ON);
     const uint64_t whole_result = (uint64_t)g->out_w * g->out_h * channels * 4 *
-                                  (g->t > 1 && opt.frames && opt.estimator != CSI_EST_MEAN ? 1 + (uint64_t)g->t : 1);
+                                  (g->t > 1 && frames && opt.estimator != CSI_EST_MEAN ? 1 + (uint64_t)g->t : 1);
     /* the blend's per-pixel sums (csi/tiles.h), and a tile's own while it is blended: a time
      * window's residual sums, or a still image's sample counts and sums when it may settle */
     const uint64_t np = (uint64_t)g->out_w * g->out_h, wnp = (uint64_t)tl.window[0] * tl.window[1];

@@ -78,6 +78,9 @@ static csi_status check_options(const csi_recon_options *opt)
         return csi_fail(CSI_ERR_ARG, "lambda must be a finite number > 0 (got %g)", (double)opt->lambda);
     if (!(opt->sigma_scale > 0) || !isfinite(opt->sigma_scale))
         return csi_fail(CSI_ERR_ARG, "sigma scale must be a finite number > 0 (got %g)", opt->sigma_scale);
+    if (opt->image_frames == CSI_SWITCH_ON && opt->frames_denoise == CSI_SWITCH_OFF)
+        return csi_fail(CSI_ERR_ARG, "image-frames on averages the image with the frames frames-denoise gives: "
+                        "not with frames-denoise off");
     return CSI_OK;
 }
 
@@ -137,6 +140,7 @@ static csi_status frames_fold_solve(void *user, const size_t *index, size_t coun
     csi_recon_options o = *f->opt;
     o.frames = true;
     o.frames_denoise = CSI_SWITCH_OFF;
+    o.image_frames = CSI_SWITCH_OFF;
     o.motion_image_cv = CSI_SWITCH_OFF; /* the image is not asked for */
     o.sample_variance = vv;
     o.max_iter = f->max_iter;
@@ -171,20 +175,25 @@ static csi_status frames_step(csi_ctx *ctx, const csi_grid *grid, uint32_t chann
     frames_fold fold = {ctx, grid, channels, pos, values, opt, csi_frames_fold_max_iter(out), 0};
     csi_status s = csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v,
                                       frames_fold_solve, &fold, out->frames, out->frames_sigma);
+    if (s == CSI_OK && out->options.image_frames == CSI_SWITCH_ON)
+        csi_frames_denoise_image(out->frames, out->nframes, channels, (size_t)out->out_w * out->out_h, out->image);
     out->t_frames = csi_recon_now() - t0;
     return s;
 }
 
-csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
-                     const float *values, size_t n, const csi_recon_options *opt_in,
-                     csi_recon_result *out)
+/* The frames a caller did not ask for, made for the image's average with them (image_frames):
+ * dropped from the result. */
+static void frames_drop(csi_recon_result *out)
 {
-    memset(out, 0, sizeof *out);
-    csi_recon_options opt;
-    if (opt_in)
-        opt = *opt_in;
-    else
-        csi_recon_defaults(&opt);
+    free(out->frames);
+    out->frames = NULL;
+    out->nframes = 0;
+    out->options.frames = false;
+}
+
+static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
+                        const float *values, size_t n, csi_recon_options opt, csi_recon_result *out)
+{
     CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
     CSI_TRY(csi_recon_check_variance(opt.sample_variance, n, channels));
@@ -196,6 +205,14 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
      * and the padded whole would not fit either. */
     csi_tiling tl;
     CSI_TRY(csi_tiling_layout(ctx, grid, channels, n, &opt, &tl));
+    /* The image averaged with the denoised frames (image_frames) needs the frames, asked for or
+     * not: made below, dropped by csi_recon when not asked for; time windows do not average
+     * (tiled.c), and their tiles decide for themselves (csi_recon_tile). */
+    if (grid->t > 1 && !opt.frames && tl.n[2] == 1) {
+        csi_recon_options r;
+        CSI_TRY(csi_recon_resolve(&opt, grid, n, &r));
+        opt.frames = r.image_frames == CSI_SWITCH_ON;
+    }
     if (memcmp(&tl.grid, grid, sizeof *grid)) {
         const csi_grid padded = tl.grid;
         csi_recon_options po = opt;
@@ -308,6 +325,22 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     return CSI_OK;
 }
 
+csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
+                     const float *values, size_t n, const csi_recon_options *opt_in,
+                     csi_recon_result *out)
+{
+    memset(out, 0, sizeof *out);
+    csi_recon_options opt;
+    if (opt_in)
+        opt = *opt_in;
+    else
+        csi_recon_defaults(&opt);
+    CSI_TRY(recon(ctx, grid, channels, pos, values, n, opt, out));
+    if (!opt.frames && out->frames)
+        frames_drop(out);
+    return CSI_OK;
+}
+
 csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *tl, size_t n,
                               const csi_recon_options *solved, csi_recon_options *out)
 {
@@ -324,6 +357,9 @@ csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *
         out->tile_margin = tl->margin[0];
         if (tl->grid.t > 1)
             out->tile_margin_t = tl->margin[2];
+        /* time windows leave the image's average with the frames out (tiled.c) */
+        if (tl->n[2] > 1 && out->image_frames == CSI_SWITCH_ON)
+            out->image_frames = CSI_SWITCH_OFF;
     } else if (out != solved) {
         *out = *solved;
     }

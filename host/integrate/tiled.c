@@ -263,6 +263,7 @@ static csi_status tile_fold_solve(void *user, const size_t *index, size_t count,
     csi_recon_options o = *f->opt;
     o.frames = true;
     o.frames_denoise = CSI_SWITCH_OFF;
+    o.image_frames = CSI_SWITCH_OFF;
     o.max_iter = f->max_iter;
     csi_tile_result r;
     csi_status s = csi_recon_tile(f->ctx, &f->tl->grid, C, p, v, count, &o, f->tl, f->scope, f->index, &r);
@@ -278,17 +279,24 @@ static csi_status tile_fold_solve(void *user, const size_t *index, size_t count,
 
 /* The frames of noisy samples (csi/frames_denoise.h) in a tile's window, on the window's samples
  * as given, as an untiled run does on the whole volume's (reconstruct.c): after the window's
- * share of the image was taken from its frames (reconstruct_tile), so that only the frames
- * change. A window's frames past the shutter's (padding) are left out. */
+ * share of the image was taken from its frames (reconstruct_tile). A window's frames past the
+ * shutter's (padding) are left out. A window over the whole shutter then averages its image
+ * with its frames' mean (image_frames), as an untiled run does; a time window's image is the
+ * whole shutter's correction (tiled.c's residual sums), which it leaves alone. */
 static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi_tile_scope *scope, uint32_t index,
                                    uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
-                                   const csi_recon_options *opt, csi_tile_result *out)
+                                   const csi_recon_options *opt, bool frames_asked, csi_tile_result *out)
 {
     csi_recon_result *r = &out->r;
     if (tl->grid.t == 1 || !opt->frames || !r->nframes || !r->frames || r->options.estimator != CSI_EST_CS ||
         r->options.frames_denoise != CSI_SWITCH_ON || out->t0 >= tl->image_t)
         return CSI_OK;
     const uint32_t valid = tl->image_t - out->t0 < r->nframes ? tl->image_t - out->t0 : r->nframes;
+    /* the image's average (image_frames): a window over the whole shutter's, not a time window's */
+    const bool image = r->options.image_frames == CSI_SWITCH_ON && out->t0 == 0 && valid == tl->image_t &&
+                       !out->resid;
+    if (!frames_asked && !image)
+        return CSI_OK; /* frames made only for an image that does not take them */
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
     const double v[2] = {r->options.motion_vx, r->options.motion_vy}; /* the window's basis's */
@@ -296,6 +304,8 @@ static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi
     csi_status s = csi_frames_denoise(&p.g, valid, channels, p.pos, p.values, p.n, opt->sample_noise, v,
                                       tile_fold_solve, &fold, r->frames, NULL);
     tile_problem_free(&p);
+    if (s == CSI_OK && image)
+        csi_frames_denoise_image(r->frames, valid, channels, (size_t)r->out_w * r->out_h, r->image);
     return s;
 }
 
@@ -307,6 +317,17 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     int e[4];
     float *scaled = NULL;
     memset(out, 0, sizeof *out);
+    /* The image averaged with the denoised frames (image_frames) needs the window's frames, asked
+     * for or not (csi_recon's rule: a tile run alone makes the same image as the tile in process);
+     * dropped below when not asked for. */
+    csi_recon_options local = *opt;
+    if (g->t > 1 && !opt->frames) {
+        csi_recon_options r;
+        CSI_TRY(csi_recon_resolve(opt, g, n, &r));
+        local.frames = r.image_frames == CSI_SWITCH_ON;
+    }
+    const csi_recon_options *asked = opt;
+    opt = &local;
     CSI_TRY(csi_recon_scale_values(values, n, channels, csi_recon_scale_common(channels, opt), e, &scaled));
     csi_status s = reconstruct_tile(ctx, g, channels, pos, scaled ? scaled : values, n, opt, tl, scope, index, out);
     free(scaled);
@@ -314,7 +335,8 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         csi_recon_unscale_result(&out->r, e);
     if (s == CSI_OK && (s = tile_noisy_steps(ctx, tl, index, channels, pos, values, n, opt, out)) != CSI_OK)
         csi_tile_result_free(out);
-    if (s == CSI_OK && (s = tile_frames_step(ctx, tl, scope, index, channels, pos, values, n, opt, out)) != CSI_OK)
+    if (s == CSI_OK && (s = tile_frames_step(ctx, tl, scope, index, channels, pos, values, n, opt, asked->frames, out)) !=
+                          CSI_OK)
         csi_tile_result_free(out);
     const size_t np = (size_t)out->r.out_w * out->r.out_h;
     for (uint32_t c = 0; s == CSI_OK && out->resid && c < channels; c++)
@@ -327,6 +349,12 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             a[5] = ldexp(a[5], e[c]);
             a[6] = ldexp(a[6], 2 * e[c]);
         }
+    if (s == CSI_OK && !asked->frames && out->r.frames) {
+        free(out->r.frames);
+        out->r.frames = NULL;
+        out->r.nframes = 0;
+        out->r.options.frames = false;
+    }
     return s;
 }
 

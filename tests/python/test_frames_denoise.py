@@ -12,7 +12,11 @@ again here in numpy (double) and for what the library promises around it:
   _t), on a volume with one path's noise (the level's size: a smoothing is chosen), with a third
   of it, and on a pan (the basis's velocity found: the smoothing along t follows it); below a
   fifth of the level the step is off;
-- the blurred image is the same bits with the step on or off;
+- the blurred image with the step is the average of the image without it and the mean over t of
+  the step's frames (image_frames, csi/frames_denoise.h), to float32 rounding, the same bits
+  whether the frames are asked for or not; with image_frames off, the same bits as without the
+  step; image_frames on is refused with the step off, and below the step's floor turns it on and
+  averages the same way;
 - the point of it: on that volume the frames are closer to the noise-free truth with it than
   without it, by 30% or more in MSE (about half measured; on Mitsuba's animations:
   docs/bench/animation.md, session 32);
@@ -20,9 +24,12 @@ again here in numpy (double) and for what the library promises around it:
 - auto: without variances the step is off (the options say so) and the frames are those of
   "off"; on a grid of 2 x 2 cells per pixel nothing changes either;
 - tiles: time windows and x/y tiles made one at a time (csi.reconstruct_tile) and merged give
-  the in-process tiled frames bit for bit, and there too the step brings the frames closer to
-  the truth (by 30% or more);
-- csi-reconstruct names the option in --help."""
+  the in-process tiled frames and image bit for bit (the image also from tiles made without
+  their frames asked for), and there too the step brings the frames closer to the truth (by 30%
+  or more); x/y tiles average each window's image with its frames' mean (the blend is linear:
+  the tiled image is the average of the step-off tiled image and the tiled frames' mean), time
+  windows leave the image alone;
+- csi-reconstruct names both options in --help."""
 import os
 import subprocess
 import sys
@@ -205,7 +212,10 @@ for label, vol, rel, want_smoothing in (("one path's noise", F, (1.0, 0.9, 1.1),
         check(on.options["frames_denoise"] == "off" and np.array_equal(on.frames, off.frames),
               f"{label}: auto is off ({on.options['frames_denoise']}), the frames those of off")
         continue
-    check(on.options["frames_denoise"] == "on", f"{label}: auto is on with variances ({on.options['frames_denoise']})")
+    check(on.options["frames_denoise"] == "on" and on.options["image_frames"] == "on",
+          f"{label}: auto is on with variances ({on.options['frames_denoise']}, {on.options['image_frames']})")
+    noimg = csi.reconstruct(pos, val, GRID, frames="on", variance=var, image_frames="off")
+    alone = csi.reconstruct(pos, val, GRID, variance=var)
     vel = (float(off.options["motion_vx"]), float(off.options["motion_vy"]))
     if vol is not F:
         check(abs(vel[0] - 0.8) < 0.1 and abs(vel[1]) < 0.1, f"{label}: the basis follows the pan ({vel})")
@@ -216,7 +226,12 @@ for label, vol, rel, want_smoothing in (("one path's noise", F, (1.0, 0.9, 1.1),
     check(got == width, f"{label}: the width chosen {got}, the rule's {width}")
     err = float(np.abs(on.frames - want).max())
     check(err <= 1e-5 * float(np.abs(want).max()), f"{label}: frames against the rule in numpy, max difference {err:.3g}")
-    check(np.array_equal(on.image, off.image), f"{label}: the image is the same bits with the step")
+    check(np.array_equal(noimg.image, off.image), f"{label}: image_frames off: the image is the same bits with the step")
+    avg = 0.5 * (off.image.astype(np.float64) + on.frames.astype(np.float64).mean(axis=0))
+    err = float(np.abs(on.image - avg).max())
+    check(err <= 1e-6 * float(np.abs(avg).max()), f"{label}: the image against the average with the frames' mean, {err:.3g}")
+    check(np.array_equal(on.image, alone.image) and alone.frames is None,
+          f"{label}: the image is the same bits without the frames asked for")
     if want_smoothing:
         check(width != (0.0, 0.0), f"{label}: a smoothing is chosen ({width})")
         for c in range(3):
@@ -266,12 +281,46 @@ with tempfile.TemporaryDirectory() as d:
             t.write_partial(parts[-1], "s.csid")
         m = csi.merge_partials(parts, frames=True)
         check(np.array_equal(m.frames, tiled.frames), f"{topts}: frames of tiles made one at a time = in process")
-        check(np.array_equal(tiled.image, tiled_off.image), f"{topts}: the tiled image is the same bits with the step")
+        check(np.array_equal(m.image, tiled.image), f"{topts}: the image of tiles made one at a time = in process")
+        # tiles made without their frames asked for: the same image (each makes its frames for it)
+        bare = []
+        for i in range(count):
+            t = csi.reconstruct_tile(pos, val, GRID, i, variance=var, **topts)
+            bare.append(os.path.join(d, f"b{i}.csip"))
+            t.write_partial(bare[-1], "s.csid")
+        check(np.array_equal(csi.merge_partials(bare).image, tiled.image),
+              f"{topts}: tiles made without frames give the same image")
+        if topts.get("tiles_t", 1) > 1:  # a time window's image is the whole shutter's correction: left alone
+            check(np.array_equal(tiled.image, tiled_off.image), f"{topts}: the tiled image is the same bits with the step")
+        else:  # each window's image averaged with its frames' mean, the windows then blended (linear)
+            avg = 0.5 * (tiled_off.image.astype(np.float64) + tiled.frames.astype(np.float64).mean(axis=0))
+            err = float(np.abs(tiled.image - avg).max())
+            check(err <= 1e-5 * float(np.abs(avg).max()),
+                  f"{topts}: the tiled image against the average with the frames' mean, {err:.3g}")
         e0 = float(np.mean((tiled_off.frames - F) ** 2))
         e1 = float(np.mean((tiled.frames - F) ** 2))
         check(e1 < 0.7 * e0, f"{topts}: tiled frames MSE with the step {e1:.4e}, without {e0:.4e}")
 
+# image_frames on averages with the denoised frames: refused with the step off, and on its own it
+# turns the step on (auto) even where the samples' noise is below its floor
+try:
+    csi.reconstruct(pos, val, GRID, variance=var, image_frames="on", frames_denoise="off")
+    check(False, "image_frames on with frames_denoise off: accepted")
+except csi.CsiError as e:
+    check("frames-denoise off" in str(e), f"image_frames on with frames_denoise off: {e}")
+quiet = (clean + 0.05 * np.abs(clean).mean(axis=0) * np.random.default_rng(3).standard_normal(clean.shape)).astype(np.float32)
+qvar = np.broadcast_to((0.05 * np.abs(clean).mean(axis=0)) ** 2, quiet.shape).astype(np.float32).copy()
+q_auto = csi.reconstruct(pos, quiet, GRID, variance=qvar)
+q_on = csi.reconstruct(pos, quiet, GRID, variance=qvar, image_frames="on", frames="on")
+check(q_auto.options["image_frames"] == "off" and q_on.options["frames_denoise"] == "on",
+      f"below the floor: auto {q_auto.options['image_frames']}; on turns the step {q_on.options['frames_denoise']}")
+q_off = csi.reconstruct(pos, quiet, GRID, variance=qvar, frames="on", frames_denoise="on")
+avg = 0.5 * (q_auto.image.astype(np.float64) + q_off.frames.astype(np.float64).mean(axis=0))
+check(float(np.abs(q_on.image - avg).max()) <= 1e-6 * float(np.abs(avg).max()),
+      "image_frames on below the floor: the average with the step's frames")
+
 h = subprocess.run([os.path.join(BUILD, "csi-reconstruct"), "--help"], capture_output=True, text=True)
-check("--frames-denoise" in h.stdout, "csi-reconstruct --help names --frames-denoise")
+check("--frames-denoise" in h.stdout and "--image-frames" in h.stdout,
+      "csi-reconstruct --help names --frames-denoise and --image-frames")
 
 sys.exit(done())

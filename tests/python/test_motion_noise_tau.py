@@ -4,9 +4,9 @@ checked against its closed form and for the properties the library promises arou
 - the rule: per channel, tau with the variances is tau without them times
   max(1, min(3 (sqrt(mean variance) / mean |value|), 1) / (sqrt(n) tau_rel)), the noise ratio
   computed here in numpy (double; the first channel's noise, a half of its level, meets the cap);
-  a channel whose noise is below the floor keeps the image it has without
-  the variances, bit for bit (channels are solved one at a time), and its frames with the frames'
-  own step for noisy samples off;
+  a channel whose noise is below the floor keeps the image and frames it has without the
+  variances, bit for bit (channels are solved one at a time), with the frames' own step for noisy
+  samples off (and with it the image's average with the frames);
 - on a noisy volume (a still pattern and a moving disc, 25% of the cells, Gaussian noise of a
   half and a third of the level: Mitsuba's samples of 16 paths are at 0.27-0.29) the frames and
   the image with the variances are closer to the noise-free truth than without them, the point of
@@ -70,9 +70,10 @@ for c in range(3):
     got = noisy.reports[c]["tau"] / plain.reports[c]["tau"]
     check(abs(got - want) <= 1e-9 * want, f"channel {c}: tau with / without the variances {got}, want {want}")
 check(3.0 * 0.002 / np.sqrt(n) < tau_rel, "the third channel's noise is below the floor (the test's premise)")
-# the frames' own step for noisy samples (csi/frames_denoise.h, test_frames_denoise.py) off: the rule alone
+# the frames' own step for noisy samples (csi/frames_denoise.h, test_frames_denoise.py) off, and
+# with it the image's average with its frames: the rule alone
 noisy_tau = csi.reconstruct(pos, val, GRID, frames="on", variance=var, frames_denoise="off")
-check(np.array_equal(noisy.image[..., 2], plain.image[..., 2]) and np.array_equal(noisy_tau.frames[..., 2], plain.frames[..., 2]),
+check(np.array_equal(noisy_tau.image[..., 2], plain.image[..., 2]) and np.array_equal(noisy_tau.frames[..., 2], plain.frames[..., 2]),
       "a channel below the floor keeps its image and frames bit for bit")
 
 for c in range(2):

@@ -70,6 +70,17 @@
 struct csi_recon_result;
 int csi_frames_fold_max_iter(const struct csi_recon_result *whole);
 
+/* The blurred image averaged with the mean over t of the denoised frames (image_frames): two
+ * estimates of each pixel's mean over the shutter, one from the fit and the pixel's own samples
+ * (the control variate, motion_correct.c), one from the smoothed neighbourhood, whose errors
+ * are partly independent. The average's squared error is the mean of theirs less a quarter of
+ * their squared difference (an identity): never above the worse one's, and below the better
+ * one's wherever their squared difference exceeds twice the gap between their errors
+ * (docs/bench/animation.md, session 33).
+ * image: channels planes of np pixels; frames: nframes * channels planes (frame-major), summed
+ * in t order in double (deterministic). */
+void csi_frames_denoise_image(const float *frames, uint32_t nframes, uint32_t channels, size_t np, float *image);
+
 /* Whether the step applies to samples of this per-channel relative noise. */
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels);
 

@@ -256,6 +256,11 @@ typedef struct csi_recon_options {
                                      (csi/frames_denoise.h); auto: on with frames and samples whose
                                      variances say their noise is at least
                                      CSI_FRAMES_DENOISE_NOISE_MIN of their level (sample_noise) */
+    csi_switch image_frames;      /* a volume's blurred image averaged with the mean over t of the
+                                     frames frames_denoise gave (computed for it when frames are
+                                     not asked for; frames_denoise auto is then on); auto: on
+                                     wherever frames_denoise would be, frames asked for or not;
+                                     not in time windows; on needs frames_denoise not off */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */
