@@ -570,4 +570,15 @@ void csi_motion_velocity_buffers(const size_t dims[3], csi_mem_tally *t);
 /* The host bytes it holds at most. */
 uint64_t csi_motion_velocity_host_bytes(const csi_grid *g, size_t n);
 
+/* The caller's options, or the defaults where it gives none (NULL). */
+static inline csi_recon_options csi_recon_options_or_defaults(const csi_recon_options *given)
+{
+    csi_recon_options o;
+    if (given)
+        o = *given;
+    else
+        csi_recon_defaults(&o);
+    return o;
+}
+
 #endif

@@ -400,11 +400,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
                                const csi_recon_options *opt_in, csi_recon_plan *out)
 {
     memset(out, 0, sizeof *out);
-    csi_recon_options opt;
-    if (opt_in)
-        opt = *opt_in;
-    else
-        csi_recon_defaults(&opt);
+    csi_recon_options opt = csi_recon_options_or_defaults(opt_in);
     /* what csi_recon solves and how (csi_tiling_layout, over internal.h's csi_recon_solved_grid;
      * a refusal of a padded grid's layout names the padding itself) */
     csi_grid solved;

@@ -330,11 +330,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
                      csi_recon_result *out)
 {
     memset(out, 0, sizeof *out);
-    csi_recon_options opt;
-    if (opt_in)
-        opt = *opt_in;
-    else
-        csi_recon_defaults(&opt);
+    const csi_recon_options opt = csi_recon_options_or_defaults(opt_in);
     CSI_TRY(recon(ctx, grid, channels, pos, values, n, opt, out));
     if (!opt.frames && out->frames)
         frames_drop(out);

@@ -349,7 +349,7 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             a[5] = ldexp(a[5], e[c]);
             a[6] = ldexp(a[6], 2 * e[c]);
         }
-    if (s == CSI_OK && !asked->frames && out->r.frames) {
+    if (s == CSI_OK && local.frames && !asked->frames && out->r.frames) {
         free(out->r.frames);
         out->r.frames = NULL;
         out->r.nframes = 0;
