@@ -154,14 +154,14 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
          * unless asked for (docs/bench/animation.md, session 10) */
         if (o->motion_image_cv == CSI_SWITCH_AUTO)
             o->motion_image_cv = CSI_SWITCH_OFF;
-        /* the frames of noisy samples (csi/frames_denoise.h): where the samples' variances
-         * say they are noisy */
         /* the blurred image averaged with the denoised frames' mean (csi/frames_denoise.h),
          * wherever the frames' step would run on noisy samples: it needs the frames, asked for
          * or not (csi_recon makes them) */
         const bool noisy = csi_frames_denoise_noisy(o->sample_noise, 4);
         if (o->image_frames == CSI_SWITCH_AUTO)
             o->image_frames = o->frames_denoise != CSI_SWITCH_OFF && noisy ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+        /* the frames of noisy samples (csi/frames_denoise.h): where the samples' variances
+         * say they are noisy and the frames are asked for, or for the image's average */
         if (o->frames_denoise == CSI_SWITCH_AUTO)
             o->frames_denoise = (o->frames && noisy) || o->image_frames == CSI_SWITCH_ON ? CSI_SWITCH_ON
                                                                                           : CSI_SWITCH_OFF;
