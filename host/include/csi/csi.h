@@ -344,7 +344,9 @@ typedef struct csi_samples {
                                    in a volume, the solve's tau is at least a multiple of the
                                    samples' noise (CSI_MOTION_TAU_NOISE, csi/reconstruct.h in
                                    the source tree) and its frames are denoised by it
-                                   (option frames-denoise, csi/frames_denoise.h there);
+                                   (option frames-denoise, csi/frames_denoise.h there), its
+                                   blurred image averaged with those frames' mean (option
+                                   image-frames);
                                    in a whole problem and in every tile alike (with
                                    csi_reconstruct_tile_window, the noise of the window's
                                    samples). Last, so that an initialiser without it means
