@@ -191,17 +191,36 @@ static csi_status cells_step(const vol *v, uint32_t channels, const float *value
 
 /* ---- step 2 ------------------------------------------------------------------------------ */
 
-/* Bilinear value of frame f (w x h) at (yf, xf) and the weight of its taps inside the frame
- * (the taps of weight 0 skipped: an integer position reads its cell alone). */
-static double bilinear(const vol *v, const float *f, double yf, double xf, double *cover)
+/* The path of a point along t at the velocity: at d frames from it, the integer offset and the
+ * bilinear fraction of (vy d, vx d), the same for every point. */
+typedef struct {
+    ptrdiff_t oy[2 * RMAX + 1], ox[2 * RMAX + 1];
+    double fy[2 * RMAX + 1], fx[2 * RMAX + 1];
+} path_steps;
+
+static void path_make(const double vel[2], path_steps *p)
 {
-    const double y0 = floor(yf), x0 = floor(xf), fy = yf - y0, fx = xf - x0;
+    for (int d = -RMAX; d <= RMAX; d++) {
+        const double py = vel[1] * d, px = vel[0] * d, iy = floor(py), ix = floor(px);
+        p->oy[d + RMAX] = (ptrdiff_t)iy;
+        p->ox[d + RMAX] = (ptrdiff_t)ix;
+        p->fy[d + RMAX] = py - iy;
+        p->fx[d + RMAX] = px - ix;
+    }
+}
+
+/* The frame f bilinearly at (y0 + fy, x0 + fx): taps of weight 0 skipped (an integer position
+ * reads its cell alone) and taps outside the frame left out; *cover the weight of those read. */
+static double bilinear(const vol *v, const float *f, ptrdiff_t y0, ptrdiff_t x0, double fy, double fx,
+                          double *cover)
+{
     const double wy[2] = {1 - fy, fy}, wx[2] = {1 - fx, fx};
     double val = 0, cov = 0;
     for (int i = 0; i < 2; i++)
         for (int j = 0; j < 2; j++) {
-            const double w = wy[i] * wx[j], yy = y0 + i, xx = x0 + j;
-            if (w <= 0 || yy < 0 || xx < 0 || yy >= (double)v->h || xx >= (double)v->w)
+            const double w = wy[i] * wx[j];
+            const ptrdiff_t yy = y0 + i, xx = x0 + j;
+            if (w <= 0 || yy < 0 || xx < 0 || yy >= (ptrdiff_t)v->h || xx >= (ptrdiff_t)v->w)
                 continue;
             val += w * f[(size_t)yy * v->w + (size_t)xx];
             cov += w;
@@ -220,6 +239,8 @@ static void width_errors(const vol *v, const float *f, size_t stride_t, size_t c
     const ptrdiff_t t0 = (ptrdiff_t)(cell / v->np), q = (ptrdiff_t)(cell % v->np);
     const ptrdiff_t x0 = q % (ptrdiff_t)v->w, y0 = q / (ptrdiff_t)v->w;
     double s[NXY][NT] = {{0}}, wsum[NXY][NT] = {{0}};
+    path_steps ps;
+    path_make(vel, &ps);
     for (ptrdiff_t dy = -RMAX; dy <= RMAX; dy++) {
         const ptrdiff_t yy = y0 + dy;
         if (yy < 0 || yy >= (ptrdiff_t)v->h)
@@ -238,8 +259,9 @@ static void width_errors(const vol *v, const float *f, size_t stride_t, size_t c
                 if (t < 0 || t >= (ptrdiff_t)v->t || gt[NT - 1][at] == 0)
                     continue;
                 double cov;
-                const double val = bilinear(v, f + (size_t)t * stride_t, (double)yy + vel[1] * (double)dt,
-                                            (double)xx + vel[0] * (double)dt, &cov);
+                const int k = (int)dt + RMAX;
+                const double val =
+                    bilinear(v, f + (size_t)t * stride_t, yy + ps.oy[k], xx + ps.ox[k], ps.fy[k], ps.fx[k], &cov);
                 for (int b = 0; b < NT; b++) {
                     num[b] += gt[b][at] * val;
                     den[b] += gt[b][at] * cov;
@@ -288,6 +310,8 @@ static void smooth_line(float *p, size_t len, size_t stride, const double g[RMAX
 static void smooth_t(const vol *v, const float *src, float *f, size_t stride_t, const double vel[2],
                      const double g[RMAX + 1], int r)
 {
+    path_steps ps;
+    path_make(vel, &ps);
     for (size_t t = 0; t < v->t; t++)
         for (size_t y = 0; y < v->h; y++)
             for (size_t x = 0; x < v->w; x++) {
@@ -297,8 +321,9 @@ static void smooth_t(const vol *v, const float *src, float *f, size_t stride_t, 
                     if (s < 0 || s >= (ptrdiff_t)v->t)
                         continue;
                     double cov;
-                    const double val = bilinear(v, src + (size_t)s * v->np, (double)y + vel[1] * d,
-                                                (double)x + vel[0] * d, &cov);
+                    const int k = d + RMAX;
+                    const double val = bilinear(v, src + (size_t)s * v->np, (ptrdiff_t)y + ps.oy[k],
+                                                (ptrdiff_t)x + ps.ox[k], ps.fy[k], ps.fx[k], &cov);
                     num += g[d < 0 ? -d : d] * val;
                     den += g[d < 0 ? -d : d] * cov;
                 }
