@@ -211,8 +211,7 @@ static void path_make(const double vel[2], path_steps *p)
 
 /* The frame f bilinearly at (y0 + fy, x0 + fx): taps of weight 0 skipped (an integer position
  * reads its cell alone) and taps outside the frame left out; *cover the weight of those read. */
-static double bilinear(const vol *v, const float *f, ptrdiff_t y0, ptrdiff_t x0, double fy, double fx,
-                          double *cover)
+static double bilinear(const vol *v, const float *f, ptrdiff_t y0, ptrdiff_t x0, double fy, double fx, double *cover)
 {
     const double wy[2] = {1 - fy, fy}, wx[2] = {1 - fx, fx};
     double val = 0, cov = 0;
@@ -230,17 +229,15 @@ static double bilinear(const vol *v, const float *f, ptrdiff_t y0, ptrdiff_t x0,
 }
 
 /* Adds to err[] each width's squared error at the sample of value y in `cell`: the frames f
- * (frame stride stride_t) smoothed by the width, along t at velocity vel first (each point's
+ * (frame stride stride_t) smoothed by the width, along t on the velocity's path ps first (each point's
  * taps renormalised by their weight inside the frames), then along x and y (renormalised by the
  * weight of the points inside the image): what step 2's smoothing gives there. */
-static void width_errors(const vol *v, const float *f, size_t stride_t, size_t cell, double y, const double vel[2],
+static void width_errors(const vol *v, const float *f, size_t stride_t, size_t cell, double y, const path_steps *ps,
                          const double gs[NXY][RMAX + 1], const double gt[NT][RMAX + 1], double *err)
 {
     const ptrdiff_t t0 = (ptrdiff_t)(cell / v->np), q = (ptrdiff_t)(cell % v->np);
     const ptrdiff_t x0 = q % (ptrdiff_t)v->w, y0 = q / (ptrdiff_t)v->w;
     double s[NXY][NT] = {{0}}, wsum[NXY][NT] = {{0}};
-    path_steps ps;
-    path_make(vel, &ps);
     for (ptrdiff_t dy = -RMAX; dy <= RMAX; dy++) {
         const ptrdiff_t yy = y0 + dy;
         if (yy < 0 || yy >= (ptrdiff_t)v->h)
@@ -261,7 +258,7 @@ static void width_errors(const vol *v, const float *f, size_t stride_t, size_t c
                 double cov;
                 const int k = (int)dt + RMAX;
                 const double val =
-                    bilinear(v, f + (size_t)t * stride_t, yy + ps.oy[k], xx + ps.ox[k], ps.fy[k], ps.fx[k], &cov);
+                    bilinear(v, f + (size_t)t * stride_t, yy + ps->oy[k], xx + ps->ox[k], ps->fy[k], ps->fx[k], &cov);
                 for (int b = 0; b < NT; b++) {
                     num[b] += gt[b][at] * val;
                     den[b] += gt[b][at] * cov;
@@ -398,10 +395,12 @@ static csi_status fold_errors(const vol *v, uint32_t channels, const csi_sample_
                 taps(ST[b], gt[b]);
             const size_t stride_t = (size_t)channels * v->np, half = CV_SAMPLES / 2;
             const size_t step = other.used > half ? (other.used + half - 1) / half : 1;
+            path_steps ps; /* along the fold's own velocity */
+            path_make(vel, &ps);
             for (uint32_t c = 0; c < channels; c++)
                 for (size_t j = 0; j < other.used; j += step)
                     width_errors(v, frames + (size_t)c * v->np, stride_t, other.order[j].cell,
-                                 values[other.order[j].index * channels + c], vel, gs, gt, err);
+                                 values[other.order[j].index * channels + c], &ps, gs, gt, err);
         }
     }
     free(index), free(frames);

@@ -570,6 +570,10 @@ void csi_motion_velocity_buffers(const size_t dims[3], csi_mem_tally *t);
 /* The host bytes it holds at most. */
 uint64_t csi_motion_velocity_host_bytes(const csi_grid *g, size_t n);
 
+/* A result's frames dropped: made for its image's average with them (image_frames), not asked
+ * for (reconstruct.c, tiled.c). */
+void csi_recon_result_drop_frames(csi_recon_result *r);
+
 /* The caller's options, or the defaults where it gives none (NULL). */
 static inline csi_recon_options csi_recon_options_or_defaults(const csi_recon_options *given)
 {

@@ -181,16 +181,6 @@ static csi_status frames_step(csi_ctx *ctx, const csi_grid *grid, uint32_t chann
     return s;
 }
 
-/* The frames a caller did not ask for, made for the image's average with them (image_frames):
- * dropped from the result. */
-static void frames_drop(csi_recon_result *out)
-{
-    free(out->frames);
-    out->frames = NULL;
-    out->nframes = 0;
-    out->options.frames = false;
-}
-
 static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, const csi_sample_pos *pos,
                         const float *values, size_t n, csi_recon_options opt, csi_recon_result *out)
 {
@@ -333,7 +323,7 @@ csi_status csi_recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, cons
     const csi_recon_options opt = csi_recon_options_or_defaults(opt_in);
     CSI_TRY(recon(ctx, grid, channels, pos, values, n, opt, out));
     if (!opt.frames && out->frames)
-        frames_drop(out);
+        csi_recon_result_drop_frames(out);
     return CSI_OK;
 }
 

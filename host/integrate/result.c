@@ -20,6 +20,14 @@ void csi_recon_result_free(csi_recon_result *r)
     r->image = r->frames = NULL;
 }
 
+void csi_recon_result_drop_frames(csi_recon_result *r)
+{
+    free(r->frames);
+    r->frames = NULL;
+    r->nframes = 0;
+    r->options.frames = false;
+}
+
 /* The first channel before c whose samples are bitwise those of channel c, or -1. */
 static int same_channel(const float *values, size_t n, uint32_t channels, uint32_t c)
 {

@@ -349,12 +349,8 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             a[5] = ldexp(a[5], e[c]);
             a[6] = ldexp(a[6], 2 * e[c]);
         }
-    if (s == CSI_OK && local.frames && !asked->frames && out->r.frames) {
-        free(out->r.frames);
-        out->r.frames = NULL;
-        out->r.nframes = 0;
-        out->r.options.frames = false;
-    }
+    if (s == CSI_OK && local.frames && !asked->frames && out->r.frames)
+        csi_recon_result_drop_frames(&out->r);
     return s;
 }
 

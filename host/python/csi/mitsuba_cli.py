@@ -127,7 +127,7 @@ def parser():
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
                    "with SPP samples per pixel instead of samples")
     s.add_argument("--sensor", metavar="ID|N", help="which of the scene's sensors renders: its id, or its index in "
-                   "declaration order from 0 (as mi.render counts); default: the first")
+                   "declaration order from 0 (as mi.render counts; digits alone are an index); default: the first")
     s.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE",
                    help="the value of an XML scene's $NAME parameter (as mitsuba -D; repeatable)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr, and none of "
