@@ -222,7 +222,8 @@ static const row table[] = {
     {"image-frames", K_CHOICE, AT(image_frames), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "volumes: the blurred image averaged with the mean over t of the frames --frames-denoise gave "
      "(which are then made for it when --frames is not asked for; docs/bench/animation.md, session 33)",
-     "on wherever --frames-denoise is on or would be, with or without --frames; off in time windows"},
+     "on wherever --frames-denoise is on or would be, with or without --frames (time windows too, "
+     "but not with --tile-image-binned)"},
     {"model-grid", K_CHOICE, AT(model_grid), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "Alg. 1 on a model grid coarser than the samples' where the filter allows it (the same "
      "operator to ~1e-5 at a fraction of the cost)", "on for the sharp estimate with SpaRSA"},

@@ -196,8 +196,8 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
     csi_tiling tl;
     CSI_TRY(csi_tiling_layout(ctx, grid, channels, n, &opt, &tl));
     /* The image averaged with the denoised frames (image_frames) needs the frames, asked for or
-     * not: made below, dropped by csi_recon when not asked for; time windows do not average
-     * (tiled.c), and their tiles decide for themselves (csi_recon_tile). */
+     * not: made below, dropped by csi_recon when not asked for; time windows' tiles make their
+     * own and give the blend their frames' mean (csi_recon_tile). */
     if (grid->t > 1 && !opt.frames && tl.n[2] == 1) {
         csi_recon_options r;
         CSI_TRY(csi_recon_resolve(&opt, grid, n, &r));
@@ -343,8 +343,8 @@ csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *
         out->tile_margin = tl->margin[0];
         if (tl->grid.t > 1)
             out->tile_margin_t = tl->margin[2];
-        /* time windows leave the image's average with the frames out (tiled.c) */
-        if (tl->n[2] > 1 && out->image_frames == CSI_SWITCH_ON)
+        /* the binned shutter's image is not averaged with the frames (tiled.c) */
+        if (out->image_frames == CSI_SWITCH_ON && csi_tiling_image_binned(tl, out))
             out->image_frames = CSI_SWITCH_OFF;
     } else if (out != solved) {
         *out = *solved;

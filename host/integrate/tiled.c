@@ -20,9 +20,11 @@ void csi_tile_result_free(csi_tile_result *t)
         free(t->resid);
         free(t->px_cnt);
         free(t->px_sum);
+        free(t->frames_mean);
         t->resid = NULL;
         t->px_cnt = NULL;
         t->px_sum = NULL;
+        t->frames_mean = NULL;
     }
 }
 
@@ -277,12 +279,33 @@ static csi_status tile_fold_solve(void *user, const size_t *index, size_t count,
     return CSI_OK;
 }
 
+/* A time window's share of its denoised frames' mean (csi_tile_result.frames_mean), weighted and
+ * summed in frame order as its share of the image is (reconstruct_tile). */
+static csi_status frames_mean_share(const csi_tiling *tl, csi_tile_result *out)
+{
+    const csi_recon_result *r = &out->r;
+    const size_t np = (size_t)r->out_w * r->out_h;
+    if (!(out->frames_mean = malloc(np * r->channels * sizeof *out->frames_mean)))
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the frames' mean of tile %u", out->index);
+    csi_tile tile;
+    csi_tiling_tile(tl, out->index, &tile);
+    for (uint32_t c = 0; c < r->channels; c++)
+        for (size_t q = 0; q < np; q++) {
+            double acc = 0;
+            for (uint32_t t = 0; t < r->nframes; t++)
+                acc += csi_tile_weight(tl, &tile, 2, out->t0 + t) * r->frames[((size_t)t * r->channels + c) * np + q];
+            out->frames_mean[(size_t)c * np + q] = (float)(acc / tl->grid.t);
+        }
+    return CSI_OK;
+}
+
 /* The frames of noisy samples (csi/frames_denoise.h) in a tile's window, on the window's samples
  * as given, as an untiled run does on the whole volume's (reconstruct.c): after the window's
  * share of the image was taken from its frames (reconstruct_tile). A window's frames past the
- * shutter's (padding) are left out. A window over the whole shutter then averages its image
- * with its frames' mean (image_frames), as an untiled run does; a time window's image is the
- * whole shutter's correction (tiled.c's residual sums), which it leaves alone. */
+ * shutter's (padding) are left out. The image's average with the frames' mean (image_frames):
+ * a window over the whole shutter averages its own image, as an untiled run does; a time
+ * window's image is corrected over the whole shutter after the blend (the residual sums), so it
+ * gives its share of the frames' mean for the blend to average with after that. */
 static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi_tile_scope *scope, uint32_t index,
                                    uint32_t channels, const csi_sample_pos *pos, const float *values, size_t n,
                                    const csi_recon_options *opt, bool frames_asked, csi_tile_result *out)
@@ -292,10 +315,12 @@ static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi
         r->options.frames_denoise != CSI_SWITCH_ON || out->t0 >= tl->image_t)
         return CSI_OK;
     const uint32_t valid = tl->image_t - out->t0 < r->nframes ? tl->image_t - out->t0 : r->nframes;
-    /* the image's average (image_frames): a window over the whole shutter's, not a time window's */
-    const bool image = r->options.image_frames == CSI_SWITCH_ON && out->t0 == 0 && valid == tl->image_t &&
-                       !out->resid;
-    if (!frames_asked && !image)
+    /* the image's average (image_frames): a window over the whole shutter's, or a time window's
+     * share (not with the binned shutter's image, whose windows' frames are not its image's) */
+    const bool ifr = r->options.image_frames == CSI_SWITCH_ON;
+    const bool split_t = tl->n[2] > 1, share = ifr && split_t && !csi_tiling_image_binned(tl, opt);
+    const bool image = ifr && !split_t && out->t0 == 0 && valid == tl->image_t;
+    if (!frames_asked && !image && !share)
         return CSI_OK; /* frames made only for an image that does not take them */
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
@@ -306,6 +331,8 @@ static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi
     tile_problem_free(&p);
     if (s == CSI_OK && image)
         csi_frames_denoise_image(r->frames, valid, channels, (size_t)r->out_w * r->out_h, r->image);
+    if (s == CSI_OK && share)
+        s = frames_mean_share(tl, out);
     return s;
 }
 
@@ -590,9 +617,11 @@ void csi_tiles_release(csi_blend *b)
     free(b->resid);
     free(b->px_cnt);
     free(b->px_sum);
+    free(b->frames_mean);
     b->resid = NULL;
     b->px_cnt = NULL;
     b->px_sum = NULL;
+    b->frames_mean = NULL;
 }
 
 /* A tile's residual sums into the whole image's: weights add, the means combine weighted, and
@@ -687,6 +716,11 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     if (!b->px_cnt != !t->px_cnt)
         return csi_fail(CSI_ERR_ARG, "tile %u %s pixel sums where tile 0 %s (tiles of another run?)", t->index,
                         t->px_cnt ? "has" : "has no", t->px_cnt ? "has none" : "has them");
+    if (t->index == 0 && t->frames_mean && !(b->frames_mean = calloc(np * C, sizeof *b->frames_mean)))
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the frames' mean of the %ux%u output", W, H);
+    if (!b->frames_mean != !t->frames_mean)
+        return csi_fail(CSI_ERR_ARG, "tile %u %s the frames' mean where tile 0 %s (tiles of another run?)", t->index,
+                        t->frames_mean ? "has" : "has no", t->frames_mean ? "has none" : "has it");
     double *wx = malloc(r->out_w * sizeof *wx), *wy = malloc(r->out_h * sizeof *wy);
     if (!wx || !wy) {
         free(wx);
@@ -701,9 +735,12 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
         for (uint32_t y = 0; y < r->out_h; y++)
             for (uint32_t x = 0; x < r->out_w; x++) {
                 const double w = wx[x] * wy[y];
+                const size_t at = (size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x;
+                const size_t from = (size_t)c * tnp + (size_t)y * r->out_w + x;
                 if (w > 0)
-                    blend1(&out->image[(size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x], w,
-                           r->image[(size_t)c * tnp + (size_t)y * r->out_w + x]);
+                    blend1(&out->image[at], w, r->image[from]);
+                if (w > 0 && b->frames_mean)
+                    blend1(&b->frames_mean[at], w, t->frames_mean[from]);
             }
     for (uint32_t f = 0; out->nframes && f < r->nframes; f++) {
         const double wt = csi_tile_weight(tl, &tile, 2, t->t0 + f);
@@ -793,6 +830,10 @@ csi_status csi_tiles_end(csi_blend *b)
         s = resid_correct(b, c);
     if (s == CSI_OK && b->px_cnt)
         s = csi_settle_sums(&b->tl.grid, out->channels, b->px_cnt, b->px_sum, out->image, NULL, &out->settled);
+    /* time windows: the corrected image averaged with the frames' mean, as csi_frames_denoise_image
+     * averages an untiled one */
+    for (size_t i = 0; s == CSI_OK && b->frames_mean && i < (size_t)out->out_w * out->out_h * out->channels; i++)
+        out->image[i] = (float)(0.5 * ((double)out->image[i] + (double)b->frames_mean[i]));
     csi_tiles_release(b);
     CSI_TRY(s);
     /* a padded grid's pixels past the image's own (docs/tiles.md, "Limits") */

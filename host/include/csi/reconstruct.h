@@ -260,7 +260,8 @@ typedef struct csi_recon_options {
                                      frames frames_denoise gave (computed for it when frames are
                                      not asked for; frames_denoise auto is then on); auto: on
                                      wherever frames_denoise would be, frames asked for or not;
-                                     not in time windows; on needs frames_denoise not off */
+                                     time windows average after the blend (csi/tiles.h), the
+                                     binned shutter's image not; on needs frames_denoise not off */
     bool frames;                  /* grid.t > 1: also return every frame */
     uint64_t seed;                /* seed of the randomised parts (ROMP's column-norm probes);
                                      everything else is deterministic */

@@ -213,7 +213,12 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
  * untiled and the tiled image lost against the untiled one: docs/bench/scale.md). Each tile gives the
  * sample count px_cnt[p] and channel sums px_sum[p * channels + c] (csi_pixel_sums_add) of its
  * window's pixels, counting only the samples of its core's pixels: every pixel lies in one core,
- * so the tiles' sums added are the whole image's exactly. NULL when the image does not settle. */
+ * so the tiles' sums added are the whole image's exactly. NULL when the image does not settle.
+ *
+ * A time window's image is averaged with the denoised frames' mean (image_frames) once, after the
+ * correction: frames_mean ([c][y][x], NULL unless t is split and the option is on) is the
+ * window's share of that mean, sum over its frames of w_t(t) denoised frame(t) / grid.t, which
+ * blended like the image is the mean over t of the blended denoised frames. */
 typedef struct csi_tile_result {
     uint32_t index;
     uint32_t x0, y0, t0;
@@ -221,6 +226,7 @@ typedef struct csi_tile_result {
     double *resid;
     uint32_t *px_cnt;
     double *px_sum;
+    float *frames_mean;
 } csi_tile_result;
 void csi_tile_result_free(csi_tile_result *t);
 
@@ -244,11 +250,13 @@ typedef struct csi_blend {
     bool resid_all; /* every tile so far had them: the image is corrected at the end */
     uint32_t *px_cnt; /* a still image that settles: the whole image's pixel sums (csi_tile_result) */
     double *px_sum;
+    float *frames_mean; /* time windows with image_frames: the blended frames' mean (csi_tile_result) */
 } csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
                            csi_blend *b, csi_recon_result *out);
 csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
-/* Time windows: corrects the image by the residual sums of all tiles; a still image whose tiles
+/* Time windows: corrects the image by the residual sums of all tiles, then averages it with the
+ * blended frames' mean where the tiles carry theirs (image_frames); a still image whose tiles
  * all carry pixel sums: settles it on them (see csi_tile_result). A padded layout's result is then
  * cut to the image's own size (image_w x image_h, image_t frames). */
 csi_status csi_tiles_end(csi_blend *b);
