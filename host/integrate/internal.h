@@ -45,6 +45,10 @@ typedef struct csi_recon_fit {
     bool kept;
 } csi_recon_fit;
 
+/* Residual sums (csi/tiles.h: CSI_RESID_SUMS doubles each) of `pixels` pixels that hold no
+ * sample yet: a time window's (tiled.c) and the blend's (tile_blend.c). */
+void csi_tiles_resid_clear(double *r, size_t pixels);
+
 /* An image or volume whose grid the transforms cannot take along x or y (a side of 1366, 3440
  * or 858 pixels: a prime factor above 7 in cells x pixels) is solved on a grid padded on the
  * right and the bottom to the nearest lengths they take (padding.c), from the same samples, and

@@ -456,7 +456,7 @@ csi_status csi_recon_plan_make(const csi_ctx *ctx, const csi_grid *g, uint32_t c
      * window's residual sums, or a still image's sample counts and sums when it may settle */
     const uint64_t np = (uint64_t)g->out_w * g->out_h, wnp = (uint64_t)tl.window[0] * tl.window[1];
     uint64_t sums = 0;
-    if (tl.n[2] > 1) /* and the whole shutter's correction of a channel (tiled.c: each pixel's
+    if (tl.n[2] > 1) /* and the whole shutter's correction of a channel (tile_blend.c: each pixel's
                       * residual and value statistics, its range and the range's sums), and the
                       * frames' mean the image is averaged with (an upper bound: when it is on) */
         sums = (np + wnp) * channels * (CSI_RESID_SUMS * 8 + 4) +

@@ -295,8 +295,8 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
         }
     }
     /* The pixels that decide the image settled on their samples' mean (csi/settle.h): last, on
-     * the image every step before has made. A tiled run's tiles did it in their windows
-     * (tiled.c), as a tile run alone does. */
+     * the image every step before has made. A tiled run settles once, on the blended image, from
+     * its tiles' pixel sums (tile_blend.c), as a merge of tiles run alone does. */
     if (grid->t == 1 && tl.count == 1 && out->options.estimator == CSI_EST_CS &&
         out->options.settle == CSI_SWITCH_ON) {
         s = csi_settle(grid, channels, pos, values, n, out->image, NULL, &out->settled);

@@ -1,0 +1,299 @@
+/* The blend of tiles into one result (csi/tiles.h: csi_tiles_begin, csi_tiles_add, csi_tiles_end):
+ * each tile's image and frames weighted into the whole's in index order, and what a time window
+ * or a still image that settles leaves for the end (residual sums, the frames' mean, pixel sums). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/settle.h"
+#include "csi/tiles.h"
+#include "internal.h"
+
+void csi_tiles_resid_clear(double *r, size_t pixels)
+{
+    for (size_t q = 0; q < pixels; q++) {
+        double *a = r + q * CSI_RESID_SUMS;
+        a[0] = a[1] = a[2] = a[5] = a[6] = 0;
+        a[3] = INFINITY;
+        a[4] = -INFINITY;
+    }
+}
+
+csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames, csi_blend *b,
+                           csi_recon_result *out)
+{
+    memset(b, 0, sizeof *b);
+    memset(out, 0, sizeof *out);
+    b->tl = *tl;
+    b->out = out;
+    const csi_grid *g = &tl->grid;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    out->out_w = g->out_w;
+    out->out_h = g->out_h;
+    out->channels = channels;
+    out->k = (size_t)g->w * g->h * g->t;
+    out->tiles = tl->count;
+    out->image = calloc(np * channels, sizeof(float));
+    if (frames && g->t > 1) {
+        out->nframes = g->t;
+        out->frames = calloc(np * channels * g->t, sizeof(float));
+    }
+    if (!out->image || (out->nframes && !out->frames)) {
+        csi_recon_result_free(out);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the %ux%u output", g->out_w, g->out_h);
+    }
+    for (uint32_t c = 0; c < channels; c++)
+        out->report[c].converged = true;
+    if (tl->n[2] > 1) {
+        b->resid_all = true;
+        b->resid = malloc(np * channels * CSI_RESID_SUMS * sizeof *b->resid);
+        if (!b->resid) {
+            csi_recon_result_free(out);
+            return csi_fail(CSI_ERR_NOMEM, "out of host memory for the residual sums of the %ux%u output",
+                            g->out_w, g->out_h);
+        }
+        csi_tiles_resid_clear(b->resid, np * channels);
+    }
+    return CSI_OK;
+}
+
+void csi_tiles_release(csi_blend *b)
+{
+    free(b->resid);
+    free(b->px_cnt);
+    free(b->px_sum);
+    free(b->frames_mean);
+    b->resid = NULL;
+    b->px_cnt = NULL;
+    b->px_sum = NULL;
+    b->frames_mean = NULL;
+}
+
+/* A tile's residual sums into the whole image's: weights add, the means combine weighted, and
+ * the sums of squares about them as in Chan et al.'s pairwise update (in tile order, so the
+ * same bits for any completion order). */
+static void resid_add(csi_blend *b, const csi_tile_result *t)
+{
+    const csi_recon_result *r = &t->r;
+    const size_t W = b->tl.grid.out_w, np = W * b->tl.grid.out_h, tnp = (size_t)r->out_w * r->out_h;
+    for (uint32_t c = 0; c < r->channels; c++)
+        for (uint32_t y = 0; y < r->out_h; y++)
+            for (uint32_t x = 0; x < r->out_w; x++) {
+                const double *a = t->resid + ((size_t)c * tnp + (size_t)y * r->out_w + x) * CSI_RESID_SUMS;
+                if (!(a[0] > 0))
+                    continue;
+                double *s = b->resid + ((size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x) * CSI_RESID_SUMS;
+                const double w = s[0] + a[0], delta = a[1] - s[1], dv = a[5] - s[5];
+                s[2] += a[2] + delta * delta * (s[0] * a[0] / w);
+                s[1] += delta * (a[0] / w);
+                s[6] += a[6] + dv * dv * (s[0] * a[0] / w);
+                s[5] += dv * (a[0] / w);
+                s[0] = w;
+                s[3] = fmin(s[3], a[3]);
+                s[4] = fmax(s[4], a[4]);
+            }
+}
+
+/* The whole shutter's correction of channel c from the blended sums (csi_tile_result): projected
+ * onto the range an untiled run's has (sample_range.c), from the sums of the samples' values. */
+static csi_status resid_correct(csi_blend *b, uint32_t c)
+{
+    const csi_grid *g = &b->tl.grid;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    csi_px_resid *st = calloc(np, sizeof *st);
+    csi_px_values *px = malloc(np * sizeof *px);
+    float *lohi = malloc(2 * np * sizeof *lohi), all[2] = {INFINITY, -INFINITY};
+    csi_status s = CSI_OK;
+    if (!st || !px || !lohi)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
+    for (size_t q = 0; s == CSI_OK && q < np; q++) {
+        const double *a = b->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
+        st[q].n = (uint32_t)llround(a[0]); /* the weights of a sample's tiles sum to 1 */
+        st[q].d = a[1];
+        st[q].ss = a[2];
+        px[q] = (csi_px_values){.mean = a[5], .ss = a[6], .n = st[q].n, .lo = (float)a[3], .hi = (float)a[4]};
+        all[0] = fminf(all[0], px[q].lo);
+        all[1] = fmaxf(all[1], px[q].hi);
+    }
+    if (s == CSI_OK)
+        s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, lohi);
+    if (s == CSI_OK)
+        csi_recon_motion_correct_pixels(g, st, lohi, b->out->image + (size_t)c * np);
+    free(st);
+    free(px);
+    free(lohi);
+    return s;
+}
+
+/* acc += w v in double, rounded once to float: the same bits for the same order of tiles. */
+static inline void blend1(float *acc, double w, float v)
+{
+    *acc = (float)((double)*acc + w * (double)v);
+}
+
+csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
+{
+    const csi_tiling *tl = &b->tl;
+    csi_recon_result *out = b->out;
+    const csi_recon_result *r = &t->r;
+    if (t->index != b->next)
+        return csi_fail(CSI_ERR_ARG, "tile %u came where tile %u was due (tiles are blended in index "
+                        "order, so that the image is the same bits however they were computed)", t->index, b->next);
+    csi_tile tile;
+    csi_tiling_tile(tl, t->index, &tile);
+    if (r->out_w != tl->window[0] || r->out_h != tl->window[1] || r->channels != out->channels ||
+        t->x0 != tile.win0[0] || t->y0 != tile.win0[1] || t->t0 != tile.win0[2])
+        return csi_fail(CSI_ERR_ARG, "tile %u is a %ux%u window at (%u, %u, %u) with %u channels; the "
+                        "layout's is %ux%u at (%u, %u, %u) with %u", t->index, r->out_w, r->out_h, t->x0,
+                        t->y0, t->t0, r->channels, tl->window[0], tl->window[1], tile.win0[0], tile.win0[1],
+                        tile.win0[2], out->channels);
+    if (out->nframes && r->nframes != tl->window[2])
+        return csi_fail(CSI_ERR_ARG, "tile %u has %u frames, the layout's windows %u", t->index, r->nframes,
+                        tl->window[2]);
+    const uint32_t W = tl->grid.out_w, H = tl->grid.out_h, C = out->channels;
+    const size_t np = (size_t)W * H, tnp = (size_t)r->out_w * r->out_h;
+    if (t->index == 0 && t->px_cnt) {
+        b->px_cnt = calloc(np, sizeof *b->px_cnt);
+        b->px_sum = calloc(np * C, sizeof *b->px_sum);
+        if (!b->px_cnt || !b->px_sum)
+            return csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixel sums of the %ux%u output", W, H);
+    }
+    if (!b->px_cnt != !t->px_cnt)
+        return csi_fail(CSI_ERR_ARG, "tile %u %s pixel sums where tile 0 %s (tiles of another run?)", t->index,
+                        t->px_cnt ? "has" : "has no", t->px_cnt ? "has none" : "has them");
+    if (t->index == 0 && t->frames_mean && !(b->frames_mean = calloc(np * C, sizeof *b->frames_mean)))
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the frames' mean of the %ux%u output", W, H);
+    if (!b->frames_mean != !t->frames_mean)
+        return csi_fail(CSI_ERR_ARG, "tile %u %s the frames' mean where tile 0 %s (tiles of another run?)", t->index,
+                        t->frames_mean ? "has" : "has no", t->frames_mean ? "has none" : "has it");
+    double *wx = malloc(r->out_w * sizeof *wx), *wy = malloc(r->out_h * sizeof *wy);
+    if (!wx || !wy) {
+        free(wx);
+        free(wy);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory blending tile %u", t->index);
+    }
+    for (uint32_t x = 0; x < r->out_w; x++)
+        wx[x] = csi_tile_weight(tl, &tile, 0, t->x0 + x);
+    for (uint32_t y = 0; y < r->out_h; y++)
+        wy[y] = csi_tile_weight(tl, &tile, 1, t->y0 + y);
+    for (uint32_t c = 0; c < C; c++)
+        for (uint32_t y = 0; y < r->out_h; y++)
+            for (uint32_t x = 0; x < r->out_w; x++) {
+                const double w = wx[x] * wy[y];
+                const size_t at = (size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x;
+                const size_t from = (size_t)c * tnp + (size_t)y * r->out_w + x;
+                if (w > 0)
+                    blend1(&out->image[at], w, r->image[from]);
+                if (w > 0 && b->frames_mean)
+                    blend1(&b->frames_mean[at], w, t->frames_mean[from]);
+            }
+    for (uint32_t f = 0; out->nframes && f < r->nframes; f++) {
+        const double wt = csi_tile_weight(tl, &tile, 2, t->t0 + f);
+        if (wt <= 0)
+            continue;
+        for (uint32_t c = 0; c < C; c++)
+            for (uint32_t y = 0; y < r->out_h; y++)
+                for (uint32_t x = 0; x < r->out_w; x++) {
+                    const double w = wx[x] * wy[y] * wt;
+                    if (w > 0)
+                        blend1(&out->frames[((size_t)(t->t0 + f) * C + c) * np + (size_t)(t->y0 + y) * W + t->x0 + x],
+                               w, r->frames[((size_t)f * C + c) * tnp + (size_t)y * r->out_w + x]);
+                }
+    }
+    free(wx);
+    free(wy);
+    /* a tile's sums are its core's pixels' and zero elsewhere: added, the whole image's exactly */
+    for (uint32_t y = 0; b->px_cnt && y < r->out_h; y++)
+        for (uint32_t x = 0; x < r->out_w; x++) {
+            const size_t q = (size_t)y * r->out_w + x, p = (size_t)(t->y0 + y) * W + t->x0 + x;
+            b->px_cnt[p] += t->px_cnt[q];
+            for (uint32_t c = 0; c < C; c++)
+                b->px_sum[p * C + c] += t->px_sum[q * C + c];
+        }
+    if (b->resid && !t->resid)
+        b->resid_all = false;
+    else if (b->resid)
+        resid_add(b, t);
+    /* The run's figures: operator calls, iterations and times add up; the residual is the worst
+     * tile's; converged when every tile did. */
+    if (t->index == 0) {
+        out->options = r->options;
+        out->model_factor = r->model_factor;
+        out->chroma_model_factor = r->chroma_model_factor;
+    }
+    out->unknowns += r->unknowns;
+    for (uint32_t c = 0; c < C; c++) {
+        csi_solve_report *a = &out->report[c];
+        const csi_solve_report *p = &r->report[c];
+        a->iterations += p->iterations;
+        a->inner_iterations += p->inner_iterations;
+        a->stages += p->stages;
+        a->applies += p->applies;
+        a->adjoints += p->adjoints;
+        a->support += p->support;
+        a->objective += p->objective;
+        a->t_total += p->t_total;
+        a->t_select += p->t_select;
+        a->t_lsq += p->t_lsq;
+        a->t_step += p->t_step;
+        a->t_debias += p->t_debias;
+        if (p->rel_residual > a->rel_residual)
+            a->rel_residual = p->rel_residual;
+        if (p->rel_gap > a->rel_gap)
+            a->rel_gap = p->rel_gap;
+        if (p->tau > a->tau)
+            a->tau = p->tau;
+        if (!p->converged && a->converged) {
+            a->converged = false;
+            a->reason = p->reason;
+            snprintf(a->message, sizeof a->message, "tile %u: %s", t->index, p->message);
+        }
+    }
+    out->t_setup += r->t_setup;
+    out->t_solve += r->t_solve;
+    out->t_integrate += r->t_integrate;
+    out->t_programs += r->t_programs;
+    out->t_cv += r->t_cv;
+    out->cv_switched += r->cv_switched;
+    out->cpu_setup += r->cpu_setup;
+    out->cpu_work += r->cpu_work;
+    for (uint32_t c = 0; c < C && c < 4; c++)
+        out->t_channel_integrate[c] += r->t_channel_integrate[c];
+    b->next++;
+    return CSI_OK;
+}
+
+csi_status csi_tiles_end(csi_blend *b)
+{
+    csi_recon_result *out = b->out;
+    if (b->next != b->tl.count) {
+        csi_tiles_release(b);
+        return csi_fail(CSI_ERR_ARG, "%u of %u tiles blended: tile %u is missing", b->next, b->tl.count, b->next);
+    }
+    csi_status s = CSI_OK;
+    for (uint32_t c = 0; b->resid && b->resid_all && c < out->channels && s == CSI_OK; c++)
+        s = resid_correct(b, c);
+    if (s == CSI_OK && b->px_cnt)
+        s = csi_settle_sums(&b->tl.grid, out->channels, b->px_cnt, b->px_sum, out->image, NULL, &out->settled);
+    /* time windows: the corrected image averaged with the frames' mean, as csi_frames_denoise_image
+     * averages an untiled one */
+    for (size_t i = 0; s == CSI_OK && b->frames_mean && i < (size_t)out->out_w * out->out_h * out->channels; i++)
+        out->image[i] = (float)(0.5 * ((double)out->image[i] + (double)b->frames_mean[i]));
+    csi_tiles_release(b);
+    CSI_TRY(s);
+    /* a padded grid's pixels past the image's own (docs/tiles.md, "Limits") */
+    if (out->out_w != b->tl.image_w || out->out_h != b->tl.image_h || (out->nframes && out->nframes != b->tl.image_t))
+        CSI_TRY(csi_recon_crop(out, b->tl.image_w, b->tl.image_h, b->tl.image_t));
+    for (uint32_t c = 0; c < out->channels; c++) {
+        csi_solve_report *a = &out->report[c];
+        if (a->converged)
+            snprintf(a->message, sizeof a->message, "%u tiles converged: %d iterations in all, largest "
+                     "relative residual %.3g", b->tl.count, a->iterations, a->rel_residual);
+    }
+    CSI_TRY(csi_recon_check_finite(out->image, (size_t)out->out_w * out->out_h * out->channels, "image"));
+    if (out->nframes)
+        CSI_TRY(csi_recon_check_finite(out->frames, (size_t)out->out_w * out->out_h * out->channels *
+                                       out->nframes, "frames"));
+    return CSI_OK;
+}
