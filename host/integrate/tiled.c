@@ -279,24 +279,22 @@ static csi_status tile_fold_solve(void *user, const size_t *index, size_t count,
     return CSI_OK;
 }
 
-/* A time window's share of its denoised frames' mean (csi_tile_result.frames_mean), weighted and
- * summed in frame order as its share of the image is (reconstruct_tile). */
-static csi_status frames_mean_share(const csi_tiling *tl, csi_tile_result *out)
+/* A time window's share of the mean over t of its frames (t->r.frames): sum_t w_t(t) frame(t) / T,
+ * in frame order, into dst (channels planar, as the image). Its image's share (reconstruct_tile)
+ * and its denoised frames' (csi_tile_result.frames_mean). */
+static void window_share(const csi_tiling *tl, const csi_tile_result *t, float *dst)
 {
-    const csi_recon_result *r = &out->r;
+    const csi_recon_result *r = &t->r;
     const size_t np = (size_t)r->out_w * r->out_h;
-    if (!(out->frames_mean = malloc(np * r->channels * sizeof *out->frames_mean)))
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the frames' mean of tile %u", out->index);
     csi_tile tile;
-    csi_tiling_tile(tl, out->index, &tile);
+    csi_tiling_tile(tl, t->index, &tile);
     for (uint32_t c = 0; c < r->channels; c++)
         for (size_t q = 0; q < np; q++) {
             double acc = 0;
-            for (uint32_t t = 0; t < r->nframes; t++)
-                acc += csi_tile_weight(tl, &tile, 2, out->t0 + t) * r->frames[((size_t)t * r->channels + c) * np + q];
-            out->frames_mean[(size_t)c * np + q] = (float)(acc / tl->grid.t);
+            for (uint32_t f = 0; f < r->nframes; f++)
+                acc += csi_tile_weight(tl, &tile, 2, t->t0 + f) * r->frames[((size_t)f * r->channels + c) * np + q];
+            dst[(size_t)c * np + q] = (float)(acc / tl->grid.t);
         }
-    return CSI_OK;
 }
 
 /* The frames of noisy samples (csi/frames_denoise.h) in a tile's window, on the window's samples
@@ -331,8 +329,11 @@ static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi
     tile_problem_free(&p);
     if (s == CSI_OK && image)
         csi_frames_denoise_image(r->frames, valid, channels, (size_t)r->out_w * r->out_h, r->image);
+    if (s == CSI_OK && share &&
+        !(out->frames_mean = malloc((size_t)r->out_w * r->out_h * channels * sizeof *out->frames_mean)))
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the frames' mean of tile %u", index);
     if (s == CSI_OK && share)
-        s = frames_mean_share(tl, out);
+        window_share(tl, out, out->frames_mean);
     return s;
 }
 
@@ -542,19 +543,8 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
         return csi_fail_context(s, "tile %u of %u: ", index, tl->count);
     }
     csi_recon_result *r = &out->r;
-    if (split_t && r->nframes) {
-        /* The window's share of the mean over t: sum_t w_t(t) frame(t) / T, in frame order. */
-        csi_tile tile;
-        csi_tiling_tile(tl, index, &tile);
-        const size_t np = (size_t)r->out_w * r->out_h;
-        for (uint32_t c = 0; c < channels; c++)
-            for (size_t q = 0; q < np; q++) {
-                double acc = 0;
-                for (uint32_t t = 0; t < r->nframes; t++)
-                    acc += csi_tile_weight(tl, &tile, 2, out->t0 + t) * r->frames[((size_t)t * channels + c) * np + q];
-                r->image[(size_t)c * np + q] = (float)(acc / tl->grid.t);
-            }
-    }
+    if (split_t && r->nframes)
+        window_share(tl, out, r->image); /* the window's share of the mean over t */
     if (split_t && r->nframes && !opt->frames) {
         free(r->frames);
         r->frames = NULL;
