@@ -485,6 +485,12 @@ csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const 
                                    uint32_t c, size_t n, float *lohi);
 /* Its host memory while it runs: bytes per pixel of the frame (and a row of prefix sums more). */
 #define CSI_SAMPLE_RANGE_PIXEL_BYTES 80
+/* How much the shutter's first and last quarters of frames differ, over the image's energy, from
+ * the samples of a volume (motion_ends.c); 0 without a difference. Above
+ * CSI_MOTION_ENDS_DCT a still basis takes the DCT along t instead of the DFT (motion.c). */
+csi_status csi_recon_motion_ends(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                 const float *values, size_t n, double *ratio);
+#define CSI_MOTION_ENDS_DCT 1.0
 /* The share of the output pixels holding two samples or more whose samples are all equal, bit
  * for bit in every channel (still_samples.c): near 1 for exact samples of a still picture, 0 for a
  * renderer's noisy ones; 0 when no pixel holds two. */

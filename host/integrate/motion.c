@@ -45,12 +45,14 @@ static void motion_values(const float *values, uint32_t channels, size_t n, floa
 
 /* The transform along t: the option's, or with auto the DCT for a sheared basis (whose aligned
  * volume is not periodic in t: the DFT's wrap spreads its ends over the temporal spectrum) and
- * the DFT for a still one (measured better there at 3%, docs/bench/animation.md). */
-static csi_motion_time time_for(csi_motion_time t, const double v[2])
+ * for a still one whose shutter's ends differ by more than the image holds (ends: the ratio of
+ * csi_recon_motion_ends, motion_ends.c); else the DFT, measured better on still cameras with
+ * movers (docs/bench/animation.md, sessions 5 and 34). */
+static csi_motion_time time_for(csi_motion_time t, const double v[2], double ends)
 {
     if (t != CSI_MOTION_TIME_AUTO)
         return t;
-    return v[0] != 0 || v[1] != 0 ? CSI_MOTION_TIME_DCT : CSI_MOTION_TIME_DFT;
+    return v[0] != 0 || v[1] != 0 || ends > CSI_MOTION_ENDS_DCT ? CSI_MOTION_TIME_DCT : CSI_MOTION_TIME_DFT;
 }
 
 static csi_time_transform transform_of(csi_motion_time t)
@@ -61,7 +63,7 @@ static csi_time_transform transform_of(csi_motion_time t)
 /* Gives the operator's basis its time stage and velocity (the options' or the estimated one),
  * both reported in res->options. The search borrows G, the coefficients, the operator's scratch volume and sampler, the real
  * volume and the measurements' buffer: none of them holds anything yet. */
-static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *values,
+static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const csi_sample_pos *pos, const float *values,
                                uint32_t channels, size_t n, const csi_recon_options *opt,
                                csi_recon_state *st, csi_linop *G, cl_mem ydev, csi_recon_result *res)
 {
@@ -84,7 +86,10 @@ static csi_status motion_basis(csi_ctx *ctx, const csi_grid *g, const float *val
     }
     res->options.motion_vx = v[0];
     res->options.motion_vy = v[1];
-    res->options.motion_time = time_for(opt->motion_time, v);
+    double ends = 0;
+    if (opt->motion_time == CSI_MOTION_TIME_AUTO && v[0] == 0 && v[1] == 0)
+        CSI_TRY(csi_recon_motion_ends(g, channels, pos, values, n, &ends));
+    res->options.motion_time = time_for(opt->motion_time, v, ends);
     return csi_fourier_half_set_motion(H, dims, transform_of(res->options.motion_time), v[0], v[1]);
 }
 
@@ -169,7 +174,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         s = csi_motion_filter_create(ctx, csi_half_fourier_basis(st->A), dims, CSI_TIME_DCT, 1.0, 1.0,
                                      st->x, &G);
     if (s == CSI_OK && moved)
-        s = motion_basis(ctx, g, values, channels, n, opt, st, G, real_y, res);
+        s = motion_basis(ctx, g, pos, values, channels, n, opt, st, G, real_y, res);
     /* Alg. 1's filter (csi_half_fourier_set_filter), after the velocity search, which judges
      * velocities on the samples alone; by default only with a still basis. Its buffers are
      * reserved wherever it may be used, so that the plan (plan.c) need not know the velocity.

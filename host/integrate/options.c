@@ -178,7 +178,8 @@ static const row table[] = {
      "objective change (faster; the MSE moves by a few %, docs/bench/cost.md)", "off"},
     {"motion-time", K_CHOICE, AT(motion_time), 0, 0, times, F_AUTO, "auto", "auto|dft|dct",
      "volumes: the basis along t: the DFT (the paper's, periodic) or the DCT-II (mirrored ends)",
-     "dct when the basis is sheared (a velocity), else dft"},
+     "dct when the basis is sheared (a velocity) or the samples' first and last quarter of "
+     "frames differ by more energy than their image holds, else dft"},
     {"motion-velocity", K_CHOICE, AT(motion_velocity), 0, 0, velocities, 0, "estimate",
      "estimate|none|given", "volumes: the velocity the basis is sheared by (what moves at it is "
      "static in the basis): estimated from the samples, none (the paper's), or --motion-vx/-vy",

@@ -145,7 +145,8 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
         if (o->motion_resid_sigma == 0)
             o->motion_resid_sigma = csi_gauss_nc_default_sigma(k, nd, 3);
         /* the full spectrum has the DFT only; on the half spectrum auto waits for the velocity
-         * (motion.c: the DCT for a sheared basis, the DFT for a still one) */
+         * (motion.c: the DCT for a sheared basis, and for a still one whose shutter's ends differ
+         * more than the image holds; else the DFT) */
         if (o->motion_time == CSI_MOTION_TIME_AUTO && o->motion_full_spectrum)
             o->motion_time = CSI_MOTION_TIME_DFT;
         if (o->motion_resid_sigma_t == 0 && o->motion_resid_sigma > 0)
