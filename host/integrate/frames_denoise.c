@@ -31,7 +31,7 @@ static void taps(double sigma, double g[RMAX + 1])
         g[d] = d > r ? 0 : (sigma > 0 ? exp(-(double)(d * d) / (2 * sigma * sigma)) : 1);
 }
 
-int csi_frames_fold_max_iter(const struct csi_recon_result *whole)
+void csi_frames_fold_options(const csi_recon_options *opt, const csi_recon_result *whole, csi_recon_options *out)
 {
     int most = 0;
     for (uint32_t c = 0; c < whole->channels && c < 4; c++)
@@ -40,7 +40,14 @@ int csi_frames_fold_max_iter(const struct csi_recon_result *whole)
     int cap = 2 * most > CSI_FRAMES_FOLD_MIN_ITER ? 2 * most : CSI_FRAMES_FOLD_MIN_ITER;
     if (whole->options.max_iter > 0 && cap > whole->options.max_iter)
         cap = whole->options.max_iter;
-    return cap;
+    *out = *opt;
+    out->frames = true;
+    out->frames_denoise = CSI_SWITCH_OFF;
+    out->image_frames = CSI_SWITCH_OFF;
+    out->motion_image_cv = CSI_SWITCH_OFF; /* the image is not asked for */
+    out->max_iter = cap;
+    if (opt->motion_time == CSI_MOTION_TIME_AUTO)
+        out->motion_time = whole->options.motion_time;
 }
 
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels)

@@ -99,15 +99,14 @@ typedef csi_status (*whole_step)(csi_ctx *ctx, const csi_grid *g, uint32_t chann
                                  csi_recon_result *out);
 
 /* A fold of the frames' step (csi/frames_denoise.h): its samples solved as the whole was (the
- * same options, their own variances), for their frames alone. */
+ * options csi_frames_fold_options makes, their own variances), for their frames alone. */
 typedef struct {
     csi_ctx *ctx;
     const csi_grid *grid;
     uint32_t channels;
     const csi_sample_pos *pos;
     const float *values;
-    const csi_recon_options *opt;
-    int max_iter;    /* the folds' step cap (csi_frames_fold_max_iter) */
+    csi_recon_options opt;
     unsigned solved; /* folds solved so far: the progress's "frames fold 1" and "2" */
 } frames_fold;
 
@@ -117,14 +116,14 @@ static bool on_fold_progress(void *user, const char *phase, int iter, double res
     const frames_fold *f = user;
     char name[64];
     snprintf(name, sizeof name, "frames fold %u %s", f->solved + 1, phase);
-    return f->opt->progress(f->opt->user, name, iter, res);
+    return f->opt.progress(f->opt.user, name, iter, res);
 }
 
 static csi_status frames_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
 {
     frames_fold *f = user;
     const uint32_t C = f->channels;
-    const float *var = f->opt->sample_variance;
+    const float *var = f->opt.sample_variance;
     csi_sample_pos *p = malloc(count * sizeof *p);
     float *v = malloc(count * C * sizeof *v), *vv = var ? malloc(count * C * sizeof *vv) : NULL;
     if (!p || !v || (var && !vv)) {
@@ -137,14 +136,9 @@ static csi_status frames_fold_solve(void *user, const size_t *index, size_t coun
         if (var)
             memcpy(vv + j * C, var + index[j] * C, C * sizeof *vv);
     }
-    csi_recon_options o = *f->opt;
-    o.frames = true;
-    o.frames_denoise = CSI_SWITCH_OFF;
-    o.image_frames = CSI_SWITCH_OFF;
-    o.motion_image_cv = CSI_SWITCH_OFF; /* the image is not asked for */
+    csi_recon_options o = f->opt;
     o.sample_variance = vv;
-    o.max_iter = f->max_iter;
-    if (f->opt->progress) {
+    if (f->opt.progress) {
         o.progress = on_fold_progress;
         o.user = f;
     }
@@ -172,7 +166,8 @@ static csi_status frames_step(csi_ctx *ctx, const csi_grid *grid, uint32_t chann
         return CSI_OK;
     const double t0 = csi_recon_now();
     const double v[2] = {out->options.motion_vx, out->options.motion_vy}; /* the basis's, resolved */
-    frames_fold fold = {ctx, grid, channels, pos, values, opt, csi_frames_fold_max_iter(out), 0};
+    frames_fold fold = {ctx, grid, channels, pos, values, {0}, 0};
+    csi_frames_fold_options(opt, out, &fold.opt);
     csi_status s = csi_frames_denoise(grid, out->nframes, channels, pos, values, n, opt->sample_noise, v,
                                       frames_fold_solve, &fold, out->frames, out->frames_sigma);
     if (s == CSI_OK && out->options.image_frames == CSI_SWITCH_ON)

@@ -243,8 +243,7 @@ typedef struct {
     const csi_tile_scope *scope;
     uint32_t index, channels;
     const tile_problem *p;
-    const csi_recon_options *opt;
-    int max_iter; /* the folds' step cap (csi_frames_fold_max_iter) */
+    csi_recon_options opt; /* csi_frames_fold_options */
 } tile_fold;
 
 static csi_status tile_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
@@ -262,13 +261,8 @@ static csi_status tile_fold_solve(void *user, const size_t *index, size_t count,
         p[j] = (csi_sample_pos){q.x + f->p->tile.win0[0] * bw, q.y + f->p->tile.win0[1] * bh, q.t + f->p->tile.win0[2]};
         memcpy(v + j * C, f->p->values + index[j] * C, C * sizeof *v);
     }
-    csi_recon_options o = *f->opt;
-    o.frames = true;
-    o.frames_denoise = CSI_SWITCH_OFF;
-    o.image_frames = CSI_SWITCH_OFF;
-    o.max_iter = f->max_iter;
     csi_tile_result r;
-    csi_status s = csi_recon_tile(f->ctx, &f->tl->grid, C, p, v, count, &o, f->tl, f->scope, f->index, &r);
+    csi_status s = csi_recon_tile(f->ctx, &f->tl->grid, C, p, v, count, &f->opt, f->tl, f->scope, f->index, &r);
     free(p), free(v);
     CSI_TRY(s);
     *frames = r.r.frames;
@@ -323,7 +317,8 @@ static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi
     tile_problem p;
     CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
     const double v[2] = {r->options.motion_vx, r->options.motion_vy}; /* the window's basis's */
-    tile_fold fold = {ctx, tl, scope, index, channels, &p, opt, csi_frames_fold_max_iter(r)};
+    tile_fold fold = {ctx, tl, scope, index, channels, &p, {0}};
+    csi_frames_fold_options(opt, r, &fold.opt);
     csi_status s = csi_frames_denoise(&p.g, valid, channels, p.pos, p.values, p.n, opt->sample_noise, v,
                                       tile_fold_solve, &fold, r->frames, NULL);
     tile_problem_free(&p);

@@ -16,7 +16,9 @@ background (a smooth texture):
   DFT's by 20% or more in MSE (the DFT joins the last frames to the first, where the lamp is);
 - a disc crossing the background (a still camera with a mover: ends alike in energy): numpy's
   ratio below 0.5, and the library keeps the DFT (the bits of --motion-time dft).
-With a given velocity the basis is sheared and takes the DCT whatever the ends."""
+With the samples' variances (the frames' step, whose folds take the whole's transform) auto's
+bits are still those of the transform it names. With a given velocity the basis is sheared and
+takes the DCT whatever the ends."""
 import os
 import sys
 
@@ -93,6 +95,20 @@ for name, f, want in (("lamp leaving", lamp_volume(), "dct"), ("disc crossing", 
         e_dct = float(np.mean((auto.frames[..., 0] - f) ** 2))
         e_dft = float(np.mean((dft.frames[..., 0] - f) ** 2))
         check(e_dct <= 0.8 * e_dft, f"{name}: frames MSE with the DCT {e_dct:.4e}, the DFT {e_dft:.4e}")
+
+# with the samples' variances the frames' step solves two folds of half the samples: they take
+# the whole's transform (csi_frames_fold_options), so auto's frames and image are still those
+# of the transform it names
+f = lamp_volume()
+clean = f[pos[:, 2], pos[:, 1], pos[:, 0]]
+noisy = (clean + 0.3 * np.random.default_rng(2).standard_normal(clean.shape))[:, None].astype(np.float32)
+var = np.full_like(noisy, 0.09)
+auto = csi.reconstruct(pos, noisy, GRID, frames="on", variance=var)
+same = csi.reconstruct(pos, noisy, GRID, frames="on", variance=var, motion_time="dct")
+check(auto.options["frames_denoise"] == "on" and auto.options["motion_time"] == "dct",
+      f"noisy lamp: frames_denoise {auto.options['frames_denoise']}, motion_time {auto.options['motion_time']}")
+check(np.array_equal(auto.image, same.image) and np.array_equal(auto.frames, same.frames),
+      "noisy lamp: auto's image and frames are those of motion_time dct")
 
 # a sheared basis takes the DCT whatever the ends
 val = disc_volume()[pos[:, 2], pos[:, 1], pos[:, 0]][:, None].astype(np.float32)

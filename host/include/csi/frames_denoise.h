@@ -43,6 +43,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "csi/reconstruct.h"
 #include "csi/samples.h"
 #include "csi/status.h"
 
@@ -67,8 +68,15 @@
  * stall where the whole's did not (one path per sample at 30% of the cells: 2000 steps, the cap,
  * where the whole took 160-180), and frames it would reach by then choose no better width. */
 #define CSI_FRAMES_FOLD_MIN_ITER 20
-struct csi_recon_result;
-int csi_frames_fold_max_iter(const struct csi_recon_result *whole);
+/* The options a fold solves with (out): the whole's (opt, as given) for its frames alone (no
+ * frames' step and no image step of its own), its steps capped as above, and where opt leaves
+ * the transform along t to auto, the one the whole's solve took (whole): the folds' frames
+ * choose the smoothing of the whole's frames, so they share its kind of basis; half the samples
+ * can fall on the other side of the still basis's rule (motion.c), and on a held-out animation
+ * whose ends differ near it the folds' own choice lost 0.7-0.9 dB per frame (docs/bench/
+ * animation.md, session 34). The velocity each fold finds for itself (the whole's given cost a
+ * camera slide 12% of its image MSE, session 34). */
+void csi_frames_fold_options(const csi_recon_options *opt, const csi_recon_result *whole, csi_recon_options *out);
 
 /* The blurred image averaged with the mean over t of the denoised frames (image_frames): two
  * estimates of each pixel's mean over the shutter, one from the fit and the pixel's own samples
