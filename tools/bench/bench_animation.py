@@ -12,7 +12,8 @@ Sources:
               discs crossing, small fast movers), exact at the cell centres; the truth is the
               volume itself.
   mitsuba     Mitsuba 3 animations (data/mitsuba/anim_pan.py: an animated camera,
-              anim_ball.py: animated objects), re-posed per time step (the bridge's
+              anim_ball.py: animated objects; or a scene of your own, a .py file with
+              animate(params, time) given to --scenes), re-posed per time step (the bridge's
               render_request / render_reference_frames; Mitsuba has no motion blur of its own),
               sampled at csi's positions (csi-positions --method random --fraction F
               --time-steps T), PATHS paths per sample, each sample's variance beside it as
@@ -476,7 +477,9 @@ def main():
     ap.add_argument("--quick", action="store_true", help="64x64x16, rates 3%% and 10%%, one seed, two volumes")
     ap.add_argument("--sources", default="procedural,mitsuba")
     ap.add_argument("--volumes", default=",".join(av.NAMES))
-    ap.add_argument("--scenes", default=",".join(MITSUBA_SCENES))
+    ap.add_argument("--scenes", default=",".join(MITSUBA_SCENES),
+                    help="Mitsuba animations: the bundled ones by name, or a Python scene file with "
+                    "animate(params, time) (named by its file's stem; its data cached under that name)")
     ap.add_argument("--rates", default="0.01,0.03,0.1")
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--size", default="128x128x32", help="WxHxT of the procedural volumes")
@@ -509,6 +512,20 @@ def main():
         a.rates, a.seeds = "0.03,0.1", "0"
         a.volumes, a.scenes = "pan+disc,static+movers", "anim_ball"
         a.ref_spp = min(a.ref_spp, 64)
+    scenes = []
+    for entry in a.scenes.split(",") if "mitsuba" in a.sources.split(",") else []:
+        if entry.endswith(".py"):
+            if not os.path.isfile(entry):
+                sys.exit(f"bench_animation: --scenes {entry}: no such file")
+            name = os.path.splitext(os.path.basename(entry))[0]
+            if name in MITSUBA_SCENES and os.path.abspath(MITSUBA_SCENES[name]) != os.path.abspath(entry):
+                sys.exit(f"bench_animation: --scenes {entry}: its name {name!r} is a bundled scene's; rename the file")
+            MITSUBA_SCENES[name] = os.path.abspath(entry)
+            entry = name
+        elif entry not in MITSUBA_SCENES:
+            sys.exit(f"bench_animation: --scenes {entry!r}: not one of {', '.join(MITSUBA_SCENES)} "
+                     "nor a .py scene file")
+        scenes.append(entry)
     os.makedirs(a.out, exist_ok=True)
     methods = a.methods.split(",")
     for m in methods:
@@ -521,7 +538,7 @@ def main():
     fig_rates = [float(r) for r in a.figures.split(",")] if a.figures else []
     cases = []
     for src in a.sources.split(","):
-        names = a.volumes.split(",") if src == "procedural" else a.scenes.split(",")
+        names = a.volumes.split(",") if src == "procedural" else scenes
         for name in names:
             for seed in seeds:
                 for rate in rates:
