@@ -31,7 +31,7 @@ typedef struct {
 } block_sums;
 
 static void block_pass(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos, const float *values,
-                       size_t n, uint32_t B, size_t nbx, uint32_t t0, uint32_t t1, int pass, block_sums *s)
+                       size_t n, uint32_t B, size_t nbx, size_t nb, uint32_t t0, uint32_t t1, int pass, block_sums *s)
 {
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     for (size_t i = 0; i < n; i++) {
@@ -51,7 +51,7 @@ static void block_pass(const csi_grid *g, uint32_t channels, const csi_sample_po
         }
     }
     if (pass == 0) /* sums become means */
-        for (size_t b = 0; b < (size_t)nbx * ((g->out_h + B - 1) / B); b++)
+        for (size_t b = 0; b < nb; b++)
             for (uint32_t c = 0; c < channels && s->cnt[b]; c++)
                 s->sum[b * channels + c] /= s->cnt[b];
 }
@@ -79,8 +79,8 @@ csi_status csi_recon_motion_ends(const csi_grid *g, uint32_t channels, const csi
     const uint32_t from[3] = {0, T - q, 0}, to[3] = {q, T, T}; /* first quarter, last, all */
     for (int k = 0; k < 3; k++) {
         set[k] = (block_sums){mem + (size_t)k * 2 * nv, mem + (size_t)k * 2 * nv + nv, cnt + (size_t)k * nb};
-        block_pass(g, channels, pos, values, n, B, nbx, from[k], to[k], 0, &set[k]);
-        block_pass(g, channels, pos, values, n, B, nbx, from[k], to[k], 1, &set[k]);
+        block_pass(g, channels, pos, values, n, B, nbx, nb, from[k], to[k], 0, &set[k]);
+        block_pass(g, channels, pos, values, n, B, nbx, nb, from[k], to[k], 1, &set[k]);
     }
     double diff = 0, energy = 0;
     for (size_t b = 0; b < nb; b++) {
