@@ -165,6 +165,8 @@ static csi_status reconstruct_tile(csi_device *dev, const csi_samples *s, size_t
     const csi_grid *g = &r->tiling.grid;
     if (st == CSI_OK && index >= r->tiling.count)
         st = csi_fail(CSI_ERR_ARG, "tile %u of a layout of %u tiles", index, r->tiling.count);
+    if (st == CSI_OK && s->count == whole) /* every sample: refused as the one-process run is */
+        st = csi_tiling_check_samples(&r->tiling, s->pos, s->count);
     if (st == CSI_OK && (scale || s->count < whole)) {
         csi_tile_scope_init(g, s->channels, whole, &r->scope);
         r->scope.has_scale = scale != NULL;

@@ -190,6 +190,7 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
      * and the padded whole would not fit either. */
     csi_tiling tl;
     CSI_TRY(csi_tiling_layout(ctx, grid, channels, n, &opt, &tl));
+    CSI_TRY(csi_tiling_check_samples(&tl, pos, n));
     /* The image averaged with the denoised frames (image_frames) needs the frames, asked for or
      * not: made below, dropped by csi_recon when not asked for; time windows' tiles make their
      * own and give the blend their frames' mean (csi_recon_tile). */

@@ -493,7 +493,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     o.sample_variance = NULL;
     /* A time window keeps its volume at its samples for the whole shutter's correction. */
     csi_recon_fit fit = {NULL, false};
-    csi_status s = CSI_OK;
+    csi_status s = tl->n[2] > 1 && p.n == 0 ? csi_tiling_empty_tile(tl, index) : CSI_OK;
     if (split_t && p.n > 0 && !(fit.at = malloc(p.n * channels * sizeof *fit.at)))
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the volume at the %zu samples of tile %u", p.n, index);
     if (s == CSI_OK && (p.n == 0 || !solve)) {

@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "csi/wavelet.h"
@@ -620,4 +621,72 @@ bool csi_tiling_equal(const csi_tiling *a, const csi_tiling *b)
             a->margin[i] != b->margin[i] || a->band[i] != b->band[i] || a->align[i] != b->align[i])
             return false;
     return true;
+}
+
+/* For each coordinate along an axis, the first and last tile position whose window holds it
+ * (windows along an axis are ranges in position order, so the ones holding c are consecutive). */
+static csi_status axis_cover(const csi_tiling *tl, int a, uint32_t **first, uint32_t **last)
+{
+    const uint32_t L = tl->length[a];
+    *first = malloc(L * sizeof **first);
+    *last = malloc(L * sizeof **last);
+    if (!*first || !*last)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the tile layout's windows");
+    for (uint32_t c = 0; c < L; c++) {
+        (*first)[c] = UINT32_MAX;
+        (*last)[c] = 0;
+    }
+    for (uint32_t p = 0; p < tl->n[a]; p++) {
+        const uint32_t w0 = win_start(L, tl->n[a], tl->align[a], tl->window[a], p);
+        for (uint32_t c = w0; c < w0 + tl->window[a] && c < L; c++) {
+            if ((*first)[c] == UINT32_MAX)
+                (*first)[c] = p;
+            (*last)[c] = p;
+        }
+    }
+    return CSI_OK;
+}
+
+csi_status csi_tiling_empty_tile(const csi_tiling *tl, uint32_t index)
+{
+    csi_tile t;
+    csi_tiling_tile(tl, index, &t);
+    const uint32_t f0 = t.win0[2], f1 = f0 + tl->window[2] - 1;
+    return csi_fail(CSI_ERR_ARG, "tile %u of %u (time window %u of %u, frames %u-%u) holds no sample: the "
+                    "samples do not cover that part of the shutter; ask for fewer time windows (--tiles-t)",
+                    index + 1, tl->count, t.pos[2] + 1, tl->n[2], f0, f1 < tl->image_t ? f1 : tl->image_t - 1);
+}
+
+csi_status csi_tiling_check_samples(const csi_tiling *tl, const csi_sample_pos *pos, size_t n)
+{
+    if (tl->n[2] <= 1)
+        return CSI_OK;
+    uint32_t *first[3] = {NULL, NULL, NULL}, *last[3] = {NULL, NULL, NULL};
+    unsigned char *held = calloc(tl->count, 1);
+    csi_status s = held ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the tile layout's windows");
+    for (int a = 0; a < 3 && s == CSI_OK; a++)
+        s = axis_cover(tl, a, &first[a], &last[a]);
+    const uint32_t bw = tl->grid.w / tl->grid.out_w, bh = tl->grid.h / tl->grid.out_h;
+    uint32_t left = tl->count;
+    for (size_t i = 0; i < n && left && s == CSI_OK; i++) {
+        const uint32_t c[3] = {pos[i].x / bw, pos[i].y / bh, pos[i].t};
+        if (c[0] >= tl->length[0] || c[1] >= tl->length[1] || c[2] >= tl->length[2])
+            continue; /* outside the grid: the inputs' check names it */
+        for (uint32_t pt = first[2][c[2]]; pt <= last[2][c[2]]; pt++)
+            for (uint32_t py = first[1][c[1]]; py <= last[1][c[1]]; py++)
+                for (uint32_t px = first[0][c[0]]; px <= last[0][c[0]]; px++) {
+                    const uint32_t k = (pt * tl->n[1] + py) * tl->n[0] + px;
+                    left -= !held[k];
+                    held[k] = 1;
+                }
+    }
+    for (uint32_t k = 0; k < tl->count && left && s == CSI_OK; k++)
+        if (!held[k])
+            s = csi_tiling_empty_tile(tl, k);
+    for (int a = 0; a < 3; a++) {
+        free(first[a]);
+        free(last[a]);
+    }
+    free(held);
+    return s;
 }

@@ -127,6 +127,24 @@ static void binned_windows(csi_device *dev)
         csi_result_free(all);
         csi_result_free(own);
     }
+    /* A window that holds none of its samples knows nothing (its frames would be zero): refused,
+     * naming it, when a renderer traced that window alone and found nothing there. */
+    {
+        uint32_t lo[3], hi[3];
+        CHECK_OK(csi_tile_window(dev, &(csi_samples){g, 1, n, pos, NULL, 0, NULL}, o, 1, lo, hi));
+        size_t m = 0;
+        for (size_t j = 0; j < n && m < 4; j++)
+            if (pos[j].t < lo[2]) { /* outside window 1: the tile finds none of its own */
+                wpos[m] = pos[j];
+                wval[m++] = val[j];
+            }
+        csi_result *empty = NULL;
+        const csi_status st = csi_reconstruct_tile_window(dev, &(csi_samples){g, 1, m, wpos, wval, 0, NULL}, n, o, 1,
+                                                          scale, NULL, NULL, &empty);
+        CHECK(st == CSI_ERR_ARG && !empty && strstr(csi_last_error(), "time window 2 of 2") &&
+                  strstr(csi_last_error(), "holds no sample"),
+              "a window without samples: %s (%s)", csi_status_name(st), csi_last_error());
+    }
     csi_options_free(o);
     free(wpos);
     free(wval);

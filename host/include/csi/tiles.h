@@ -142,6 +142,16 @@ uint32_t csi_tiling_bin_t(const csi_tiling *tl);
  * column then needs every sample of the column, over the whole shutter (csi_tile_window). */
 bool csi_tiling_image_binned(const csi_tiling *tl, const csi_recon_options *opt);
 
+/* CSI_ERR_ARG when the layout splits t and one of its tiles holds none of the n samples (a part
+ * of the shutter the dump does not sample): such a window's frames would be zero, and the
+ * shutter's mean short by its share, where the untiled solve carries its basis over the gap.
+ * The message names the tile, its frames and the remedy (fewer time windows). Layouts not split
+ * in t pass: an x/y tile without samples is dark as the untiled image is there. */
+csi_status csi_tiling_check_samples(const csi_tiling *tl, const csi_sample_pos *pos, size_t n);
+/* The failure csi_tiling_check_samples gives for tile `index` (a tile run alone given only its
+ * window's samples finds its own window empty). */
+csi_status csi_tiling_empty_tile(const csi_tiling *tl, uint32_t index);
+
 /* Tile `index` (< count) of a layout. */
 void csi_tiling_tile(const csi_tiling *tl, uint32_t index, csi_tile *out);
 
