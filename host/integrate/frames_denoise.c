@@ -50,6 +50,51 @@ void csi_frames_fold_options(const csi_recon_options *opt, const csi_recon_resul
         out->motion_time = whole->options.motion_time;
 }
 
+void csi_frames_fold_samples(const float *values, const float *variance, uint32_t channels, const size_t *index,
+                             size_t count, float *v, float *var)
+{
+    for (size_t j = 0; j < count; j++) {
+        const size_t i = index[j];
+        if (channels == 1) {
+            v[j] = values[i];
+            if (variance)
+                var[j] = variance[i];
+            continue;
+        }
+        double m = 0, sd = 0;
+        for (uint32_t c = 0; c < channels; c++) {
+            m += values[i * channels + c];
+            if (variance)
+                sd += sqrt((double)variance[i * channels + c]);
+        }
+        v[j] = (float)(m / channels);
+        if (variance) {
+            const double s = sd / channels;
+            var[j] = (float)(s * s);
+        }
+    }
+}
+
+double csi_frames_fold_noise(const float *values, size_t n, uint32_t channels, const double noise[4])
+{
+    if (channels == 1 || n == 0)
+        return noise[0];
+    double mean_abs = 0, level[4] = {0, 0, 0, 0};
+    for (size_t i = 0; i < n; i++) {
+        double m = 0;
+        for (uint32_t c = 0; c < channels; c++) {
+            m += values[i * channels + c];
+            if (c < 4)
+                level[c] += fabs((double)values[i * channels + c]);
+        }
+        mean_abs += fabs(m / channels);
+    }
+    double sd = 0;
+    for (uint32_t c = 0; c < channels && c < 4; c++)
+        sd += noise[c] * level[c] / (double)n;
+    return mean_abs > 0 ? sd / channels / (mean_abs / (double)n) : 0;
+}
+
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels)
 {
     for (uint32_t c = 0; c < channels && c < 4; c++)
@@ -374,11 +419,12 @@ static csi_status smooth(const vol *v, uint32_t channels, const double vel[2], i
 /* ---- the folds ---------------------------------------------------------------------------- */
 
 /* Fold f solved alone, its frames through step 1, and each width's error at the other fold's
- * samples added to err. */
-static csi_status fold_errors(const vol *v, uint32_t channels, const csi_sample_pos *pos, const float *values,
-                              size_t n, const double noise[4], int f, csi_frames_fold_solve solve, void *user,
-                              double *err)
+ * samples added to err. values: the samples' channels' means (csi_frames_fold_samples), noise
+ * theirs. */
+static csi_status fold_errors(const vol *v, const csi_sample_pos *pos, const float *values, size_t n, double noise,
+                              int f, csi_frames_fold_solve solve, void *user, double *err)
 {
+    const double noise1[4] = {noise, 0, 0, 0};
     cell_set mine, other;
     CSI_TRY(cell_set_make(v, pos, n, f, &mine));
     csi_status s = cell_set_make(v, pos, n, 1 - f, &other);
@@ -391,23 +437,22 @@ static csi_status fold_errors(const vol *v, uint32_t channels, const csi_sample_
         for (size_t j = 0; s == CSI_OK && j < mine.used; j++) /* in cell order */
             index[j] = mine.order[j].index;
         if (s == CSI_OK)
-            s = solve(user, index, mine.used, &frames, vel);
+            s = solve(user, index, mine.used, noise, &frames, vel);
         if (s == CSI_OK)
-            s = cells_step(v, channels, values, &mine, noise, frames);
+            s = cells_step(v, 1, values, &mine, noise1, frames);
         if (s == CSI_OK) {
             double gs[NXY][RMAX + 1], gt[NT][RMAX + 1];
             for (int a = 0; a < NXY; a++)
                 taps(SXY[a], gs[a]);
             for (int b = 0; b < NT; b++)
                 taps(ST[b], gt[b]);
-            const size_t stride_t = (size_t)channels * v->np, half = CV_SAMPLES / 2;
+            const size_t half = CV_SAMPLES / 2;
             const size_t step = other.used > half ? (other.used + half - 1) / half : 1;
             path_steps ps; /* along the fold's own velocity */
             path_make(vel, &ps);
-            for (uint32_t c = 0; c < channels; c++)
-                for (size_t j = 0; j < other.used; j += step)
-                    width_errors(v, frames + (size_t)c * v->np, stride_t, other.order[j].cell,
-                                 values[other.order[j].index * channels + c], &ps, gs, gt, err);
+            for (size_t j = 0; j < other.used; j += step)
+                width_errors(v, frames, v->np, other.order[j].cell, values[other.order[j].index], &ps, gs, gt,
+                             err);
         }
     }
     free(index), free(frames);
@@ -434,9 +479,20 @@ csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t chan
      * the width down, the first fold's alone (half the cost) */
     const int folds = all.used >= CSI_FRAMES_DENOISE_ONE_FOLD ? 1 : 2;
     double err[CSI_FRAMES_DENOISE_WIDTHS] = {0};
-    csi_status s = CSI_OK;
+    /* the folds' samples: each sample's channels' mean */
+    float *mean = malloc(n * sizeof *mean);
+    size_t *every = malloc(n * sizeof *every);
+    csi_status s = mean && every ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the folds' samples");
+    if (s == CSI_OK) {
+        for (size_t i = 0; i < n; i++)
+            every[i] = i;
+        csi_frames_fold_samples(values, NULL, channels, every, n, mean, NULL);
+    }
+    const double fold_noise = csi_frames_fold_noise(values, n, channels, noise);
     for (int f = 0; f < folds && s == CSI_OK; f++)
-        s = fold_errors(&v, channels, pos, values, n, noise, f, solve, user, err);
+        s = fold_errors(&v, pos, mean, n, fold_noise, f, solve, user, err);
+    free(mean);
+    free(every);
     int best = 0;
     for (int k = 1; k < CSI_FRAMES_DENOISE_WIDTHS; k++)
         if (err[k] < err[best])

@@ -98,8 +98,9 @@ typedef csi_status (*whole_step)(csi_ctx *ctx, const csi_grid *g, uint32_t chann
                                  const float *values, size_t n, const csi_recon_options *opt,
                                  csi_recon_result *out);
 
-/* A fold of the frames' step (csi/frames_denoise.h): its samples solved as the whole was (the
- * options csi_frames_fold_options makes, their own variances), for their frames alone. */
+/* A fold of the frames' step (csi/frames_denoise.h): its samples' channels' mean solved as the
+ * whole was (the options csi_frames_fold_options makes, the mean's variances), for its frames
+ * alone. */
 typedef struct {
     csi_ctx *ctx;
     const csi_grid *grid;
@@ -119,23 +120,21 @@ static bool on_fold_progress(void *user, const char *phase, int iter, double res
     return f->opt.progress(f->opt.user, name, iter, res);
 }
 
-static csi_status frames_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
+static csi_status frames_fold_solve(void *user, const size_t *index, size_t count, double noise, float **frames,
+                                    double vel[2])
 {
+    (void)noise; /* csi_recon takes it from the fold's variances, as the whole's from its own */
     frames_fold *f = user;
-    const uint32_t C = f->channels;
     const float *var = f->opt.sample_variance;
     csi_sample_pos *p = malloc(count * sizeof *p);
-    float *v = malloc(count * C * sizeof *v), *vv = var ? malloc(count * C * sizeof *vv) : NULL;
+    float *v = malloc(count * sizeof *v), *vv = var ? malloc(count * sizeof *vv) : NULL;
     if (!p || !v || (var && !vv)) {
         free(p), free(v), free(vv);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for a fold of %zu samples", count);
     }
-    for (size_t j = 0; j < count; j++) {
+    for (size_t j = 0; j < count; j++)
         p[j] = f->pos[index[j]];
-        memcpy(v + j * C, f->values + index[j] * C, C * sizeof *v);
-        if (var)
-            memcpy(vv + j * C, var + index[j] * C, C * sizeof *vv);
-    }
+    csi_frames_fold_samples(f->values, var, f->channels, index, count, v, vv);
     csi_recon_options o = f->opt;
     o.sample_variance = vv;
     if (f->opt.progress) {
@@ -143,7 +142,7 @@ static csi_status frames_fold_solve(void *user, const size_t *index, size_t coun
         o.user = f;
     }
     csi_recon_result r;
-    csi_status s = csi_recon(f->ctx, f->grid, C, p, v, count, &o, &r);
+    csi_status s = csi_recon(f->ctx, f->grid, 1, p, v, count, &o, &r);
     free(p), free(v), free(vv);
     f->solved++;
     CSI_TRY(s);

@@ -246,12 +246,13 @@ typedef struct {
     csi_recon_options opt; /* csi_frames_fold_options */
 } tile_fold;
 
-static csi_status tile_fold_solve(void *user, const size_t *index, size_t count, float **frames, double vel[2])
+static csi_status tile_fold_solve(void *user, const size_t *index, size_t count, double noise, float **frames,
+                                  double vel[2])
 {
     const tile_fold *f = user;
     const uint32_t C = f->channels, bw = f->tl->grid.w / f->tl->grid.out_w, bh = f->tl->grid.h / f->tl->grid.out_h;
     csi_sample_pos *p = malloc(count * sizeof *p);
-    float *v = malloc(count * C * sizeof *v);
+    float *v = malloc(count * sizeof *v);
     if (!p || !v) {
         free(p), free(v);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for a fold of %zu samples", count);
@@ -259,10 +260,28 @@ static csi_status tile_fold_solve(void *user, const size_t *index, size_t count,
     for (size_t j = 0; j < count; j++) {
         const csi_sample_pos q = f->p->pos[index[j]];
         p[j] = (csi_sample_pos){q.x + f->p->tile.win0[0] * bw, q.y + f->p->tile.win0[1] * bh, q.t + f->p->tile.win0[2]};
-        memcpy(v + j * C, f->p->values + index[j] * C, C * sizeof *v);
     }
+    csi_frames_fold_samples(f->p->values, NULL, C, index, count, v, NULL);
+    /* One channel, the channels' mean: the whole's figures for it. Alg. 2's scale is a channel's
+     * mean sample (csi/tiles.h), so the mean's is the mean of the channels' (0, unknown, if any is);
+     * its noise is the fold's (a tile's solve reads the noise from its options). */
+    csi_tile_scope scope = *f->scope;
+    csi_recon_options o = f->opt;
+    if (C > 1) {
+        double sum = 0;
+        bool known = true;
+        for (uint32_t c = 0; c < C && c < 4; c++) {
+            sum += f->scope->scale[c];
+            known = known && f->scope->scale[c] != 0;
+        }
+        memset(scope.scale, 0, sizeof scope.scale);
+        scope.scale[0] = known ? sum / C : 0;
+        memset(o.sample_noise, 0, sizeof o.sample_noise);
+        o.sample_noise[0] = noise;
+    }
+    scope.channels = 1;
     csi_tile_result r;
-    csi_status s = csi_recon_tile(f->ctx, &f->tl->grid, C, p, v, count, &f->opt, f->tl, f->scope, f->index, &r);
+    csi_status s = csi_recon_tile(f->ctx, &f->tl->grid, 1, p, v, count, &o, f->tl, &scope, f->index, &r);
     free(p), free(v);
     CSI_TRY(s);
     *frames = r.r.frames;

@@ -5,10 +5,10 @@ again here in numpy (double) and for what the library promises around it:
   documented rule in numpy: each sampled cell D + k (ybar - D) with D its unsampled 8
   neighbours' mean and k = v / (v + s^2 / m), then the Gaussian (along t on the path of the
   basis's velocity, bilinear, then along x and y, cut at the volume's sides) of the width whose
-  smoothing of two folds' frames (the samples split by a hash of their cell, each half solved
-  here by csi.reconstruct, to at most twice the whole solve's steps, and taken through the same
-  D + k step) predicts the other half's
-  samples best; to float32 rounding, and the same width chosen (the stats' frames_sigma_xy /
+  smoothing of two folds' frames (the samples split by a hash of their cell, each half's
+  channels' mean solved here by csi.reconstruct as one channel, to at most twice the whole
+  solve's steps, and taken through the same D + k step) predicts the other half's channels'
+  means best (and the folds solve one channel: their progress says so); to float32 rounding, and the same width chosen (the stats' frames_sigma_xy /
   _t), on a volume with one path's noise (the level's size: a smoothing is chosen), with a third
   of it, and on a pan (the basis's velocity found: the smoothing along t follows it); below a
   fifth of the level the step is off;
@@ -167,23 +167,30 @@ def fold_of(pos):
 
 def rule(frames, pos, val, var, vel, steps):
     """The documented step on the fit's frames (T, H, W, C), its two folds solved here through
-    csi.reconstruct, each to at most `steps` steps: (frames, (sigma_xy, sigma_t))."""
+    csi.reconstruct as one channel, the samples' channels' mean (its variance the square of the
+    channels' mean standard deviation), each to at most `steps` steps: (frames, (sigma_xy, sigma_t))."""
     noise = [np.sqrt(var[:, c].astype(np.float64).mean()) / np.abs(val[:, c].astype(np.float64)).mean()
              for c in range(val.shape[1])]
+    v64 = val.astype(np.float64)
+    mean = (v64.sum(axis=1) / val.shape[1]).astype(np.float32)[:, None]
+    sd = np.sqrt(var.astype(np.float64)).sum(axis=1) / val.shape[1]
+    mean_var = (sd * sd).astype(np.float32)[:, None]
+    # the mean's noise relative to its level: the channels' absolute noise averaged, over mean |mean|
+    mean_noise = sum(noise[c] * np.abs(v64[:, c]).mean() for c in range(val.shape[1])) / val.shape[1] / \
+        np.abs(v64.sum(axis=1) / val.shape[1]).mean()
     fold, cell = fold_of(pos)
     errs = np.zeros(len(WIDTHS))
     for f in (0, 1):
         mine = np.nonzero(fold == f)[0]
         mine = mine[np.lexsort((mine, cell[mine]))]  # by cell, then index: the library's order
         other = np.nonzero(fold != f)[0]
-        r = csi.reconstruct(pos[mine], val[mine], GRID, frames="on", variance=var[mine], frames_denoise="off",
+        r = csi.reconstruct(pos[mine], mean[mine], GRID, frames="on", variance=mean_var[mine], frames_denoise="off",
                             motion_image_cv="off", max_iter=steps)
         fv = (float(r.options["motion_vx"]), float(r.options["motion_vy"]))
-        P = cells_step(r.frames, pos[mine], val[mine], noise)
+        P = cells_step(r.frames, pos[mine], mean[mine], [mean_noise])
         t, y, x = (pos[other][:, i].astype(np.int64) for i in (2, 1, 0))
         for j, w in enumerate(WIDTHS):
-            errs[j] += sum(float(np.sum((smooth(P[..., c], *w, fv)[t, y, x] - val[other][:, c]) ** 2))
-                           for c in range(val.shape[1]))
+            errs[j] += float(np.sum((smooth(P[..., 0], *w, fv)[t, y, x] - mean[other][:, 0]) ** 2))
     best = WIDTHS[int(np.argmin(errs))]
     P = cells_step(frames, pos, val, noise)
     return np.stack([smooth(P[..., c], *best, vel) for c in range(frames.shape[-1])], axis=-1), best
@@ -223,6 +230,12 @@ for label, vol, rel, want_smoothing in (("one path's noise", F, (1.0, 0.9, 1.1),
     # the folds' step cap: twice the whole solve's steps (its largest channel's), 20 to its own cap
     steps = min(max(2 * max(rep["iterations"] for rep in off.reports), 20), int(off.options["max_iter"]))
     want, width = rule(off.frames, pos, val, var, vel, steps)
+    if vol is F and rel[0] == 1.0:  # the folds solve one channel: their progress says "solve 1/1"
+        phases = set()
+        csi.reconstruct(pos, val, GRID, variance=var, frames="on", progress=lambda p, i, r: phases.add(p))
+        folds = sorted(p for p in phases if p.startswith("frames fold") and " solve" in p)
+        check(folds == ["frames fold 1 solve 1/1", "frames fold 2 solve 1/1"] and "solve 3/3" in phases,
+              f"{label}: the folds solve one channel, the whole three ({folds})")
     got = (on.stats.get("frames_sigma_xy"), on.stats.get("frames_sigma_t"))
     check(got == width, f"{label}: the width chosen {got}, the rule's {width}")
     err = float(np.abs(on.frames - want).max())

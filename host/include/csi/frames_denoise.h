@@ -24,10 +24,10 @@
  *    path is the pixel), then along x and y (sigma_xy), each cut at the volume's sides (the
  *    weights inside renormalised), one width for every channel, chosen from
  *    CSI_FRAMES_DENOISE_WIDTHS by two folds: the samples split in two by their cell, each half
- *    solved alone (the caller's solve), its frames taken through step 1 and smoothed by each
- *    width predict the other half's samples; the width of the least squared error over both
- *    folds (one, from CSI_FRAMES_DENOISE_ONE_FOLD samples on) and all channels wins (no
- *    smoothing among them). A fold's frames have never seen the
+ *    solved alone (the caller's solve) as one channel, the mean of the samples' channels, its
+ *    frames taken through step 1 and smoothed by each width predict the other half's samples'
+ *    means; the width of the least squared error over both folds (one, from
+ *    CSI_FRAMES_DENOISE_ONE_FOLD samples on) wins (no smoothing among them). A fold's frames have never seen the
  *    samples they predict: the frames of the whole solve, even with a sample's own cell left
  *    out, carry its noise and its value into the cells around it, and chose less smoothing than
  *    the truth where the noise is large and more where it is small (measured). A fold has half
@@ -93,11 +93,26 @@ void csi_frames_denoise_image(const float *frames, uint32_t nframes, uint32_t ch
 int csi_frames_denoise_noisy(const double noise[4], uint32_t channels);
 
 /* A fold's solve: the frames of the volume from the caller's samples index[0 .. count) alone
- * (indices into the arrays given to csi_frames_denoise, in the order of their cells), in *frames
- * (malloc'd, in the layout of csi_frames_denoise's frames; csi_frames_denoise frees it), and the
- * velocity its basis used. */
-typedef csi_status (*csi_frames_fold_solve)(void *user, const size_t *index, size_t count, float **frames,
-                                            double velocity[2]);
+ * (indices into the arrays given to csi_frames_denoise, in the order of their cells), as one
+ * channel: the samples' mean over their channels (csi_frames_fold_samples makes them), whose
+ * noise relative to its level is `noise` (for a solve that is not given the variances); in
+ * *frames (malloc'd, nframes planes of out_w * out_h; csi_frames_denoise frees it), and the
+ * velocity its basis used. One channel because the folds choose one width for every channel:
+ * the channels' mean chose the width the sum of every channel's errors chose on 100 of 120
+ * Mitsuba animations, at about 0.6x the time of a volume's reconstruction (docs/bench/
+ * animation.md, session 35). */
+typedef csi_status (*csi_frames_fold_solve)(void *user, const size_t *index, size_t count, double noise,
+                                            float **frames, double velocity[2]);
+/* A fold's samples (csi_frames_fold_solve): for each index[j], the mean of its channels in v[j]
+ * and, where variance is not NULL, in var[j] the variance of that mean taken as if the channels'
+ * noise were fully correlated (one path carries every channel): (mean of the standard
+ * deviations)^2. One channel: its own values and variances, bit for bit. */
+void csi_frames_fold_samples(const float *values, const float *variance, uint32_t channels, const size_t *index,
+                             size_t count, float *v, float *var);
+/* The noise relative to its level of the channels' mean of n samples, from each channel's
+ * (noise[c], relative to its mean |value|): the mean of the channels' absolute noise over the
+ * mean |channels' mean|, as csi_frames_fold_samples' variances (noise[0] for one channel). */
+double csi_frames_fold_noise(const float *values, size_t n, uint32_t channels, const double noise[4]);
 
 /* Steps 1 and 2 on frames (nframes * channels * out_w * out_h floats, frame-major then planar,
  * csi_recon_result.frames) of grid g, from the samples they were solved from (samples at frames
