@@ -451,8 +451,10 @@ uint64_t csi_ctx_local_mem(const csi_ctx *ctx)
     return local;
 }
 
-/* No -cl-fast-relaxed-math: the solvers' stopping rules depend on IEEE float behaviour. */
-static const char BUILD_OPTIONS[] = "-cl-std=CL1.2";
+/* No -cl-fast-relaxed-math: the solvers' stopping rules depend on IEEE float behaviour. -w: the
+ * compiler's warnings would reach the user's stderr on the first run of every kernel (a
+ * program's "-q" promises none); a kernel that does not build still fails with its log. */
+static const char BUILD_OPTIONS[] = "-cl-std=CL1.2 -w";
 
 /* kernels/<name>.cl built from its source, or CSI_ERR_BUILD with the start of the build log. */
 static csi_status build_from_source(csi_ctx *ctx, const char *name, const char *src, cl_program *out)

@@ -9,6 +9,11 @@
 #include <time.h>
 #include <unistd.h>
 
+void cli_quiet_kernel_builds(void)
+{
+    setenv("POCL_EXTRA_BUILD_FLAGS", "-w", 0);
+}
+
 int cli_exit_code(csi_status st)
 {
     switch (st) {

@@ -13,6 +13,11 @@
 /* Exit codes: 0 success, 2 bad input or usage (the user can fix it), 1 anything else. */
 enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
 
+/* Kernels built at run time (the first run, or a new FFT size: clFFT's generated kernels) must
+ * not print the OpenCL compiler's warnings on the user's stderr ("-q" promises nothing there):
+ * asks PoCL to build every program with -w (POCL_EXTRA_BUILD_FLAGS, unless the user set it).
+ * Called first in main, before any thread or device. */
+void cli_quiet_kernel_builds(void);
 /* Prints "prog: error: message" on one line and returns the exit code for st. */
 int cli_error(const char *prog, csi_status st, const char *fmt, ...)
 #if defined(__GNUC__)

@@ -286,6 +286,7 @@ int main(int argc, char **argv)
         {"cache-programs", no_argument, 0, O_CACHE_PROGRAMS}, {"help", no_argument, 0, 'h'},
         {"version", no_argument, 0, O_VERSION}, CLI_TILE_LONGOPTS,
         {0, 0, 0, 0}};
+    cli_quiet_kernel_builds();
     cli_heap_keep_freed();
     cli_outputs outs = {0};
     cli_tile_opts tile = {0};

@@ -1,5 +1,6 @@
 /* The baselines csi is measured against, on the very same samples and integration: the per-pixel
  * sample mean (Monte Carlo) and Gaussian normalized convolution (the paper's Sec. 6.1). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,8 +31,16 @@ csi_status csi_recon_gauss_nc(csi_ctx *ctx, const csi_grid *g, uint32_t channels
     res->cpu_setup = csi_recon_cpu_now();
     double t0 = csi_recon_now();
     for (uint32_t c = 0; c < channels && s == CSI_OK; c++) {
-        for (size_t i = 0; i < n; i++)
+        /* The estimate is a mean of the samples with non-negative weights: within their range,
+         * where the FFT's rounding (large next to a bright sample, divided by a small density)
+         * would otherwise carry it below the darkest (negative from non-negative samples). */
+        nc.lo = INFINITY;
+        nc.hi = -INFINITY;
+        for (size_t i = 0; i < n; i++) {
             st->plane[i] = values[i * channels + c];
+            nc.lo = fminf(nc.lo, st->plane[i]);
+            nc.hi = fmaxf(nc.hi, st->plane[i]);
+        }
         s = csi_write(ctx, st->y, 0, n * 4, st->plane);
         if (s == CSI_OK)
             s = csi_nc_interp(ctx, &nc, st->y, k, st->x, st->tmp);

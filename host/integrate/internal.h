@@ -533,6 +533,9 @@ typedef struct {
     csi_linop *S, *G;
     cl_mem den, b, fs;
     float eps;
+    /* NC(y) clamped to [lo, hi]: +-infinity (csi_nc_init_filter's), or the samples' range, where
+     * a normalized convolution, a mean with non-negative weights, lies in exact arithmetic */
+    float lo, hi;
 } csi_nc_op;
 
 /* yscratch: n floats and scratch: k floats of device scratch; ones: n floats of host scratch. */

@@ -320,7 +320,9 @@ static csi_status low_spectra(vel_ctx *c, double sigma, cl_mem z, lowspec *s)
     CSI_TRY(csi_kernel(c->ctx, "recon", "csi_nc_divide", &div));
     cl_uint nk = (cl_uint)c->k;
     float eps = (float)(1e-6 / pow(sqrt(2 * PI_) * sigma, 3));
-    CSI_TRY(CSI_ARGS(div, CSI_MEM(c->vb), CSI_MEM(c->va), CSI_MEM(c->vb), CSI_ARG(nk), CSI_ARG(eps)));
+    const float lo = -INFINITY, hi = INFINITY;
+    CSI_TRY(CSI_ARGS(div, CSI_MEM(c->vb), CSI_MEM(c->va), CSI_MEM(c->vb), CSI_ARG(nk), CSI_ARG(eps), CSI_ARG(lo),
+                     CSI_ARG(hi)));
     CSI_TRY(csi_run1d(c->ctx, div, c->k));
     /* per-frame spectra of f0 */
     CSI_TRY(csi_fourier_half_set_motion(c->h, dims, CSI_TIME_NONE, 0, 0));

@@ -37,6 +37,8 @@ csi_status csi_nc_init_filter(csi_ctx *ctx, const csi_grid *g, const uint32_t *i
     const size_t k = (size_t)g->w * g->h * g->t;
     r->G = G;
     r->eps = eps;
+    r->lo = -INFINITY;
+    r->hi = INFINITY;
     CSI_TRY(csi_sampling_create(ctx, k, idx, n, false, &r->S));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered sample density", &r->den));
     CSI_TRY(csi_buffer(ctx, k * 4, CL_MEM_READ_WRITE, "the filtered samples", &r->b));
@@ -56,7 +58,8 @@ csi_status csi_nc_interp(csi_ctx *ctx, csi_nc_op *r, cl_mem yd, size_t k, cl_mem
     cl_kernel div;
     CSI_TRY(csi_kernel(ctx, "recon", "csi_nc_divide", &div));
     cl_uint nk = (cl_uint)k;
-    CSI_TRY(CSI_ARGS(div, CSI_MEM(r->b), CSI_MEM(r->den), CSI_MEM(out), CSI_ARG(nk), CSI_ARG(r->eps)));
+    CSI_TRY(CSI_ARGS(div, CSI_MEM(r->b), CSI_MEM(r->den), CSI_MEM(out), CSI_ARG(nk), CSI_ARG(r->eps),
+                     CSI_ARG(r->lo), CSI_ARG(r->hi)));
     return csi_run1d(ctx, div, k);
 }
 

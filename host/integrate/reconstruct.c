@@ -181,6 +181,9 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
     CSI_TRY(check_options(&opt));
     CSI_TRY(check_inputs(grid, channels, pos, values, n));
     CSI_TRY(csi_recon_check_variance(opt.sample_variance, n, channels));
+    if (grid->t > 1 && opt.frames && opt.estimator == CSI_EST_MEAN)
+        return csi_fail(CSI_ERR_ARG, "the per-pixel mean (estimator mean) makes an image, not frames: frames need "
+                        "the cs or gauss estimator");
     if (grid->t > 1) /* the whole's noise, before any scaling or tiling (motion.c's tau) */
         csi_recon_sample_noise(values, opt.sample_variance, n, channels, opt.sample_noise);
     /* The layout (csi_tiling_layout: what a tile run alone, --tile, lays out too). Sides the

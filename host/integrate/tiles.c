@@ -475,8 +475,9 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         }
         if (!laid && opt->tiles_t > 1)
             return csi_fail(CSI_ERR_ARG, "%u time windows cannot be laid out on %u frames with margins of %u "
-                            "frames (a window's core and margins must be shorter than the volume)",
-                            opt->tiles_t, g->t, p.auto_margin_t ? margin_t_auto(g->t, opt->tiles_t) : p.ax[2].margin);
+                            "frames%s (a window's core and margins must be shorter than the volume)",
+                            opt->tiles_t, g->t, p.auto_margin_t ? margin_t_auto(g->t, opt->tiles_t) : p.ax[2].margin,
+                            p.auto_margin_t ? ", the default (--tile-margin-t sets a smaller one)" : "");
         if (!have && !whole_ok) {
             csi_recon_plan pw;
             return csi_recon_plan_whole(ctx, g, channels, n, opt, NULL, &pw); /* its message */
@@ -512,9 +513,14 @@ csi_status csi_tiling_layout(const csi_ctx *ctx, const csi_grid *g, uint32_t cha
     csi_recon_options o = *opt;
     csi_status s = CSI_OK;
     if (padded && solved.t != g->t) {
-        if (o.tiles_t > 1)
+        /* time windows over the volume's own frames, where they fit, are tiles of its own grid
+         * (csi_recon_solved_grid); where they do not, say why (the margins, often), not the padding */
+        csi_tiling own;
+        if (o.tiles_t > 1) {
+            CSI_TRY(csi_tiling_plan(ctx, g, channels, n, &o, &own));
             s = csi_fail(CSI_ERR_ARG, "%u time windows asked for a volume whose %u frames are solved as %u (a "
                          "prime factor above 7), which is not split in t", o.tiles_t, g->t, solved.t);
+        }
         o.tiles_t = 1;
     }
     if (s == CSI_OK)

@@ -160,7 +160,9 @@ same=1; for f in "$T"/pf3/*.png "$T"/pf3/*.exr; do cmp -s "$f" "$T/pf4/$(basenam
 cmp -s "$T/p11.exr" "$T/p11m.exr" || same=0
 check "[[ $same == 1 && -s '$T/pf4/frame_0010.png' && ! -e '$T/pf4/frame_0011.png' && ! -e '$T/pf3/frame_0011.png' ]]" \
     "11 frames: the merged frames differ from the one-process run's, or a padding frame was written"
-expect_fail "time windows over padded frames" "2 time windows asked for a volume whose 11 frames are solved as 12" \
+# 11 frames are padded to 12 for the FFT, but windows over its own 11 frames are tried first: what
+# stops these is their margins, and the message says so (not the padding)
+expect_fail "time windows over 11 frames, margins too wide" "2 time windows cannot be laid out on 11 frames with margins of 4" \
     "$B/csi-reconstruct" "$T/p11.csid" --tiles-t 2 --tile-margin-t 4 -o "$T/out.exr"
 
 # --- progress where stderr is a file (a log): plain lines, at most one every CSI_PROGRESS s ------

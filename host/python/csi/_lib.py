@@ -130,6 +130,10 @@ def _abi(version: str) -> str:
 def _load(path):
     from . import __version__
 
+    # Kernels built at run time (clFFT's generated ones, a cold program cache) would print the
+    # OpenCL compiler's warnings on stderr: PoCL builds them with -w, as csi's programs ask
+    # (host/cli/common.h), unless the caller set its own flags.
+    os.environ.setdefault("POCL_EXTRA_BUILD_FLAGS", "-w")
     L = _bind(ctypes.CDLL(path))
     have = L.csi_version().decode()
     if _abi(have) != _abi(__version__):
