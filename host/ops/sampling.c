@@ -73,8 +73,8 @@ csi_status csi_sampling_create(csi_ctx *ctx, size_t k, const uint32_t *indices, 
             while (indices[first] != j)
                 first++;
             free(seen);
-            return csi_fail(CSI_ERR_ARG, "sample record %zu: index %u repeats record %zu (average "
-                            "duplicate samples before building the sampling operator)", i, j, first);
+            return csi_fail(CSI_ERR_ARG, "sample record %zu: its cell (linear index %u on the grid) repeats "
+                            "record %zu's (average duplicate samples of a cell first)", i, j, first);
         }
         seen[j / 8] |= (unsigned char)(1u << (j % 8));
     }

@@ -2,7 +2,8 @@
 whole numbers that ctypes would pass on wrapped around or truncated. Each bad input raises
 csi.CsiError CSI_ERR_ARG naming it (before: a fractional or NaN position was cast to another
 cell, a grid side of 2^32 + 64 became 64, a seed of -1 became 2^64 - 1, complex values lost their
-imaginary part, all silently); each good form of the same input is still taken, with the result
+imaginary part, all silently; a float64 value or variance beyond float32's range became an infinity
+refused as if given); each good form of the same input is still taken, with the result
 of its canonical form, bit for bit.
 """
 import os
@@ -45,6 +46,11 @@ def main():
     refused("text values", "not real numbers", lambda: rec(v=val.astype(str)))
     refused("values (N, C, 1)", "expected (N, 3) and (N, C)", lambda: rec(v=val[:, :, None]))
     refused("variance of other rows", "values' shape", lambda: rec(variance=val[:10]))
+    big = val.astype(np.float64)
+    big[5, 1] = 1e300  # finite in float64, an infinity in float32: named, not refused as "inf"
+    refused("a float64 value beyond float32", "values at (5, 1): 1e+300 is beyond float32", lambda: rec(v=big))
+    refused("a float64 variance beyond float32", "variance at (5, 1): 1e+300 is beyond float32",
+            lambda: rec(variance=np.where(big > 1, big, 0.0)))
     refused("a grid of 4 sides", "expected (w, h, t, out_w, out_h)", lambda: rec(g=GRID[:4]))
     refused("a grid of 6 sides", "expected (w, h, t, out_w, out_h)", lambda: rec(g=GRID + (1,)))
     refused("a grid as text", "expected (w, h, t, out_w, out_h)", lambda: rec(g="64x64x1"))

@@ -475,6 +475,20 @@ def _grid(grid) -> Grid:
     return Grid(*[_whole(f"grid {n}", v, 0, _U32) for n, v in zip(("w", "h", "t", "out_w", "out_h"), sides)])
 
 
+def _float32(a, what):
+    """a as float32, refusing finite numbers float32 cannot hold (they would become infinities and
+    be refused later as if the caller had given one): names the first such entry."""
+    with np.errstate(over="ignore"):
+        out = a.astype(np.float32, copy=False)
+    if a.dtype.kind == "f" and a.dtype.itemsize > 4:
+        lost = np.isfinite(a) & ~np.isfinite(out)
+        if lost.any():
+            at = np.unravel_index(int(np.argmax(lost)), a.shape)
+            raise CsiError("CSI_ERR_ARG", f"{what} {tuple(int(i) for i in at)}: {float(a[at]):g} is beyond "
+                           "float32's range (about 3.4e38)")
+    return out
+
+
 def _samples_arrays(positions, values):
     """(N, 3) uint32 cells and (N, C) float32 values, contiguous, from what the caller gave:
     positions of an integer type, or floats that are whole numbers, inside the uint32 range (a
@@ -492,7 +506,7 @@ def _samples_arrays(positions, values):
     val = np.asarray(values)
     if val.dtype.kind not in "biuf":
         raise CsiError("CSI_ERR_ARG", f"values: {val.dtype} values, not real numbers")
-    val = val.astype(np.float32, copy=False)
+    val = _float32(val, "values at")
     val = np.ascontiguousarray(val[:, None] if val.ndim == 1 else val)
     if pos.ndim != 2 or pos.shape[1] != 3 or val.ndim != 2 or val.shape[0] != pos.shape[0]:
         raise CsiError("CSI_ERR_ARG", f"positions {pos.shape} and values {val.shape}: expected (N, 3) and (N, C)")
@@ -533,7 +547,7 @@ class _Call:
             if var.dtype.kind not in "iuf" or var.size != val.size or var.shape[:1] != val.shape[:1]:
                 raise CsiError("CSI_ERR_ARG", f"variance {var.shape} of {var.dtype}: expected real numbers in the "
                                f"values' shape {val.shape}")
-            var = np.ascontiguousarray(var.astype(np.float32).reshape(val.shape))
+            var = np.ascontiguousarray(_float32(var, "variance at").reshape(val.shape))
         options, device = _options_and_device(options, kwargs, device)
         self.arrays, self.options, self.device, self.raised = (pos, val, var), options, device, []
         self.samples = _Samples(grid, val.shape[1], pos.shape[0],
