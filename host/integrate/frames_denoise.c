@@ -54,7 +54,7 @@ void csi_frames_fold_samples(const float *values, const float *variance, uint32_
                              size_t count, float *v, float *var)
 {
     for (size_t j = 0; j < count; j++) {
-        const size_t i = index[j];
+        const size_t i = index ? index[j] : j;
         if (channels == 1) {
             v[j] = values[i];
             if (variance)
@@ -481,18 +481,13 @@ csi_status csi_frames_denoise(const csi_grid *g, uint32_t nframes, uint32_t chan
     double err[CSI_FRAMES_DENOISE_WIDTHS] = {0};
     /* the folds' samples: each sample's channels' mean */
     float *mean = malloc(n * sizeof *mean);
-    size_t *every = malloc(n * sizeof *every);
-    csi_status s = mean && every ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the folds' samples");
-    if (s == CSI_OK) {
-        for (size_t i = 0; i < n; i++)
-            every[i] = i;
-        csi_frames_fold_samples(values, NULL, channels, every, n, mean, NULL);
-    }
+    csi_status s = mean ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the folds' samples");
+    if (s == CSI_OK)
+        csi_frames_fold_samples(values, NULL, channels, NULL, n, mean, NULL);
     const double fold_noise = csi_frames_fold_noise(values, n, channels, noise);
     for (int f = 0; f < folds && s == CSI_OK; f++)
         s = fold_errors(&v, pos, mean, n, fold_noise, f, solve, user, err);
     free(mean);
-    free(every);
     int best = 0;
     for (int k = 1; k < CSI_FRAMES_DENOISE_WIDTHS; k++)
         if (err[k] < err[best])

@@ -27,8 +27,8 @@
  *    solved alone (the caller's solve) as one channel, the mean of the samples' channels, its
  *    frames taken through step 1 and smoothed by each width predict the other half's samples'
  *    means; the width of the least squared error over both folds (one, from
- *    CSI_FRAMES_DENOISE_ONE_FOLD samples on) wins (no smoothing among them). A fold's frames have never seen the
- *    samples they predict: the frames of the whole solve, even with a sample's own cell left
+ *    CSI_FRAMES_DENOISE_ONE_FOLD samples on) wins (no smoothing among them). A fold's frames
+ *    have never seen the samples they predict: the frames of the whole solve, even with a sample's own cell left
  *    out, carry its noise and its value into the cells around it, and chose less smoothing than
  *    the truth where the noise is large and more where it is small (measured). A fold has half
  *    the samples, so its frames want a little more smoothing than the whole's: below
@@ -103,10 +103,11 @@ int csi_frames_denoise_noisy(const double noise[4], uint32_t channels);
  * animation.md, session 35). */
 typedef csi_status (*csi_frames_fold_solve)(void *user, const size_t *index, size_t count, double noise,
                                             float **frames, double velocity[2]);
-/* A fold's samples (csi_frames_fold_solve): for each index[j], the mean of its channels in v[j]
- * and, where variance is not NULL, in var[j] the variance of that mean taken as if the channels'
- * noise were fully correlated (one path carries every channel): (mean of the standard
- * deviations)^2. One channel: its own values and variances, bit for bit. */
+/* A fold's samples (csi_frames_fold_solve): for each index[j] (index NULL: j itself, j < count),
+ * the mean of its channels in v[j] and, where variance is not NULL, in var[j] the variance of
+ * that mean taken as if the channels' noise were fully correlated (one path carries every
+ * channel): (mean of the standard deviations)^2. One channel: its own values and variances, bit
+ * for bit. */
 void csi_frames_fold_samples(const float *values, const float *variance, uint32_t channels, const size_t *index,
                              size_t count, float *v, float *var);
 /* The noise relative to its level of the channels' mean of n samples, from each channel's
