@@ -171,15 +171,15 @@ def summarize(rows, scenes, rates, ladder, methods, cells, cost, a):
                     if kind == "" and r_eq <= r:
                         kind = "never"  # the baseline reaches csi's error from no more samples
                     if kind == "never":
-                        cstar, eq, t_b = "never", f"{100 * r_eq:.1f}%", float(np.interp(r_eq, ladder, secs))
+                        cstar = paths = "never"
+                        eq, t_b = f"{100 * r_eq:.1f}%", float(np.interp(r_eq, ladder, secs))
                     else:
                         x = r_eq if r_eq is not None else hi
                         t_b = float(np.interp(x, ladder, secs))
-                        c = 1e6 * (t_csi - t_b) / (x * cells - n_csi)
-                        cstar = ("< " if kind == "<" else "") + f"{max(c, 0):.0f}"
-                        eq = (f"> {100 * hi:g}%" if kind == "<" else f"{100 * r_eq:.1f}%")
-                    paths = cstar if cstar == "never" else (
-                        ("< " if kind == "<" else "") + f"{max(float(cstar.lstrip('< ')), 0) / path_us:.0f}")
+                        c = max(1e6 * (t_csi - t_b) / (x * cells - n_csi), 0.0)
+                        bound = "< " if kind == "<" else ""
+                        cstar, paths = f"{bound}{c:.0f}", f"{bound}{c / path_us:.0f}"
+                        eq = f"> {100 * hi:g}%" if kind == "<" else f"{100 * r_eq:.1f}%"
                     lines.append(f"| {scene} | {100 * r:g}% | {t_csi:.2f} | {what} | {m} | {eq} | {t_b:.2f} | {cstar} | "
                                  f"{sample_us:.2g} | {paths} |")
     with open(os.path.join(a.out, "summary.md"), "w") as f:
