@@ -403,8 +403,10 @@ csi_status csi_tiling_plan(const csi_ctx *ctx, const csi_grid *g, uint32_t chann
         }
         if (!any)
             return csi_fail(CSI_ERR_ARG, "%u tiles cannot be laid out on a %ux%u%s image (each tile "
-                            "needs a core of at least %ux%u pixels inside windows of valid FFT sizes)",
-                            N, g->out_w, g->out_h, g->t > 1 ? " x t" : "", p.ax[0].align, p.ax[1].align);
+                            "needs a core of at least %ux%u pixels inside windows of valid FFT sizes, with "
+                            "margins of %u pixels%s)",
+                            N, g->out_w, g->out_h, g->t > 1 ? " x t" : "", p.ax[0].align, p.ax[1].align,
+                            p.ax[0].margin, opt->tile_margin ? "" : ", the default: --tile-margin sets a smaller one");
         if (!have)
             return csi_fail(CSI_ERR_ARG, "%u tiles do not fit the device budget of %llu bytes: ask "
                             "for more tiles or a larger budget", N, (unsigned long long)budget);

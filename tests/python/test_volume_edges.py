@@ -10,7 +10,7 @@ closed form or the documented message:
   (it used to drop them silently), and its image still runs;
 - time windows that cannot be laid out: the message says when the margin is the default and how
   to set another; on a frame count the FFT cannot take (13) with margins too wide, the message
-  names the margins, not the padding of the frames;
+  names the margins, not the padding of the frames; x/y tiles likewise name their margin;
 - csi-reconstruct -q prints nothing on stderr, even when every kernel is built afresh (an empty
   program cache): the OpenCL compiler's warnings used to reach it."""
 import os
@@ -74,6 +74,14 @@ def main():
     check(msg is not None and "padded" not in msg and "prime" not in msg, f"13 frames: the margins named ({msg})")
     check(csi.reconstruct(p13, v13, g13, tiles_t=2, tile_margin_t=2).info["tiles"] == 2,
           "2 windows of 13 frames at margin 2")
+    # x/y tiles the default margins leave no room for: the message names the margin and its option
+    g24 = (24, 24, 4, 24, 24)
+    p24 = csi.positions(g24, method="random", seed=1, fraction=0.2)
+    v24 = rng.exponential(0.5, (len(p24), 1)).astype(np.float32)
+    refused(lambda: csi.reconstruct(p24, v24, g24, tiles=4), ("margins of 16 pixels", "--tile-margin"),
+            "4 tiles of a 24 x 24 volume at the default margin")
+    check(csi.reconstruct(p24, v24, g24, tiles=4, tile_margin=2).info["tiles"] == 4,
+          "4 tiles of a 24 x 24 volume at margin 2")
 
     with tempfile.TemporaryDirectory() as d:
         src = os.path.join(d, "v.csid")
