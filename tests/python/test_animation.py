@@ -135,6 +135,7 @@ def main():
         for args, want in [(["-o", p("frames/frame_0000.exr")], "would overwrite the input"),
                            (["-o", p("x.gif"), "--animation", p("x.gif")], "are the same file"),
                            (["-o", p("x.png"), "--animation", p("no/x.webp")], "does not exist"),
+                           (["--animation", p("x.mp4")], "name it .webp or .gif"),
                            (["-o", p("frames")], "is a directory"),
                            (["-o", p("x.png"), "--scale", "100000"], "more than the"),
                            (["-o", p("x.png"), "--exposure", "inf"], "--exposure"),

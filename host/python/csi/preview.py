@@ -207,6 +207,8 @@ def main(argv=None):
         a = p.parse_args(argv)
         if not (a.sheet or a.animation):
             raise PreviewError("no output given: use -o SHEET.png and/or --animation ANIM.webp")
+        if a.animation and not a.animation.lower().endswith((".webp", ".gif")):
+            raise PreviewError(f"{a.animation}: the animation is written as WebP or GIF: name it .webp or .gif")
         if a.picks < 1 or a.scale < 1 or not 0 < a.fps < float("inf") or not 0 < a.exposure < float("inf"):
             raise PreviewError("--picks and --scale must be >= 1, --fps and --exposure finite and > 0")
         # The outputs as csi's programs state theirs: checked before any work (not a directory,
