@@ -64,10 +64,24 @@
  * it) and neither shows a dark line through it (both dark, or unknown), the pixel is capped
  * (from a ratio of 16, fully from 64) at the step's geometric midpoint, the value whose ratio to
  * either end is the same: if it is dark, its relative error is the step's ratio, not that ratio
- * squared; if it is bright, at most the mean's. Where the row and the column each cross the step
- * (a corner of it: a lamp's edge pixel, or a dark pixel beside a thin line's bend), the side
- * most of the 8 neighbours are on decides, a tie counting as dark. Channels are scaled
- * together, keeping the pixel's colour. */
+ * squared; if it is bright, at most the mean's. Where one of the two lines is inside the bright
+ * side and the other crosses the step, the dark neighbour on the crossing line is the edge of a
+ * dark region (an emitter's border above a pixel of the ceiling: that neighbour's own neighbours
+ * along the other line are dark too), one path of a noisy dark side that found no light, or the
+ * end of a dark line running into the bright side (a blade of grass, a wire, a window's bar
+ * against the sky: its neighbours along the other line are bright, and beyond it the line goes
+ * on), which may well go on through the pixel; only the line does not keep the pixel (a lone
+ * dark sample counted as a line darkened the bright side of a noisy garden's shadow edges at one
+ * sample per pixel). Where both lines cross the step (a corner of it), 8 neighbours cannot tell
+ * a bright region's inner corner from a thin dark line's bend or slant, and the pixel is capped:
+ * a majority of bright neighbours kept such pixels, and on thin dark blades against a bright sky
+ * it filled blade pixels with sky, each costing the relative error of thousands of the mean's
+ * pixels (docs/bench/mitsuba.md, session 36). A pixel of one sample is capped the same way, its
+ * step from its own sample up to the brightest of its neighbours' means: its mean is one point,
+ * and where that point reads far below the bright side around it the blend keeps the fit (its
+ * noise level sees the step as aliasing: blend.c; fit_trust.c's w_dark then leaves it), whose
+ * value there, on a thin dark line, is the same leak. Channels are scaled together, keeping the
+ * pixel's colour. */
 #include "csi/empty_pixels.h"
 
 #include <limits.h>
@@ -217,14 +231,50 @@ static int dark_line(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const 
     return best_dark >= 0 && score_dark >= score_bright ? best_dark : -1;
 }
 
-/* Whether the row and the column through empty pixel p place it inside the bright side (the
- * header's last paragraph): neither has both neighbours below bt, and one has both at or above
- * it, or else (each has one of each: a corner of the step) more of p's sampled neighbours are
- * at or above bt than below. A neighbour without a sample is stood in for by the pixel beyond it
- * on that line; with neither, the line is unknown, which counts as possibly dark. */
-static bool inside_bright(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt)
+/* Whether the dark neighbour dk of pixel p, on the line through p that crosses the step (DIRS[d],
+ * dk on its side k), ends a dark line running into the bright side rather than edging a dark
+ * region or being a lone dark sample (the header's last paragraph): its own neighbours along the
+ * other line through p hold a sample, every one of them on the bright side itself (within
+ * ordinary shading of its brightest hi: a ratio of EMPTY_R0; a darker one is the dark region
+ * going on beside dk), and the line goes on: one of the three pixels beyond dk, away from p,
+ * holds a sample below bt (without one, dk may be one path of a noisy dark side that found no
+ * light, or a point). */
+static bool dark_line_end(size_t dk, int d, int k, size_t ow, size_t oh, const uint32_t *cnt, const double *b,
+                          double bt, double hi)
 {
-    bool bright = false;
+    const int along = 1 - d; /* the other of the row and the column */
+    int seen = 0;
+    for (int j = 0; j < 2; j++) {
+        const size_t r = sampled_at(dk, DIRS[along].pair[j][0], DIRS[along].pair[j][1], ow, oh, cnt);
+        if (r == SIZE_MAX)
+            continue;
+        if (b[r] < hi / EMPTY_R0)
+            return false;
+        seen++;
+    }
+    if (!seen)
+        return false;
+    const int fx = DIRS[d].pair[k][0], fy = DIRS[d].pair[k][1]; /* from p towards dk */
+    const int ax = DIRS[along].pair[1][0], ay = DIRS[along].pair[1][1];
+    for (int j = -1; j <= 1; j++) {
+        const size_t r = sampled_at(dk, fx + j * ax, fy + j * ay, ow, oh, cnt);
+        if (r != SIZE_MAX && b[r] < bt)
+            return true;
+    }
+    return false;
+}
+
+/* Whether the row and the column through pixel p place it inside the bright side (the header's
+ * last paragraph): neither has both neighbours below bt; both have both at or above it, or one
+ * has and the other's neighbour below bt edges a dark region, not a dark line running into the
+ * bright side (dark_line_end). A line crossing the step both ways (a corner of it) does not. A
+ * neighbour without a sample is stood in for by the pixel beyond it on that line; with neither,
+ * the line is unknown, which counts as possibly dark. */
+static bool inside_bright(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt,
+                          double hi)
+{
+    int inside = 0, crossing = -1, side = 0;
+    size_t dark_end = SIZE_MAX;
     for (int d = 0; d < 2; d++) { /* DIRS' row, then its column */
         size_t q[2];
         for (int k = 0; k < 2; k++) {
@@ -235,22 +285,12 @@ static bool inside_bright(size_t p, size_t ow, size_t oh, const uint32_t *cnt, c
         }
         if (q[0] == SIZE_MAX || q[1] == SIZE_MAX || (b[q[0]] < bt && b[q[1]] < bt))
             return false;
-        bright |= b[q[0]] >= bt && b[q[1]] >= bt;
+        if (b[q[0]] >= bt && b[q[1]] >= bt)
+            inside++;
+        else
+            crossing = d, side = b[q[0]] < bt ? 0 : 1, dark_end = q[side];
     }
-    if (bright)
-        return true;
-    /* both lines cross the step (a corner of it): the side of most of the 8 neighbours */
-    size_t nb[9];
-    int up = 0, down = 0;
-    const int k = csi_recon_window3(p, ow, oh, nb);
-    for (int j = 0; j < k; j++)
-        if (nb[j] != p && cnt[nb[j]]) {
-            if (b[nb[j]] >= bt)
-                up++;
-            else
-                down++;
-        }
-    return up > down;
+    return inside == 2 || (inside == 1 && !dark_line_end(dark_end, crossing, side, ow, oh, cnt, b, bt, hi));
 }
 
 /* Pixel p's value in the image, by the channels' mean (planar, np pixels a channel). */
@@ -276,6 +316,39 @@ typedef struct empty_state {
     float *image;
     atomic_bool unordered; /* a band's samples were not in row order */
 } empty_state;
+
+/* The cap (the header's last paragraph) at pixel p of the step from lo, the darker side (by the
+ * channels' mean), to hi: unless the row and the column place p inside the bright side, a value
+ * above the step's geometric midpoint is scaled there, all channels together, by the step's
+ * ratio's weight. */
+static void cap_at_midpoint(empty_state *t, size_t p, double lo, double hi)
+{
+    const size_t np = t->np;
+    const double e = t->e;
+    const double capw = ramp(log((hi + e) / (lo + e)), log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
+    const double bt = sqrt((lo + e) * (hi + e)) - e;
+    const double here = channel_mean(t->image, np, t->channels, p);
+    if (capw <= 0 || here <= bt ||
+        inside_bright(p, t->ow, t->oh, t->cnt, t->b, sqrt(csi_fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi), hi))
+        return;
+    const double scale = 1.0 - capw * (1.0 - bt / here);
+    for (uint32_t c = 0; c < t->channels; c++)
+        t->image[(size_t)c * np + p] *= (float)scale;
+}
+
+/* A pixel of one sample (the header's last paragraph): the step from its sample up to the
+ * brightest of its 8 neighbours' means, capped as a pixel without a sample is. */
+static void one_sample_pixel(empty_state *t, size_t p)
+{
+    size_t nb[9];
+    const int k = csi_recon_window3_at(p % t->ow, p / t->ow, t->ow, t->oh, nb);
+    double hi = -INFINITY;
+    for (int j = 0; j < k; j++)
+        if (nb[j] != p && t->cnt[nb[j]])
+            hi = csi_fmax(hi, t->b[nb[j]]);
+    if (hi > t->b[p])
+        cap_at_midpoint(t, p, t->b[p], hi);
+}
 
 /* Each pixel's count and sums of samples i0 .. i1 - 1, per channel; a band of rows [r0, r1)
  * (check) stops, false, at a sample outside its rows' order before writing anything of it
@@ -347,8 +420,11 @@ static void empty_pass_pixels(void *arg, size_t r0, size_t r1)
     for (size_t py = r0; py < r1; py++)
         for (size_t px = 0; px < ow; px++) {
             const size_t p = py * ow + px;
-            if (cnt[p])
+            if (cnt[p]) {
+                if (cnt[p] == 1)
+                    one_sample_pixel(t, p);
                 continue;
+            }
             size_t nb[9];
             const int k = csi_recon_window3_at(px, py, ow, oh, nb);
             double lo = INFINITY, hi = -INFINITY;
@@ -388,16 +464,8 @@ static void empty_pass_pixels(void *arg, size_t r0, size_t r1)
                         *x = (float)(*x - step * (*x - mid));
                 }
             }
-            /* last, the cap at the step's geometric midpoint bt where the row and the column do not
-             * both place the pixel inside the bright side */
-            const double capw = ramp(ratio, log(EMPTY_CAP_R0), log(EMPTY_CAP_R1));
-            const double here = channel_mean(image, np, channels, p);
-            if (capw <= 0 || here <= bt ||
-                inside_bright(p, ow, oh, cnt, b, sqrt(csi_fmax(lo, EMPTY_AXIS_FLOOR * hi) * hi)))
-                continue;
-            const double scale = 1.0 - capw * (1.0 - bt / here);
-            for (uint32_t c = 0; c < channels; c++)
-                image[(size_t)c * np + p] *= (float)scale;
+            /* last, the cap at the step's geometric midpoint */
+            cap_at_midpoint(t, p, lo, hi);
         }
 }
 

@@ -54,10 +54,20 @@
  *      g. an extended region's edge row, rows 0 to 2 bright but the centre, rows 3 and 4 dark
  *         (its row bright on both sides, its column bright above): kept at f = 0.45;
  *      h. the inner corner of an L-shaped bright region, columns 0-1 and rows 3-4 (its row and
- *         its column each cross the step, 5 of its 8 neighbours bright): kept at f = 0.45; the
- *         corners of 5e are such a crossing with 3 of 6 sampled neighbours bright, a tie, which
- *         counts as dark.
- *   7. In every case every pixel holding a sample keeps its bits, and nothing is raised. */
+ *         its column each cross the step, 5 of its 8 neighbours bright): capped at f = 0.45, as
+ *         the corners of 5e are (a corner of the step is capped whatever the neighbours' majority);
+ *      i. a dark line running into the bright side from below, pixels (2, 3) and (2, 4), all else
+ *         bright: its row is inside the bright side, its column crosses the step at (2, 3), whose
+ *         own neighbours along the row are bright (a line, not g's region): capped at f = 0.45;
+ *      j. the same with the centre holding one sample of the dark side's value (1, 2): capped at
+ *         the step from its sample to the brightest neighbour (here the same midpoint); at B = 3
+ *         (a ratio below the cap's 16) the same bits;
+ *      k. one such sample on g's edge row, and one inside a bright side (every neighbour bright:
+ *         a path that missed the light, which the fit's value rightly fills): the same bits;
+ *      l. i's line one pixel long, (2, 3) alone dark (a path of a noisy side that found no light,
+ *         or a point: nothing beyond it is dark): the same bits.
+ *   7. In every case every pixel holding a sample keeps its bits but a centre of one sample, and
+ *      nothing is raised. */
 #include <math.h>
 #include <string.h>
 
@@ -67,7 +77,10 @@
 
 enum { OW = 5, F = 4, NP = OW * OW, C = 2 };
 
-enum { POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH, SLAT, POINT_ROW, EXTENDED_ROW, COLUMN, CORNERS, SLAT_HOLE, EDGE_ROW, L_CORNER };
+enum {
+    POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH, SLAT, POINT_ROW, EXTENDED_ROW, COLUMN, CORNERS, SLAT_HOLE,
+    EDGE_ROW, L_CORNER, LINE_INTO, ONE_LINE_INTO, ONE_EDGE_ROW, ONE_INSIDE, LONE_DARK
+};
 
 static int bright_pixel(int shape, int p)
 {
@@ -87,7 +100,15 @@ static int bright_pixel(int shape, int p)
     case SLAT_HOLE:
         return y == 1 || y == 3;
     case EDGE_ROW:
+    case ONE_EDGE_ROW:
         return y <= 2;
+    case LINE_INTO:
+    case ONE_LINE_INTO:
+        return !(x == 2 && y >= 3);
+    case ONE_INSIDE:
+        return 1;
+    case LONE_DARK:
+        return !(x == 2 && y == 3);
     case L_CORNER:
         return x <= 1 || y >= 3;
     case COLUMN:
@@ -97,6 +118,12 @@ static int bright_pixel(int shape, int p)
     default:
         return y == 2 && x >= 1 && x <= 3;
     }
+}
+
+/* whether the centre holds a sample (of 1, 2: the dark side's value) */
+static int centre_sampled(int shape)
+{
+    return shape == ONE_LINE_INTO || shape == ONE_EDGE_ROW || shape == ONE_INSIDE;
 }
 
 /* the pixels without a sample besides the centre */
@@ -121,10 +148,10 @@ static void run(int shape, double bright, double f, const char *what, int expect
     float val[NP * C];
     size_t n = 0;
     for (int p = 0; p < NP; p++) {
-        if (p == 2 * OW + 2 || unsampled(shape, p))
+        if ((p == 2 * OW + 2 && !centre_sampled(shape)) || unsampled(shape, p))
             continue;
         pos[n] = (csi_sample_pos){(uint32_t)(p % OW * F + 1), (uint32_t)(p / OW * F + 2), 0};
-        val[n * C] = bright_pixel(shape, p) ? (float)bright : 1.0f;
+        val[n * C] = bright_pixel(shape, p) && p != 2 * OW + 2 ? (float)bright : 1.0f;
         if (shape == POINT_BELOW && p == 3 * OW + 2)
             val[n * C] = (float)(1.0 + 0.25 * (bright - 1.0));
         if (shape == SLAT && p == 2 * OW + 1)
@@ -204,6 +231,12 @@ int main(void)
     run(CORNERS, 1000, 0.45, "two dark corners alone: capped", 4);
     run(SLAT_HOLE, 1000, 0.9, "a dark slat beside a neighbour without a sample: capped", 4);
     run(EDGE_ROW, 1000, 0.45, "an extended region's edge row", 0);
-    run(L_CORNER, 1000, 0.45, "an L-shaped region's inner corner", 0);
+    run(L_CORNER, 1000, 0.45, "an L-shaped region's inner corner: capped", 4);
+    run(LINE_INTO, 1000, 0.45, "a dark line running into the bright side: capped", 4);
+    run(ONE_LINE_INTO, 1000, 0.45, "one dark sample, a dark line running into the bright side: capped", 4);
+    run(ONE_EDGE_ROW, 1000, 0.45, "one dark sample on an extended region's edge row", 0);
+    run(ONE_INSIDE, 1000, 0.45, "one dark sample inside the bright side", 0);
+    run(ONE_LINE_INTO, 3, 0.45, "one dark sample, a step of 3", 0);
+    run(LONE_DARK, 1000, 0.45, "a lone dark neighbour inside the bright side", 0);
     return test_done();
 }

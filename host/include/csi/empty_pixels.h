@@ -1,6 +1,6 @@
-/* Pixels without a sample next to an HDR step: the last step of a still image's blend
- * (csi_aa_correct CSI_CORRECT_BLEND in csi/reconstruct.h), on the whole result, all channels at
- * once. host/integrate/empty_pixels.c says why and how. */
+/* Pixels without a sample (or with one) next to an HDR step: the last step of a still image's
+ * blend (csi_aa_correct CSI_CORRECT_BLEND in csi/reconstruct.h), on the whole result, all
+ * channels at once. host/integrate/empty_pixels.c says why and how. */
 #ifndef CSI_EMPTY_PIXELS_H
 #define CSI_EMPTY_PIXELS_H
 
@@ -21,10 +21,14 @@
  * step, where the neighbours' arrangement puts the pixel on a line of the dark side (its row's
  * or column's two neighbours dark, the lines beside it uniform: a slat between bright gaps), it
  * moves by the step's weight to the mean of that line's two neighbours. Last, at a ratio from 16
- * (fully from 64), unless its row or column has both neighbours bright and neither has both dark
- * or unknown (a neighbour without a sample stood in for by the pixel beyond it), or both cross
- * the step with most of its 8 neighbours bright, it is capped at the step's geometric midpoint,
- * all channels scaled together. g->t must be 1.
+ * (fully from 64), unless its row and its column both have both neighbours bright, or one has
+ * and the other's dark neighbour does not end a dark line running into the bright side (its own
+ * neighbours along the first line within 4x of the brightest neighbour, and a dark sample among
+ * the three pixels beyond it: empty_pixels.c), neither having both dark or unknown (a neighbour
+ * without a sample stood in for by the pixel beyond it), it is capped at the step's geometric
+ * midpoint, all channels scaled together. A pixel holding one sample is capped the same way, its
+ * step from its own sample up to the brightest of its neighbours' means; no other pixel holding
+ * a sample changes. g->t must be 1.
  * Used on the whole image, or in each tile's window in a tiled run (tiled.c). The passes run in
  * bands of rows on pool (NULL: on the calling thread), the same bits either way. */
 csi_status csi_empty_pixels(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
