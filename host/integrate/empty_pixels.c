@@ -70,18 +70,20 @@
  * along the other line are dark too), one path of a noisy dark side that found no light, or the
  * end of a dark line running into the bright side (a blade of grass, a wire, a window's bar
  * against the sky: its neighbours along the other line are bright, and beyond it the line goes
- * on), which may well go on through the pixel; only the line does not keep the pixel (a lone
- * dark sample counted as a line darkened the bright side of a noisy garden's shadow edges at one
- * sample per pixel). Where both lines cross the step (a corner of it), 8 neighbours cannot tell
- * a bright region's inner corner from a thin dark line's bend or slant, and the pixel is capped:
- * a majority of bright neighbours kept such pixels, and on thin dark blades against a bright sky
- * it filled blade pixels with sky, each costing the relative error of thousands of the mean's
- * pixels (docs/bench/mitsuba.md, session 36). A pixel of one sample is capped the same way, its
- * step from its own sample up to the brightest of its neighbours' means: its mean is one point,
- * and where that point reads far below the bright side around it the blend keeps the fit (its
- * noise level sees the step as aliasing: blend.c; fit_trust.c's w_dark then leaves it), whose
- * value there, on a thin dark line, is the same leak. Channels are scaled together, keeping the
- * pixel's colour. */
+ * on), which may well go on through the pixel; only the line does not keep the pixel (a lone dark
+ * sample counted as a line darkened the bright side of a noisy garden's shadow edges at one sample
+ * per pixel). Two dark neighbours on opposite sides of the pixel (the dark side's counterpart of
+ * the bright ones above) put a dark feature through it at whatever angle (twigs crossing a bright
+ * sky), and the pixel is capped whatever its row and column show. Where both lines cross the step
+ * (a corner of it), 8 neighbours cannot tell a bright region's inner corner from a thin dark
+ * line's bend or slant, and the pixel is capped: a majority of bright neighbours kept such pixels,
+ * and on thin dark blades against a bright sky it filled blade pixels with sky, each costing the
+ * relative error of thousands of the mean's pixels (docs/bench/mitsuba.md, session 36). A pixel of
+ * one sample is capped the same way, its step from its own sample up to the brightest of its
+ * neighbours' means: its mean is one point, and where that point reads far below the bright side
+ * around it the blend keeps the fit (its noise level sees the step as aliasing: blend.c;
+ * fit_trust.c's w_dark then leaves it), whose value there, on a thin dark line, is the same leak.
+ * Channels are scaled together, keeping the pixel's colour. */
 #include "csi/empty_pixels.h"
 
 #include <limits.h>
@@ -264,15 +266,40 @@ static bool dark_line_end(size_t dk, int d, int k, size_t ow, size_t oh, const u
     return false;
 }
 
+/* Whether two of pixel p's sampled neighbours below bt lie on opposite sides of it (their
+ * offsets from p at more than a right angle): a dark feature passes through p, at whatever angle
+ * (the dark side's counterpart of beyond()'s bright neighbours on opposite sides). */
+static bool dark_through(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt)
+{
+    const long px = (long)(p % ow), py = (long)(p / ow);
+    size_t nb[9];
+    long dx[9], dy[9];
+    int m = 0;
+    const int k = csi_recon_window3(p, ow, oh, nb);
+    for (int j = 0; j < k; j++)
+        if (nb[j] != p && cnt[nb[j]] && b[nb[j]] < bt) {
+            dx[m] = (long)(nb[j] % ow) - px, dy[m] = (long)(nb[j] / ow) - py;
+            m++;
+        }
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < i; j++)
+            if (dx[i] * dx[j] + dy[i] * dy[j] < 0)
+                return true;
+    return false;
+}
+
 /* Whether the row and the column through pixel p place it inside the bright side (the header's
- * last paragraph): neither has both neighbours below bt; both have both at or above it, or one
- * has and the other's neighbour below bt edges a dark region, not a dark line running into the
- * bright side (dark_line_end). A line crossing the step both ways (a corner of it) does not. A
- * neighbour without a sample is stood in for by the pixel beyond it on that line; with neither,
- * the line is unknown, which counts as possibly dark. */
+ * last paragraph): no dark feature passes through p (dark_through), neither line has both
+ * neighbours below bt, and both have both at or above it, or one has and the other's neighbour
+ * below bt edges a dark region, not a dark line running into the bright side (dark_line_end). A
+ * line crossing the step both ways (a corner of it) does not. A neighbour without a sample is
+ * stood in for by the pixel beyond it on that line; with neither, the line is unknown, which
+ * counts as possibly dark. */
 static bool inside_bright(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt,
                           double hi)
 {
+    if (dark_through(p, ow, oh, cnt, b, bt))
+        return false;
     int inside = 0, crossing = -1, side = 0;
     size_t dark_end = SIZE_MAX;
     for (int d = 0; d < 2; d++) { /* DIRS' row, then its column */

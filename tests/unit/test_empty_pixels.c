@@ -65,7 +65,10 @@
  *      k. one such sample on g's edge row, and one inside a bright side (every neighbour bright:
  *         a path that missed the light, which the fit's value rightly fills): the same bits;
  *      l. i's line one pixel long, (2, 3) alone dark (a path of a noisy side that found no light,
- *         or a point: nothing beyond it is dark): the same bits.
+ *         or a point: nothing beyond it is dark): the same bits;
+ *      m. a dark line slanting through the centre, (1, 2) and (3, 3) dark, all else bright (its
+ *         row crosses the step at a lone dark pixel, its column is inside the bright side, but
+ *         two dark neighbours lie on opposite sides of it): capped.
  *   7. In every case every pixel holding a sample keeps its bits but a centre of one sample, and
  *      nothing is raised. */
 #include <math.h>
@@ -79,7 +82,7 @@ enum { OW = 5, F = 4, NP = OW * OW, C = 2 };
 
 enum {
     POINT, LINE1, EXTENDED, POINT_BELOW, THROUGH, SLAT, POINT_ROW, EXTENDED_ROW, COLUMN, CORNERS, SLAT_HOLE,
-    EDGE_ROW, L_CORNER, LINE_INTO, ONE_LINE_INTO, ONE_EDGE_ROW, ONE_INSIDE, LONE_DARK
+    EDGE_ROW, L_CORNER, LINE_INTO, ONE_LINE_INTO, ONE_EDGE_ROW, ONE_INSIDE, LONE_DARK, SLANT
 };
 
 static int bright_pixel(int shape, int p)
@@ -109,6 +112,8 @@ static int bright_pixel(int shape, int p)
         return 1;
     case LONE_DARK:
         return !(x == 2 && y == 3);
+    case SLANT:
+        return !((x == 1 && y == 2) || (x == 3 && y == 3));
     case L_CORNER:
         return x <= 1 || y >= 3;
     case COLUMN:
@@ -238,5 +243,6 @@ int main(void)
     run(ONE_INSIDE, 1000, 0.45, "one dark sample inside the bright side", 0);
     run(ONE_LINE_INTO, 3, 0.45, "one dark sample, a step of 3", 0);
     run(LONE_DARK, 1000, 0.45, "a lone dark neighbour inside the bright side", 0);
+    run(SLANT, 1000, 0.45, "a dark line slanting through the pixel: capped", 4);
     return test_done();
 }

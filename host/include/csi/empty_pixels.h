@@ -21,7 +21,8 @@
  * step, where the neighbours' arrangement puts the pixel on a line of the dark side (its row's
  * or column's two neighbours dark, the lines beside it uniform: a slat between bright gaps), it
  * moves by the step's weight to the mean of that line's two neighbours. Last, at a ratio from 16
- * (fully from 64), unless its row and its column both have both neighbours bright, or one has
+ * (fully from 64), unless no two dark neighbours lie on opposite sides of it (a dark feature
+ * through it) and its row and its column both have both neighbours bright, or one has
  * and the other's dark neighbour does not end a dark line running into the bright side (its own
  * neighbours along the first line within 4x of the brightest neighbour, and a dark sample among
  * the three pixels beyond it: empty_pixels.c), neither having both dark or unknown (a neighbour
