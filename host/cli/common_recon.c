@@ -61,7 +61,8 @@ static int put_wrapped(FILE *f, const char *text, int col)
 
 void cli_recon_usage(FILE *f)
 {
-    fputs("method (the library's defaults; auto: chosen from the problem, see the statistics):\n", f);
+    fputs("method (the library's defaults; auto: chosen from the problem, see the statistics; 0 is auto\n"
+          "too for a number whose default is auto, not for a size):\n", f);
     for (size_t i = 0; i < csi_option_count(); i++) {
         csi_option_info o;
         if (csi_option_describe(i, &o) != CSI_OK || !o.program)

@@ -373,6 +373,16 @@ static void wavelet_table(size_t W, size_t strue, int seeds)
 
 int main(int argc, char **argv)
 {
+    if (argc > 2 || (argc == 2 && strcmp(argv[1], "quick") && strcmp(argv[1], "large") && strcmp(argv[1], "wavelet"))) {
+        const bool help = argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"));
+        fprintf(help ? stdout : stderr,
+                "usage: csi-bench-solve [quick|large|wavelet]\n"
+                "  (none)   ROMP's and SpaRSA's recovery tables, multi-channel timings, wavelet-basis recovery\n"
+                "  quick    the same with fewer seeds\n"
+                "  large    SpaRSA's recovery with k = 65536 unknowns only\n"
+                "  wavelet  recovery in a wavelet basis only\n");
+        return help ? 0 : 2;
+    }
     bool quick = argc > 1 && strcmp(argv[1], "quick") == 0;
     TRY(csi_ctx_create(&ctx, NULL));
     printf("Device: %s\n", csi_ctx_device_name(ctx));
