@@ -133,6 +133,35 @@ static double ramp(double x, double lo, double hi)
     return csi_fmin(csi_fmax((x - lo) / (hi - lo), 0.0), 1.0);
 }
 
+/* Pixel p's sampled neighbours (not p) on one side of bt (at or above it when above, else below):
+ * their indices in nb and offsets from p in (dx, dy); returns how many. */
+static int side_neighbours(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt,
+                           bool above, size_t nb[9], long dx[9], long dy[9])
+{
+    const long px = (long)(p % ow), py = (long)(p / ow);
+    size_t w[9];
+    int m = 0;
+    const int k = csi_recon_window3(p, ow, oh, w);
+    for (int j = 0; j < k; j++)
+        if (w[j] != p && cnt[w[j]] && (b[w[j]] >= bt) == above) {
+            nb[m] = w[j];
+            dx[m] = (long)(w[j] % ow) - px, dy[m] = (long)(w[j] / ow) - py;
+            m++;
+        }
+    return m;
+}
+
+/* Whether two of the m offsets (dx, dy) from a pixel lie on opposite sides of it (at more than a
+ * right angle). */
+static bool opposite(const long *dx, const long *dy, int m)
+{
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < i; j++)
+            if (dx[i] * dx[j] + dy[i] * dy[j] < 0)
+                return true;
+    return false;
+}
+
 /* How far the bright side beside pixel p goes on past it: over p's sampled neighbours q at or
  * above bt, the largest (b[r] - lo) / (b[q] - lo) of r = q + (q - p), the pixel beyond q
  * straight away from p, where r holds samples (0 where none does); 1 where two such q lie on
@@ -144,18 +173,9 @@ static double beyond(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const 
     const long px = (long)(p % ow), py = (long)(p / ow);
     size_t nb[9];
     long dx[9], dy[9];
-    int m = 0;
-    const int k = csi_recon_window3(p, ow, oh, nb);
-    for (int j = 0; j < k; j++)
-        if (cnt[nb[j]] && b[nb[j]] >= bt) {
-            nb[m] = nb[j];
-            dx[m] = (long)(nb[j] % ow) - px, dy[m] = (long)(nb[j] / ow) - py;
-            m++;
-        }
-    for (int i = 0; i < m; i++)
-        for (int j = 0; j < i; j++)
-            if (dx[i] * dx[j] + dy[i] * dy[j] < 0)
-                return 1.0;
+    const int m = side_neighbours(p, ow, oh, cnt, b, bt, true, nb, dx, dy);
+    if (opposite(dx, dy, m))
+        return 1.0;
     double most = 0;
     for (int i = 0; i < m; i++) {
         const long rx = px + 2 * dx[i], ry = py + 2 * dy[i];
@@ -271,21 +291,9 @@ static bool dark_line_end(size_t dk, int d, int k, size_t ow, size_t oh, const u
  * (the dark side's counterpart of beyond()'s bright neighbours on opposite sides). */
 static bool dark_through(size_t p, size_t ow, size_t oh, const uint32_t *cnt, const double *b, double bt)
 {
-    const long px = (long)(p % ow), py = (long)(p / ow);
     size_t nb[9];
     long dx[9], dy[9];
-    int m = 0;
-    const int k = csi_recon_window3(p, ow, oh, nb);
-    for (int j = 0; j < k; j++)
-        if (nb[j] != p && cnt[nb[j]] && b[nb[j]] < bt) {
-            dx[m] = (long)(nb[j] % ow) - px, dy[m] = (long)(nb[j] / ow) - py;
-            m++;
-        }
-    for (int i = 0; i < m; i++)
-        for (int j = 0; j < i; j++)
-            if (dx[i] * dx[j] + dy[i] * dy[j] < 0)
-                return true;
-    return false;
+    return opposite(dx, dy, side_neighbours(p, ow, oh, cnt, b, bt, false, nb, dx, dy));
 }
 
 /* Whether the row and the column through pixel p place it inside the bright side (the header's
