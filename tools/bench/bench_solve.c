@@ -373,15 +373,20 @@ static void wavelet_table(size_t W, size_t strue, int seeds)
 
 int main(int argc, char **argv)
 {
-    if (argc > 2 || (argc == 2 && strcmp(argv[1], "quick") && strcmp(argv[1], "large") && strcmp(argv[1], "wavelet"))) {
-        const bool help = argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"));
-        fprintf(help ? stdout : stderr,
-                "usage: csi-bench-solve [quick|large|wavelet]\n"
-                "  (none)   ROMP's and SpaRSA's recovery tables, multi-channel timings, wavelet-basis recovery\n"
-                "  quick    the same with fewer seeds\n"
-                "  large    SpaRSA's recovery with k = 65536 unknowns only\n"
-                "  wavelet  recovery in a wavelet basis only\n");
-        return help ? 0 : 2;
+    const bool known = argc < 2 || !strcmp(argv[1], "quick") || !strcmp(argv[1], "large") ||
+                       !strcmp(argv[1], "wavelet");
+    if (argc > 2 || !known) {
+        if (!(argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")))) {
+            fprintf(stderr, "csi-bench-solve: unknown argument '%s' (quick, large, wavelet or none; see --help)\n",
+                    argv[known ? 2 : 1]);
+            return 2;
+        }
+        printf("usage: csi-bench-solve [quick|large|wavelet]\n"
+               "  (none)   ROMP's and SpaRSA's recovery tables, multi-channel timings, wavelet-basis recovery\n"
+               "  quick    the same with fewer seeds\n"
+               "  large    SpaRSA's recovery with k = 65536 unknowns only\n"
+               "  wavelet  recovery in a wavelet basis only\n");
+        return 0;
     }
     bool quick = argc > 1 && strcmp(argv[1], "quick") == 0;
     TRY(csi_ctx_create(&ctx, NULL));
