@@ -27,7 +27,12 @@
  *       light around it. Since |out - m| <= min(|b - m|, V / |b - m|) <= sqrt(V) (beta's form,
  *       with B^2 >= (m - b)^2 - V), that magnitude is also how far the fit may move the pixel
  *       from m. Where most pixels hold two samples or more, b counts in it only up to 4 times
- *       the brightest of the pixel's own samples. Up to there b may be light the samples
+ *       the brightest of the pixel's own samples, and in a pixel of one sample up to 16 times
+ *       that sample (Poisson-disk positions at 2 spp leave many: there a fit spreading a lamp,
+ *       a highlight or the sky into one took its own magnitude as the noise level, up to 2.2x
+ *       the mean's relMSE at 2 spp, docs/bench/mitsuba.md; the price is the fit's light in
+ *       such a pixel on the dark side of an emitter's rim, which no arrangement of the
+ *       neighbours told from a thin dark blade's). Up to there b may be light the samples
  *       missed (a fine texture whose bright parts fall between a pixel's stratified positions
  *       leaves four samples several times below the pixel, and the fit, a few times above
  *       them, is the better guess). Far above every one of them, b is more likely an
@@ -113,6 +118,10 @@
 /* How many times a pixel's brightest sample its box integral may count for in the noise
  * magnitude, where most pixels hold two samples or more (the header). */
 #define CSI_BLEND_LEAK 4.0
+/* The same for a pixel of one sample among pixels of more: one sample is a poorer bound on its
+ * pixel's level than the brightest of several, so the fit may stand further above it; 16 is
+ * where the empty pixels' cap (csi/empty_pixels.h) takes a ratio for an HDR step. */
+#define CSI_BLEND_LEAK_ONE 16.0
 /* A pixel's samples spread beyond their noise when their variance about m is above this many
  * times the mean of their given variances (the header): for four samples of Gaussian noise,
  * chi^2 with 3 degrees of freedom above 12, p ~ 0.007. */
@@ -479,10 +488,13 @@ static void blend_pass4(void *arg, size_t r0, size_t r1)
                 if (!by_pixel && !isnan(rel[p]))
                     med = csi_fmin(med, rel[p]); /* one sample per pixel: the pixel's own where lower */
                 double noise = fpc > 0 && isfinite(med) ? med / (double)cp * fpc : 0.0;
-                if (by_pixel && cp >= 2) {
+                if (by_pixel) {
                     /* b only up to a few times the pixel's brightest sample (the header) */
-                    double bc = csi_fmin(fabs(plane[p]), CSI_BLEND_LEAK * top[p]);
+                    const double leak = cp >= 2 ? CSI_BLEND_LEAK : CSI_BLEND_LEAK_ONE;
+                    double bc = csi_fmin(fabs(plane[p]), leak * top[p]);
                     noise *= (0.5 * (m[p] * m[p] + bc * bc) + eps) / sc[p];
+                }
+                if (by_pixel && cp >= 2) {
                     const double s2 = ss[p] / (double)(cp - 1);
                     if (spread && s2 > CSI_BLEND_SPREAD * vsum[p] / (double)cp) {
                         /* a spread beyond the records' noise: at least the mean's own error (the
