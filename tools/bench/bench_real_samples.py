@@ -98,7 +98,7 @@ def with_variance(args, dump):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    cell_arguments(ap, "1,4,16", "1,64")
+    cell_arguments(ap, "1,2,4,8,16", "1,64")  # the spp mitsuba_data.py renders; absent ones are skipped
     ap.add_argument("--configs", default="csi=", help="NAME=args;... (default: the defaults)")
     ap.add_argument("--json", help="write every figure here")
     ap.add_argument("--md", help="write the tables here (Markdown)")
