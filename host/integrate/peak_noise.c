@@ -42,6 +42,7 @@ typedef struct peak_state {
     const size_t *start, *idx; /* each pixel's samples, in sample order: idx[start[p] ..] */
     uint32_t channels, c;
     size_t ow, oh, np;
+    uint64_t cells; /* a pixel's cells */
     double e;
     double *m, *hi;
     float *plane;
@@ -113,6 +114,8 @@ static void peak_pass_pixels(void *arg, size_t r0, size_t r1)
     for (size_t py = r0; py < r1; py++)
         for (size_t px = 0; px < ow; px++) {
             const size_t p = py * ow + px;
+            if (cnt[p] >= t->cells)
+                continue; /* every cell sampled: the pixel is its cells' exact mean, as the blend leaves it */
             if (cnt[p] >= 2) {
                 /* The pixel's brightest sample against the others of the pixel. */
                 size_t top = idx[start[p]];
@@ -200,7 +203,7 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
     }
     peak_state t = {
         .values = values, .variance = variance, .cnt = cnt, .start = start, .idx = idx,
-        .channels = channels, .ow = ow, .oh = oh, .np = np, .m = m, .hi = hi,
+        .channels = channels, .ow = ow, .oh = oh, .np = np, .cells = (uint64_t)map.bw * map.bh, .m = m, .hi = hi,
     };
     atomic_init(&t.set, 0);
     for (uint32_t c = 0; c < channels; c++) {

@@ -2,7 +2,8 @@
  * on samples like a path tracer's: HDR and noisy. Properties, each against an independent
  * reference computed here:
  *
- *   1. A dump that samples every cell once gives each pixel the exact mean of its cells: the
+ *   1. A dump that samples every cell once gives each pixel the exact mean of its cells (with
+ *      each sample's variance given too, as a renderer of several paths per sample hands them): the
  *      mean computed here in double and rounded to float, to 1 float ulp (the library sums in
  *      double in another order: the two doubles differ by ~1e-16 relative, which changes the
  *      rounded float only at a rounding tie, by one ulp). Alg. 1 and Alg. 2 (a volume: each
@@ -91,13 +92,14 @@ static uint32_t float_ulps(float a, float b)
  * values 1e-4 .. 1e4 (log-uniform); with `gap`, only every eighth pixel along the diagonals is
  * sampled in every cell (all t), the others in their first cell alone, and the former are checked. Returns the result's
  * cells (the grid csi_recon solved). */
-static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32_t ow, uint32_t oh, bool gap)
+static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32_t ow, uint32_t oh, bool gap,
+                        bool variance)
 {
     const csi_grid g = {w, h, t, ow, oh};
     const size_t k = (size_t)w * h * t, np = (size_t)ow * oh;
     const uint32_t bw = w / ow, bh = h / oh;
     csi_sample_pos *pos = malloc(k * sizeof *pos);
-    float *val = malloc(k * 3 * sizeof *val);
+    float *val = malloc(k * 3 * sizeof *val), *var = malloc(k * 3 * sizeof *var);
     double *ref = calloc(np * 3, sizeof *ref);
     test_rng r;
     test_rng_seed(&r, 7);
@@ -110,6 +112,7 @@ static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32
         size_t p = (size_t)(q.y / bh) * ow + q.x / bw;
         for (int c = 0; c < 3; c++) {
             val[n * 3 + c] = (float)pow(10.0, -4.0 + 8.0 * test_rng_uniform(&r));
+            var[n * 3 + c] = val[n * 3 + c] * val[n * 3 + c]; /* one path carrying the whole value */
             ref[(size_t)c * np + p] += val[n * 3 + c];
         }
         n++;
@@ -117,6 +120,8 @@ static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32
     const double cells = (double)bw * bh * t;
     csi_recon_options o;
     csi_recon_defaults(&o);
+    if (variance)
+        o.sample_variance = var;
     csi_recon_result res;
     NEED_OK(csi_recon(ctx, &g, 3, pos, val, n, &o, &res));
     uint32_t worst = 0;
@@ -126,13 +131,14 @@ static size_t full_dump(csi_ctx *ctx, uint32_t w, uint32_t h, uint32_t t, uint32
         uint32_t u = float_ulps(res.image[i], (float)(ref[i] / cells));
         worst = u > worst ? u : worst;
     }
-    printf("%s dump %ux%ux%u -> %ux%u: largest difference from the cell means %u ulp (solved on %zu cells)\n",
-           gap ? "nearly full" : "full", w, h, t, ow, oh, worst, res.k);
+    printf("%s dump %ux%ux%u -> %ux%u%s: largest difference from the cell means %u ulp (solved on %zu cells)\n",
+           gap ? "nearly full" : "full", w, h, t, ow, oh, variance ? " with variances" : "", worst, res.k);
     CHECK(worst <= 1, "full dump %ux%ux%u: a pixel is %u ulp from its cells' mean", w, h, t, worst);
     const size_t solved = res.k;
     csi_recon_result_free(&res);
     free(pos);
     free(val);
+    free(var);
     free(ref);
     return solved;
 }
@@ -463,17 +469,19 @@ static void spread_given_variances(csi_ctx *ctx, analytic_fn fn, const char *nam
 int main(void)
 {
     csi_ctx *ctx = test_ctx();
-    full_dump(ctx, 64, 64, 1, 16, 16, false);
-    full_dump(ctx, 16, 16, 4, 8, 8, false);
+    full_dump(ctx, 64, 64, 1, 16, 16, false, false);
+    /* with each sample's variance: the peaks' rule (csi/peak_noise.h) leaves such pixels alone */
+    full_dump(ctx, 64, 64, 1, 16, 16, false, true);
+    full_dump(ctx, 16, 16, 4, 8, 8, false, false);
     /* 37 x 23 pixels: lengths the FFT cannot take. Solved whole on a grid padded to 40 x 24
      * pixels and cropped (csi_recon_pad_grid), the pixels stay exact. */
-    const size_t solved = full_dump(ctx, 37 * 8, 23 * 8, 1, 37, 23, true);
+    const size_t solved = full_dump(ctx, 37 * 8, 23 * 8, 1, 37, 23, true, false);
     CHECK(solved == 40 * 8 * 24 * 8, "37 x 23 pixels solved on %zu cells, not the padded 320 x 192", solved);
     /* and a volume of 37 x 23 pixels x 4 frames (Alg. 2): 40 x 24 x 4 */
-    const size_t solved_t = full_dump(ctx, 37, 23, 4, 37, 23, true);
+    const size_t solved_t = full_dump(ctx, 37, 23, 4, 37, 23, true, false);
     CHECK(solved_t == 40 * 24 * 4, "37 x 23 x 4 solved on %zu cells, not the padded 40 x 24 x 4", solved_t);
     /* and 11 frames, a count the FFT cannot take: solved on 12, the image the mean of the 11 */
-    const size_t solved_11 = full_dump(ctx, 16, 16, 11, 8, 8, false);
+    const size_t solved_11 = full_dump(ctx, 16, 16, 11, 8, 8, false, false);
     CHECK(solved_11 == 16 * 16 * 12, "16 x 16 x 11 solved on %zu cells, not the padded 16 x 16 x 12", solved_11);
     static analytic_scene sc;
     hdr_range(ctx, dot_on_black, "dot on black", &sc);

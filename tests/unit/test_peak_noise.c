@@ -28,7 +28,10 @@
  *        halfway between the others' mean 1 and x, 0.75 (1.25 in channel 1) exactly;
  *      - (8, 8) holds 1, 1, 20 of variance 1: 19 >= 3, the image's: untouched, 0.5;
  *      - (12, 4) holds 2, 3, 7 of variance 0: 7 < 4 x 3, no peak: untouched.
- *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set.
+ *   3. One cell per pixel: every sample is its pixel's exact value, nothing is set. And on the 4x
+ *      grid, a pixel holding all 16 of its cells (15 at 1 and a one-path peak of 20, variance
+ *      400, which in a pixel of three samples is dropped: 2) is its cells' exact mean: untouched,
+ *      while the same three samples elsewhere are still shrunk.
  *   4. Three samples per pixel, every sample 1 (variance 0.01), two pixels holding 1, 1, 20 of
  *      variance 400 (a one-path peak: w = 0) amid neighbours bright in the same way:
  *      - (4, 4)'s 8 neighbours hold 20, 20, 1 (the 20s of variance 400, no peaks: each has a
@@ -101,6 +104,27 @@ static size_t make3(csi_sample_pos *pos, float *val, float *var)
     return n;
 }
 
+/* Property 3's second part: three samples per pixel as make3's, all 1 (variance 0.01), but pixel
+ * (3, 3) holds every one of its 16 cells and (3, 3), (12, 12) a one-path peak of 20 (variance
+ * 400) as their last sample. */
+static size_t make_full(csi_sample_pos *pos, float *val, float *var)
+{
+    size_t n = 0;
+    for (int p = 0; p < NP; p++) {
+        const int full = p == 3 * OW + 3, ns = full ? F * F : 3;
+        for (int s = 0; s < ns; s++) {
+            const int peak = (full || p == 12 * OW + 12) && s == ns - 1;
+            const float v = peak ? 20 : 1, vv = peak ? 400 : 0.01f;
+            pos[n] = full ? (csi_sample_pos){(uint32_t)(p % OW * F + s % F), (uint32_t)(p / OW * F + s / F), 0}
+                          : (csi_sample_pos){(uint32_t)(p % OW * F + 1 + s), (uint32_t)(p / OW * F + 1 + s), 0};
+            val[n * 2] = v, val[n * 2 + 1] = 2 * v;
+            var[n * 2] = vv, var[n * 2 + 1] = 4 * vv;
+            n++;
+        }
+    }
+    return n;
+}
+
 /* Property 4's samples: three per pixel as make3's; bright is 20 of variance 400. */
 static size_t make4(csi_sample_pos *pos, float *val, float *var)
 {
@@ -145,8 +169,8 @@ static float *half_image(void)
 
 int main(void)
 {
-    csi_sample_pos pos[3 * NP];
-    float val[6 * NP], var[6 * NP];
+    csi_sample_pos pos[3 * NP + F * F]; /* make_full's pixel holds F * F */
+    float val[2 * (3 * NP + F * F)], var[2 * (3 * NP + F * F)];
     const csi_grid g = {OW * F, OW * F, 1, OW, OW};
 
     /* 1 */
@@ -204,6 +228,20 @@ int main(void)
     for (int i = 0; i < 2 * NP; i++)
         other += im[i] != 0.5f;
     CHECK(other == 0 && changed == 0, "one cell per pixel: %zu pixel-channels set", other);
+    free(im);
+    n = make_full(pos, val, var);
+    im = half_image();
+    CHECK_OK(csi_peak_noise(&g, 2, pos, val, var, n, NULL, im, &changed));
+    other = 0;
+    for (int c = 0; c < 2; c++)
+        for (int p = 0; p < NP; p++)
+            if (p == 12 * OW + 12)
+                CHECK(im[c * NP + p] == (float)(c + 1), "channel %d: the three samples' peak %.9g, want %d", c,
+                      im[c * NP + p], c + 1);
+            else
+                other += im[c * NP + p] != 0.5f;
+    CHECK(other == 0 && changed == 2, "a pixel of every cell: %zu other pixel-channels set (%zu reported, want 2)",
+          other, changed);
     free(im);
 
     /* 4 */

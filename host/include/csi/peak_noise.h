@@ -12,7 +12,10 @@
  * an image's relMSE (docs/bench/mitsuba.md). The sample's variance tells the two apart: a peak
  * that its own noise explains is noise.
  *
- * The rule, per channel, in pixels of more than one cell. A sample y of variance v is a peak when
+ * The rule, per channel, in pixels of more than one cell, not all of them sampled (a pixel whose
+ * every cell holds a sample is its cells' exact mean, whatever their noise: csi's output there is
+ * the box integral of the samples, as the blend's finite-population factor leaves it, and a
+ * renderer's own firefly clamp is the place for more). A sample y of variance v is a peak when
  * (y + e) >= CSI_PEAK_RATIO (h + e), where h is the largest of the other samples of its pixel,
  * or, for a pixel's only sample, of its 8 neighbours' samples (h 0 if negative), and e 1% of the
  * samples' mean absolute value (blend.c's floor); a pixel's brightest sample is the only one that
