@@ -18,7 +18,9 @@ bool csi_smooth7(uint64_t v)
 
 /* The output length (pixels) one axis is solved at: `out` itself when its `cells` fine cells per
  * pixel make a length the transforms take (7-smooth; even for the first axis, the real FFT's and
- * the half spectrum's), else the smallest longer one that also keeps as many factors of two as a
+ * the half spectrum's, and for both axes of an image, which a wavelet level halves: an odd side
+ * left none, and a 45 x 27 image sampled on a grid of one cell per pixel was refused), else the
+ * smallest longer one that also keeps as many factors of two as a
  * grid of its size can use, up to `twos` (2^6 for an image: five wavelet levels on an even model
  * grid, so that the padding does not cost the levels an unpadded grid of that size would have;
  * a volume's Fourier basis needs none). */
@@ -45,7 +47,7 @@ bool csi_recon_pad_grid(const csi_grid *g, csi_grid *padded)
         return false; /* bad sizes are csi_recon's errors to report */
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     const uint64_t twos = g->t == 1 ? 64 : 1;
-    const uint32_t pw = padded_length(g->out_w, bw, true, twos), ph = padded_length(g->out_h, bh, false, twos);
+    const uint32_t pw = padded_length(g->out_w, bw, true, twos), ph = padded_length(g->out_h, bh, g->t == 1, twos);
     /* a volume's frames too: the later ones hold no sample, and the image is the mean over the
      * shutter's own (csi_recon_options.shutter_frames) */
     const uint32_t pt = g->t > 1 ? padded_length(g->t, 1, false, 1) : 1;

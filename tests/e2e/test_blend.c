@@ -8,7 +8,8 @@
  *      double in another order: the two doubles differ by ~1e-16 relative, which changes the
  *      rounded float only at a rounding tie, by one ulp). Alg. 1 and Alg. 2 (a volume: each
  *      pixel is the mean of its cells over x, y and t), and an image and a volume whose sides
- *      (37 x 23 pixels) the transforms take only padded (internal.h: csi_recon_pad_grid), and a
+ *      (37 x 23 pixels) the transforms take only padded (internal.h: csi_recon_pad_grid), an image
+ *      of one cell per pixel whose odd sides (45 x 27) a wavelet level cannot halve, and a
  *      volume of 11 frames, solved on 12 whose last holds no sample.
  *   2. Non-negative HDR samples (1e-4 next to 1e4: a bright dot on black, a bright disc and a
  *      bright edge, with and without Monte Carlo noise) give no negative value, and every pixel
@@ -480,6 +481,10 @@ int main(void)
     /* and a volume of 37 x 23 pixels x 4 frames (Alg. 2): 40 x 24 x 4 */
     const size_t solved_t = full_dump(ctx, 37, 23, 4, 37, 23, true, false);
     CHECK(solved_t == 40 * 24 * 4, "37 x 23 x 4 solved on %zu cells, not the padded 40 x 24 x 4", solved_t);
+    /* an image of one cell per pixel whose sides the FFT takes but a wavelet level cannot halve
+     * (45 x 27: odd): solved on 48 x 28, even both ways (before, refused) */
+    const size_t solved_odd = full_dump(ctx, 45, 27, 1, 45, 27, false, false);
+    CHECK(solved_odd == 48 * 28, "45 x 27 at one cell per pixel solved on %zu cells, not the padded 48 x 28", solved_odd);
     /* and 11 frames, a count the FFT cannot take: solved on 12, the image the mean of the 11 */
     const size_t solved_11 = full_dump(ctx, 16, 16, 11, 8, 8, false, false);
     CHECK(solved_11 == 16 * 16 * 12, "16 x 16 x 11 solved on %zu cells, not the padded 16 x 16 x 12", solved_11);
