@@ -18,12 +18,11 @@ bool csi_smooth7(uint64_t v)
 
 /* The output length (pixels) one axis is solved at: `out` itself when its `cells` fine cells per
  * pixel make a length the transforms take (7-smooth; even for the first axis, the real FFT's and
- * the half spectrum's, and for both axes of an image, which a wavelet level halves: an odd side
- * left none, and a 45 x 27 image sampled on a grid of one cell per pixel was refused), else the
- * smallest longer one that also keeps as many factors of two as a
- * grid of its size can use, up to `twos` (2^6 for an image: five wavelet levels on an even model
- * grid, so that the padding does not cost the levels an unpadded grid of that size would have;
- * a volume's Fourier basis needs none). */
+ * the half spectrum's, and for both axes of an image, which a wavelet level halves: an odd side,
+ * as a 45 x 27 image of one cell per pixel has, leaves it none), else the smallest longer one
+ * that also keeps as many factors of two as a grid of its size can use, up to `twos` (2^6 for
+ * an image: five wavelet levels on an even model grid, so that the padding does not cost the
+ * levels an unpadded grid of that size would have; a volume's Fourier basis needs none). */
 static uint32_t padded_length(uint32_t out, uint32_t cells, bool even, uint64_t twos)
 {
     const uint64_t f = (uint64_t)out * cells;
