@@ -36,7 +36,8 @@ static void usage(FILE *f)
 "                            brightest. Have the renderer evaluate it, then run\n"
 "                            --refine-with (csi-mitsuba --refine does both); not written when no\n"
 "                            pixel is picked (the summary says so). The image is then the first\n"
-"                            pass's, which --refine-with completes (--settle off)\n"
+"                            pass's, which --refine-with completes (--settle off,\n"
+"                            --step-coverage off)\n"
 "      --refine-share S      the share, 0 < S <= 1 [default: 0.005]\n"
 "      --refine-with MORE.csid\n"
 "                            the second pass without a second reconstruction: MORE.csid is DUMP's\n"
@@ -390,8 +391,13 @@ int main(int argc, char **argv)
     if (!rc && (refine || refine_with) && option_is(opt, "settle", "on"))
         rc = cli_error(prog, CSI_ERR_ARG, "--settle on and --refine-%s: the second pass samples the pixels that "
                        "--settle would give their means; give one", refine ? "request" : "with");
-    if (!rc && (refine || refine_with))
+    if (!rc && (refine || refine_with) && option_is(opt, "step-coverage", "on"))
+        rc = cli_error(prog, CSI_ERR_ARG, "--step-coverage on and --refine-%s: the second pass samples the "
+                       "pixels that step would move; give one", refine ? "request" : "with");
+    if (!rc && (refine || refine_with)) {
         csi_options_set(opt, "settle", "off");
+        csi_options_set(opt, "step-coverage", "off");
+    }
     if (!rc && share_given && !refine && !refine_with) /* as csi-mitsuba: an option with nothing to act on */
         rc = cli_error(prog, CSI_ERR_ARG, "--refine-share applies to --refine-request or --refine-with only");
     if (rc) {

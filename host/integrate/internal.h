@@ -413,6 +413,12 @@ static inline size_t csi_recon_band_pixel(const csi_pixel_map *m, csi_sample_pos
     return r * m->ow + csi_recon_pixel_col(m, p);
 }
 
+/* Each output pixel's samples, in sample order (a counting sort: deterministic): pixel p's are
+ * idx[start[p] .. start[p + 1]), np pixels. *start (np + 1 entries) and *idx (n) are allocated
+ * here and freed by the caller; CSI_ERR_NOMEM leaves both NULL. */
+csi_status csi_recon_pixel_samples(const csi_pixel_map *m, const csi_sample_pos *pos, size_t n, size_t np,
+                                   size_t **start, size_t **idx);
+
 /* The per-pixel correction of one channel (csi_aa_correct in csi/reconstruct.h; `how` is CV or
  * BLEND) of plane, which holds the box integral of the fine estimate `fine`: gathers `fine` at
  * the samples through S (into `gathered`, n floats on the device; S NULL: `fine` already holds

@@ -125,6 +125,12 @@ static const row table[] = {
      "blended image)",
      "on with the blend (noisy samples) on an image; off otherwise, and with --refine-request or "
      "--refine-with, whose second pass samples those pixels instead"},
+    {"step-coverage", K_CHOICE, AT(step_coverage), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "images with the blend and each sample's variance (--variance), after --settle: a pixel "
+     "across an HDR step whose own samples' share of the bright side a boundary fitted to its "
+     "3 x 3 pixels' samples rules out moves to the nearest share it allows (untiled runs only)",
+     "on with the blend (noisy samples) on an image; off otherwise, and with --refine-request or "
+     "--refine-with, whose second pass samples those pixels instead"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
      "cv: shrink that correction by n_p / (n_p + N), n_p = samples in the pixel", NULL},
     {"stop", K_CHOICE, AT(stop), 0, 0, stops, F_AUTO, "auto", "gap|objective|auto",

@@ -179,28 +179,21 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
     const csi_pixel_map map = csi_recon_pixel_map(g);
     if ((uint64_t)map.bw * map.bh <= 1)
         return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
-    uint32_t *cnt = calloc(np, sizeof *cnt), *fill = calloc(np, sizeof *fill);
-    size_t *start = malloc((np + 1) * sizeof *start), *idx = malloc((n ? n : 1) * sizeof *idx);
+    size_t *start, *idx;
+    CSI_TRY(csi_recon_pixel_samples(&map, pos, n, np, &start, &idx));
+    uint32_t *cnt = malloc(np * sizeof *cnt);
     double *m = malloc(np * sizeof *m), *hi = malloc(np * sizeof *hi);
     double *sabs = calloc(channels, sizeof *sabs);
-    if (!cnt || !fill || !start || !idx || !m || !hi || !sabs) {
-        free(cnt), free(fill), free(start), free(idx), free(m), free(hi), free(sabs);
+    if (!cnt || !m || !hi || !sabs) {
+        free(cnt), free(start), free(idx), free(m), free(hi), free(sabs);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    /* Each pixel's samples, in sample order (a counting sort: deterministic), and each channel's
-     * sum of absolute values, in sample order. */
-    for (size_t i = 0; i < n; i++) {
-        cnt[csi_recon_pixel_at(&map, pos[i])]++;
+    /* each pixel's sample count, and each channel's sum of absolute values, in sample order */
+    for (size_t p = 0; p < np; p++)
+        cnt[p] = (uint32_t)(start[p + 1] - start[p]);
+    for (size_t i = 0; i < n; i++)
         for (uint32_t c = 0; c < channels; c++)
             sabs[c] += fabs((double)values[i * channels + c]);
-    }
-    start[0] = 0;
-    for (size_t p = 0; p < np; p++)
-        start[p + 1] = start[p] + cnt[p];
-    for (size_t i = 0; i < n; i++) {
-        const size_t p = csi_recon_pixel_at(&map, pos[i]);
-        idx[start[p] + fill[p]++] = i;
-    }
     peak_state t = {
         .values = values, .variance = variance, .cnt = cnt, .start = start, .idx = idx,
         .channels = channels, .ow = ow, .oh = oh, .np = np, .cells = (uint64_t)map.bw * map.bh, .m = m, .hi = hi,
@@ -215,6 +208,6 @@ csi_status csi_peak_noise(const csi_grid *g, uint32_t channels, const csi_sample
     }
     if (changed)
         *changed = atomic_load(&t.set);
-    free(cnt), free(fill), free(start), free(idx), free(m), free(hi), free(sabs);
+    free(cnt), free(start), free(idx), free(m), free(hi), free(sabs);
     return CSI_OK;
 }

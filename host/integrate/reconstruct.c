@@ -11,6 +11,7 @@
 #include "csi/frames_denoise.h"
 #include "csi/peak_noise.h"
 #include "csi/settle.h"
+#include "csi/step_coverage.h"
 #include "internal.h"
 
 void csi_recon_state_free(csi_recon_state *st)
@@ -303,6 +304,18 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
             return s;
         }
     }
+    /* An HDR step's pixels given the coverage their window's samples allow (csi/step_coverage.h):
+     * after the settling, which puts them at their means, the step's own starting point. A tiled
+     * run goes without it: its merge (csi-merge, csi-farm) holds the tiles' pixel sums, not the
+     * samples a pixel's window needs (docs/tiles.md, Limits). */
+    if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.step_coverage == CSI_SWITCH_ON) {
+        s = csi_step_coverage(grid, channels, pos, values, opt.sample_variance, n, csi_ctx_row_pool(ctx),
+                              out->image, NULL);
+        if (s != CSI_OK) {
+            csi_recon_result_free(out);
+            return s;
+        }
+    }
     /* The frames of noisy samples (csi/frames_denoise.h), after every step of the image: the
      * whole volume's here; a padded run's after its crop (above); a tiled run's tiles did it in
      * their windows (tiled.c). */
@@ -332,7 +345,7 @@ csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *
         CSI_TRY(csi_recon_resolve(given, &tl->grid, n, out));
         /* the steps on the whole result: a tile sees its window only (csi_recon); the
          * cross-validated choice, if on, was made in the tiles' windows */
-        csi_switch *steps[] = {&out->motion_image_cv, &out->peak_range};
+        csi_switch *steps[] = {&out->motion_image_cv, &out->peak_range, &out->step_coverage};
         if (tl->grid.t > 1)
             out->cv_select = CSI_SWITCH_OFF;
         for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++)

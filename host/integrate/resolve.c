@@ -219,6 +219,10 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
     const bool settles = o->correct == CSI_CORRECT_BLEND && o->estimator == CSI_EST_CS;
     if (o->settle == CSI_SWITCH_AUTO || !settles)
         o->settle = o->settle != CSI_SWITCH_OFF && settles ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
+    /* An HDR step's pixels given the coverage their window allows (csi/step_coverage.h): where
+     * the blend is, after the settling (it runs only given the samples' variances). */
+    if (o->step_coverage == CSI_SWITCH_AUTO || !settles)
+        o->step_coverage = o->step_coverage != CSI_SWITCH_OFF && settles ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
     /* The model grid reproduces the sharp estimate's operator for SpaRSA (csi/model_grid.h);
      * ROMP and the filtered estimate keep the samples' grid. "on": where the filter allows. */
     if (o->model_grid == CSI_SWITCH_AUTO)

@@ -3,8 +3,9 @@
 # the pixels it picks, exactly the cells of their blocks that the dump did not sample, each once;
 # the statistics count them; a share no pixel reaches writes nothing and says so; bad use (a
 # volume, --tile, a share outside (0, 1], the mean estimator, --refine-with a request, a volume or
-# samples no request asks for, both options, either with --settle on: the second pass samples the
-# pixels settling would give their means) exits 2 with one line and no file left behind.
+# samples no request asks for, both options, either with --settle on or --step-coverage on: the
+# second pass samples the pixels those steps would move) exits 2 with one line and no file left
+# behind.
 # usage: refine.sh BUILD_DIR SOURCE_DIR
 set -u
 B="$1"; S="$2"
@@ -53,6 +54,8 @@ for args in "$T/m.csid --refine-request $T/x.csid" "$T/d.csid --refine-request $
             "$T/m.csid --refine-with $T/m.csid" "$T/d.csid --refine-with $T/q.csid" \
             "$T/d.csid --refine-request $T/x.csid --refine-with $T/d.csid" \
             "$T/d.csid --refine-request $T/x.csid --settle on" "$T/d.csid --refine-with $T/q.csid --settle on" \
+            "$T/d.csid --refine-request $T/x.csid --step-coverage on" \
+            "$T/d.csid --refine-with $T/q.csid --step-coverage on" \
             "$T/d.csid --refine-share 0.1"; do
     rm -f "$T/x.exr"
     $R $args -o "$T/x.exr" 2> "$T/err"

@@ -282,6 +282,8 @@ def main():
             ("frames after --", "writes no frames", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--frames", "d"]),
             ("settle with the second pass", "--settle", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--settle",
                                                          "on"]),
+            ("the step's coverage with the second pass", "--step-coverage",
+             ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--step-coverage", "on"]),
         ]
         # an LLVM Mitsuba cannot use: named before Dr.Jit starts (it would print several lines,
         # or abort inside code generation on LLVM < 16)

@@ -54,8 +54,9 @@ def main():
         # The first pass is the one-pass run's samples (same positions and seed); what the
         # refinement adds is exactly what csi asks for on that pass's reconstruction (the library
         # in this process, the run's reconstruction options: the variances beside the dump, and the
-        # pixels that decide the image as the fit left them, csi/settle.h).
-        first = csi.reconstruct(d1.xyt, d1.values, grid, variance=v1, seed=d1.seed, settle="off")
+        # pixels that decide the image as the fit left them, csi/settle.h, csi/step_coverage.h).
+        first = csi.reconstruct(d1.xyt, d1.values, grid, variance=v1, seed=d1.seed, settle="off",
+                                step_coverage="off")
         cells, pixels = csi.refine_positions(d1.xyt, d1.values, grid, first.image)
         check(st["cells"] == len(cells) > 0 and st["pixels"] == pixels > 0,
               f"stats say {st['cells']} cells at {st['pixels']} pixels; the library {len(cells)} at {pixels}")
@@ -79,20 +80,23 @@ def main():
         m = d.pixel_means().reshape(-1, 3)
         err = np.abs(img[picked] - m[picked]).max() / max(1.0, np.abs(m[picked]).max())
         check(err <= 1e-6, f"a fully sampled pixel is not its samples' mean: relative {err:.3g}")
-        # Every other pixel is the first pass's reconstruction: csi-reconstruct --settle off's on the
-        # one-pass dump (with the variances beside it), to the bit.
-        subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "-o", p("c.exr"), "-q", "--settle", "off"],
-                       check=True)
+        # Every other pixel is the first pass's reconstruction: csi-reconstruct --settle off
+        # --step-coverage off's on the one-pass dump (with the variances beside it), to the bit.
+        subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "-o", p("c.exr"), "-q", "--settle", "off",
+                        "--step-coverage", "off"], check=True)
         c1 = exr.read(p("c.exr")).reshape(-1, 3)
         rest = np.setdiff1d(np.arange(len(c1)), picked)
         check(np.array_equal(c1[rest], exr.read(p("r.exr")).reshape(-1, 3)[rest]),
               "csi-mitsuba --refine's other pixels != csi-reconstruct's on the first pass's dump")
-        # The one-pass run is csi-reconstruct's default on its dump (the deciding pixels settled),
-        # and settling moves only pixels the second pass samples (csi/settle.h).
+        # The one-pass run is csi-reconstruct's default on its dump (the deciding pixels settled,
+        # then an HDR step's pixels given their window's coverage), and settling moves only pixels
+        # the second pass samples (csi/settle.h).
         subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "-o", p("cs.exr"), "-q"], check=True)
         cs1 = exr.read(p("cs.exr")).reshape(-1, 3)
         check(np.array_equal(cs1, exr.read(p("one.exr")).reshape(-1, 3)), "the one-pass run's image != csi-reconstruct's")
-        moved = np.flatnonzero((cs1 != c1).any(axis=1))
+        subprocess.run([programs.find("csi-reconstruct"), p("one.csid"), "-o", p("cs.exr"), "-q", "--step-coverage",
+                        "off"], check=True)
+        moved = np.flatnonzero((exr.read(p("cs.exr")).reshape(-1, 3) != c1).any(axis=1))
         check(len(moved) > 0 and np.isin(moved, picked).all(),
               f"settling moved {len(moved)} pixels, {np.isin(moved, picked).sum()} of them picked by the second pass")
         # Another renderer's second pass: csi-reconstruct FIRST --refine-with MORE (the request's

@@ -192,6 +192,10 @@ typedef struct csi_recon_options {
     csi_switch settle;            /* images with the blend, last: the pixels that decide the image
                                      take their samples' mean (csi/settle.h); auto: on with the
                                      blend */
+    csi_switch step_coverage;     /* images with the blend and the samples' variances, after the
+                                     settling: a pixel across an HDR step given the coverage its
+                                     window's samples allow (csi/step_coverage.h); auto: on with
+                                     the blend, untiled */
     double tol;                   /* solver tolerance; 0 auto */
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */

@@ -322,7 +322,7 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     # prog: csi-mitsuba's _Progress, or any callable for the renders alone (as the benchmarks pass)
     # the first pass as the fit left the pixels that decide it: the passes sample those pixels
     # instead of settling them on their few samples (csi-reconstruct --refine-request: the same)
-    first = reconstruct_result(req.with_values(s.values), [*extra, "--settle", "off"],
+    first = reconstruct_result(req.with_values(s.values), [*extra, "--settle", "off", "--step-coverage", "off"],
                                s.variance if a.variance_peaks else None, getattr(prog, "reconstruction", None))
     t_first = time.perf_counter() - t0
     info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first,
@@ -516,6 +516,9 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     if a.refine and reconstruction_options(extra)[0].get("settle") == "on":
         raise UsageError("--refine and '-- --settle on': the second pass samples the pixels that --settle would give "
                          "their means; give one (--no-refine for --settle)")
+    if a.refine and reconstruction_options(extra)[0].get("step_coverage") == "on":
+        raise UsageError("--refine and '-- --step-coverage on': the second pass samples the pixels that step would "
+                         "move; give one (--no-refine for --step-coverage)")
     if a.refine or a.output or a.png:
         check_fits(req, a, extra)
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,

@@ -1,0 +1,77 @@
+/* An HDR step's pixels given the coverage their neighbourhood's samples allow: a step of a
+ * still image's reconstruction when the samples come with their variances (csi_samples.variance),
+ * after the deciding pixels have settled on their means (csi/settle.h).
+ *
+ * Why. Where a pixel holds part of a bright region (an emitter's rim, a lamp's disc, a sun patch)
+ * and part of a dark one, its value is about c B + (1 - c) D: the two levels and the bright side's
+ * coverage c. With samples of many paths the levels are known well; the pixel's error is its
+ * coverage's. The per-pixel mean estimates c by the share of its own samples that landed on the
+ * bright side (k of n: at 4 spp a quarter of a pixel at a time), and at an HDR step that share is
+ * the whole of its error: at 4 spp x 64 paths 92-99.9% of the mean's MSE sits in such pixels
+ * (docs/bench/mitsuba.md, session 26). csi's fit cannot do better there (it rings at a 100:1
+ * step), so the blend and the settling leave these pixels at their means. Yet the samples of the
+ * pixel's neighbours say where the boundary runs: a region's rim crosses a 3 x 3 window of pixels
+ * holding 36 samples at 4 spp, and the shape of a boundary that separates the window's bright
+ * samples from its dark ones says which of the pixel's cells lie beyond its own samples of each
+ * side, which its own four cannot.
+ *
+ * The rule, per pixel of a window (the pixel and its 8 neighbours) whose samples span an HDR step,
+ * on the samples' channel mean L (a sample's noise: the square root of its channels' mean
+ * variance):
+ *   - a step: the window's brightest sample at least CSI_STEP_RATIO times its darkest and
+ *     CSI_STEP_IMAGE_RATIO times the image's mean sample; its samples classed bright above the
+ *     geometric mean of the window's 10th and 90th percentiles; two levels, not a ramp: the
+ *     darkest bright sample at least CSI_STEP_GAP times the brightest dark one, the brightest
+ *     bright at most CSI_STEP_SPREAD times the darkest bright; every bright sample's noise at most
+ *     CSI_STEP_NOISE of its value (a firefly or a glossy path says nothing of where a rim runs);
+ *   - the boundary: a logistic regression of the classes on the samples' positions (a line, or a
+ *     conic where no line separates them: a disc's rim), which must separate the window's samples
+ *     without error;
+ *   - the band: the boundary's function f is positive at the bright samples and negative at the
+ *     dark ones; of the pixel's cells, those where f is at least its value at the pixel's own least
+ *     bright-looking bright sample are bright by every boundary of that shape through the gap,
+ *     those where f is at most its value at the pixel's own most bright-looking dark sample are
+ *     dark: coverages c_lo and c_hi. Only the pixel's own samples bound it: a level line through a
+ *     neighbour's sample, carried across the pixel by a boundary that does not curve as the rim
+ *     does (a lamp's disc a few pixels wide), was measured to cut the pixel wrongly;
+ *   - the pixel's own share k / n, clamped to [c_lo, c_hi]: where the mean's share is one the
+ *     boundary allows, the pixel keeps its value (a straight rim split exactly by stratified
+ *     samples keeps the mean); where it is not, it moves to the nearest coverage that is, and the
+ *     pixel's value moves by the coverage's change times the difference of its own bright and dark
+ *     samples' means. A pixel whose own samples are all of one class is left alone (no band, and
+ *     a level of the other class would be a neighbour's: another region's colour, measured).
+ * Clamping moves an estimate towards an interval; when the interval holds the truth, the estimate
+ * gets no farther from it. The gates keep the rule to windows where the boundary is well
+ * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, session 38).
+ *
+ * Nothing here makes a value negative: a moved value is clamped at 0. */
+#ifndef CSI_STEP_COVERAGE_H
+#define CSI_STEP_COVERAGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csi/row_pool.h"
+#include "csi/samples.h"
+#include "csi/status.h"
+
+/* The window's brightest sample over its darkest for an HDR step: empty_pixels.c's 8:1. */
+#define CSI_STEP_RATIO 8.0
+/* ... and over the image's mean sample (a step in a dim corner is not one that decides pixels). */
+#define CSI_STEP_IMAGE_RATIO 4.0
+/* The darkest bright sample over the brightest dark one: two levels, with a gap between. */
+#define CSI_STEP_GAP 2.0
+/* The brightest bright sample over the darkest bright one: one bright level, not a ramp. */
+#define CSI_STEP_SPREAD 8.0
+/* A bright sample's standard deviation over its value, at most. */
+#define CSI_STEP_NOISE 0.25
+
+/* The rule above on a planar image (channel c's pixel p at c * out_w * out_h + p), in place.
+ * values and variance: sample-major, `channels` per sample; variance >= 0. grid.t must be 1.
+ * Bands of rows run on pool (NULL: the calling thread), the same bits either way. *changed (may be
+ * NULL): the pixels moved. */
+csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, const float *variance, size_t n, csi_row_pool *pool,
+                             float *image, size_t *changed);
+
+#endif

@@ -1,0 +1,332 @@
+/* An HDR step's pixels given the coverage their neighbourhood's samples allow
+ * (csi/step_coverage.h). On the host, in double, each pixel from its window's samples in a fixed
+ * order (deterministic); a pixel writes only its own value. */
+#include "csi/step_coverage.h"
+
+#include <math.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+/* The logistic regression: a small ridge (the classes are separable, so without one the weights
+ * grow without bound), a fixed number of Newton steps from zero (the same steps on every machine:
+ * the boundary need not be the optimum's, only a separating one). */
+#define STEP_RIDGE 1e-3
+#define STEP_NEWTON 30
+/* Features of the boundary: 1, x, y (a line), then x^2, x y, y^2 (a conic). */
+#define STEP_LINE 3
+#define STEP_CONIC 6
+/* csi_recon takes 1 to 4 channels */
+#define STEP_MAX_CHANNELS 4
+
+static void features(double x, double y, double *phi)
+{
+    phi[0] = 1.0, phi[1] = x, phi[2] = y, phi[3] = x * x, phi[4] = x * y, phi[5] = y * y;
+}
+
+/* Solves H w = g for a symmetric positive definite k x k H (Cholesky, in place); 0 if H is not. */
+static int solve_spd(double *h, double *g, int k)
+{
+    for (int j = 0; j < k; j++) {
+        double d = h[j * k + j];
+        for (int m = 0; m < j; m++)
+            d -= h[j * k + m] * h[j * k + m];
+        if (!(d > 0))
+            return 0;
+        d = sqrt(d);
+        h[j * k + j] = d;
+        for (int i = j + 1; i < k; i++) {
+            double s = h[i * k + j];
+            for (int m = 0; m < j; m++)
+                s -= h[i * k + m] * h[j * k + m];
+            h[i * k + j] = s / d;
+        }
+    }
+    for (int i = 0; i < k; i++) {
+        double s = g[i];
+        for (int m = 0; m < i; m++)
+            s -= h[i * k + m] * g[m];
+        g[i] = s / h[i * k + i];
+    }
+    for (int i = k - 1; i >= 0; i--) {
+        double s = g[i];
+        for (int m = i + 1; m < k; m++)
+            s -= h[m * k + i] * g[m];
+        g[i] = s / h[i * k + i];
+    }
+    return 1;
+}
+
+/* The boundary's weights w (k features) by ridge-regularised logistic regression of the classes
+ * cls (1 bright, 0 dark) on the m samples' positions (x, y); 0 if a Newton system fails. */
+static int fit_boundary(const double *x, const double *y, const unsigned char *cls, size_t m, int k, double *w)
+{
+    double h[STEP_CONIC * STEP_CONIC], g[STEP_CONIC], phi[STEP_CONIC];
+    for (int j = 0; j < k; j++)
+        w[j] = 0.0;
+    for (int it = 0; it < STEP_NEWTON; it++) {
+        memset(h, 0, sizeof h), memset(g, 0, sizeof g);
+        for (size_t i = 0; i < m; i++) {
+            features(x[i], y[i], phi);
+            double z = 0;
+            for (int j = 0; j < k; j++)
+                z += phi[j] * w[j];
+            const double p = 1.0 / (1.0 + exp(-csi_fmin(csi_fmax(z, -30.0), 30.0)));
+            const double r = p - cls[i], q = p * (1.0 - p) + 1e-6;
+            for (int a = 0; a < k; a++) {
+                g[a] += phi[a] * r;
+                for (int b = 0; b < k; b++)
+                    h[a * k + b] += phi[a] * q * phi[b];
+            }
+        }
+        for (int a = 0; a < k; a++)
+            g[a] += STEP_RIDGE * w[a], h[a * k + a] += STEP_RIDGE;
+        if (!solve_spd(h, g, k))
+            return 0;
+        for (int a = 0; a < k; a++)
+            w[a] -= g[a];
+    }
+    return 1;
+}
+
+static double boundary_at(const double *w, int k, double x, double y)
+{
+    double phi[STEP_CONIC], z = 0;
+    features(x, y, phi);
+    for (int j = 0; j < k; j++)
+        z += phi[j] * w[j];
+    return z;
+}
+
+/* The samples the boundary misclassifies (f > 0 is bright). */
+static size_t misclassified(const double *w, int k, const double *x, const double *y, const unsigned char *cls,
+                            size_t m)
+{
+    size_t bad = 0;
+    for (size_t i = 0; i < m; i++)
+        bad += (boundary_at(w, k, x[i], y[i]) > 0) != (cls[i] != 0);
+    return bad;
+}
+
+/* numpy's default percentile (linear between order statistics) of m sorted values. */
+static double percentile(const double *sorted, size_t m, double q)
+{
+    const double at = q / 100.0 * (double)(m - 1);
+    const size_t lo = (size_t)floor(at);
+    if (lo + 1 >= m)
+        return sorted[m - 1];
+    return sorted[lo] + (at - (double)lo) * (sorted[lo + 1] - sorted[lo]);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+typedef struct step_state {
+    const csi_sample_pos *pos;
+    const float *values;
+    const double *lum, *sd; /* each sample's channel mean and noise */
+    const size_t *start, *idx; /* each pixel's samples, in sample order: idx[start[p] ..] */
+    csi_pixel_map map;
+    uint32_t channels;
+    size_t ow, oh, np, window_max;
+    double image_mean;
+    float *image;
+    atomic_size_t moved;
+    atomic_int nomem;
+} step_state;
+
+/* Scratch for one band of rows: a window's samples. */
+typedef struct step_scratch {
+    size_t *ids;
+    double *l, *sorted, *x, *y;
+    unsigned char *cls;
+} step_scratch;
+
+/* The mean of the class's samples among the pixel's own (its first `own` window samples). */
+static void class_level(const step_state *t, const step_scratch *s, size_t own, unsigned char cls, double *level)
+{
+    const uint32_t channels = t->channels;
+    size_t k = 0;
+    for (uint32_t c = 0; c < channels; c++)
+        level[c] = 0.0;
+    for (size_t i = 0; i < own; i++)
+        if (s->cls[i] == cls) {
+            for (uint32_t c = 0; c < channels; c++)
+                level[c] += t->values[s->ids[i] * channels + c];
+            k++;
+        }
+    for (uint32_t c = 0; c < channels; c++)
+        level[c] /= (double)(k ? k : 1);
+}
+
+/* The rule on one pixel (csi/step_coverage.h); 1 if it moved. */
+static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
+{
+    const size_t ow = t->ow, oh = t->oh, p = py * ow + px;
+    const size_t own = t->start[p + 1] - t->start[p];
+    if (!own)
+        return 0;
+    /* the window's samples, the pixel's own first, then its neighbours' in raster order */
+    size_t m = 0;
+    for (size_t i = t->start[p]; i < t->start[p + 1]; i++)
+        s->ids[m++] = t->idx[i];
+    for (size_t yy = py ? py - 1 : 0; yy <= py + 1 && yy < oh; yy++)
+        for (size_t xx = px ? px - 1 : 0; xx <= px + 1 && xx < ow; xx++) {
+            const size_t q = yy * ow + xx;
+            if (q != p)
+                for (size_t i = t->start[q]; i < t->start[q + 1]; i++)
+                    s->ids[m++] = t->idx[i];
+        }
+    double hi = -INFINITY, lo = INFINITY;
+    for (size_t i = 0; i < m; i++) {
+        s->l[i] = s->sorted[i] = t->lum[s->ids[i]];
+        hi = csi_fmax(hi, s->l[i]), lo = csi_fmin(lo, s->l[i]);
+    }
+    if (hi < CSI_STEP_RATIO * csi_fmax(lo, 1e-6 * hi + 1e-30) || hi < CSI_STEP_IMAGE_RATIO * t->image_mean)
+        return 0;
+    qsort(s->sorted, m, sizeof *s->sorted, cmp_double);
+    const double thr = sqrt(percentile(s->sorted, m, 90.0) * csi_fmax(percentile(s->sorted, m, 10.0), 1e-30));
+    size_t nb = 0;
+    double bmin = INFINITY, bmax = -INFINITY, dmax = -INFINITY;
+    for (size_t i = 0; i < m; i++) {
+        s->cls[i] = s->l[i] > thr;
+        if (s->cls[i]) {
+            nb++, bmin = csi_fmin(bmin, s->l[i]), bmax = csi_fmax(bmax, s->l[i]);
+            if (t->sd[s->ids[i]] > CSI_STEP_NOISE * s->l[i])
+                return 0; /* a bright sample its noise could make: no rim to place */
+        } else {
+            dmax = csi_fmax(dmax, s->l[i]);
+        }
+    }
+    if (!nb || nb == m || bmin < CSI_STEP_GAP * dmax || bmax > CSI_STEP_SPREAD * bmin)
+        return 0;
+    size_t kb = 0;
+    for (size_t i = 0; i < own; i++)
+        kb += s->cls[i];
+    if (!kb || kb == own)
+        return 0; /* one class of its own: no band (below), and a level that would be a neighbour's */
+    /* positions in pixels from the pixel's centre */
+    const double bw = t->map.bw, bh = t->map.bh;
+    for (size_t i = 0; i < m; i++) {
+        const csi_sample_pos q = t->pos[s->ids[i]];
+        s->x[i] = ((double)q.x + 0.5) / bw - ((double)px + 0.5);
+        s->y[i] = ((double)q.y + 0.5) / bh - ((double)py + 0.5);
+    }
+    double w[STEP_CONIC];
+    int k = STEP_LINE;
+    if (!fit_boundary(s->x, s->y, s->cls, m, k, w))
+        return 0;
+    if (misclassified(w, k, s->x, s->y, s->cls, m)) {
+        k = STEP_CONIC;
+        if (!fit_boundary(s->x, s->y, s->cls, m, k, w) || misclassified(w, k, s->x, s->y, s->cls, m))
+            return 0;
+    }
+    /* the band: the boundary's least bright-looking bright sample of the pixel's own and its most
+     * bright-looking dark one (the window's samples beyond the pixel bound it too tightly where the
+     * rim curves: measured, docs/bench/mitsuba.md) */
+    double fb = INFINITY, fd = -INFINITY;
+    for (size_t i = 0; i < own; i++) {
+        const double f = boundary_at(w, k, s->x[i], s->y[i]);
+        if (s->cls[i])
+            fb = csi_fmin(fb, f);
+        else
+            fd = csi_fmax(fd, f);
+    }
+    size_t sure_bright = 0, sure_dark = 0;
+    for (uint32_t cy = 0; cy < t->map.bh; cy++)
+        for (uint32_t cx = 0; cx < t->map.bw; cx++) {
+            const double f = boundary_at(w, k, ((double)cx + 0.5) / bw - 0.5, ((double)cy + 0.5) / bh - 0.5);
+            sure_bright += f >= fb;
+            sure_dark += f <= fd;
+        }
+    const double cells = bw * bh, c_lo = (double)sure_bright / cells, c_hi = 1.0 - (double)sure_dark / cells;
+    const double share = (double)kb / (double)own, cov = csi_fmin(csi_fmax(share, c_lo), c_hi);
+    if (cov == share)
+        return 0;
+    double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
+    class_level(t, s, own, 1, bright);
+    class_level(t, s, own, 0, dark);
+    for (uint32_t c = 0; c < t->channels; c++) {
+        float *v = t->image + (size_t)c * t->np + p;
+        *v = (float)csi_fmax(0.0, (double)*v + (cov - share) * (bright[c] - dark[c]));
+    }
+    return 1;
+}
+
+static void step_pass(void *arg, size_t r0, size_t r1)
+{
+    step_state *t = arg;
+    const size_t wm = t->window_max ? t->window_max : 1;
+    step_scratch s = {malloc(wm * sizeof *s.ids), malloc(wm * sizeof *s.l), malloc(wm * sizeof *s.sorted),
+                      malloc(wm * sizeof *s.x), malloc(wm * sizeof *s.y), malloc(wm)};
+    if (!s.ids || !s.l || !s.sorted || !s.x || !s.y || !s.cls) {
+        atomic_store(&t->nomem, 1);
+    } else {
+        size_t moved = 0;
+        for (size_t py = r0; py < r1; py++)
+            for (size_t px = 0; px < t->ow; px++)
+                moved += (size_t)step_pixel(t, &s, px, py);
+        atomic_fetch_add(&t->moved, moved);
+    }
+    free(s.ids), free(s.l), free(s.sorted), free(s.x), free(s.y), free(s.cls);
+}
+
+csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, const float *variance, size_t n, csi_row_pool *pool,
+                             float *image, size_t *changed)
+{
+    if (changed)
+        *changed = 0;
+    if (g->t != 1)
+        return csi_fail(CSI_ERR_ARG, "HDR steps' coverage: a volume (%u frames) is not an image", g->t);
+    if (channels < 1 || channels > STEP_MAX_CHANNELS)
+        return csi_fail(CSI_ERR_ARG, "HDR steps' coverage: %u channels (1 to %d)", channels, STEP_MAX_CHANNELS);
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    const csi_pixel_map map = csi_recon_pixel_map(g);
+    if ((uint64_t)map.bw * map.bh <= 1 || !n)
+        return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
+    size_t *start, *idx;
+    CSI_TRY(csi_recon_pixel_samples(&map, pos, n, np, &start, &idx));
+    double *lum = malloc(n * sizeof *lum), *sd = malloc(n * sizeof *sd);
+    if (!lum || !sd) {
+        free(start), free(idx), free(lum), free(sd);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+    }
+    double total = 0;
+    for (size_t i = 0; i < n; i++) {
+        double l = 0, v = 0;
+        for (uint32_t c = 0; c < channels; c++)
+            l += values[i * channels + c], v += variance[i * channels + c];
+        lum[i] = l / channels, sd[i] = sqrt(v / channels);
+        total += lum[i];
+    }
+    /* the most samples a 3 x 3 window holds: each band's scratch */
+    size_t window_max = 0;
+    for (size_t py = 0; py < oh; py++)
+        for (size_t px = 0; px < ow; px++) {
+            size_t m = 0;
+            for (size_t yy = py ? py - 1 : 0; yy <= py + 1 && yy < oh; yy++)
+                for (size_t xx = px ? px - 1 : 0; xx <= px + 1 && xx < ow; xx++)
+                    m += start[yy * ow + xx + 1] - start[yy * ow + xx];
+            window_max = m > window_max ? m : window_max;
+        }
+    step_state t = {
+        .pos = pos, .values = values, .lum = lum, .sd = sd, .start = start, .idx = idx, .map = map,
+        .channels = channels, .ow = ow, .oh = oh, .np = np, .window_max = window_max,
+        .image_mean = total / (double)n, .image = image,
+    };
+    atomic_init(&t.moved, 0);
+    atomic_init(&t.nomem, 0);
+    csi_row_pool_run(pool, oh, ow, step_pass, &t);
+    free(start), free(idx), free(lum), free(sd);
+    if (atomic_load(&t.nomem))
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a window of %zu samples", window_max);
+    if (changed)
+        *changed = atomic_load(&t.moved);
+    return CSI_OK;
+}

@@ -1,0 +1,205 @@
+/* An HDR step's pixels given the coverage their window's samples allow (csi/step_coverage.h), on
+ * samples of shapes whose pixel values are known: a bright region of (100, 50, 25) on a dark one
+ * of (1, 1, 1), 32 x 32 pixels on an 8x grid, 4 samples per pixel (each pixel's 2 x 2 strata, one
+ * random cell in each, or 4 random cells), every sample the value at its cell's centre with
+ * variance 0 (an emitter seen directly: each of a sample's paths reads the same). The reference is
+ * each pixel's box coverage c by 256 x 256 points per pixel (an error below 1/256 of the pixel's
+ * rim length, 2e-3 here), its value c B + (1 - c) D; the input image is the per-pixel mean, which
+ * the settling leaves at such pixels.
+ *
+ *   1. A straight rim at 23 degrees, a small disc (radius 1.6 pixels: a lamp, the rim curving
+ *      across the 3 x 3 window) and a larger one (radius 6), each at 3 seeds and both position
+ *      sets: the summed squared error of the output against the reference is at most the mean's
+ *      (the rule's promise where its gates hold), and below it for the straight rim (some pixels
+ *      move, or the test says nothing); a pixel whose own samples are all of one class keeps its
+ *      value bit for bit; a moved pixel's value lies between the levels, D <= x <= B per channel
+ *      (it is c B + (1 - c) D for a coverage c in [0, 1], to float rounding).
+ *   2. The same straight rim whose bright samples have a standard deviation of 0.3 times their
+ *      value (paths that only sometimes reach the emitter): nothing moves (bit for bit).
+ *   3. Not two levels: the bright side 0.2 and 2 times B in alternate columns of pixels (10:1 among
+ *      the bright samples of any window, beyond the rule's 8:1): nothing moves.
+ *   4. One cell per pixel (every sample its pixel's exact value): nothing moves.
+ *   5. The rows in bands on a pool of 2 threads: the same bits as on the calling thread. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/csi.h"
+#include "csi/row_pool.h"
+#include "csi/step_coverage.h"
+#include "testlib.h"
+
+enum { OW = 32, F = 8, SPP = 4, NP = OW * OW, N = NP * SPP, SUPER = 256 };
+
+static const double BRIGHT[3] = {100, 50, 25}, DARK[3] = {1, 1, 1};
+
+typedef enum { RIM, SMALL_DISC, LARGE_DISC } shape;
+
+/* Is the image point (x, y), in pixels, on the bright side? */
+static int bright_at(shape s, double x, double y)
+{
+    switch (s) {
+    case RIM: {
+        const double a = 23.0 * 3.14159265358979 / 180.0;
+        return x * sin(a) - y * cos(a) - 4.0 > 0; /* a corner: a tenth of the image */
+    }
+    case SMALL_DISC:
+        return (x - 16.3) * (x - 16.3) + (y - 15.7) * (y - 15.7) < 1.6 * 1.6;
+    default:
+        return (x - 15.6) * (x - 15.6) + (y - 16.2) * (y - 16.2) < 6.0 * 6.0;
+    }
+}
+
+/* Each pixel's box coverage by SUPER x SUPER points. */
+static void coverage(shape s, double *cov)
+{
+    for (int p = 0; p < NP; p++) {
+        long k = 0;
+        for (int j = 0; j < SUPER; j++)
+            for (int i = 0; i < SUPER; i++)
+                k += bright_at(s, p % OW + (i + 0.5) / SUPER, p / OW + (j + 0.5) / SUPER);
+        cov[p] = (double)k / (SUPER * SUPER);
+    }
+}
+
+/* The samples: 4 per pixel, stratified (one random cell in each 4 x 4 quarter) or 4 distinct
+ * random cells; value B or D at the cell's centre (B times 0.2 or 2 in alternate columns when
+ * uneven), variance var_rel^2 times the bright value squared on the bright side, 0 elsewhere. */
+static void make(shape s, int stratified, uint64_t seed, int uneven, double var_rel, csi_sample_pos *pos,
+                 float *val, float *var)
+{
+    test_rng r;
+    test_rng_seed(&r, seed);
+    size_t n = 0;
+    for (int p = 0; p < NP; p++) {
+        int used[F * F] = {0};
+        for (int k = 0; k < SPP; k++) {
+            int cx, cy;
+            do {
+                if (stratified) {
+                    cx = (k % 2) * (F / 2) + (int)(test_rng_uniform(&r) * (F / 2));
+                    cy = (k / 2) * (F / 2) + (int)(test_rng_uniform(&r) * (F / 2));
+                } else {
+                    cx = (int)(test_rng_uniform(&r) * F), cy = (int)(test_rng_uniform(&r) * F);
+                }
+            } while (used[cy * F + cx]);
+            used[cy * F + cx] = 1;
+            const uint32_t gx = (uint32_t)(p % OW * F + cx), gy = (uint32_t)(p / OW * F + cy);
+            pos[n] = (csi_sample_pos){gx, gy, 0};
+            const double x = (gx + 0.5) / F, y = (gy + 0.5) / F;
+            const int b = bright_at(s, x, y);
+            const double scale = uneven && b ? (p % OW % 2 ? 2.0 : 0.2) : 1.0;
+            for (int c = 0; c < 3; c++) {
+                const double v = b ? BRIGHT[c] * scale : DARK[c];
+                val[n * 3 + c] = (float)v;
+                var[n * 3 + c] = b ? (float)(var_rel * var_rel * v * v) : 0.0f;
+            }
+            n++;
+        }
+    }
+}
+
+/* The per-pixel mean (planar), and whether each pixel's own samples are all of one class. */
+static void pixel_means(const csi_sample_pos *pos, const float *val, float *img, int *one_class)
+{
+    double sum[3 * NP] = {0};
+    int nb[NP] = {0}, cnt[NP] = {0};
+    for (size_t i = 0; i < N; i++) {
+        const int p = (int)(pos[i].y / F * OW + pos[i].x / F);
+        for (int c = 0; c < 3; c++)
+            sum[c * NP + p] += val[i * 3 + c];
+        nb[p] += val[i * 3] > 10.0f, cnt[p]++;
+    }
+    for (int p = 0; p < NP; p++) {
+        for (int c = 0; c < 3; c++)
+            img[c * NP + p] = (float)(sum[c * NP + p] / cnt[p]);
+        one_class[p] = nb[p] == 0 || nb[p] == cnt[p];
+    }
+}
+
+static double squared_error(const float *img, const double *cov)
+{
+    double e = 0;
+    for (int p = 0; p < NP; p++)
+        for (int c = 0; c < 3; c++) {
+            const double d = img[c * NP + p] - (cov[p] * BRIGHT[c] + (1 - cov[p]) * DARK[c]);
+            e += d * d;
+        }
+    return e;
+}
+
+int main(void)
+{
+    static csi_sample_pos pos[N];
+    static float val[N * 3], var[N * 3], mean[3 * NP], out[3 * NP], out2[3 * NP];
+    static double cov[NP];
+    static int one_class[NP];
+    const csi_grid g = {OW * F, OW * F, 1, OW, OW};
+    csi_row_pool *pool = csi_row_pool_new(2);
+    CHECK(pool != NULL, "no row pool");
+
+    /* 1. the rim and two discs, both position sets, 3 seeds */
+    static const char *names[] = {"straight rim", "small disc", "large disc"};
+    for (int s = RIM; s <= LARGE_DISC; s++) {
+        coverage((shape)s, cov);
+        double e_mean = 0, e_out = 0;
+        size_t moved_all = 0;
+        for (int strat = 0; strat < 2; strat++)
+            for (uint64_t seed = 1; seed <= 3; seed++) {
+                make((shape)s, strat, seed, 0, 0.0, pos, val, var);
+                pixel_means(pos, val, mean, one_class);
+                memcpy(out, mean, sizeof out);
+                size_t moved = 0;
+                CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, N, NULL, out, &moved));
+                moved_all += moved;
+                e_mean += squared_error(mean, cov), e_out += squared_error(out, cov);
+                int kept = 1, between = 1;
+                for (int p = 0; p < NP; p++)
+                    for (int c = 0; c < 3; c++) {
+                        const float x = out[c * NP + p];
+                        if (one_class[p] && x != mean[c * NP + p])
+                            kept = 0;
+                        if (x != mean[c * NP + p] &&
+                            !(x >= DARK[c] * (1 - 1e-6) && x <= BRIGHT[c] * (1 + 1e-6)))
+                            between = 0;
+                    }
+                CHECK(kept, "%s, %s, seed %d: a pixel of one class of samples moved", names[s],
+                      strat ? "stratified" : "random", (int)seed);
+                CHECK(between, "%s, %s, seed %d: a moved pixel outside its levels", names[s],
+                      strat ? "stratified" : "random", (int)seed);
+                /* 5. the pool: the same bits */
+                memcpy(out2, mean, sizeof out2);
+                CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, N, pool, out2, NULL));
+                CHECK(memcmp(out, out2, sizeof out) == 0, "%s, seed %d: the pool's bits differ", names[s], (int)seed);
+            }
+        printf("%s: squared error %.4g (the mean's %.4g), %zu pixels moved\n", names[s], e_out, e_mean, moved_all);
+        CHECK(e_out <= e_mean, "%s: error %.6g above the mean's %.6g", names[s], e_out, e_mean);
+        if (s == RIM)
+            CHECK(moved_all > 0 && e_out < e_mean, "straight rim: %zu moved, error %.6g, the mean's %.6g", moved_all,
+                  e_out, e_mean);
+    }
+
+    /* 2. noisy bright samples; 3. uneven bright samples; 4. one cell per pixel: nothing moves */
+    for (int k = 0; k < 3; k++) {
+        make(RIM, 1, 7, k == 1, k == 0 ? 0.3 : 0.0, pos, val, var);
+        pixel_means(pos, val, mean, one_class);
+        memcpy(out, mean, sizeof out);
+        size_t moved = 1;
+        csi_grid gk = g;
+        if (k == 2) { /* the same samples on a grid of one cell per pixel: each pixel's first */
+            gk = (csi_grid){OW * F, OW * F, 1, OW * F, OW * F};
+        }
+        if (k < 2) {
+            CHECK_OK(csi_step_coverage(&gk, 3, pos, val, var, N, NULL, out, &moved));
+            CHECK(moved == 0 && memcmp(out, mean, sizeof out) == 0, "%s: %zu pixels moved",
+                  k == 0 ? "noisy bright samples" : "uneven bright side", moved);
+        } else {
+            static float big[3 * NP * F * F];
+            memset(big, 0, sizeof big);
+            CHECK_OK(csi_step_coverage(&gk, 3, pos, val, var, N, NULL, big, &moved));
+            CHECK(moved == 0, "one cell per pixel: %zu pixels moved", moved);
+        }
+    }
+    csi_row_pool_free(pool);
+    return test_done();
+}
