@@ -115,6 +115,9 @@ void csi_result_stats(const csi_result *r, csi_json *j)
     /* settling is the last step of the whole image: a merge of tiles does it too */
     if (r->options.o.settle == CSI_SWITCH_ON)
         csi_json_int(j, "settled_pixels", (int64_t)res->settled);
+    /* after it, given the samples' variances (none moved without them) */
+    if (r->options.o.step_coverage == CSI_SWITCH_ON)
+        csi_json_int(j, "step_coverage_pixels", (int64_t)res->step_moved);
     csi_json_num(j, "t_setup_s", res->t_setup);
     if (res->t_velocity > 0)
         csi_json_num(j, "t_velocity_s", res->t_velocity); /* of t_setup */

@@ -310,7 +310,7 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
      * samples a pixel's window needs (docs/tiles.md, Limits). */
     if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.step_coverage == CSI_SWITCH_ON) {
         s = csi_step_coverage(grid, channels, pos, values, opt.sample_variance, n, csi_ctx_row_pool(ctx),
-                              out->image, NULL);
+                              out->image, &out->step_moved);
         if (s != CSI_OK) {
             csi_recon_result_free(out);
             return s;

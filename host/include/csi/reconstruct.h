@@ -341,6 +341,8 @@ typedef struct csi_recon_result {
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
     size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, on the
                                blended image) */
+    size_t step_moved;      /* pixels across an HDR step given their window's coverage
+                               (step_coverage; untiled runs only) */
     double frames_sigma[2]; /* the frames' Gaussian chosen by frames_denoise, along x and y
                                and along t; -1 where it did not run (and in tiles, each of
                                which chooses its own) */
