@@ -331,6 +331,7 @@ static void put_header(wbuf *w, const csi_partial *p)
     put_u32(w, t->resid != NULL);
     put_u32(w, t->px_cnt != NULL);
     put_u32(w, t->frames_mean != NULL);
+    put_u32(w, t->step_delta != NULL);
 }
 
 csi_status csi_partial_store(const char *path, const csi_partial *p)
@@ -351,6 +352,8 @@ csi_status csi_partial_store(const char *path, const csi_partial *p)
         put_f64(&w, p->tile.px_sum[i]);
     if (p->tile.frames_mean)
         put_f32s(&w, p->tile.frames_mean, plane);
+    if (p->tile.step_delta)
+        put_f32s(&w, p->tile.step_delta, plane);
     put_u64(&w, csi_hash64(0, w.b, w.n));
     if (w.oom) {
         free(w.b);
@@ -454,17 +457,18 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
             r.bad = true;
         for (uint32_t c = 0; c < res->channels && !r.bad; c++)
             get_report(&r, &res->report[c]);
-        const uint32_t has_resid = get_u32(&r), has_sums = get_u32(&r), has_mean = get_u32(&r);
+        const uint32_t has_resid = get_u32(&r), has_sums = get_u32(&r), has_mean = get_u32(&r),
+                       has_delta = get_u32(&r);
         const uint64_t pixels = (uint64_t)res->out_w * res->out_h, plane = pixels * res->channels;
-        if (has_resid > 1 || has_sums > 1 || has_mean > 1)
+        if (has_resid > 1 || has_sums > 1 || has_mean > 1 || has_delta > 1)
             r.bad = true;
-        if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes + has_mean) * 4 +
+        if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes + has_mean + has_delta) * 4 +
                                              has_resid * plane * CSI_RESID_SUMS * 8 + has_sums * (pixels + plane) * 8 !=
                                          r.n - r.at))
             s = csi_fail(CSI_ERR_FORMAT, "%s: a %ux%u window with %u channels, %u frames,%s residual sums,%s pixel "
-                         "sums and%s frames' mean does not match the %zu bytes of pixels", path, res->out_w,
-                         res->out_h, res->channels, res->nframes, has_resid ? "" : " no", has_sums ? "" : " no",
-                         has_mean ? "" : " no", r.n - r.at);
+                         "sums,%s frames' mean and%s HDR step changes does not match the %zu bytes of pixels", path,
+                         res->out_w, res->out_h, res->channels, res->nframes, has_resid ? "" : " no",
+                         has_sums ? "" : " no", has_mean ? "" : " no", has_delta ? "" : " no", r.n - r.at);
         else if (r.bad)
             s = csi_fail(CSI_ERR_FORMAT, "%s: malformed header at byte %zu", path, r.at);
         else if (t->index >= out->tiling.count || out->tiling.count == 0)
@@ -493,8 +497,10 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
             t->px_cnt = has_sums ? malloc((size_t)pixels * sizeof *t->px_cnt) : NULL;
             t->px_sum = has_sums ? malloc((size_t)plane * sizeof *t->px_sum) : NULL;
             t->frames_mean = has_mean ? malloc((size_t)plane * sizeof *t->frames_mean) : NULL;
+            t->step_delta = has_delta ? malloc((size_t)plane * sizeof *t->step_delta) : NULL;
             if (!res->image || (res->nframes && !res->frames) || (has_resid && !t->resid) ||
-                (has_sums && (!t->px_cnt || !t->px_sum)) || (has_mean && !t->frames_mean))
+                (has_sums && (!t->px_cnt || !t->px_sum)) || (has_mean && !t->frames_mean) ||
+                (has_delta && !t->step_delta))
                 s = csi_fail(CSI_ERR_NOMEM, "%s: out of memory for the tile's pixels", path);
             else {
                 get_f32s(&r, res->image, (size_t)plane);
@@ -508,6 +514,8 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
                     t->px_sum[i] = get_f64(&r);
                 if (has_mean)
                     get_f32s(&r, t->frames_mean, (size_t)plane);
+                if (has_delta)
+                    get_f32s(&r, t->step_delta, (size_t)plane);
             }
         }
     }

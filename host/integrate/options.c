@@ -128,7 +128,8 @@ static const row table[] = {
     {"step-coverage", K_CHOICE, AT(step_coverage), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "images with the blend and each sample's variance (--variance), after --settle: a pixel "
      "across an HDR step whose own samples' share of the bright side a boundary fitted to its "
-     "3 x 3 pixels' samples rules out moves to the nearest share it allows (untiled runs only)",
+     "3 x 3 pixels' samples rules out moves to the nearest share it allows (tiled: each tile's "
+     "changes of its core, added on the blended image)",
      "on with the blend (noisy samples) on an image; off otherwise, and with --refine-request or "
      "--refine-with, whose second pass samples those pixels instead"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",

@@ -306,8 +306,8 @@ static csi_status recon(csi_ctx *ctx, const csi_grid *grid, uint32_t channels, c
     }
     /* An HDR step's pixels given the coverage their window's samples allow (csi/step_coverage.h):
      * after the settling, which puts them at their means, the step's own starting point. A tiled
-     * run goes without it: its merge (csi-merge, csi-farm) holds the tiles' pixel sums, not the
-     * samples a pixel's window needs (docs/tiles.md, Limits). */
+     * run's tiles computed its changes in their windows (tiled.c), added after the blend's
+     * settling (tile_blend.c), as a merge of tiles run alone does. */
     if (opt.sample_variance && grid->t == 1 && tl.count == 1 && out->options.step_coverage == CSI_SWITCH_ON) {
         s = csi_step_coverage(grid, channels, pos, values, opt.sample_variance, n, csi_ctx_row_pool(ctx),
                               out->image, &out->step_moved);
@@ -345,7 +345,7 @@ csi_status csi_recon_reported(const csi_recon_options *given, const csi_tiling *
         CSI_TRY(csi_recon_resolve(given, &tl->grid, n, out));
         /* the steps on the whole result: a tile sees its window only (csi_recon); the
          * cross-validated choice, if on, was made in the tiles' windows */
-        csi_switch *steps[] = {&out->motion_image_cv, &out->peak_range, &out->step_coverage};
+        csi_switch *steps[] = {&out->motion_image_cv, &out->peak_range};
         if (tl->grid.t > 1)
             out->cv_select = CSI_SWITCH_OFF;
         for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++)

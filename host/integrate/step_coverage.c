@@ -135,7 +135,7 @@ typedef struct step_state {
     uint32_t channels;
     size_t ow, oh, np, window_max;
     double image_mean;
-    float *image;
+    float *delta;
     atomic_size_t moved;
     atomic_int nomem;
 } step_state;
@@ -251,10 +251,8 @@ static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
     double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
     class_level(t, s, own, 1, bright);
     class_level(t, s, own, 0, dark);
-    for (uint32_t c = 0; c < t->channels; c++) {
-        float *v = t->image + (size_t)c * t->np + p;
-        *v = (float)csi_fmax(0.0, (double)*v + (cov - share) * (bright[c] - dark[c]));
-    }
+    for (uint32_t c = 0; c < t->channels; c++)
+        t->delta[(size_t)c * t->np + p] = (float)((cov - share) * (bright[c] - dark[c]));
     return 1;
 }
 
@@ -276,17 +274,37 @@ static void step_pass(void *arg, size_t r0, size_t r1)
     free(s.ids), free(s.l), free(s.sorted), free(s.x), free(s.y), free(s.cls);
 }
 
-csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
-                             const float *values, const float *variance, size_t n, csi_row_pool *pool,
-                             float *image, size_t *changed)
+double csi_step_coverage_mean(const float *values, size_t n, uint32_t channels)
 {
-    if (changed)
-        *changed = 0;
+    double total = 0;
+    for (size_t i = 0; i < n; i++) {
+        double l = 0;
+        for (uint32_t c = 0; c < channels; c++)
+            l += values[i * channels + c];
+        total += l / channels;
+    }
+    return n ? total / (double)n : 0.0;
+}
+
+void csi_step_coverage_apply(float *image, const float *delta, size_t count)
+{
+    for (size_t i = 0; i < count; i++)
+        if (delta[i] != 0.0f)
+            image[i] = (float)csi_fmax(0.0, (double)image[i] + (double)delta[i]);
+}
+
+csi_status csi_step_coverage_delta(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                   const float *values, const float *variance, size_t n, double image_mean,
+                                   csi_row_pool *pool, float *delta, size_t *moved)
+{
+    if (moved)
+        *moved = 0;
     if (g->t != 1)
         return csi_fail(CSI_ERR_ARG, "HDR steps' coverage: a volume (%u frames) is not an image", g->t);
     if (channels < 1 || channels > STEP_MAX_CHANNELS)
         return csi_fail(CSI_ERR_ARG, "HDR steps' coverage: %u channels (1 to %d)", channels, STEP_MAX_CHANNELS);
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    memset(delta, 0, np * channels * sizeof *delta);
     const csi_pixel_map map = csi_recon_pixel_map(g);
     if ((uint64_t)map.bw * map.bh <= 1 || !n)
         return CSI_OK; /* one cell per pixel: every sample is its pixel's exact value */
@@ -297,13 +315,11 @@ csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sam
         free(start), free(idx), free(lum), free(sd);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
     }
-    double total = 0;
     for (size_t i = 0; i < n; i++) {
         double l = 0, v = 0;
         for (uint32_t c = 0; c < channels; c++)
             l += values[i * channels + c], v += variance[i * channels + c];
         lum[i] = l / channels, sd[i] = sqrt(v / channels);
-        total += lum[i];
     }
     /* the most samples a 3 x 3 window holds: each band's scratch */
     size_t window_max = 0;
@@ -318,7 +334,7 @@ csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sam
     step_state t = {
         .pos = pos, .values = values, .lum = lum, .sd = sd, .start = start, .idx = idx, .map = map,
         .channels = channels, .ow = ow, .oh = oh, .np = np, .window_max = window_max,
-        .image_mean = total / (double)n, .image = image,
+        .image_mean = image_mean, .delta = delta,
     };
     atomic_init(&t.moved, 0);
     atomic_init(&t.nomem, 0);
@@ -326,7 +342,25 @@ csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sam
     free(start), free(idx), free(lum), free(sd);
     if (atomic_load(&t.nomem))
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for a window of %zu samples", window_max);
-    if (changed)
-        *changed = atomic_load(&t.moved);
+    if (moved)
+        *moved = atomic_load(&t.moved);
     return CSI_OK;
+}
+
+csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                             const float *values, const float *variance, size_t n, csi_row_pool *pool,
+                             float *image, size_t *changed)
+{
+    if (changed)
+        *changed = 0;
+    const size_t count = (size_t)g->out_w * g->out_h * channels;
+    float *delta = malloc((count ? count : 1) * sizeof *delta);
+    if (!delta)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for a %ux%u image's changes", g->out_w, g->out_h);
+    csi_status s = csi_step_coverage_delta(g, channels, pos, values, variance, n,
+                                           csi_step_coverage_mean(values, n, channels), pool, delta, changed);
+    if (s == CSI_OK)
+        csi_step_coverage_apply(image, delta, count);
+    free(delta);
+    return s;
 }

@@ -10,6 +10,7 @@
 #include "csi/frames_denoise.h"
 #include "csi/peak_noise.h"
 #include "csi/settle.h"
+#include "csi/step_coverage.h"
 #include "csi/tiles.h"
 #include "internal.h"
 
@@ -20,10 +21,12 @@ void csi_tile_result_free(csi_tile_result *t)
         free(t->resid);
         free(t->px_cnt);
         free(t->px_sum);
+        free(t->step_delta);
         free(t->frames_mean);
         t->resid = NULL;
         t->px_cnt = NULL;
         t->px_sum = NULL;
+        t->step_delta = NULL;
         t->frames_mean = NULL;
     }
 }
@@ -196,6 +199,10 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
  * - the pixels that decide the image settled on their means (csi/settle.h): not here but on the
  *   blended image (csi_tiles_end), from the sums of its core's pixels the tile gives
  *   (csi_tile_result).
+ * - an HDR step's pixels given the coverage their window's samples allow (csi/step_coverage.h),
+ *   given the samples' variances: its changes of the core's pixels, from their 3 x 3 pixels'
+ *   samples (inside the window) and the whole image's mean sample, added after the settling on
+ *   the blended image (csi_tiles_end), as untiled.
  * Tiles run alone (--tile I/N) and merged give the same bits as csi_recon's own tiles. */
 static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t index, uint32_t channels,
                                    const csi_sample_pos *pos, const float *values, size_t n,
@@ -230,6 +237,19 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixel sums of tile %u", index);
         else
             csi_pixel_sums_add(&p.g, channels, p.pos, p.values, p.n, core, out->px_cnt, out->px_sum);
+    }
+    if (s == CSI_OK && p.variance && r->options.step_coverage == CSI_SWITCH_ON) {
+        const size_t w = p.g.out_w, np = w * p.g.out_h;
+        if (!(out->step_delta = malloc((np ? np * channels : 1) * sizeof *out->step_delta)))
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the HDR step's changes of tile %u", index);
+        else
+            s = csi_step_coverage_delta(&p.g, channels, p.pos, p.values, p.variance, p.n,
+                                        csi_step_coverage_mean(values, n, channels), csi_ctx_row_pool(ctx),
+                                        out->step_delta, NULL);
+        for (size_t c = 0; s == CSI_OK && c < channels; c++) /* the core's pixels only: each lies in one core */
+            for (size_t q = 0; q < np; q++)
+                if (q % w < core[0] || q / w < core[1] || q % w >= core[2] || q / w >= core[3])
+                    out->step_delta[c * np + q] = 0.0f;
     }
     tile_problem_free(&p);
     return s;

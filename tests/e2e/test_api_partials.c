@@ -9,7 +9,8 @@
  * volume in time windows with the binned shutter's image (binned_windows); and an RGB image solved
  * as luma and chroma (chroma_partials), whose merged partials must be the tiled run's bits and say
  * in their statistics, as it does, the chroma channels' model grid (a partial that did not carry it
- * would say nothing). */
+ * would say nothing); and a still image whose HDR step's pixels move after the settling
+ * (step_partials), whose merged partials must be the tiled run's bits too. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -152,20 +153,55 @@ static void binned_windows(csi_device *dev)
     free(pos);
 }
 
-/* The chroma channels' model grid factor in r's statistics ("chroma_model_grid_factor"), 0 when
- * they do not name it. */
-static long chroma_factor(const csi_result *r)
+/* The integer `key` of r's statistics (e.g. "chroma_model_grid_factor"), 0 when they do not name
+ * it. */
+static long stat_long(const csi_result *r, const char *key)
 {
     csi_json *j = NULL;
     const char *text = NULL, *at = NULL;
+    char quoted[64];
     long f = 0;
     if (csi_json_new(&j) != CSI_OK)
         return -1;
     csi_result_stats(r, j);
-    if (csi_json_text(j, &text) == CSI_OK && (at = strstr(text, "\"chroma_model_grid_factor\": ")))
-        f = strtol(at + strlen("\"chroma_model_grid_factor\": "), NULL, 10);
+    snprintf(quoted, sizeof quoted, "\"%s\": ", key);
+    if (csi_json_text(j, &text) == CSI_OK && (at = strstr(text, quoted)))
+        f = strtol(at + strlen(quoted), NULL, 10);
     csi_json_free(j);
     return f;
+}
+
+/* s in 2 tiles (tile margin 8, max-iter 30, and `extra`: an option name and value, or NULL) by
+ * csi_reconstruct (*whole) and by each tile made apart, written as STEM0.csip and STEM1.csip and
+ * merged (*merged): the merged partials must be the tiled run's bits. */
+static void two_tiles(csi_device *dev, const csi_samples *s, const char *extra, const char *value, const char *stem,
+                      csi_result **whole, csi_result **merged)
+{
+    const uint64_t id = csi_samples_id(s);
+    csi_options *o = NULL;
+    CHECK_OK(csi_options_new(&o));
+    if (extra)
+        CHECK_OK(csi_options_set(o, extra, value));
+    CHECK_OK(csi_options_set(o, "tiles", "2"));
+    CHECK_OK(csi_options_set(o, "tile-margin", "8"));
+    CHECK_OK(csi_options_set(o, "max-iter", "30"));
+    double scale[4];
+    CHECK_OK(csi_reconstruct(dev, s, o, NULL, NULL, whole));
+    CHECK_OK(csi_tile_scale(dev, s, o, scale));
+    const char *part[2];
+    for (int i = 0; i < 2; i++) {
+        char name[64];
+        snprintf(name, sizeof name, "%s%d.csip", stem, i);
+        part[i] = path_of(name);
+        csi_result *t = NULL;
+        CHECK_OK(csi_reconstruct_tile(dev, s, o, (uint32_t)i, scale, NULL, NULL, &t));
+        CHECK_OK(csi_partial_write(part[i], t, "input.csid", id, NULL));
+        csi_result_free(t);
+    }
+    CHECK_OK(csi_partials_merge(part, 2, false, NULL, NULL, merged, NULL));
+    CHECK(*merged && *whole && same_image(*merged, *whole), "%s: merged partials = csi_reconstruct's tiled image",
+          stem);
+    csi_options_free(o);
 }
 
 /* RGB as luma and chroma (--chroma on) in two tiles made apart, written and merged: 4 spp on an 8x
@@ -189,37 +225,52 @@ static void chroma_partials(csi_device *dev)
         rgb[3 * i + 2] = (float)(0.5 - 0.3 * disc * v);
     }
     const csi_samples s = {g, 3, n, pos, rgb, 0, NULL};
-    const uint64_t id = csi_samples_id(&s);
-    csi_options *o = NULL;
-    CHECK_OK(csi_options_new(&o));
-    CHECK_OK(csi_options_set(o, "chroma", "on"));
-    CHECK_OK(csi_options_set(o, "tiles", "2"));
-    CHECK_OK(csi_options_set(o, "tile-margin", "8"));
-    CHECK_OK(csi_options_set(o, "max-iter", "30"));
-    csi_result *whole = NULL;
-    double scale[4];
-    CHECK_OK(csi_reconstruct(dev, &s, o, NULL, NULL, &whole));
-    CHECK_OK(csi_tile_scale(dev, &s, o, scale));
-    const char *part[2];
-    for (int i = 0; i < 2; i++) {
-        char name[32];
-        snprintf(name, sizeof name, "chroma%d.csip", i);
-        part[i] = path_of(name);
-        csi_result *t = NULL;
-        CHECK_OK(csi_reconstruct_tile(dev, &s, o, (uint32_t)i, scale, NULL, NULL, &t));
-        CHECK_OK(csi_partial_write(part[i], t, "chroma.csid", id, NULL));
-        csi_result_free(t);
-    }
-    csi_result *merged = NULL;
-    CHECK_OK(csi_partials_merge(part, 2, false, NULL, NULL, &merged, NULL));
-    CHECK(merged && same_image(merged, whole), "luma and chroma: merged partials = csi_reconstruct's tiled image");
-    const long fw = chroma_factor(whole), fm = merged ? chroma_factor(merged) : -1;
+    csi_result *whole = NULL, *merged = NULL;
+    two_tiles(dev, &s, "chroma", "on", "chroma", &whole, &merged);
+    const long fw = stat_long(whole, "chroma_model_grid_factor"),
+               fm = merged ? stat_long(merged, "chroma_model_grid_factor") : -1;
     CHECK(fw == 4 && fm == fw, "luma and chroma: the chroma's model grid factor %ld in the tiled run's statistics, "
           "%ld in the merged partials'", fw, fm);
     csi_result_free(merged);
     csi_result_free(whole);
-    csi_options_free(o);
     free(rgb);
+    free(pos);
+}
+
+/* A still image given its samples' variances, whose HDR step's pixels move by the coverage their
+ * window's samples allow (csi/step_coverage.h, after the settling on the blended image): lamps of
+ * 200 on 0.05 (discs of 2 to 5 pixels), 64 x 32 pixels on an 8x grid at 4 spp, variance 0 (an
+ * emitter seen directly), in 2 tiles. The merged partials are the tiled run's bits and count the
+ * same moved pixels, some. */
+static void step_partials(csi_device *dev)
+{
+    const csi_grid g = {512, 256, 1, 64, 32};
+    const csi_pos_opts po = {.method = CSI_POS_STRATIFIED, .spp = 4, .seed = 5};
+    csi_sample_pos *pos = NULL;
+    size_t n = 0;
+    if (csi_positions(&g, &po, &pos, &n, NULL) != CSI_OK) {
+        CHECK(0, "HDR step: positions: %s", csi_last_error());
+        return;
+    }
+    static const double disc[][3] = {{12.3, 10.6, 2.0}, {31.7, 20.2, 3.5}, {50.4, 12.9, 5.0}};
+    float *val = malloc(n * sizeof *val), *var = calloc(n, sizeof *var);
+    for (size_t i = 0; i < n; i++) {
+        const double x = (pos[i].x + 0.5) / 8, y = (pos[i].y + 0.5) / 8;
+        val[i] = 0.05f;
+        for (int k = 0; k < 3; k++)
+            if ((x - disc[k][0]) * (x - disc[k][0]) + (y - disc[k][1]) * (y - disc[k][1]) < disc[k][2] * disc[k][2])
+                val[i] = 200.0f;
+    }
+    const csi_samples s = {g, 1, n, pos, val, 0, var};
+    csi_result *whole = NULL, *merged = NULL;
+    two_tiles(dev, &s, NULL, NULL, "step", &whole, &merged);
+    const long mw = stat_long(whole, "step_coverage_pixels"), mm = merged ? stat_long(merged, "step_coverage_pixels") : -1;
+    CHECK(mw > 0 && mm == mw, "HDR step: %ld pixels moved in the tiled run's statistics, %ld in the merged partials'",
+          mw, mm);
+    csi_result_free(merged);
+    csi_result_free(whole);
+    free(val);
+    free(var);
     free(pos);
 }
 
@@ -375,7 +426,7 @@ int main(void)
     fputs("CSID this is not a partial\n", f);
     fclose(f);
     const char *bad[5] = {trunc, damaged, version, notpart, path_of("absent.csip")};
-    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 5 (this program reads version 9)",
+    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 5 (this program reads version 10)",
                           "not a csi tile partial", "cannot open"};
     for (int k = 0; k < 5; k++) {
         const char *set[4] = {part[0], part[1], bad[k], part[3]};
@@ -399,6 +450,7 @@ int main(void)
     for (int i = 0; i < 4; i++)
         csi_result_free(tile[i]);
     chroma_partials(dev);
+    step_partials(dev);
     for (int k = 0; k < npaths; k++)
         remove(paths[k]);
     CHECK(rmdir(dir) == 0, "nothing else is left in %s", dir);

@@ -195,7 +195,7 @@ typedef struct csi_recon_options {
     csi_switch step_coverage;     /* images with the blend and the samples' variances, after the
                                      settling: a pixel across an HDR step given the coverage its
                                      window's samples allow (csi/step_coverage.h); auto: on with
-                                     the blend, untiled */
+                                     the blend */
     double tol;                   /* solver tolerance; 0 auto */
     int max_iter;                 /* 0 auto */
     double tau_rel;               /* SpaRSA tau relative to ||A^H y||_inf; 0 auto */
@@ -342,7 +342,8 @@ typedef struct csi_recon_result {
     size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, on the
                                blended image) */
     size_t step_moved;      /* pixels across an HDR step given their window's coverage
-                               (step_coverage; untiled runs only) */
+                               (step_coverage; in tiles, on the
+                               blended image) */
     double frames_sigma[2]; /* the frames' Gaussian chosen by frames_denoise, along x and y
                                and along t; -1 where it did not run (and in tiles, each of
                                which chooses its own) */

@@ -66,12 +66,25 @@
 /* A bright sample's standard deviation over its value, at most. */
 #define CSI_STEP_NOISE 0.25
 
-/* The rule above on a planar image (channel c's pixel p at c * out_w * out_h + p), in place.
- * values and variance: sample-major, `channels` per sample; variance >= 0. grid.t must be 1.
- * Bands of rows run on pool (NULL: the calling thread), the same bits either way. *changed (may be
- * NULL): the pixels moved. */
+/* The rule above on a planar image (channel c's pixel p at c * out_w * out_h + p), in place:
+ * csi_step_coverage_delta with the samples' own mean, then csi_step_coverage_apply. values and
+ * variance: sample-major, `channels` per sample; variance >= 0. grid.t must be 1. Bands of rows
+ * run on pool (NULL: the calling thread), the same bits either way. *changed (may be NULL): the
+ * pixels moved. */
 csi_status csi_step_coverage(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                              const float *values, const float *variance, size_t n, csi_row_pool *pool,
                              float *image, size_t *changed);
+
+/* What the rule adds to each pixel (planar, as the image; 0 where it does not move), from the
+ * samples alone, with image_mean the whole image's mean sample (csi_step_coverage_mean over all of
+ * them: a tile's window, csi/tiles.h, gives the whole image's so that its pixels move as the whole
+ * image's do). *moved (may be NULL): the pixels it moves. */
+csi_status csi_step_coverage_delta(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
+                                   const float *values, const float *variance, size_t n, double image_mean,
+                                   csi_row_pool *pool, float *delta, size_t *moved);
+/* The mean over the samples of their channel mean, in sample order. */
+double csi_step_coverage_mean(const float *values, size_t n, uint32_t channels);
+/* image[i] = max(0, image[i] + delta[i]) where delta[i] is not 0, in double, rounded once. */
+void csi_step_coverage_apply(float *image, const float *delta, size_t count);
 
 #endif

@@ -225,6 +225,12 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
  * window's pixels, counting only the samples of its core's pixels: every pixel lies in one core,
  * so the tiles' sums added are the whole image's exactly. NULL when the image does not settle.
  *
+ * A still image given the samples' variances moves an HDR step's pixels by the coverage their
+ * window's samples allow (csi/step_coverage.h) once, after the settling: step_delta (planar, the
+ * window's size, NULL when the step does not run) is what the step adds to each pixel of the
+ * tile's core (0 elsewhere), from the samples of its 3 x 3 pixels, which lie inside the window,
+ * and the whole image's mean sample: the tiles' deltas together are the whole image's.
+ *
  * A time window's image is averaged with the denoised frames' mean (image_frames) once, after the
  * correction: frames_mean ([c][y][x], NULL unless t is split and the option is on) is the
  * window's share of that mean, sum over its frames of w_t(t) denoised frame(t) / grid.t, which
@@ -236,6 +242,7 @@ typedef struct csi_tile_result {
     double *resid;
     uint32_t *px_cnt;
     double *px_sum;
+    float *step_delta;
     float *frames_mean;
 } csi_tile_result;
 void csi_tile_result_free(csi_tile_result *t);
@@ -260,6 +267,7 @@ typedef struct csi_blend {
     bool resid_all; /* every tile so far had them: the image is corrected at the end */
     uint32_t *px_cnt; /* a still image that settles: the whole image's pixel sums (csi_tile_result) */
     double *px_sum;
+    float *step_delta;  /* a still image given the variances: the HDR step's changes (csi_tile_result) */
     float *frames_mean; /* time windows with image_frames: the blended frames' mean (csi_tile_result) */
 } csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
@@ -267,7 +275,8 @@ csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
 csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t);
 /* Time windows: corrects the image by the residual sums of all tiles, then averages it with the
  * blended frames' mean where the tiles carry theirs (image_frames); a still image whose tiles
- * all carry pixel sums: settles it on them (see csi_tile_result). A padded layout's result is then
+ * all carry pixel sums: settles it on them, then adds the tiles' HDR step changes where they carry
+ * them (see csi_tile_result). A padded layout's result is then
  * cut to the image's own size (image_w x image_h, image_t frames). */
 csi_status csi_tiles_end(csi_blend *b);
 /* Releases what the blend holds besides out (csi_tiles_end does it too): for a blend given up. */
