@@ -64,12 +64,13 @@ void csi_tiles_release(csi_blend *b)
     free(b->resid);
     free(b->px_cnt);
     free(b->px_sum);
-    free(b->step_delta);
+    free(b->step_changes);
     free(b->frames_mean);
     b->resid = NULL;
     b->px_cnt = NULL;
     b->px_sum = NULL;
-    b->step_delta = NULL;
+    b->step_changes = NULL;
+    b->step_count = b->step_cap = 0;
     b->frames_mean = NULL;
 }
 
@@ -165,9 +166,9 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     if (!b->px_cnt != !t->px_cnt)
         return csi_fail(CSI_ERR_ARG, "tile %u %s pixel sums where tile 0 %s (tiles of another run?)", t->index,
                         t->px_cnt ? "has" : "has no", t->px_cnt ? "has none" : "has them");
-    if (t->index == 0 && t->step_delta && !(b->step_delta = calloc(np * C, sizeof *b->step_delta)))
-        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the HDR step's changes of the %ux%u output", W, H);
-    if (!b->step_delta != !t->step_delta)
+    if (t->index == 0)
+        b->step_given = t->step_delta != NULL;
+    if (b->step_given != (t->step_delta != NULL))
         return csi_fail(CSI_ERR_ARG, "tile %u %s the HDR step's changes where tile 0 %s (tiles of another run?)",
                         t->index, t->step_delta ? "has" : "has no", t->step_delta ? "has none" : "has them");
     if (t->index == 0 && t->frames_mean && !(b->frames_mean = calloc(np * C, sizeof *b->frames_mean)))
@@ -193,8 +194,18 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
                 const size_t from = (size_t)c * tnp + (size_t)y * r->out_w + x;
                 if (w > 0)
                     blend1(&out->image[at], w, r->image[from]);
-                if (b->step_delta && t->step_delta[from] != 0.0f) /* each pixel in one tile's core */
-                    b->step_delta[at] = t->step_delta[from];
+                if (b->step_given && t->step_delta[from] != 0.0f) { /* each pixel in one tile's core */
+                    if (b->step_count == b->step_cap) {
+                        const size_t cap = b->step_cap ? 2 * b->step_cap : 256;
+                        struct csi_step_change *m = realloc(b->step_changes, cap * sizeof *m);
+                        if (!m) {
+                            free(wx), free(wy);
+                            return csi_fail(CSI_ERR_NOMEM, "out of host memory for the HDR step's changes");
+                        }
+                        b->step_changes = m, b->step_cap = cap;
+                    }
+                    b->step_changes[b->step_count++] = (struct csi_step_change){at, t->step_delta[from]};
+                }
                 if (w > 0 && b->frames_mean)
                     blend1(&b->frames_mean[at], w, t->frames_mean[from]);
             }
@@ -286,15 +297,18 @@ csi_status csi_tiles_end(csi_blend *b)
         s = resid_correct(b, c);
     if (s == CSI_OK && b->px_cnt)
         s = csi_settle_sums(&b->tl.grid, out->channels, b->px_cnt, b->px_sum, out->image, NULL, &out->settled);
-    if (s == CSI_OK && b->step_delta) { /* after the settling, as untiled (csi/step_coverage.h) */
+    if (s == CSI_OK && b->step_count) { /* after the settling, as untiled (csi/step_coverage.h) */
         const size_t np = (size_t)out->out_w * out->out_h;
-        for (size_t q = 0; q < np; q++) {
-            bool moved = false;
-            for (uint32_t c = 0; c < out->channels; c++)
-                moved = moved || b->step_delta[c * np + q] != 0.0f;
-            out->step_moved += moved;
+        unsigned char *moved = calloc(np, 1);
+        if (!moved)
+            s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the HDR step's %zu pixels", np);
+        for (size_t i = 0; s == CSI_OK && i < b->step_count; i++) {
+            const struct csi_step_change *ch = &b->step_changes[i];
+            out->image[ch->at] = (float)csi_fmax(0.0, (double)out->image[ch->at] + (double)ch->v);
+            out->step_moved += !moved[ch->at % np];
+            moved[ch->at % np] = 1;
         }
-        csi_step_coverage_apply(out->image, b->step_delta, np * out->channels);
+        free(moved);
     }
     /* time windows: the corrected image averaged with the frames' mean, as csi_frames_denoise_image
      * averages an untiled one */

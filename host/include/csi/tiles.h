@@ -267,7 +267,14 @@ typedef struct csi_blend {
     bool resid_all; /* every tile so far had them: the image is corrected at the end */
     uint32_t *px_cnt; /* a still image that settles: the whole image's pixel sums (csi_tile_result) */
     double *px_sum;
-    float *step_delta;  /* a still image given the variances: the HDR step's changes (csi_tile_result) */
+    /* a still image given the variances: the HDR step's changes (csi_tile_result), only those not
+     * 0 (a few pixels' worth): value v at image index at */
+    struct csi_step_change {
+        size_t at;
+        float v;
+    } *step_changes;
+    size_t step_count, step_cap;
+    bool step_given; /* the tiles carry the changes */
     float *frames_mean; /* time windows with image_frames: the blended frames' mean (csi_tile_result) */
 } csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
