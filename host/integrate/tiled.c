@@ -36,11 +36,18 @@ void csi_tile_result_free(csi_tile_result *t)
 typedef struct {
     csi_grid g;
     csi_tile tile;
+    uint32_t lo[3], hi[3]; /* the window in the whole grid's cells: [lo, hi) in x, y, t */
     csi_sample_pos *pos;
     float *values;
     float *variance;
     size_t n;
 } tile_problem;
+
+static bool in_window(const tile_problem *p, csi_sample_pos q)
+{
+    return q.x >= p->lo[0] && q.x < p->hi[0] && q.y >= p->lo[1] && q.y < p->hi[1] && q.t >= p->lo[2] &&
+           q.t < p->hi[2];
+}
 
 static void tile_problem_free(tile_problem *p)
 {
@@ -52,10 +59,23 @@ static void tile_problem_free(tile_problem *p)
     p->variance = NULL;
 }
 
-/* variance: NULL, or one per value like values. */
+/* The window's variances (one per value, in the order of p's samples) into p: apart from its
+ * samples so that a caller holds them only while it needs them. */
+static csi_status tile_problem_add_variance(tile_problem *p, uint32_t index, uint32_t channels,
+                                            const csi_sample_pos *pos, const float *variance, size_t n)
+{
+    if (!(p->variance = malloc((p->n ? p->n : 1) * channels * sizeof *p->variance)))
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the variances of the %zu samples of tile %u", p->n,
+                        index);
+    for (size_t i = 0, j = 0; i < n; i++)
+        if (in_window(p, pos[i]))
+            memcpy(p->variance + j++ * channels, variance + i * channels, channels * sizeof(float));
+    return CSI_OK;
+}
+
+/* Without the variances (tile_problem_add_variance adds them). */
 static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32_t channels,
-                                    const csi_sample_pos *pos, const float *values, const float *variance,
-                                    size_t n, tile_problem *p)
+                                    const csi_sample_pos *pos, const float *values, size_t n, tile_problem *p)
 {
     memset(p, 0, sizeof *p);
     if (index >= tl->count)
@@ -63,27 +83,26 @@ static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32
     csi_tiling_tile(tl, index, &p->tile);
     const csi_grid *G = &tl->grid;
     const uint32_t bw = G->w / G->out_w, bh = G->h / G->out_h;
-    const uint32_t x0 = p->tile.win0[0] * bw, x1 = x0 + tl->window[0] * bw;
-    const uint32_t y0 = p->tile.win0[1] * bh, y1 = y0 + tl->window[1] * bh;
-    const uint32_t t0 = p->tile.win0[2], t1 = t0 + tl->window[2];
-    p->g = (csi_grid){.w = x1 - x0, .h = y1 - y0, .t = t1 - t0, .out_w = tl->window[0], .out_h = tl->window[1]};
+    for (int a = 0; a < 3; a++) {
+        p->lo[a] = p->tile.win0[a] * (a == 0 ? bw : a == 1 ? bh : 1);
+        p->hi[a] = p->lo[a] + tl->window[a] * (a == 0 ? bw : a == 1 ? bh : 1);
+    }
+    p->g = (csi_grid){.w = p->hi[0] - p->lo[0], .h = p->hi[1] - p->lo[1], .t = p->hi[2] - p->lo[2],
+                      .out_w = tl->window[0], .out_h = tl->window[1]};
     size_t m = 0;
     for (size_t i = 0; i < n; i++)
-        m += pos[i].x >= x0 && pos[i].x < x1 && pos[i].y >= y0 && pos[i].y < y1 && pos[i].t >= t0 && pos[i].t < t1;
+        m += in_window(p, pos[i]);
     p->pos = malloc((m ? m : 1) * sizeof *p->pos);
     p->values = malloc((m ? m : 1) * channels * sizeof *p->values);
-    p->variance = variance ? malloc((m ? m : 1) * channels * sizeof *p->variance) : NULL;
-    if (!p->pos || !p->values || (variance && !p->variance)) {
+    if (!p->pos || !p->values) {
         tile_problem_free(p);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the %zu samples of tile %u", m, index);
     }
     for (size_t i = 0; i < n; i++) {
         const csi_sample_pos q = pos[i];
-        if (q.x >= x0 && q.x < x1 && q.y >= y0 && q.y < y1 && q.t >= t0 && q.t < t1) {
-            p->pos[p->n] = (csi_sample_pos){q.x - x0, q.y - y0, q.t - t0};
+        if (in_window(p, q)) {
+            p->pos[p->n] = (csi_sample_pos){q.x - p->lo[0], q.y - p->lo[1], q.t - p->lo[2]};
             memcpy(p->values + p->n * channels, values + i * channels, channels * sizeof(float));
-            if (variance)
-                memcpy(p->variance + p->n * channels, variance + i * channels, channels * sizeof(float));
             p->n++;
         }
     }
@@ -145,7 +164,7 @@ static csi_status scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         /* one adjoint per tile: with many tiles a long pass, heard from (and cancelled) per tile */
         CSI_TRY(csi_recon_progress_step(opt, "tile scale", (int)i));
         tile_problem p;
-        CSI_TRY(tile_problem_make(tl, i, channels, pos, values, NULL, n, &p));
+        CSI_TRY(tile_problem_make(tl, i, channels, pos, values, n, &p));
         double sc[4] = {0, 0, 0, 0};
         csi_status s = CSI_OK;
         if (p.n > 0) {
@@ -213,8 +232,9 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
     const bool blend = r->options.correct == CSI_CORRECT_BLEND;
     if (tl->grid.t != 1 || r->options.estimator != CSI_EST_CS || !(choice || blend))
         return CSI_OK;
+    /* the variances only after the choice: its folds' solves are the tile's peak of memory */
     tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, blend ? opt->sample_variance : NULL, n, &p));
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, n, &p));
     csi_status s = CSI_OK;
     /* the tile's core in its window's pixels: what its counts of pixels changed cover */
     const uint32_t core[4] = {p.tile.core0[0] - p.tile.win0[0], p.tile.core0[1] - p.tile.win0[1],
@@ -225,6 +245,8 @@ static csi_status tile_noisy_steps(csi_ctx *ctx, const csi_tiling *tl, uint32_t 
         s = csi_recon_cv_select_at(ctx, &p.g, p.tile.win0[0], p.tile.win0[1], core, channels, p.pos, p.values, p.n,
                                    &o, r);
     }
+    if (s == CSI_OK && blend && opt->sample_variance)
+        s = tile_problem_add_variance(&p, index, channels, pos, opt->sample_variance, n);
     if (s == CSI_OK && blend)
         s = csi_empty_pixels(&p.g, channels, p.pos, p.values, p.n, csi_ctx_row_pool(ctx), r->image);
     if (s == CSI_OK && p.variance)
@@ -354,7 +376,7 @@ static csi_status tile_frames_step(csi_ctx *ctx, const csi_tiling *tl, const csi
     if (!frames_asked && !image && !share)
         return CSI_OK; /* frames made only for an image that does not take them */
     tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, n, &p));
     const double v[2] = {r->options.motion_vx, r->options.motion_vy}; /* the window's basis's */
     tile_fold fold = {ctx, tl, scope, index, channels, &p, {0}};
     csi_frames_fold_options(opt, r, &fold.opt);
@@ -513,7 +535,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
     if (memcmp(g, &tl->grid, sizeof *g))
         return csi_fail(CSI_ERR_ARG, "the tile layout was made for another grid");
     tile_problem p;
-    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, NULL, n, &p));
+    CSI_TRY(tile_problem_make(tl, index, channels, pos, values, n, &p));
     out->index = index;
     out->x0 = p.tile.win0[0];
     out->y0 = p.tile.win0[1];
