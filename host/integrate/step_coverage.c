@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -144,7 +145,7 @@ typedef struct step_state {
 typedef struct step_scratch {
     size_t *ids;
     double *l, *sorted, *x, *y;
-    unsigned char *cls;
+    unsigned char *cls, *box;
 } step_scratch;
 
 /* The mean of the class's samples among the pixel's own (its first `own` window samples). */
@@ -162,6 +163,38 @@ static void class_level(const step_state *t, const step_scratch *s, size_t own, 
         }
     for (uint32_t c = 0; c < channels; c++)
         level[c] /= (double)(k ? k : 1);
+}
+
+/* Whether the pixel's own samples (its first `own` window samples) lie one per box of a split of its
+ * cells into a x b equal boxes (a b = own): stratified positions, or any that happen to fall so. */
+static bool own_one_per_box(const step_state *t, step_scratch *s, size_t own)
+{
+    const uint32_t bw = t->map.bw, bh = t->map.bh;
+    for (size_t a = 1; a <= own; a++) {
+        const size_t b = own / a;
+        if (own % a || bw % a || bh % b)
+            continue;
+        const size_t sx = bw / a, sy = bh / b;
+        memset(s->box, 0, own);
+        bool one = true;
+        for (size_t i = 0; i < own && one; i++) {
+            const csi_sample_pos q = t->pos[s->ids[i]];
+            one = !s->box[(q.y % bh) / sy * a + (q.x % bw) / sx]++;
+        }
+        if (one)
+            return true;
+    }
+    return false;
+}
+
+/* Whether a boundary of the window's shape (k features) fitted to the neighbours' samples alone
+ * classes the pixel's own samples right: if not, the shape does not carry across the pixel (a
+ * rectangle's corner, a rim that turns inside it). */
+static bool boundary_holds(const step_scratch *s, size_t own, size_t m, int k)
+{
+    double wn[STEP_CONIC];
+    return fit_boundary(s->x + own, s->y + own, s->cls + own, m - own, k, wn) &&
+           !misclassified(wn, k, s->x, s->y, s->cls, own);
 }
 
 /* The rule on one pixel (csi/step_coverage.h); 1 if it moved. */
@@ -237,15 +270,20 @@ static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
         else
             fd = csi_fmax(fd, f);
     }
-    size_t sure_bright = 0, sure_dark = 0;
+    size_t sure_bright = 0, sure_dark = 0, on_bright = 0;
     for (uint32_t cy = 0; cy < t->map.bh; cy++)
         for (uint32_t cx = 0; cx < t->map.bw; cx++) {
             const double f = boundary_at(w, k, ((double)cx + 0.5) / bw - 0.5, ((double)cy + 0.5) / bh - 0.5);
             sure_bright += f >= fb;
             sure_dark += f <= fd;
+            on_bright += f > 0;
         }
     const double cells = bw * bh, c_lo = (double)sure_bright / cells, c_hi = 1.0 - (double)sure_dark / cells;
-    const double share = (double)kb / (double)own, cov = csi_fmin(csi_fmax(share, c_lo), c_hi);
+    /* the coverage to clamp: the boundary's where it holds across the pixel and the pixel's own
+     * samples are enough and not one per box, else the pixel's own share */
+    const double share = (double)kb / (double)own;
+    const bool fitted = own >= CSI_STEP_FIT_MIN && !own_one_per_box(t, s, own) && boundary_holds(s, own, m, k);
+    const double est = fitted ? (double)on_bright / cells : share, cov = csi_fmin(csi_fmax(est, c_lo), c_hi);
     if (cov == share)
         return 0;
     double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
@@ -261,8 +299,8 @@ static void step_pass(void *arg, size_t r0, size_t r1)
     step_state *t = arg;
     const size_t wm = t->window_max ? t->window_max : 1;
     step_scratch s = {malloc(wm * sizeof *s.ids), malloc(wm * sizeof *s.l), malloc(wm * sizeof *s.sorted),
-                      malloc(wm * sizeof *s.x), malloc(wm * sizeof *s.y), malloc(wm)};
-    if (!s.ids || !s.l || !s.sorted || !s.x || !s.y || !s.cls) {
+                      malloc(wm * sizeof *s.x), malloc(wm * sizeof *s.y), malloc(wm), malloc(wm)};
+    if (!s.ids || !s.l || !s.sorted || !s.x || !s.y || !s.cls || !s.box) {
         atomic_store(&t->nomem, 1);
     } else {
         size_t moved = 0;
@@ -271,7 +309,7 @@ static void step_pass(void *arg, size_t r0, size_t r1)
                 moved += (size_t)step_pixel(t, &s, px, py);
         atomic_fetch_add(&t->moved, moved);
     }
-    free(s.ids), free(s.l), free(s.sorted), free(s.x), free(s.y), free(s.cls);
+    free(s.ids), free(s.l), free(s.sorted), free(s.x), free(s.y), free(s.cls), free(s.box);
 }
 
 double csi_step_coverage_mean(const float *values, size_t n, uint32_t channels)

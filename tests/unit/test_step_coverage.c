@@ -1,15 +1,18 @@
 /* An HDR step's pixels given the coverage their window's samples allow (csi/step_coverage.h), on
  * samples of shapes whose pixel values are known: a bright region of (100, 50, 25) on a dark one
- * of (1, 1, 1), 32 x 32 pixels on an 8x grid, 4 samples per pixel (each pixel's 2 x 2 strata, one
- * random cell in each, or 4 random cells), every sample the value at its cell's centre with
+ * of (1, 1, 1), 32 x 32 pixels on an 8x grid, 4 or 16 samples per pixel (one random cell in each
+ * of the pixel's 2 x 2 or 4 x 4 strata, or as many distinct random cells), every sample the value at its cell's centre with
  * variance 0 (an emitter seen directly: each of a sample's paths reads the same). The reference is
  * each pixel's box coverage c by 256 x 256 points per pixel (an error below 1/256 of the pixel's
  * rim length, 2e-3 here), its value c B + (1 - c) D; the input image is the per-pixel mean, which
  * the settling leaves at such pixels.
  *
  *   1. A straight rim at 23 degrees, a small disc (radius 1.6 pixels: a lamp, the rim curving
- *      across the 3 x 3 window) and a larger one (radius 6), each at 3 seeds and both position
- *      sets: the summed squared error of the output against the reference is at most the mean's
+ *      across the 3 x 3 window), a larger one (radius 6) and an axis-aligned rectangle (a light
+ *      panel: at its corners no line or conic fitted to the neighbours' samples holds across the
+ *      pixel), each at 3 seeds, both position sets and 4 and 16 spp (16 random cells: the
+ *      window's boundary places the rim; 4, or one per stratum: the pixel's own share is
+ *      clamped): the summed squared error of the output against the reference is at most the mean's
  *      (the rule's promise where its gates hold), and below it for the straight rim (some pixels
  *      move, or the test says nothing); a pixel whose own samples are all of one class keeps its
  *      value bit for bit; a moved pixel's value lies between the levels, D <= x <= B per channel
@@ -29,11 +32,18 @@
 #include "csi/step_coverage.h"
 #include "testlib.h"
 
-enum { OW = 32, F = 8, SPP = 4, NP = OW * OW, N = NP * SPP, SUPER = 256 };
+enum { OW = 32, F = 8, SPP_MAX = 16, NP = OW * OW, N_MAX = NP * SPP_MAX, SUPER = 256 };
+
+/* Samples per pixel of the case at hand (a square: 4 or 16) and their count. */
+static int spp = 4;
+static size_t n_samples(void)
+{
+    return (size_t)NP * spp;
+}
 
 static const double BRIGHT[3] = {100, 50, 25}, DARK[3] = {1, 1, 1};
 
-typedef enum { RIM, SMALL_DISC, LARGE_DISC } shape;
+typedef enum { RIM, SMALL_DISC, LARGE_DISC, RECT } shape;
 
 /* Is the image point (x, y), in pixels, on the bright side? */
 static int bright_at(shape s, double x, double y)
@@ -45,6 +55,8 @@ static int bright_at(shape s, double x, double y)
     }
     case SMALL_DISC:
         return (x - 16.3) * (x - 16.3) + (y - 15.7) * (y - 15.7) < 1.6 * 1.6;
+    case RECT:
+        return x > 9.3 && x < 22.6 && y > 10.4 && y < 19.7;
     default:
         return (x - 15.6) * (x - 15.6) + (y - 16.2) * (y - 16.2) < 6.0 * 6.0;
     }
@@ -62,8 +74,8 @@ static void coverage(shape s, double *cov)
     }
 }
 
-/* The samples: 4 per pixel, stratified (one random cell in each 4 x 4 quarter) or 4 distinct
- * random cells; value B or D at the cell's centre (B times 0.2 or 2 in alternate columns when
+/* The samples: spp per pixel, stratified (one random cell in each of the pixel's sqrt(spp) x
+ * sqrt(spp) boxes) or spp distinct random cells; value B or D at the cell's centre (B times 0.2 or 2 in alternate columns when
  * uneven), variance var_rel^2 times the bright value squared on the bright side, 0 elsewhere. */
 static void make(shape s, int stratified, uint64_t seed, int uneven, double var_rel, csi_sample_pos *pos,
                  float *val, float *var)
@@ -73,12 +85,13 @@ static void make(shape s, int stratified, uint64_t seed, int uneven, double var_
     size_t n = 0;
     for (int p = 0; p < NP; p++) {
         int used[F * F] = {0};
-        for (int k = 0; k < SPP; k++) {
+        const int side = spp == 16 ? 4 : 2, box = F / side;
+        for (int k = 0; k < spp; k++) {
             int cx, cy;
             do {
                 if (stratified) {
-                    cx = (k % 2) * (F / 2) + (int)(test_rng_uniform(&r) * (F / 2));
-                    cy = (k / 2) * (F / 2) + (int)(test_rng_uniform(&r) * (F / 2));
+                    cx = (k % side) * box + (int)(test_rng_uniform(&r) * box);
+                    cy = (k / side) * box + (int)(test_rng_uniform(&r) * box);
                 } else {
                     cx = (int)(test_rng_uniform(&r) * F), cy = (int)(test_rng_uniform(&r) * F);
                 }
@@ -104,7 +117,7 @@ static void pixel_means(const csi_sample_pos *pos, const float *val, float *img,
 {
     double sum[3 * NP] = {0};
     int nb[NP] = {0}, cnt[NP] = {0};
-    for (size_t i = 0; i < N; i++) {
+    for (size_t i = 0; i < n_samples(); i++) {
         const int p = (int)(pos[i].y / F * OW + pos[i].x / F);
         for (int c = 0; c < 3; c++)
             sum[c * NP + p] += val[i * 3 + c];
@@ -130,17 +143,19 @@ static double squared_error(const float *img, const double *cov)
 
 int main(void)
 {
-    static csi_sample_pos pos[N];
-    static float val[N * 3], var[N * 3], mean[3 * NP], out[3 * NP], out2[3 * NP];
+    static csi_sample_pos pos[N_MAX];
+    static float val[N_MAX * 3], var[N_MAX * 3], mean[3 * NP], out[3 * NP], out2[3 * NP];
     static double cov[NP];
     static int one_class[NP];
     const csi_grid g = {OW * F, OW * F, 1, OW, OW};
     csi_row_pool *pool = csi_row_pool_new(2);
     CHECK(pool != NULL, "no row pool");
 
-    /* 1. the rim and two discs, both position sets, 3 seeds */
-    static const char *names[] = {"straight rim", "small disc", "large disc"};
-    for (int s = RIM; s <= LARGE_DISC; s++) {
+    /* 1. the rim, two discs and a rectangle, both position sets, 3 seeds, 4 and 16 spp (from 8 a
+     * pixel's own samples let the window's boundary place its rim) */
+    static const char *names[] = {"straight rim", "small disc", "large disc", "rectangle"};
+    for (spp = 4; spp <= 16; spp *= 4)
+    for (int s = RIM; s <= RECT; s++) {
         coverage((shape)s, cov);
         double e_mean = 0, e_out = 0;
         size_t moved_all = 0;
@@ -150,7 +165,7 @@ int main(void)
                 pixel_means(pos, val, mean, one_class);
                 memcpy(out, mean, sizeof out);
                 size_t moved = 0;
-                CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, N, NULL, out, &moved));
+                CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, n_samples(), NULL, out, &moved));
                 moved_all += moved;
                 e_mean += squared_error(mean, cov), e_out += squared_error(out, cov);
                 int kept = 1, between = 1;
@@ -169,15 +184,17 @@ int main(void)
                       strat ? "stratified" : "random", (int)seed);
                 /* 5. the pool: the same bits */
                 memcpy(out2, mean, sizeof out2);
-                CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, N, pool, out2, NULL));
+                CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, n_samples(), pool, out2, NULL));
                 CHECK(memcmp(out, out2, sizeof out) == 0, "%s, seed %d: the pool's bits differ", names[s], (int)seed);
             }
-        printf("%s: squared error %.4g (the mean's %.4g), %zu pixels moved\n", names[s], e_out, e_mean, moved_all);
-        CHECK(e_out <= e_mean, "%s: error %.6g above the mean's %.6g", names[s], e_out, e_mean);
+        printf("%s, %d spp: squared error %.4g (the mean's %.4g), %zu pixels moved\n", names[s], spp, e_out, e_mean,
+               moved_all);
+        CHECK(e_out <= e_mean, "%s, %d spp: error %.6g above the mean's %.6g", names[s], spp, e_out, e_mean);
         if (s == RIM)
-            CHECK(moved_all > 0 && e_out < e_mean, "straight rim: %zu moved, error %.6g, the mean's %.6g", moved_all,
-                  e_out, e_mean);
+            CHECK(moved_all > 0 && e_out < e_mean, "straight rim, %d spp: %zu moved, error %.6g, the mean's %.6g", spp,
+                  moved_all, e_out, e_mean);
     }
+    spp = 4;
 
     /* 2. noisy bright samples; 3. uneven bright samples; 4. one cell per pixel: nothing moves */
     for (int k = 0; k < 3; k++) {
@@ -190,13 +207,13 @@ int main(void)
             gk = (csi_grid){OW * F, OW * F, 1, OW * F, OW * F};
         }
         if (k < 2) {
-            CHECK_OK(csi_step_coverage(&gk, 3, pos, val, var, N, NULL, out, &moved));
+            CHECK_OK(csi_step_coverage(&gk, 3, pos, val, var, n_samples(), NULL, out, &moved));
             CHECK(moved == 0 && memcmp(out, mean, sizeof out) == 0, "%s: %zu pixels moved",
                   k == 0 ? "noisy bright samples" : "uneven bright side", moved);
         } else {
             static float big[3 * NP * F * F];
             memset(big, 0, sizeof big);
-            CHECK_OK(csi_step_coverage(&gk, 3, pos, val, var, N, NULL, big, &moved));
+            CHECK_OK(csi_step_coverage(&gk, 3, pos, val, var, n_samples(), NULL, big, &moved));
             CHECK(moved == 0, "one cell per pixel: %zu pixels moved", moved);
         }
     }

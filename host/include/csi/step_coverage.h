@@ -34,15 +34,22 @@
  *     dark: coverages c_lo and c_hi. Only the pixel's own samples bound it: a level line through a
  *     neighbour's sample, carried across the pixel by a boundary that does not curve as the rim
  *     does (a lamp's disc a few pixels wide), was measured to cut the pixel wrongly;
- *   - the pixel's own share k / n, clamped to [c_lo, c_hi]: where the mean's share is one the
- *     boundary allows, the pixel keeps its value (a straight rim split exactly by stratified
- *     samples keeps the mean); where it is not, it moves to the nearest coverage that is, and the
- *     pixel's value moves by the coverage's change times the difference of its own bright and dark
- *     samples' means. A pixel whose own samples are all of one class is left alone (no band, and
- *     a level of the other class would be a neighbour's: another region's colour, measured).
+ *   - the coverage: the share of the pixel's cells on the bright side of the boundary (f > 0),
+ *     when the pixel holds at least CSI_STEP_FIT_MIN samples of its own, they do not lie one per
+ *     box of a split of its cells (stratified positions: their own share of a straight rim is
+ *     already close, where the boundary, somewhere in the gap between the classes, guesses a row
+ *     of cells), and a boundary of the same shape fitted to the neighbours' samples alone classes
+ *     every one of the pixel's own right (the shape carries across the pixel: not a rectangle's
+ *     corner); else the pixel's own share k / n;
+ *   - that coverage clamped to [c_lo, c_hi]: where the result is the mean's share, the pixel keeps
+ *     its value (a straight rim split exactly by stratified samples keeps the mean); where it is
+ *     not, the pixel's value moves by the change from its share times the difference of its own
+ *     bright and dark samples' means. A pixel whose own samples are all of one class is left alone
+ *     (no band, and a level of the other class would be a neighbour's: another region's colour,
+ *     measured).
  * Clamping moves an estimate towards an interval; when the interval holds the truth, the estimate
  * gets no farther from it. The gates keep the rule to windows where the boundary is well
- * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, session 38).
+ * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, sessions 38 and 39).
  *
  * Nothing here makes a value negative: a moved value is clamped at 0. */
 #ifndef CSI_STEP_COVERAGE_H
@@ -65,6 +72,10 @@
 #define CSI_STEP_SPREAD 8.0
 /* A bright sample's standard deviation over its value, at most. */
 #define CSI_STEP_NOISE 0.25
+/* The pixel's own samples from which the window's boundary may place its rim (below 8, a wrong
+ * boundary rarely misclasses one of them, so the check that it holds across the pixel says
+ * little: measured, docs/bench/mitsuba.md, session 39). */
+#define CSI_STEP_FIT_MIN 8
 
 /* The rule above on a planar image (channel c's pixel p at c * out_w * out_h + p), in place:
  * csi_step_coverage_delta with the samples' own mean, then csi_step_coverage_apply. values and
