@@ -1,8 +1,9 @@
 /* An HDR step's pixels given the coverage their window's samples allow (csi/step_coverage.h), in
  * a whole reconstruction (csi_recon with the samples' variances): lamps of 200 on a floor of 0.05
  * (discs 1.5 to 6 pixels in radius and a bar), 64 x 64 pixels on the analytic scenes' 4x grid
- * (tests/support/analytic.h: the truth is each pixel's box average by 32 x 32 points), 4 samples
- * per pixel, noise-free with variance 0 (an emitter seen directly: every path reads the same),
+ * (tests/support/analytic.h: the truth is each pixel's box average by 32 x 32 points), 4 and 8
+ * samples per pixel (at 8, Poisson-disk pixels of 8 samples or more whose boundary holds take
+ * its coverage), noise-free with variance 0 (an emitter seen directly: every path reads the same),
  * stratified and Poisson-disk positions, seeds 1-3; against the same run with
  * --step-coverage off:
  *   1. the result counts as moved exactly the pixels whose values differ, and some move;
@@ -41,13 +42,14 @@ int main(void)
     analytic_scene_make(lamps, &s);
     const csi_grid g = {GRID, GRID, 1, OUT, OUT};
     const csi_pos_method methods[2] = {CSI_POS_STRATIFIED, CSI_POS_POISSON};
+    for (uint32_t spp = 4; spp <= 8; spp *= 2) {
     double e_on = 0, e_off = 0;
     size_t moved_all = 0;
     for (int mi = 0; mi < 2; mi++)
         for (uint64_t seed = 1; seed <= 3; seed++) {
             csi_sample_pos *pos;
             size_t n;
-            float *v = analytic_draw(&s, methods[mi], 4, seed, seed, 0, &pos, &n);
+            float *v = analytic_draw(&s, methods[mi], spp, seed, seed, 0, &pos, &n);
             REQUIRE_OK(v ? CSI_OK : CSI_ERR_NOMEM);
             float *var = calloc(n, sizeof *var);
             csi_recon_result res[3];
@@ -107,9 +109,10 @@ int main(void)
             csi_recon_result_free(&plain);
             free(pos), free(v), free(var);
         }
-    printf("lamps, 4 spp, 6 runs: squared error with the step %.5g, without %.5g; %zu pixels moved\n", e_on, e_off,
-           moved_all);
-    CHECK(moved_all > 0, "no pixel moved");
-    CHECK(e_on < e_off, "squared error with the step %.6g, without %.6g", e_on, e_off);
+    printf("lamps, %u spp, 6 runs: squared error with the step %.5g, without %.5g; %zu pixels moved\n", spp, e_on,
+           e_off, moved_all);
+    CHECK(moved_all > 0, "%u spp: no pixel moved", spp);
+    CHECK(e_on < e_off, "%u spp: squared error with the step %.6g, without %.6g", spp, e_on, e_off);
+    }
     return test_done();
 }
