@@ -82,10 +82,10 @@ static csi_status tile_problem_make(const csi_tiling *tl, uint32_t index, uint32
         return csi_fail(CSI_ERR_ARG, "tile %u of a layout of %u tiles", index, tl->count);
     csi_tiling_tile(tl, index, &p->tile);
     const csi_grid *G = &tl->grid;
-    const uint32_t bw = G->w / G->out_w, bh = G->h / G->out_h;
+    const uint32_t cells_per[3] = {G->w / G->out_w, G->h / G->out_h, 1}; /* a window unit in cells */
     for (int a = 0; a < 3; a++) {
-        p->lo[a] = p->tile.win0[a] * (a == 0 ? bw : a == 1 ? bh : 1);
-        p->hi[a] = p->lo[a] + tl->window[a] * (a == 0 ? bw : a == 1 ? bh : 1);
+        p->lo[a] = p->tile.win0[a] * cells_per[a];
+        p->hi[a] = p->lo[a] + tl->window[a] * cells_per[a];
     }
     p->g = (csi_grid){.w = p->hi[0] - p->lo[0], .h = p->hi[1] - p->lo[1], .t = p->hi[2] - p->lo[2],
                       .out_w = tl->window[0], .out_h = tl->window[1]};
