@@ -14,6 +14,11 @@ void cli_quiet_kernel_builds(void)
     setenv("POCL_EXTRA_BUILD_FLAGS", "-w", 0);
 }
 
+csi_pos_method cli_default_positions(uint32_t t, uint64_t spp)
+{
+    return t > 1 && spp >= 2 ? CSI_POS_STRATIFIED : CSI_POS_POISSON;
+}
+
 int cli_exit_code(csi_status st)
 {
     switch (st) {

@@ -18,6 +18,14 @@ enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
  * asks PoCL to build every program with -w (POCL_EXTRA_BUILD_FLAGS, unless the user set it).
  * Called first in main, before any thread or device. */
 void cli_quiet_kernel_builds(void);
+/* The compressive method's positions for spp samples per pixel on t frames, the rule csi-render
+ * and csi-positions share: Poisson-disk, except on a volume (t > 1) from 2 spp, where each pixel's
+ * samples are stratified over its shutter. At 1 spp a pixel's one sample has nothing to be
+ * stratified against, and the disk's spread over x, y and t serves the fit better; from 2 spp a
+ * pixel's samples see its whole shutter evenly: a still pixel's agree (the reconstruction's still
+ * pixels), a moving one's mean is stratified Monte Carlo's, and the fit's image was measured
+ * better than on the disk's positions (docs/bench/animation.md, session 40). */
+csi_pos_method cli_default_positions(uint32_t t, uint64_t spp);
 /* Prints "prog: error: message" on one line and returns the exit code for st. */
 int cli_error(const char *prog, csi_status st, const char *fmt, ...)
 #if defined(__GNUC__)

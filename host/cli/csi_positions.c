@@ -33,7 +33,8 @@ static void usage(FILE *f)
 "                          of two >= 4 with F^2 > 4 spp, at most 16: F = 4 up to 3 spp, 8 for\n"
 "                          4-15, 16 from 16 (docs/bench/grid.md)\n"
 "      --time-steps T      frames across the shutter (T >= 1), default 1 (static image)\n"
-"      --method M          poisson (default: the compressive method's), stratified or random\n"
+"      --method M          poisson, stratified or random [default: the compressive method's, as\n"
+"                          csi-render's cs: poisson, or stratified with --time-steps > 1 from 2 spp]\n"
 "      --seed S            seed of the positions, stored in the request, default 1\n"
 "  -q, --quiet             no progress and no summary line on stderr\n"
 "  -h, --help              this text\n"
@@ -65,6 +66,7 @@ int main(int argc, char **argv)
     double fraction = 0;
     bool quiet = false;
     csi_pos_method method = CSI_POS_POISSON;
+    bool method_given = false;
     int c;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "o:qh", longopts, NULL)) != -1) {
@@ -95,6 +97,7 @@ int main(int argc, char **argv)
             csi_status s = csi_pos_method_parse(optarg, &method);
             if (s != CSI_OK)
                 return cli_error(prog, s, "--method: %s", cli_last_error());
+            method_given = true;
             break;
         }
         case O_SEED:
@@ -133,6 +136,8 @@ int main(int argc, char **argv)
     csi_status s = csi_dump_check_grid(&grid, 1, 0);
     if (s != CSI_OK)
         return cli_error(prog, s, "%s", cli_last_error());
+    if (!method_given && fraction == 0) /* csi-render's positions for the same spp and T */
+        method = cli_default_positions((uint32_t)tsteps, spp);
     csi_pos_opts popts = {.method = method, .spp = (uint32_t)spp, .fraction = fraction, .seed = seed};
     csi_sample_pos *pos = NULL;
     size_t n = 0;

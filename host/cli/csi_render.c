@@ -35,8 +35,11 @@ static void usage(FILE *f)
 "      --stats FILE.json     plan, ray counts, timings, iterations and residuals\n"
 "sampling:\n"
 "      --spp N               samples per pixel (over the whole shutter when moving), default 4\n"
-"      --method M            cs (compressive, Poisson-disk positions; default), stratified or\n"
-"                            random (Monte Carlo: per-pixel sample mean)\n"
+"      --method M            cs (compressive; default), stratified or random (Monte Carlo:\n"
+"                            per-pixel sample mean)\n"
+"      --positions P         cs's positions: auto, poisson, stratified or random [default: auto =\n"
+"                            Poisson-disk, except on a moving scene from 2 spp: stratified over\n"
+"                            each pixel's shutter]\n"
 "      --grid K              fine-grid width in cells (a multiple of the image width); default\n"
 "                            1x the image width when moving; when static Fx, F the smallest\n"
 "                            power of two >= 4 with F^2 > 4 spp (more than 4 cells per sample),\n"
@@ -170,12 +173,13 @@ static csi_status write_stats(csi_outset *set, const char *path, const csi_devic
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED,
-           O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS };
+           O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS, O_POSITIONS };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
         {"device", required_argument, 0, O_DEVICE},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
+        {"positions", required_argument, 0, O_POSITIONS},
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
         {"threads", required_argument, 0, O_THREADS}, {"plan", no_argument, 0, O_PLAN},
@@ -191,7 +195,7 @@ int main(int argc, char **argv)
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
     bool quiet = false, plan_only = false, cache_programs = false;
-    const char *device = NULL, *dump_path = NULL, *method = "cs";
+    const char *device = NULL, *dump_path = NULL, *method = "cs", *positions = "auto";
     uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
     int c, rc = 0;
     opterr = 0;
@@ -218,6 +222,14 @@ int main(int argc, char **argv)
                 rc = cli_error(prog, CSI_ERR_ARG, "--method: '%s' (expected cs, stratified or random)", optarg);
             method = optarg;
             break;
+        case O_POSITIONS: {
+            csi_pos_method m;
+            if (strcmp(optarg, "auto") && csi_pos_method_parse(optarg, &m) != CSI_OK)
+                rc = cli_error(prog, CSI_ERR_ARG, "--positions: '%s' (expected auto, poisson, stratified or random)",
+                               optarg);
+            positions = optarg;
+            break;
+        }
         case O_GRID:
             if (!cli_parse_u64(optarg, 1, CSI_GRID_MAX_SIDE, &grid_k))
                 rc = cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to %u", optarg,
@@ -348,7 +360,9 @@ int main(int argc, char **argv)
     popts.seed = seed;
     popts.method = reference || !strcmp(method, "stratified") ? CSI_POS_STRATIFIED
                    : !strcmp(method, "random")              ? CSI_POS_RANDOM
-                                                            : CSI_POS_POISSON;
+                                                            : cli_default_positions(plan.frames, spp);
+    if (!reference && !strcmp(method, "cs") && strcmp(positions, "auto"))
+        csi_pos_method_parse(positions, &popts.method); /* checked above */
     if (!est_given)
         csi_options_set(opt, "estimator", reference || strcmp(method, "cs") ? "mean" : "cs");
     const bool mean = option_is(opt, "estimator", "mean");

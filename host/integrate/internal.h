@@ -471,16 +471,19 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
  * then kept within its 8 neighbours' range. fine_at: the volume at the n samples. */
 csi_status csi_recon_motion_correct(const csi_grid *g, const float *values, uint32_t channels,
                                     uint32_t c, const csi_sample_pos *pos, const float *fine_at,
-                                    size_t n, const float *range, float *plane);
+                                    size_t n, const float *range, bool exact, float *plane);
 /* Its per-pixel part, from what each pixel's samples say (a whole-shutter image blended from
  * time windows has them from the windows' sums, csi/tiles.h): n samples, d their mean residual,
  * ss the sum of their squared deviations from d; v and e are scratch. g: the whole image's grid
- * (its cells per pixel over all t); range: each pixel's bound (csi_recon_value_ranges). */
+ * (its cells per pixel over all t); range: each pixel's bound (csi_recon_value_ranges); exact:
+ * the samples are noise-free (CSI_SAMPLES_EXACT), and a pixel of two or more takes its whole
+ * correction (motion_correct.c). */
 typedef struct {
     double d, ss, v, e;
     uint32_t n;
 } csi_px_resid;
-void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *range, float *plane);
+void csi_recon_motion_correct_pixels(const csi_grid *g, csi_px_resid *st, const float *range, bool exact,
+                                     float *plane);
 /* The range that bounds the volume and the image (sample_range.c): lohi[2 p], lohi[2 p + 1] for each
  * pixel p of a w x h frame (the output's, or one that moves with the basis), from channel c's
  * samples (sample i in pixel pix[i]; none where pix[i] >= w h) in the pixel and its 8
@@ -502,6 +505,20 @@ csi_status csi_recon_motion_ends(const csi_grid *g, uint32_t channels, const csi
  * renderer's noisy ones; 0 when no pixel holds two. */
 csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
                                        uint32_t channels, size_t n, double *share);
+/* Above this share (csi_recon_still_exact_share) a volume's samples are a noise-free picture that
+ * mostly holds still: a still camera's exact samples. */
+#define CSI_STILL_PICTURE_SHARE 0.5
+/* In such a volume, a pixel takes its samples' value in the image (planar, channels planes;
+ * still_samples.c) where every pixel of its 3 x 3 window holds two samples or more, all equal,
+ * bit for bit in every channel. Exact samples that agree at several times are a pixel nothing
+ * moved through while they were taken; its neighbours' agreeing too rules out a mover's path
+ * that the pixel's few samples happened to miss (a large disc's, whose neighbours' samples hit
+ * it). Such a pixel is still, its mean over t each sample, which a fit of the volume at best
+ * matches. Where the camera moves a uniform region's samples agree as well while an edge sweeps
+ * over it between them: hence the share's gate. The frames stay the fit's (the windows of a
+ * volume split in t correct only the image, and not by this rule: tile_blend.c). */
+csi_status csi_recon_still_pixels(const csi_grid *g, const float *values, uint32_t channels,
+                                  const csi_sample_pos *pos, size_t n, float *image);
 /* Its two halves, for sums made elsewhere (a time window's, csi/tiles.h): what one pixel's samples
  * of a channel say (their count, mean, sum of squared deviations from it, range), gathered from
  * the samples into px (w x h) with all = the range of every sample; and the ranges from them. */

@@ -205,7 +205,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         s = csi_half_fourier_filter_reserve(st->A);
         if (s == CSI_OK && still)
             s = csi_recon_still_exact_share(g, pos, values, channels, n, &share);
-        still_weight = share > 0.5 ? 0.5 : 1;
+        still_weight = share > CSI_STILL_PICTURE_SHARE ? 0.5 : 1;
     }
     res->options.motion_still_weight = still_weight;
     const bool still_weighted = still_weight != 1;
@@ -390,7 +390,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             memcpy(st->fit->at + (size_t)c * n, fine_at, n * sizeof *fine_at);
             st->fit->kept = true;
         } else if (s == CSI_OK && own) {
-            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, range, res->image + (size_t)c * np);
+            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, range,
+                                         (opt->sample_flags & CSI_SAMPLES_EXACT) != 0, res->image + (size_t)c * np);
         }
         if (s == CSI_OK && blend)
             csi_recon_exact_full(&shutter, values, channels, c, pos, n, res->image + (size_t)c * np);
@@ -402,6 +403,15 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         res->t_channel_integrate[c] = csi_recon_now() - t1;
         t_int += res->t_channel_integrate[c];
     }
+    /* The pixels a still picture's exact samples show still (still_samples.c), last: their
+     * samples' value, which is their mean over t. Not in a time window whose image the whole
+     * shutter's correction redoes (csi_tiles_end), which goes without the rule. */
+    const bool still_rule = blend && !(own && st->fit);
+    double still_share = 0;
+    if (s == CSI_OK && still_rule)
+        s = csi_recon_still_exact_share(&shutter, pos, values, channels, n, &still_share);
+    if (s == CSI_OK && still_rule && still_share > CSI_STILL_PICTURE_SHARE)
+        s = csi_recon_still_pixels(&shutter, values, channels, pos, n, res->image);
     csi_nc_free(&rnc);
     csi_motion_reweight_free(rw);
     csi_linop_free(G);

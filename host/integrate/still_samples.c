@@ -13,33 +13,74 @@
 
 #include "internal.h"
 
-csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
-                                       uint32_t channels, size_t n, double *share)
+/* Each pixel's sample count, first sample and whether every later one equals it, bit for bit in
+ * every channel (one pass in sample order). */
+typedef struct {
+    size_t *first;
+    uint32_t *count;
+    unsigned char *differ;
+} agreement;
+
+static void agreement_free(agreement *a)
+{
+    free(a->first), free(a->count), free(a->differ);
+}
+
+static csi_status agreement_make(const csi_grid *g, const csi_sample_pos *pos, const float *values,
+                                 uint32_t channels, size_t n, agreement *a)
 {
     const size_t ow = g->out_w, np = ow * g->out_h;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    /* each pixel's first sample, and whether every later one equals it */
-    size_t *first = malloc(np * sizeof *first);
-    uint32_t *count = calloc(np, sizeof *count);
-    unsigned char *differ = calloc(np, 1);
-    if (!first || !count || !differ) {
-        free(first), free(count), free(differ);
+    a->first = malloc(np * sizeof *a->first);
+    a->count = calloc(np, sizeof *a->count);
+    a->differ = calloc(np, 1);
+    if (!a->first || !a->count || !a->differ) {
+        agreement_free(a);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the samples' agreement over t (%zu pixels)", np);
     }
     for (size_t i = 0; i < n; i++) {
         const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
-        if (count[p]++ == 0)
-            first[p] = i;
-        else if (!differ[p])
-            differ[p] = memcmp(values + i * channels, values + first[p] * channels, channels * sizeof *values) != 0;
+        if (a->count[p]++ == 0)
+            a->first[p] = i;
+        else if (!a->differ[p])
+            a->differ[p] = memcmp(values + i * channels, values + a->first[p] * channels, channels * sizeof *values) != 0;
     }
+    return CSI_OK;
+}
+
+csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
+                                       uint32_t channels, size_t n, double *share)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    agreement a;
+    CSI_TRY(agreement_make(g, pos, values, channels, n, &a));
     size_t multi = 0, equal = 0;
     for (size_t p = 0; p < np; p++)
-        if (count[p] >= 2) {
+        if (a.count[p] >= 2) {
             multi++;
-            equal += !differ[p];
+            equal += !a.differ[p];
         }
     *share = multi ? (double)equal / (double)multi : 0;
-    free(first), free(count), free(differ);
+    agreement_free(&a);
+    return CSI_OK;
+}
+
+csi_status csi_recon_still_pixels(const csi_grid *g, const float *values, uint32_t channels,
+                                  const csi_sample_pos *pos, size_t n, float *image)
+{
+    const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
+    agreement a;
+    CSI_TRY(agreement_make(g, pos, values, channels, n, &a));
+    for (size_t p = 0; p < np; p++) {
+        /* every pixel of its 3 x 3 window holds two samples or more, all agreeing */
+        size_t nb[9];
+        const int k = csi_recon_window3_at(p % ow, p / ow, ow, oh, nb);
+        bool calm = true;
+        for (int j = 0; j < k && calm; j++)
+            calm = a.count[nb[j]] >= 2 && !a.differ[nb[j]];
+        for (uint32_t c = 0; calm && c < channels; c++)
+            image[(size_t)c * np + p] = values[a.first[p] * channels + c];
+    }
+    agreement_free(&a);
     return CSI_OK;
 }

@@ -123,7 +123,9 @@ static csi_status resid_correct(csi_blend *b, uint32_t c)
     if (s == CSI_OK)
         s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, lohi);
     if (s == CSI_OK)
-        csi_recon_motion_correct_pixels(g, st, lohi, b->out->image + (size_t)c * np);
+        /* not exact (the shrinkage kept): a tile's partial does not carry its samples' flags, and
+         * the windows' image must not depend on whether they ran in one process */
+        csi_recon_motion_correct_pixels(g, st, lohi, false, b->out->image + (size_t)c * np);
     free(st);
     free(px);
     free(lohi);

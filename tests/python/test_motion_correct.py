@@ -15,7 +15,10 @@ without a multiplicative Gaussian noise of 10%.
    (g at the samples, b their mean over t) and the samples. Tolerance: b is summed in float32 on
    the device and in float64 here (16 terms of about 0.5: a few 1e-7), and the rule is
    continuous in b; 2e-5 absolute is 50x that and far below the corrections (1e-3 to 1e-1).
-   Pixels whose every frame is sampled take the exact mean of their samples.
+   Pixels whose every frame is sampled take the exact mean of their samples. Without noise most
+   pixels' samples agree (the still texture), and a pixel whose 3 x 3 pixels' samples all agree
+   takes their value (the still pixels of host/integrate/still_samples.c); the check below counts
+   that those are many.
 2. The correction does something: at least 10% of the pixels move by more than 1e-4.
 3. Against the truth (the volume's mean over t), summed over 3 seeds: the image's MSE is below
    the per-pixel mean of the samples (m), which sees each mover at the sampled frames only, and
@@ -110,7 +113,15 @@ def rule(b, g, pos, y):
     L, U = box3_range(lo.reshape(H, W), hi.reshape(H, W))
     out = np.where(has, np.clip(b + k * d, L, U), b)
     m = np.bincount(pix, weights=y.astype(np.float64), minlength=H * W).reshape(H, W) / np.maximum(cnt, 1)
-    return np.where(cnt == T, m, out), np.where(has, m, b)
+    out = np.where(cnt == T, m, out)
+    # the still pixels (host/integrate/still_samples.c): where most pixels of two samples or more
+    # hold equal ones, a pixel whose 3 x 3 pixels all do takes its samples' value
+    agree = (cnt >= 2) & (lo.reshape(H, W) == hi.reshape(H, W))
+    if agree.sum() > 0.5 * (cnt >= 2).sum():
+        calm = np.pad(agree, 1, constant_values=True)
+        calm = np.all([calm[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+        out = np.where(calm, lo.reshape(H, W), out)
+    return out, np.where(has, m, b)
 
 
 f = truth_volume()
@@ -125,6 +136,11 @@ for noise in (0.0, 0.1):
         want, m = rule(b, g, pos, vals[:, 0])
         diff = np.abs(img - want).max()
         check(diff <= TOL, f"noise {noise} seed {seed}: the image differs from the rule by {diff:.3g} (> {TOL})")
+        if noise == 0:
+            lo = np.full(H * W, np.inf)
+            np.minimum.at(lo, pos[:, 1].astype(int) * W + pos[:, 0].astype(int), vals[:, 0].astype(np.float64))
+            still = float(np.mean(img == lo.reshape(H, W).astype(np.float32)))
+            check(still >= 0.2, f"noise 0 seed {seed}: only {100 * still:.1f}% of the pixels are their samples' value")
         moved = float(np.mean(np.abs(img - b) > 1e-4))
         check(moved >= 0.1, f"noise {noise} seed {seed}: only {100 * moved:.1f}% of the pixels corrected")
         for name, a in (("image", img), ("fit", b), ("mean", m)):

@@ -77,7 +77,7 @@ RESULT_FIELDS = ["scene", "kind", "width", "height", "grid_w", "grid_h", "grid_t
 def parse_args(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="bench-accuracy", help="output directory (CSVs, plots, run.json)")
-    ap.add_argument("--scenes", default=",".join(ALL_SCENES), help="comma list of bundled scenes")
+    ap.add_argument("--scenes", default=",".join(ALL_SCENES), help="comma list of bundled scenes (names) and .scene files (paths)")
     ap.add_argument("--spp", default=None, help="comma list of samples per pixel [1,2,4,9,16; --quick: 1,4,16]")
     ap.add_argument("--methods", default="all",
                     help="comma list of methods (see above; 'cs' = every cs variant); default all")
@@ -131,7 +131,15 @@ def parse_args(argv):
         if not name.startswith("cs3d-") or name in CS3D_ON_REQUEST or name in MOTION_METHODS or not args:
             ap.error(f"--cs3d-variant {v!r}: need a new cs3d-NAME=ARGS")
         CS3D_ON_REQUEST[name] = ["--solver", "sparsa"] + args.split()
-    a.scenes = [s for s in a.scenes.split(",") if s]
+    # a scene is a bundled scene's name or a .scene file's path, reported by its file's stem
+    a.scene_files = {}
+    for s in a.scenes.split(","):
+        if s.endswith(".scene"):
+            if not os.path.isfile(s):
+                ap.error(f"--scenes: {s}: no such scene file")
+            a.scene_files[os.path.splitext(os.path.basename(s))[0]] = os.path.abspath(s)
+    a.scenes = [os.path.splitext(os.path.basename(s))[0] if s.endswith(".scene") else s
+                for s in a.scenes.split(",") if s]
     a.spp = sorted({int(s) for s in (a.spp or "1,2,4,9,16").split(",") if s})
     a.iters = [int(x) for x in a.iters.split(",") if x]
     a.tols = [float(x) for x in a.tols.split(",") if x]
@@ -381,7 +389,7 @@ class Bench:
     # ---- the scene loops --------------------------------------------------------------------
     def static_scene(self, name):
         a = self.a
-        scene, shash = bc.scene_variant(name, a.size, self.work)
+        scene, shash = bc.scene_variant(a.scene_files.get(name, name), a.size, self.work)
         plan = bc.plan(self.bins, scene, self.env)
         W, H = plan["width"], plan["height"]
         ref, _, _ = self.reference(name, scene, shash, plan)
@@ -432,7 +440,7 @@ class Bench:
 
     def motion_scene(self, name):
         a = self.a
-        scene, shash = bc.scene_variant(name, a.motion_size, self.work)
+        scene, shash = bc.scene_variant(a.scene_files.get(name, name), a.motion_size, self.work)
         plan = bc.plan(self.bins, scene, self.env)
         if a.time_steps:
             plan["frames"] = a.time_steps
@@ -516,7 +524,7 @@ class Bench:
         """Solver effort (iteration cap, tolerance) and problem size k for the cs variants (db4), one
         seed, spp = --effort-spp."""
         a = self.a
-        scene, _ = bc.scene_variant(name, a.size, self.work)
+        scene, _ = bc.scene_variant(a.scene_files.get(name, name), a.size, self.work)
         plan = bc.plan(self.bins, scene, self.env)
         if plan["frames"] > 1:
             return
@@ -714,7 +722,7 @@ class Bench:
         self.edges, self.refimg = {}, {}
         static = []
         for name in a.scenes:
-            scene, _ = bc.scene_variant(name, a.size, self.work)
+            scene, _ = bc.scene_variant(a.scene_files.get(name, name), a.size, self.work)
             motion = bc.plan(self.bins, scene, self.env)["frames"] > 1
             bc.log(f"scene {name} ({'motion' if motion else 'static'})")
             if motion:
