@@ -500,8 +500,8 @@ csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const 
 csi_status csi_recon_motion_ends(const csi_grid *g, uint32_t channels, const csi_sample_pos *pos,
                                  const float *values, size_t n, double *ratio);
 #define CSI_MOTION_ENDS_DCT 1.0
-/* The share of the output pixels holding two samples or more whose samples are all equal, bit
- * for bit in every channel (still_samples.c): near 1 for exact samples of a still picture, 0 for a
+/* The share of the output pixels holding two samples or more whose samples are all equal in
+ * every channel (still_samples.c): near 1 for exact samples of a still picture, 0 for a
  * renderer's noisy ones; 0 when no pixel holds two. */
 csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
                                        uint32_t channels, size_t n, double *share);
@@ -509,14 +509,15 @@ csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *
  * mostly holds still: a still camera's exact samples. */
 #define CSI_STILL_PICTURE_SHARE 0.5
 /* In such a volume, a pixel takes its samples' value in the image (planar, channels planes;
- * still_samples.c) where every pixel of its 3 x 3 window holds two samples or more, all equal,
- * bit for bit in every channel. Exact samples that agree at several times are a pixel nothing
+ * still_samples.c) where every pixel of its 3 x 3 window holds two samples or more, all equal
+ * in every channel. Exact samples that agree at several times are a pixel nothing
  * moved through while they were taken; its neighbours' agreeing too rules out a mover's path
  * that the pixel's few samples happened to miss (a large disc's, whose neighbours' samples hit
  * it). Such a pixel is still, its mean over t each sample, which a fit of the volume at best
  * matches. Where the camera moves a uniform region's samples agree as well while an edge sweeps
- * over it between them: hence the share's gate. The frames stay the fit's (the windows of a
- * volume split in t correct only the image, and not by this rule: tile_blend.c). */
+ * over it between them: hence the share's gate. The frames stay the fit's. A volume in time
+ * windows applies the rule once to the blended image, from the whole shutter's sums
+ * (tile_blend.c). */
 csi_status csi_recon_still_pixels(const csi_grid *g, const float *values, uint32_t channels,
                                   const csi_sample_pos *pos, size_t n, float *image);
 /* Its two halves, for sums made elsewhere (a time window's, csi/tiles.h): what one pixel's samples

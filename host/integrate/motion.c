@@ -404,8 +404,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         t_int += res->t_channel_integrate[c];
     }
     /* The pixels a still picture's exact samples show still (still_samples.c), last: their
-     * samples' value, which is their mean over t. Not in a time window whose image the whole
-     * shutter's correction redoes (csi_tiles_end), which goes without the rule. */
+     * samples' value, which is their mean over t. A time window whose image the whole shutter's
+     * correction redoes leaves them to the blend (csi_tiles_end). */
     const bool still_rule = blend && !(own && st->fit);
     double still_share = 0;
     if (s == CSI_OK && still_rule)

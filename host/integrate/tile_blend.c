@@ -132,6 +132,47 @@ static csi_status resid_correct(csi_blend *b, uint32_t c)
     return s;
 }
 
+/* The still pixels' rule (csi_recon_still_pixels) on the blended image of a volume in time
+ * windows, from the whole shutter's sums, so that it is the untiled image's: a pixel's samples
+ * agree where their range is one value in every channel, the share is of the pixels of two
+ * samples or more, and a pixel whose 3 x 3 pixels' samples all agree takes their value. (Each
+ * window sees a part of a pixel's samples; the sums see them all, in one process or merged from
+ * partials.) */
+static csi_status still_from_sums(csi_blend *b)
+{
+    csi_recon_result *out = b->out;
+    const uint32_t C = out->channels, ow = b->tl.grid.out_w, oh = b->tl.grid.out_h;
+    const size_t np = (size_t)ow * oh;
+    unsigned char *agree = malloc(np ? np : 1);
+    if (!agree)
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for the still pixels (%zu pixels)", np);
+    size_t multi = 0, equal = 0;
+    for (size_t q = 0; q < np; q++) {
+        agree[q] = 0;
+        if (llround(b->resid[q * CSI_RESID_SUMS]) < 2)
+            continue;
+        bool eq = true;
+        for (uint32_t c = 0; c < C && eq; c++) {
+            const double *a = b->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
+            eq = a[3] == a[4];
+        }
+        agree[q] = eq;
+        multi++;
+        equal += eq;
+    }
+    for (size_t q = 0; multi && (double)equal > CSI_STILL_PICTURE_SHARE * (double)multi && q < np; q++) {
+        size_t nb[9];
+        const int k = csi_recon_window3_at(q % ow, q / ow, ow, oh, nb);
+        bool calm = true;
+        for (int j = 0; j < k && calm; j++)
+            calm = agree[nb[j]];
+        for (uint32_t c = 0; calm && c < C; c++)
+            out->image[(size_t)c * np + q] = (float)b->resid[((size_t)c * np + q) * CSI_RESID_SUMS + 3];
+    }
+    free(agree);
+    return CSI_OK;
+}
+
 /* acc += w v in double, rounded once to float: the same bits for the same order of tiles. */
 static inline void blend1(float *acc, double w, float v)
 {
@@ -297,6 +338,8 @@ csi_status csi_tiles_end(csi_blend *b)
     csi_status s = CSI_OK;
     for (uint32_t c = 0; b->resid && b->resid_all && c < out->channels && s == CSI_OK; c++)
         s = resid_correct(b, c);
+    if (s == CSI_OK && b->resid && b->resid_all)
+        s = still_from_sums(b);
     if (s == CSI_OK && b->px_cnt)
         s = csi_settle_sums(&b->tl.grid, out->channels, b->px_cnt, b->px_sum, out->image, NULL, &out->settled);
     if (s == CSI_OK && b->step_count) { /* after the settling, as untiled (csi/step_coverage.h) */
