@@ -508,7 +508,7 @@ csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *
 /* Above this share (csi_recon_still_exact_share) a volume's samples are a noise-free picture that
  * mostly holds still: a still camera's exact samples. */
 #define CSI_STILL_PICTURE_SHARE 0.5
-/* In such a volume, a pixel takes its samples' value in the image (planar, channels planes;
+/* In such a volume (the share is its own), a pixel takes its samples' value in the image (planar, channels planes;
  * still_samples.c) where every pixel of its 3 x 3 window holds two samples or more, all equal
  * in every channel. Exact samples that agree at several times are a pixel nothing
  * moved through while they were taken; its neighbours' agreeing too rules out a mover's path

@@ -406,11 +406,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     /* The pixels a still picture's exact samples show still (still_samples.c), last: their
      * samples' value, which is their mean over t. A time window whose image the whole shutter's
      * correction redoes leaves them to the blend (csi_tiles_end). */
-    const bool still_rule = blend && !(own && st->fit);
-    double still_share = 0;
-    if (s == CSI_OK && still_rule)
-        s = csi_recon_still_exact_share(&shutter, pos, values, channels, n, &still_share);
-    if (s == CSI_OK && still_rule && still_share > CSI_STILL_PICTURE_SHARE)
+    if (s == CSI_OK && blend && !(own && st->fit))
         s = csi_recon_still_pixels(&shutter, values, channels, pos, n, res->image);
     csi_nc_free(&rnc);
     csi_motion_reweight_free(rw);

@@ -49,19 +49,24 @@ static csi_status agreement_make(const csi_grid *g, const csi_sample_pos *pos, c
     return CSI_OK;
 }
 
+/* The share of the np pixels of two samples or more whose samples agree; 0 without such a pixel. */
+static double share_of(const agreement *a, size_t np)
+{
+    size_t multi = 0, equal = 0;
+    for (size_t p = 0; p < np; p++)
+        if (a->count[p] >= 2) {
+            multi++;
+            equal += !a->differ[p];
+        }
+    return multi ? (double)equal / (double)multi : 0;
+}
+
 csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
                                        uint32_t channels, size_t n, double *share)
 {
-    const size_t np = (size_t)g->out_w * g->out_h;
     agreement a;
     CSI_TRY(agreement_make(g, pos, values, channels, n, &a));
-    size_t multi = 0, equal = 0;
-    for (size_t p = 0; p < np; p++)
-        if (a.count[p] >= 2) {
-            multi++;
-            equal += !a.differ[p];
-        }
-    *share = multi ? (double)equal / (double)multi : 0;
+    *share = share_of(&a, (size_t)g->out_w * g->out_h);
     agreement_free(&a);
     return CSI_OK;
 }
@@ -72,7 +77,8 @@ csi_status csi_recon_still_pixels(const csi_grid *g, const float *values, uint32
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     agreement a;
     CSI_TRY(agreement_make(g, pos, values, channels, n, &a));
-    for (size_t p = 0; p < np; p++) {
+    const bool still_picture = share_of(&a, np) > CSI_STILL_PICTURE_SHARE;
+    for (size_t p = 0; still_picture && p < np; p++) {
         /* every pixel of its 3 x 3 window holds two samples or more, all agreeing */
         size_t nb[9];
         const int k = csi_recon_window3_at(p % ow, p / ow, ow, oh, nb);
