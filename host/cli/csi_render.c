@@ -326,6 +326,11 @@ int main(int argc, char **argv)
 
     /* The grid: the image is W x H; the fine grid K x K*H/W, T frames from the plan. */
     const bool reference = ref_spp > 0;
+    if (strcmp(positions, "auto") && (reference || strcmp(method, "cs"))) {
+        rc = cli_error(prog, CSI_ERR_ARG, "--positions chooses the compressive method's positions; %s samples its own",
+                       reference ? "--reference" : !strcmp(method, "stratified") ? "--method stratified" : "--method random");
+        goto done;
+    }
     csi_grid grid = {.out_w = plan.width, .out_h = plan.height, .t = plan.frames};
     uint64_t factor;
     if (reference) {

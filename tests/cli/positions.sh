@@ -33,6 +33,17 @@ done
 "$P" --out 32x32 --spp 2 --seed 5 --time-steps 8 -o "$T/qm.csid" -q
 check "[[ '$(dump_hdr "$T/qm.csid")' == '32 32 8 32 32 0 2048' ]]" "moving header: $(dump_hdr "$T/qm.csid")"
 check "cmp -s <(dump_xyt '$T/qm.csid' 12) <(dump_xyt '$T/rm.csid' 24)" "moving: positions differ from csi-render's"
+# the default on a volume from 2 spp is stratified over each pixel's shutter; csi-render
+# --positions asks for another, as csi-positions --method does
+"$P" --out 32x32 --spp 2 --seed 5 --time-steps 8 --method stratified -o "$T/qms.csid" -q
+check "cmp -s '$T/qm.csid' '$T/qms.csid'" "moving at 2 spp: the default is not stratified"
+"$B/csi-render" "$moving" --spp 2 --seed 5 --positions poisson --dump "$T/rmp.csid" -o "$T/r.exr" --max-iter 5 -q
+"$P" --out 32x32 --spp 2 --seed 5 --time-steps 8 --method poisson -o "$T/qmp.csid" -q
+check "cmp -s <(dump_xyt '$T/qmp.csid' 12) <(dump_xyt '$T/rmp.csid' 24)" "--positions poisson: positions differ from csi-positions'"
+check "! cmp -s '$T/qmp.csid' '$T/qm.csid'" "--positions poisson gives the default's positions"
+expect_fail "csi-render: unknown positions" "--positions" "$B/csi-render" "$moving" --positions sobol -o "$T/out.exr"
+expect_fail "csi-render: positions with a Monte Carlo method" "--method stratified samples its own" \
+    "$B/csi-render" "$moving" --positions poisson --method stratified -o "$T/out.exr"
 "$P" --out 32x32 --spp 2 --seed 6 --time-steps 8 -o "$T/qm6.csid" -q
 check "! cmp -s '$T/qm.csid' '$T/qm6.csid'" "another seed gives the same positions"
 for m in stratified random; do
