@@ -508,6 +508,14 @@ csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *
 /* Above this share (csi_recon_still_exact_share) a volume's samples are a noise-free picture that
  * mostly holds still: a still camera's exact samples. */
 #define CSI_STILL_PICTURE_SHARE 0.5
+/* A pixel's samples over t (still_samples.c; tile_blend.c from a window's sums): none, one, two or
+ * more that differ in some channel, two or more all equal. */
+enum { CSI_STILL_NONE, CSI_STILL_ONE, CSI_STILL_DIFFER, CSI_STILL_AGREE };
+/* The share of the np pixels of two samples or more whose samples agree (0 without such a pixel),
+ * and whether every pixel of p's 3 x 3 window (ow x oh) holds agreeing samples: the still
+ * pixels' rule below, on per-pixel states however they were gathered. */
+double csi_recon_still_share(const unsigned char *state, size_t np);
+bool csi_recon_still_calm(const unsigned char *state, size_t p, size_t ow, size_t oh);
 /* In such a volume (the share is its own), a pixel takes its samples' value in the image (planar, channels planes;
  * still_samples.c) where every pixel of its 3 x 3 window holds two samples or more, all equal
  * in every channel. Exact samples that agree at several times are a pixel nothing

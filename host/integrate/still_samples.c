@@ -13,17 +13,15 @@
 
 #include "internal.h"
 
-/* Each pixel's sample count, first sample and whether every later one equals it in every channel
- * (one pass in sample order). */
+/* Each pixel's first sample and its state (internal.h: CSI_STILL_*), in one pass in sample order. */
 typedef struct {
     size_t *first;
-    uint32_t *count;
-    unsigned char *differ;
+    unsigned char *state;
 } agreement;
 
 static void agreement_free(agreement *a)
 {
-    free(a->first), free(a->count), free(a->differ);
+    free(a->first), free(a->state);
 }
 
 static csi_status agreement_make(const csi_grid *g, const csi_sample_pos *pos, const float *values,
@@ -32,33 +30,46 @@ static csi_status agreement_make(const csi_grid *g, const csi_sample_pos *pos, c
     const size_t ow = g->out_w, np = ow * g->out_h;
     const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
     a->first = malloc(np * sizeof *a->first);
-    a->count = calloc(np, sizeof *a->count);
-    a->differ = calloc(np, 1);
-    if (!a->first || !a->count || !a->differ) {
+    a->state = calloc(np, 1);
+    if (!a->first || !a->state) {
         agreement_free(a);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the samples' agreement over t (%zu pixels)", np);
     }
     for (size_t i = 0; i < n; i++) {
         const size_t p = csi_recon_pixel_of(pos[i], bw, bh, ow);
-        if (a->count[p]++ == 0)
-            a->first[p] = i;
-        else
-            for (uint32_t c = 0; c < channels && !a->differ[p]; c++) /* by value: a window's sums see no sign of 0 */
-                a->differ[p] = values[i * channels + c] != values[a->first[p] * channels + c];
+        unsigned char *st = &a->state[p];
+        if (*st == CSI_STILL_NONE) {
+            a->first[p] = i, *st = CSI_STILL_ONE;
+            continue;
+        }
+        if (*st == CSI_STILL_DIFFER)
+            continue;
+        *st = CSI_STILL_AGREE;
+        for (uint32_t c = 0; c < channels && *st == CSI_STILL_AGREE; c++) /* by value: a window's sums see no sign of 0 */
+            if (values[i * channels + c] != values[a->first[p] * channels + c])
+                *st = CSI_STILL_DIFFER;
     }
     return CSI_OK;
 }
 
-/* The share of the np pixels of two samples or more whose samples agree; 0 without such a pixel. */
-static double share_of(const agreement *a, size_t np)
+double csi_recon_still_share(const unsigned char *state, size_t np)
 {
     size_t multi = 0, equal = 0;
-    for (size_t p = 0; p < np; p++)
-        if (a->count[p] >= 2) {
-            multi++;
-            equal += !a->differ[p];
-        }
+    for (size_t p = 0; p < np; p++) {
+        multi += state[p] >= CSI_STILL_DIFFER;
+        equal += state[p] == CSI_STILL_AGREE;
+    }
     return multi ? (double)equal / (double)multi : 0;
+}
+
+bool csi_recon_still_calm(const unsigned char *state, size_t p, size_t ow, size_t oh)
+{
+    size_t nb[9];
+    const int k = csi_recon_window3_at(p % ow, p / ow, ow, oh, nb);
+    for (int j = 0; j < k; j++)
+        if (state[nb[j]] != CSI_STILL_AGREE)
+            return false;
+    return true;
 }
 
 csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
@@ -66,7 +77,7 @@ csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *
 {
     agreement a;
     CSI_TRY(agreement_make(g, pos, values, channels, n, &a));
-    *share = share_of(&a, (size_t)g->out_w * g->out_h);
+    *share = csi_recon_still_share(a.state, (size_t)g->out_w * g->out_h);
     agreement_free(&a);
     return CSI_OK;
 }
@@ -77,15 +88,11 @@ csi_status csi_recon_still_pixels(const csi_grid *g, const float *values, uint32
     const size_t ow = g->out_w, oh = g->out_h, np = ow * oh;
     agreement a;
     CSI_TRY(agreement_make(g, pos, values, channels, n, &a));
-    const bool still_picture = share_of(&a, np) > CSI_STILL_PICTURE_SHARE;
+    const bool still_picture = csi_recon_still_share(a.state, np) > CSI_STILL_PICTURE_SHARE;
     for (size_t p = 0; still_picture && p < np; p++) {
-        /* every pixel of its 3 x 3 window holds two samples or more, all agreeing */
-        size_t nb[9];
-        const int k = csi_recon_window3_at(p % ow, p / ow, ow, oh, nb);
-        bool calm = true;
-        for (int j = 0; j < k && calm; j++)
-            calm = a.count[nb[j]] >= 2 && !a.differ[nb[j]];
-        for (uint32_t c = 0; calm && c < channels; c++)
+        if (!csi_recon_still_calm(a.state, p, ow, oh))
+            continue;
+        for (uint32_t c = 0; c < channels; c++)
             image[(size_t)c * np + p] = values[a.first[p] * channels + c];
     }
     agreement_free(&a);

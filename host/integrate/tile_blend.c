@@ -143,33 +143,26 @@ static csi_status still_from_sums(csi_blend *b)
     csi_recon_result *out = b->out;
     const uint32_t C = out->channels, ow = b->tl.grid.out_w, oh = b->tl.grid.out_h;
     const size_t np = (size_t)ow * oh;
-    unsigned char *agree = malloc(np ? np : 1);
-    if (!agree)
+    unsigned char *state = malloc(np ? np : 1);
+    if (!state)
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for the still pixels (%zu pixels)", np);
-    size_t multi = 0, equal = 0;
     for (size_t q = 0; q < np; q++) {
-        agree[q] = 0;
-        if (llround(b->resid[q * CSI_RESID_SUMS]) < 2)
-            continue;
-        bool eq = true;
-        for (uint32_t c = 0; c < C && eq; c++) {
+        const long long cnt = llround(b->resid[q * CSI_RESID_SUMS]);
+        state[q] = cnt == 0 ? CSI_STILL_NONE : cnt == 1 ? CSI_STILL_ONE : CSI_STILL_AGREE;
+        for (uint32_t c = 0; c < C && state[q] == CSI_STILL_AGREE; c++) {
             const double *a = b->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
-            eq = a[3] == a[4];
+            if (a[3] != a[4])
+                state[q] = CSI_STILL_DIFFER;
         }
-        agree[q] = eq;
-        multi++;
-        equal += eq;
     }
-    for (size_t q = 0; multi && (double)equal > CSI_STILL_PICTURE_SHARE * (double)multi && q < np; q++) {
-        size_t nb[9];
-        const int k = csi_recon_window3_at(q % ow, q / ow, ow, oh, nb);
-        bool calm = true;
-        for (int j = 0; j < k && calm; j++)
-            calm = agree[nb[j]];
-        for (uint32_t c = 0; calm && c < C; c++)
+    const bool still_picture = csi_recon_still_share(state, np) > CSI_STILL_PICTURE_SHARE;
+    for (size_t q = 0; still_picture && q < np; q++) {
+        if (!csi_recon_still_calm(state, q, ow, oh))
+            continue;
+        for (uint32_t c = 0; c < C; c++)
             out->image[(size_t)c * np + q] = (float)b->resid[((size_t)c * np + q) * CSI_RESID_SUMS + 3];
     }
-    free(agree);
+    free(state);
     return CSI_OK;
 }
 
