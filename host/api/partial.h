@@ -16,7 +16,7 @@
 #include "csi/tiles.h"
 
 #define CSI_PARTIAL_MAGIC "CSIP"
-#define CSI_PARTIAL_VERSION 10u
+#define CSI_PARTIAL_VERSION 11u
 
 typedef struct csi_partial {
     char software[32];   /* "csi 0.1.0" */

@@ -332,6 +332,7 @@ static void put_header(wbuf *w, const csi_partial *p)
     put_u32(w, t->px_cnt != NULL);
     put_u32(w, t->frames_mean != NULL);
     put_u32(w, t->step_delta != NULL);
+    put_u32(w, t->exact);
 }
 
 csi_status csi_partial_store(const char *path, const csi_partial *p)
@@ -458,10 +459,11 @@ csi_status csi_partial_load(const char *path, bool with_data, csi_partial *out)
         for (uint32_t c = 0; c < res->channels && !r.bad; c++)
             get_report(&r, &res->report[c]);
         const uint32_t has_resid = get_u32(&r), has_sums = get_u32(&r), has_mean = get_u32(&r),
-                       has_delta = get_u32(&r);
+                       has_delta = get_u32(&r), exact = get_u32(&r);
         const uint64_t pixels = (uint64_t)res->out_w * res->out_h, plane = pixels * res->channels;
-        if (has_resid > 1 || has_sums > 1 || has_mean > 1 || has_delta > 1)
+        if (has_resid > 1 || has_sums > 1 || has_mean > 1 || has_delta > 1 || exact > 1)
             r.bad = true;
+        t->exact = exact == 1;
         if (!r.bad && (plane == 0 || plane * (1 + (uint64_t)res->nframes + has_mean + has_delta) * 4 +
                                              has_resid * plane * CSI_RESID_SUMS * 8 + has_sums * (pixels + plane) * 8 !=
                                          r.n - r.at))

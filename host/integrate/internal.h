@@ -539,6 +539,11 @@ typedef struct {
 void csi_recon_pixel_values(size_t w, size_t h, const size_t *pix, const float *values, uint32_t channels,
                             uint32_t c, size_t n, csi_px_values *px, float all[2]);
 csi_status csi_recon_value_ranges(size_t w, size_t h, const csi_px_values *px, const float all[2], float *lohi);
+/* Noisy samples: a volume's corrected image (plane, of channel c of grid g's output) moved towards
+ * each pixel's own sample mean by the estimated risks of the two, at pixels of two samples or more
+ * (motion_toward_mean.c). px: what each pixel's samples of that channel say. */
+csi_status csi_recon_motion_toward_mean(const csi_grid *g, const csi_px_values *px, const float *fit_var,
+                                        float *plane);
 
 /* The blurred image of time window `tile`'s x/y window over the whole shutter, binned in t to
  * the layout's window length (binned.c, csi_recon_options.tile_image_binned): one solve of the

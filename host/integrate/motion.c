@@ -115,6 +115,32 @@ double csi_recon_motion_filter_width(const csi_grid *g, size_t n, const csi_reco
     return fmax(paper * opt->sigma_scale, opt->sigma_spacing * sqrt(spacing2));
 }
 
+/* Noisy samples: the corrected image of channel c moved towards its pixels' own sample means
+ * (motion_toward_mean.c), from what each pixel's samples say (pix[i]: sample i's pixel) and the
+ * volume's variance over t of each pixel's box mean (into scratch). */
+static csi_status toward_mean(csi_ctx *ctx, const csi_grid *g, cl_mem vol, cl_mem scratch, const size_t *pix,
+                              const float *values, uint32_t channels, uint32_t c, size_t n, float *plane)
+{
+    const size_t np = (size_t)g->out_w * g->out_h;
+    csi_px_values *px = malloc((np ? np : 1) * sizeof *px);
+    float *fit_var = malloc((np ? np : 1) * sizeof *fit_var);
+    csi_status s = CSI_OK;
+    if (!px || !fit_var)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixels' means (%zu pixels)", np);
+    if (s == CSI_OK)
+        s = csi_box_time_var(ctx, vol, g->w, g->h, g->t, g->out_w, g->out_h, scratch);
+    if (s == CSI_OK)
+        s = csi_read(ctx, scratch, 0, np * sizeof *fit_var, fit_var);
+    if (s == CSI_OK) {
+        float all[2];
+        csi_recon_pixel_values(g->out_w, g->out_h, pix, values, channels, c, n, px, all);
+        s = csi_recon_motion_toward_mean(g, px, fit_var, plane);
+    }
+    free(px);
+    free(fit_var);
+    return s;
+}
+
 csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
                             const csi_sample_pos *pos, const float *values, size_t n,
                             const csi_recon_options *opt, csi_recon_result *res,
@@ -390,8 +416,11 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             memcpy(st->fit->at + (size_t)c * n, fine_at, n * sizeof *fine_at);
             st->fit->kept = true;
         } else if (s == CSI_OK && own) {
-            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, range,
-                                         (opt->sample_flags & CSI_SAMPLES_EXACT) != 0, res->image + (size_t)c * np);
+            const bool exact = (opt->sample_flags & CSI_SAMPLES_EXACT) != 0;
+            s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, range, exact,
+                                         res->image + (size_t)c * np);
+            if (s == CSI_OK && !exact)
+                s = toward_mean(ctx, &shutter, st->tmp, scratch, pix, values, channels, c, n, res->image + (size_t)c * np);
         }
         if (s == CSI_OK && blend)
             csi_recon_exact_full(&shutter, values, channels, c, pos, n, res->image + (size_t)c * np);

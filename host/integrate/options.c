@@ -93,7 +93,8 @@ static const row table[] = {
      "values: the dump's flag, csi-render without random effects), else blend; none for the "
      "gauss baseline; volumes: "
      "the fine estimate kept within the samples' range and, with a still basis, the image "
-     "corrected by each pixel's mean residual shrunk by its estimated risk"},
+     "corrected by each pixel's mean residual shrunk by its estimated risk, then, samples not "
+     "flagged exact, moved towards each pixel's sample mean by the estimated risks of the two"},
     {"cv-select", K_CHOICE, AT(cv_select), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "images: per region of 8 x 8 or 16 x 16 pixels, the image or each pixel's mean of its samples, "
      "whichever the two folds of the samples (each pixel's split in two) say is closer to the "

@@ -308,11 +308,12 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         transient_host(m, (uint64_t)n * 4 + (uint64_t)np * 92);
     } else if (opt->correct == CSI_CORRECT_AUTO) {
         /* motion_correct.c, with a still basis (the velocity is not known yet: counted always):
-         * the volume at the samples, on the device and the host, 48 bytes per pixel, and the
+         * the volume at the samples, on the device and the host, 48 bytes per pixel (then 60
+         * for motion_toward_mean.c's, the former freed), and the
          * range it projects onto (sample_range.c: 8 bytes per pixel, its sums, a pixel index per
          * sample) */
         csi_sampling_buffers(n, &m->dev);
-        transient_host(m, (uint64_t)n * 12 + (uint64_t)np * (56 + CSI_SAMPLE_RANGE_PIXEL_BYTES));
+        transient_host(m, (uint64_t)n * 12 + (uint64_t)np * (68 + CSI_SAMPLE_RANGE_PIXEL_BYTES));
     }
     return CSI_OK;
 }

@@ -15,7 +15,7 @@ void csi_tiles_resid_clear(double *r, size_t pixels)
 {
     for (size_t q = 0; q < pixels; q++) {
         double *a = r + q * CSI_RESID_SUMS;
-        a[0] = a[1] = a[2] = a[5] = a[6] = 0;
+        a[0] = a[1] = a[2] = a[5] = a[6] = a[7] = a[8] = a[9] = 0;
         a[3] = INFINITY;
         a[4] = -INFINITY;
     }
@@ -85,9 +85,15 @@ static void resid_add(csi_blend *b, const csi_tile_result *t)
         for (uint32_t y = 0; y < r->out_h; y++)
             for (uint32_t x = 0; x < r->out_w; x++) {
                 const double *a = t->resid + ((size_t)c * tnp + (size_t)y * r->out_w + x) * CSI_RESID_SUMS;
+                double *s = b->resid + ((size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x) * CSI_RESID_SUMS;
+                if (a[7] > 0) { /* the frames' sums */
+                    const double wf = s[7] + a[7], df = a[8] - s[8];
+                    s[9] += a[9] + df * df * (s[7] * a[7] / wf);
+                    s[8] += df * (a[7] / wf);
+                    s[7] = wf;
+                }
                 if (!(a[0] > 0))
                     continue;
-                double *s = b->resid + ((size_t)c * np + (size_t)(t->y0 + y) * W + t->x0 + x) * CSI_RESID_SUMS;
                 const double w = s[0] + a[0], delta = a[1] - s[1], dv = a[5] - s[5];
                 s[2] += a[2] + delta * delta * (s[0] * a[0] / w);
                 s[1] += delta * (a[0] / w);
@@ -108,8 +114,9 @@ static csi_status resid_correct(csi_blend *b, uint32_t c)
     csi_px_resid *st = calloc(np, sizeof *st);
     csi_px_values *px = malloc(np * sizeof *px);
     float *lohi = malloc(2 * np * sizeof *lohi), all[2] = {INFINITY, -INFINITY};
+    float *fit_var = malloc(np * sizeof *fit_var);
     csi_status s = CSI_OK;
-    if (!st || !px || !lohi)
+    if (!st || !px || !lohi || !fit_var)
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the per-pixel correction (%zu pixels)", np);
     for (size_t q = 0; s == CSI_OK && q < np; q++) {
         const double *a = b->resid + ((size_t)c * np + q) * CSI_RESID_SUMS;
@@ -117,18 +124,21 @@ static csi_status resid_correct(csi_blend *b, uint32_t c)
         st[q].d = a[1];
         st[q].ss = a[2];
         px[q] = (csi_px_values){.mean = a[5], .ss = a[6], .n = st[q].n, .lo = (float)a[3], .hi = (float)a[4]};
+        fit_var[q] = a[7] > 0 ? (float)(a[9] / a[7]) : 0.0f;
         all[0] = fminf(all[0], px[q].lo);
         all[1] = fmaxf(all[1], px[q].hi);
     }
     if (s == CSI_OK)
         s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, lohi);
+    /* as untiled: exact samples take the whole correction, the others move towards their means */
     if (s == CSI_OK)
-        /* not exact (the shrinkage kept): a tile's partial does not carry its samples' flags, and
-         * the windows' image must not depend on whether they ran in one process */
-        csi_recon_motion_correct_pixels(g, st, lohi, false, b->out->image + (size_t)c * np);
+        csi_recon_motion_correct_pixels(g, st, lohi, b->exact, b->out->image + (size_t)c * np);
+    if (s == CSI_OK && !b->exact)
+        s = csi_recon_motion_toward_mean(g, px, fit_var, b->out->image + (size_t)c * np);
     free(st);
     free(px);
     free(lohi);
+    free(fit_var);
     return s;
 }
 
@@ -188,6 +198,11 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
                         "layout's is %ux%u at (%u, %u, %u) with %u", t->index, r->out_w, r->out_h, t->x0,
                         t->y0, t->t0, r->channels, tl->window[0], tl->window[1], tile.win0[0], tile.win0[1],
                         tile.win0[2], out->channels);
+    if (t->index == 0)
+        b->exact = t->exact;
+    else if (t->exact != b->exact)
+        return csi_fail(CSI_ERR_ARG, "tile %u's samples are%s flagged exact, tile 0's are%s", t->index,
+                        t->exact ? "" : " not", b->exact ? "" : " not");
     if (out->nframes && r->nframes != tl->window[2])
         return csi_fail(CSI_ERR_ARG, "tile %u has %u frames, the layout's windows %u", t->index, r->nframes,
                         tl->window[2]);

@@ -432,17 +432,53 @@ csi_status csi_recon_tile(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             a[4] = ldexp(a[4], e[c]);
             a[5] = ldexp(a[5], e[c]);
             a[6] = ldexp(a[6], 2 * e[c]);
+            a[8] = ldexp(a[8], e[c]);
+            a[9] = ldexp(a[9], 2 * e[c]);
         }
+    out->exact = (opt->sample_flags & CSI_SAMPLES_EXACT) != 0;
     if (s == CSI_OK && local.frames && !asked->frames && out->r.frames)
         csi_recon_result_drop_frames(&out->r);
     return s;
 }
 
+/* The frames' sums of a time window's residual sums (csi/tiles.h: a[7..9]) of channel c, from
+ * its frames (r: the window's result): per pixel, two passes over the shutter's frames, the
+ * second about the weighted mean (no cancellation), deterministic. */
+static void frame_sums(const csi_tiling *tl, const csi_tile *tile, const csi_recon_result *r, uint32_t c,
+                       double *rc)
+{
+    const size_t np = (size_t)r->out_w * r->out_h;
+    uint32_t nt = 0; /* the window's frames within the shutter (the later ones are padding) */
+    while (nt < r->nframes && tile->win0[2] + nt < tl->image_t)
+        nt++;
+    for (size_t q = 0; q < np; q++) {
+        double *a = rc + q * CSI_RESID_SUMS;
+        const double wxy = csi_tile_weight(tl, tile, 0, tile->win0[0] + (uint32_t)(q % r->out_w)) *
+                           csi_tile_weight(tl, tile, 1, tile->win0[1] + (uint32_t)(q / r->out_w));
+        double w = 0, sum = 0, ss = 0;
+        for (uint32_t t = 0; t < nt; t++) {
+            const double wt = wxy * csi_tile_weight(tl, tile, 2, tile->win0[2] + t);
+            w += wt;
+            sum += wt * (double)r->frames[((size_t)t * r->channels + c) * np + q];
+        }
+        if (!(w > 0))
+            continue;
+        const double mean = sum / w;
+        for (uint32_t t = 0; t < nt; t++) {
+            const double d = (double)r->frames[((size_t)t * r->channels + c) * np + q] - mean;
+            ss += wxy * csi_tile_weight(tl, tile, 2, tile->win0[2] + t) * d * d;
+        }
+        a[7] = w;
+        a[8] = mean;
+        a[9] = ss;
+    }
+}
+
 /* A time window's residual sums (csi_tile_result.resid) from its samples and its volume at them
- * (fit_at, channel-major; NULL when the window has no sample): two passes in sample order, the
- * second about each pixel's weighted mean (no cancellation), deterministic. */
+ * (fit_at, channel-major; NULL when the window has no sample) and its frames (res): two passes in
+ * sample order, the second about each pixel's weighted mean (no cancellation), deterministic. */
 static csi_status resid_sums(const csi_tiling *tl, const csi_tile *tile, const tile_problem *p,
-                             uint32_t channels, const float *fit_at, double **out)
+                             uint32_t channels, const float *fit_at, const csi_recon_result *res, double **out)
 {
     const uint32_t ow = p->g.out_w, oh = p->g.out_h, bw = p->g.w / ow, bh = p->g.h / oh;
     const size_t np = (size_t)ow * oh, n = p->n;
@@ -489,6 +525,8 @@ static csi_status resid_sums(const csi_tiling *tl, const csi_tile *tile, const t
                 a[6] += w[i] * dv * dv;
             }
         }
+        if (res->frames && res->out_w == ow && res->out_h == oh)
+            frame_sums(tl, tile, res, c, rc);
     }
     free(w), free(px);
     *out = r;
@@ -589,7 +627,7 @@ static csi_status reconstruct_tile(csi_ctx *ctx, const csi_grid *g, uint32_t cha
                              split_t ? &fit : NULL, &out->r);
     }
     if (s == CSI_OK && split_t && (p.n == 0 || fit.kept))
-        s = resid_sums(tl, &p.tile, &p, channels, fit.kept ? fit.at : NULL, &out->resid);
+        s = resid_sums(tl, &p.tile, &p, channels, fit.kept ? fit.at : NULL, &out->r, &out->resid);
     if (s == CSI_OK && binned)
         s = binned_into(ctx, tl, &p.tile, channels, pos, values, n, opt, scope, &out->r);
     free(fit.at);

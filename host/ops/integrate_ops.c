@@ -16,15 +16,22 @@ static csi_status need_bytes(cl_mem m, size_t bytes, const char *what)
     return CSI_OK;
 }
 
+/* A w x h grid (times n: channels or frames) in blocks of out_w x out_h pixels. */
+static csi_status check_blocks(const char *what, uint32_t w, uint32_t h, uint32_t n, uint32_t out_w, uint32_t out_h)
+{
+    if (!w || !h || !n || !out_w || !out_h)
+        return csi_fail(CSI_ERR_ARG, "%s: zero size (%" PRIu32 "x%" PRIu32 "x%" PRIu32 " -> %" PRIu32 "x%" PRIu32 ")",
+                        what, w, h, n, out_w, out_h);
+    if (w % out_w || h % out_h)
+        return csi_fail(CSI_ERR_ARG, "%s: %" PRIu32 "x%" PRIu32 " is not a multiple of %" PRIu32 "x%" PRIu32, what, w,
+                        h, out_w, out_h);
+    return CSI_OK;
+}
+
 csi_status csi_box_integrate(csi_ctx *ctx, cl_mem fine, uint32_t w, uint32_t h, uint32_t channels,
                              uint32_t out_w, uint32_t out_h, cl_mem out)
 {
-    if (!w || !h || !channels || !out_w || !out_h)
-        return csi_fail(CSI_ERR_ARG, "csi_box_integrate: zero size (%" PRIu32 "x%" PRIu32 "x%" PRIu32 " -> %" PRIu32
-                        "x%" PRIu32 ")", w, h, channels, out_w, out_h);
-    if (w % out_w || h % out_h)
-        return csi_fail(CSI_ERR_ARG, "csi_box_integrate: %" PRIu32 "x%" PRIu32 " is not a multiple of %" PRIu32
-                        "x%" PRIu32, w, h, out_w, out_h);
+    CSI_TRY(check_blocks("csi_box_integrate", w, h, channels, out_w, out_h));
     CSI_TRY(need_bytes(fine, (size_t)w * h * channels * sizeof(float), "csi_box_integrate input"));
     CSI_TRY(need_bytes(out, (size_t)out_w * out_h * channels * sizeof(float), "csi_box_integrate output"));
     cl_kernel k;
@@ -48,6 +55,20 @@ csi_status csi_time_mean(csi_ctx *ctx, cl_mem vol, uint32_t w, uint32_t h, uint3
     CSI_TRY(CSI_ARGS(k, CSI_MEM(vol), CSI_MEM(out), CSI_ARG(w), CSI_ARG(h), CSI_ARG(nt), CSI_ARG(channels)));
     const size_t global[3] = {w, h, channels}, local[3] = {16, 4, 1};
     return csi_run(ctx, k, 3, global, local);
+}
+
+csi_status csi_box_time_var(csi_ctx *ctx, cl_mem vol, uint32_t w, uint32_t h, uint32_t nt, uint32_t out_w,
+                            uint32_t out_h, cl_mem out)
+{
+    CSI_TRY(check_blocks("csi_box_time_var", w, h, nt, out_w, out_h));
+    CSI_TRY(need_bytes(vol, (size_t)w * h * nt * sizeof(float), "csi_box_time_var input"));
+    CSI_TRY(need_bytes(out, (size_t)out_w * out_h * sizeof(float), "csi_box_time_var output"));
+    cl_kernel k;
+    CSI_TRY(csi_kernel(ctx, "integrate", "csi_box_time_var", &k));
+    CSI_TRY(CSI_ARGS(k, CSI_MEM(vol), CSI_MEM(out), CSI_ARG(w), CSI_ARG(h), CSI_ARG(nt), CSI_ARG(out_w),
+                     CSI_ARG(out_h)));
+    const size_t global[2] = {out_w, out_h}, local[2] = {8, 8};
+    return csi_run(ctx, k, 2, global, local);
 }
 
 void csi_splat_mean_buffers(size_t n, uint32_t channels, size_t pixels, csi_mem_tally *t)

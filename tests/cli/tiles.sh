@@ -212,7 +212,7 @@ size=$(stat -c %s "$T/p2.csip")
 expect_fail "damaged partial" "damaged.csip: checksum" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/damaged.csip" "$T/p3.csip" -o "$T/out.exr"
 # (version 5, before the chroma's grid was in it: a partial of the previous library)
 { head -c 4 "$T/p2.csip"; printf '\x05'; tail -c +6 "$T/p2.csip"; } > "$T/v5.csip"
-expect_fail "another format version" "v5.csip: partial format version 5 (this program reads version 10)" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v5.csip" "$T/p3.csip" -o "$T/out.exr"
+expect_fail "another format version" "v5.csip: partial format version 5 (this program reads version 11)" "$B/csi-merge" "$T/p0.csip" "$T/p1.csip" "$T/v5.csip" "$T/p3.csip" -o "$T/out.exr"
 expect_fail "not a partial" "not a csi tile partial" "$B/csi-merge" "$T/s.csid" -o "$T/out.exr"
 # layouts written over a 2x2 tile with a valid checksum (tests/fuzz/make_seeds.py): the merge of
 # the file alone once allocated the 60000x60000 image (14 GB), or a path for each of 4.3e9 tiles

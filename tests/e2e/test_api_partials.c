@@ -426,7 +426,7 @@ int main(void)
     fputs("CSID this is not a partial\n", f);
     fclose(f);
     const char *bad[5] = {trunc, damaged, version, notpart, path_of("absent.csip")};
-    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 5 (this program reads version 10)",
+    const char *why[5] = {"truncated or damaged", "truncated or damaged", "version 5 (this program reads version 11)",
                           "not a csi tile partial", "cannot open"};
     for (int k = 0; k < 5; k++) {
         const char *set[4] = {part[0], part[1], bad[k], part[3]};

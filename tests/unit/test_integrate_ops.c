@@ -1,4 +1,5 @@
-/* Integration kernels against plain C (double accumulation): box means, mean over t, splat. */
+/* Integration kernels against plain C (double accumulation): box means, mean over t, each pixel's
+ * variance over t, splat. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -90,6 +91,61 @@ static int test_time_mean(void)
     return 0;
 }
 
+/* The variance over the first nt frames of each pixel's box mean. A mean far above the spread
+ * (100 against 1, and 1e3 against 1e-2 in a third of the blocks) is where a one-pass sum of
+ * squares would cancel. Tolerance: each box mean and the mean over t are within ~3u of the
+ * block's mean |x| (the bound above), so each deviation is off by e <= ~6u of it; about the
+ * exact mean a sum of squares gains e^2 (the cross term sums to zero) and per deviation 2|d|e;
+ * rounding the squares and the compensated sum costs a few u of the result: 1e-6 of it plus
+ * 1e-5 of its root times the mean |x| plus (1e-6 mean |x|)^2. Frames from nt on are 1e6:
+ * counting one would put it far off, and so would a wrong block. */
+static int test_box_time_var(void)
+{
+    const uint32_t w = 12, h = 8, T = 20, nt = 15, ow = 4, oh = 2; /* blocks 3 x 4 */
+    const size_t plane = (size_t)w * h, n = plane * T, on = (size_t)ow * oh;
+    float *v = malloc(n * sizeof *v), *got = malloc(on * sizeof *got);
+    double *box = calloc(on * nt, sizeof *box), *want = calloc(on, sizeof *want), *scale = calloc(on, sizeof *scale);
+    test_rng r;
+    test_rng_seed(&r, 4);
+    for (uint32_t t = 0; t < T; t++)
+        for (uint32_t y = 0; y < h; y++)
+            for (uint32_t x = 0; x < w; x++) {
+                const bool big = (x / 3 + y / 4) % 3 == 0;
+                v[t * plane + y * w + x] =
+                    t >= nt ? 1e6f : (float)(big ? 1e3 + 1e-2 * test_rng_normal(&r) : 100 + test_rng_normal(&r));
+            }
+    for (uint32_t t = 0; t < nt; t++)
+        for (uint32_t y = 0; y < h; y++)
+            for (uint32_t x = 0; x < w; x++) {
+                const size_t o = (y / 4) * ow + x / 3;
+                box[o * nt + t] += v[t * plane + y * w + x] / 12.0;
+                scale[o] += fabs(v[t * plane + y * w + x]) / (12.0 * nt);
+            }
+    for (size_t o = 0; o < on; o++) {
+        double m = 0;
+        for (uint32_t t = 0; t < nt; t++)
+            m += box[o * nt + t] / nt;
+        for (uint32_t t = 0; t < nt; t++)
+            want[o] += (box[o * nt + t] - m) * (box[o * nt + t] - m) / nt;
+    }
+    cl_mem dv = test_upload(v, n * sizeof *v), dout = test_alloc(on * sizeof *got);
+    REQUIRE_OK(csi_box_time_var(test_ctx(), dv, w, h, nt, ow, oh, dout));
+    test_download(dout, got, on * sizeof *got);
+    int bad = 0;
+    for (size_t o = 0; o < on; o++)
+        if (!(fabs(got[o] - want[o]) <= 1e-6 * want[o] + 1e-5 * sqrt(want[o]) * scale[o] + 1e-12 * scale[o] * scale[o])) {
+            fprintf(stderr, "var[%zu]: %.9g vs %.9g\n", o, got[o], want[o]);
+            bad++;
+        }
+    CHECK(bad == 0, "each pixel's variance over t matches the double two-pass reference");
+    CHECK(csi_box_time_var(test_ctx(), dv, w, h, 0, ow, oh, dout) == CSI_ERR_ARG, "nt = 0 refused");
+    CHECK(csi_box_time_var(test_ctx(), dv, w, h, nt, 5, oh, dout) == CSI_ERR_ARG, "12 not a multiple of 5 refused");
+    csi_buffer_release(&dv);
+    csi_buffer_release(&dout);
+    free(v), free(got), free(box), free(want), free(scale);
+    return 0;
+}
+
 static int test_splat(void)
 {
     const csi_grid g = {16, 12, 4, 4, 3}; /* blocks 4 x 4, 4 frames */
@@ -144,6 +200,7 @@ int main(void)
 {
     test_box();
     test_time_mean();
+    test_box_time_var();
     test_splat();
     return test_done();
 }

@@ -1,5 +1,6 @@
 /* Integration to the output image on the device: box means over each pixel's block of the
- * fine grid, the mean over t of a volume, and the Monte Carlo per-pixel sample mean.
+ * fine grid, the mean over t of a volume, a pixel's variance over t, and the Monte
+ * Carlo per-pixel sample mean.
  *
  * Layouts (float32, channels planar):
  *   fine image  [c][y][x]     w x h per channel
@@ -27,6 +28,11 @@ csi_status csi_box_integrate(csi_ctx *ctx, cl_mem fine, uint32_t w, uint32_t h, 
 /* out (w x h x channels) = mean over t of the volume `vol` (w x h x nt x channels). */
 csi_status csi_time_mean(csi_ctx *ctx, cl_mem vol, uint32_t w, uint32_t h, uint32_t nt, uint32_t channels,
                          cl_mem out);
+
+/* out (out_w x out_h) = the variance over the first nt frames of one channel's volume `vol`
+ * (w x h x at least nt) of each pixel's box mean ((w/out_w) x (h/out_h) cells) in each frame. */
+csi_status csi_box_time_var(csi_ctx *ctx, cl_mem vol, uint32_t w, uint32_t h, uint32_t nt, uint32_t out_w,
+                            uint32_t out_h, cl_mem out);
 
 /* The Monte Carlo estimate from the samples alone: each output pixel's value is the mean of the
  * samples whose position falls in its block (all t), per channel; pixels with no sample are 0

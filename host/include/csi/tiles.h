@@ -211,12 +211,18 @@ csi_status csi_tile_scope_make(csi_ctx *ctx, const csi_grid *g, uint32_t channel
  * samples, their weighted mean residual against the window's volume, the weighted sum of
  * squared deviations from it, the smallest and largest value of the samples of weight > 0, and
  * the weighted mean of their values and sum of squared deviations from it (the range the
- * corrected image is projected onto grows where a pixel's values change over t).
+ * corrected image is projected onto grows where a pixel's values change over t), and of the
+ * window's frames (the pixel's box mean in each, frame t weighted by w_x w_y w_t(t), over the
+ * shutter's frames) the weight, the weighted mean and the weighted sum of squared deviations
+ * from it (with noisy samples, what the fit says the pixel's samples spread by over t:
+ * csi_recon_motion_toward_mean).
  * Blended over the tiles they give each pixel's sample count and mean residual against the
  * blended volume exactly, and a sum of squares no smaller than the blended volume's (a sample
  * two windows share counts both windows' residuals). NULL when t is not split, and when the
- * window's basis is sheared (then no tile's image is corrected). */
-#define CSI_RESID_SUMS 7
+ * window's basis is sheared (then no tile's image is corrected). The frames' sums blended over
+ * the tiles are those of the windows' frames taken together, each at its weight: where two
+ * windows overlap in t both count, so their spread is no smaller than the blended frames'. */
+#define CSI_RESID_SUMS 10
 /* A still image whose pixels settle on their samples' mean (csi/settle.h) settles once, on the
  * blended image, so that a pixel's share is of the whole image's disagreement as in an untiled
  * run (settled in each window, on that window's smaller disagreement, more pixels settled than
@@ -239,6 +245,9 @@ typedef struct csi_tile_result {
     uint32_t index;
     uint32_t x0, y0, t0;
     csi_recon_result r;
+    /* the samples were flagged exact (CSI_SAMPLES_EXACT): the whole shutter's correction from the
+     * residual sums is then an untiled run's for exact samples (motion_correct.c) */
+    bool exact;
     double *resid;
     uint32_t *px_cnt;
     double *px_sum;
@@ -276,6 +285,7 @@ typedef struct csi_blend {
     size_t step_count, step_cap;
     bool step_given; /* the tiles carry the changes */
     float *frames_mean; /* time windows with image_frames: the blended frames' mean (csi_tile_result) */
+    bool exact;         /* the tiles' samples are flagged exact (csi_tile_result) */
 } csi_blend;
 csi_status csi_tiles_begin(const csi_tiling *tl, uint32_t channels, bool frames,
                            csi_blend *b, csi_recon_result *out);
