@@ -602,11 +602,10 @@ void csi_nc_free(csi_nc_op *r);
  * Allocates nothing on the device (csi/plan.h counts the caller's). */
 typedef struct {
     double v[2];      /* cells per frame; 0, 0 when no velocity predicts the samples at least 3%
-                         better (the median sample 5% better, and more samples better than worse)
-                         than the still basis */
+                         better (and more of the 4 x 4-cell blocks better than worse) than the
+                         still basis */
     double loo, loo0; /* leave-one-out mean squared errors: the chosen velocity's, v = 0's */
-    double median_ratio; /* the best velocity's median squared leave-one-out error over v = 0's */
-    double improved;     /* the share of the samples it predicts better than v = 0 */
+    double improved;  /* the share of the blocks the best velocity predicts better than v = 0 */
     int evaluations;  /* leave-one-out evaluations (two filter passes each) */
     double seconds;
 } csi_motion_velocity;

@@ -12,8 +12,8 @@
  *    issue's target);
  *  - the same texture still (v = 0) with a disc sliding over a quarter of it: the velocity stays
  *    exactly 0 (the still basis is kept unless a velocity predicts the samples 3% better);
- *  - a still background with a large fast textured mover: the velocity stays 0 (the typical
- *    sample is not predicted better) and the image beats the mover's shear;
+ *  - a still background with a large fast textured mover: the velocity stays 0 (most of the
+ *    picture is not predicted better) and the image beats the mover's shear;
  *  - a given velocity is used as given; the estimate is deterministic (same bits twice);
  *  - a single pixel over time (nothing to shear) keeps the paper's basis. */
 #include <math.h>
@@ -241,8 +241,8 @@ int main(void)
         free(f);
     }
     /* a still background with a large fast mover: the mover's velocity predicts the mover's
-     * samples so much better that the mean leave-one-out error drops by half, but the typical
-     * (median) sample is on the background, which that shear predicts worse. The still basis
+     * samples so much better that the mean leave-one-out error drops by half, but most of the
+     * picture is background, which that shear predicts worse. The still basis
      * stays, and its image is better than the mover's shear gives on the same samples (the
      * mover's frames can be better sheared: one velocity cannot fit both). */
     {
