@@ -115,28 +115,21 @@ double csi_recon_motion_filter_width(const csi_grid *g, size_t n, const csi_reco
     return fmax(paper * opt->sigma_scale, opt->sigma_spacing * sqrt(spacing2));
 }
 
-/* Noisy samples: the corrected image of channel c moved towards its pixels' own sample means
- * (motion_toward_mean.c), from what each pixel's samples say (pix[i]: sample i's pixel) and the
- * volume's variance over t of each pixel's box mean (into scratch). */
-static csi_status toward_mean(csi_ctx *ctx, const csi_grid *g, cl_mem vol, cl_mem scratch, const size_t *pix,
-                              const float *values, uint32_t channels, uint32_t c, size_t n, float *plane)
+/* Noisy samples: the corrected image moved towards its pixels' own sample means
+ * (motion_toward_mean.c), from what each pixel's samples say (px) and the volume's variance over
+ * t of each pixel's box mean (into scratch). */
+static csi_status toward_mean(csi_ctx *ctx, const csi_grid *g, cl_mem vol, cl_mem scratch, const csi_px_values *px,
+                              float *plane)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
-    csi_px_values *px = malloc((np ? np : 1) * sizeof *px);
     float *fit_var = malloc((np ? np : 1) * sizeof *fit_var);
-    csi_status s = CSI_OK;
-    if (!px || !fit_var)
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixels' means (%zu pixels)", np);
+    csi_status s = fit_var ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for the pixels' means (%zu pixels)", np);
     if (s == CSI_OK)
         s = csi_box_time_var(ctx, vol, g->w, g->h, g->t, g->out_w, g->out_h, scratch);
     if (s == CSI_OK)
         s = csi_read(ctx, scratch, 0, np * sizeof *fit_var, fit_var);
-    if (s == CSI_OK) {
-        float all[2];
-        csi_recon_pixel_values(g->out_w, g->out_h, pix, values, channels, c, n, px, all);
+    if (s == CSI_OK)
         s = csi_recon_motion_toward_mean(g, px, fit_var, plane);
-    }
-    free(px);
     free(fit_var);
     return s;
 }
@@ -318,13 +311,16 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     if (s == CSI_OK && own && !(fine_at = malloc(n * sizeof *fine_at)))
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the volume at %zu samples", n);
     /* With a still basis the range that bounds the volume and the corrected image, per channel
-     * (sample_range.c), from each sample's pixel */
+     * (sample_range.c), from what each pixel's samples say (px, which the move towards their
+     * means reads too), from each sample's pixel */
     size_t *pix = NULL;
     float *range = NULL;
+    csi_px_values *px = NULL;
     if (s == CSI_OK && blend && !sheared) {
         pix = malloc((n ? n : 1) * sizeof *pix);
         range = malloc(2 * np * sizeof *range);
-        if (!pix || !range)
+        px = malloc((np ? np : 1) * sizeof *px);
+        if (!pix || !range || !px)
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
         const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
         for (size_t i = 0; s == CSI_OK && i < n; i++)
@@ -401,8 +397,11 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         }
         if (s == CSI_OK && correct)
             s = csi_nc_correct(ctx, &rnc, st->plane, n, k, st->tmp, real_y, scratch, yhost);
-        if (s == CSI_OK && range)
-            s = csi_recon_sample_ranges(g->out_w, g->out_h, pix, values, channels, c, n, range);
+        if (s == CSI_OK && range) {
+            float all[2];
+            csi_recon_pixel_values(g->out_w, g->out_h, pix, values, channels, c, n, px, all);
+            s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, range);
+        }
         if (s == CSI_OK && blend)
             s = csi_recon_motion_range_clamp(ctx, g, values, channels, c, pos, n, sheared ? res->options.motion_vx : 0,
                                              sheared ? res->options.motion_vy : 0, moved, range, st->tmp);
@@ -420,7 +419,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_recon_motion_correct(&shutter, values, channels, c, pos, fine_at, n, range, exact,
                                          res->image + (size_t)c * np);
             if (s == CSI_OK && !exact)
-                s = toward_mean(ctx, &shutter, st->tmp, scratch, pix, values, channels, c, n, res->image + (size_t)c * np);
+                s = toward_mean(ctx, &shutter, st->tmp, scratch, px, res->image + (size_t)c * np);
         }
         if (s == CSI_OK && blend)
             csi_recon_exact_full(&shutter, values, channels, c, pos, n, res->image + (size_t)c * np);
@@ -444,6 +443,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(fine_at);
     free(pix);
     free(range);
+    free(px);
     free(yhost);
     csi_buffer_release(&mean);
     csi_buffer_release(&real_y);
