@@ -577,8 +577,14 @@ done:
 
 uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp)
 {
+    /* A volume: each pixel already has t cells over its shutter, but a pixel of one spatial cell
+     * is seen at its centre only, whatever the spp: the image then converges to the motion blur
+     * of the pixel's centre, not of the pixel, and a texture or an edge stays aliased however
+     * many samples are taken (stratified's as much as csi's). So 2 x 2 cells a pixel once there
+     * is a sample for every 8 of its frames or more; below that the finer grid's four times the
+     * unknowns are too many for the samples (docs/bench/animation.md, session 42). */
     if (t > 1)
-        return 1;
+        return 8 * spp >= t && (uint64_t)out_w * 2 <= 65536 && (uint64_t)out_h * 2 <= 65536 ? 2 : 1;
     /* Measured (docs/bench/grid.md, 64x64, 4 seeds, MSE vs a 256-spp reference / stratified's
      * MSE at equal spp): checkerboard 16 spp 2.11 at 4x, 1.52 at 8x, 0.71 at 16x; 1 spp is best
      * at 4x; non-power-of-two factors (6x, 12x) lose; 16x costs about 3-10x 4x to reconstruct. */

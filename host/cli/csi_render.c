@@ -41,12 +41,16 @@ static void usage(FILE *f)
 "                            Poisson-disk, except on a moving scene from 2 spp: stratified over\n"
 "                            each pixel's shutter]\n"
 "      --grid K              fine-grid width in cells (a multiple of the image width); default\n"
-"                            1x the image width when moving; when static Fx, F the smallest\n"
-"                            power of two >= 4 with F^2 > 4 spp (more than 4 cells per sample),\n"
-"                            at most 16: F = 4 up to 3 spp, 8 for 4-15, 16 from 16\n"
+"                            when moving 2x from one sample per 8 frames (8 spp >= T) and the\n"
+"                            camera holds still, else 1x (docs/bench/animation.md, session 42);\n"
+"                            when static Fx, F the\n"
+"                            smallest power of two >= 4 with F^2 > 4 spp (more than 4 cells per\n"
+"                            sample), at most 16: F = 4 up to 3 spp, 8 for 4-15, 16 from 16\n"
 "                            (docs/bench/grid.md)\n"
 "      --time-steps T        frames of the volume for a moving scene (default: the plan's rule)\n"
 "      --reference SPP       render a stratified ground truth with SPP samples per pixel instead\n"
+"                            (sqrt(SPP / T) cells a pixel side, at least 2 when moving: the\n"
+"                            pixel's area, not its centre; SPP = 4 T traces each cell once)\n"
 "      --seed S              seed of positions and shading, default 1\n"
 "      --threads N           tracing threads, default: all cores\n"
 );
@@ -335,11 +339,14 @@ int main(int argc, char **argv)
     uint64_t factor;
     if (reference) {
         /* Enough cells per pixel block for SPP distinct stratified samples: sqrt(SPP) per axis
-         * when static; when moving, the block has T frames, so sqrt(SPP / T) per axis (at least
-         * 1): the reference is then antialiased as well as motion-blurred. */
+         * when static; when moving, the block has T frames, so sqrt(SPP / T) per axis, and at
+         * least 2: a reference of one cell a pixel would be its centre's motion blur, aliased
+         * where the default grid (csi_default_grid_factor) is not. Antialiased as well as
+         * motion-blurred; with fewer samples than cells, one seed's is noisy, and the mean of
+         * several seeds converges to the 2 x 2-point pixel. */
         factor = (uint64_t)ceil(sqrt((double)ref_spp / (double)plan.frames) - 1e-9);
-        if (factor < 1)
-            factor = 1;
+        if (factor < (plan.frames > 1 ? 2u : 1u))
+            factor = plan.frames > 1 ? 2 : 1;
     } else if (grid_k) {
         if (grid_k % plan.width) {
             rc = cli_error(prog, CSI_ERR_ARG, "--grid %llu is not a multiple of the image width %u",
@@ -349,6 +356,12 @@ int main(int argc, char **argv)
         factor = grid_k / plan.width;
     } else {
         factor = csi_default_grid_factor(plan.width, plan.height, plan.frames, spp);
+        /* A moving camera blurs the whole picture, whose detail the finer grid is for, and parts
+         * of it move at other velocities than the basis's shear (parallax, a dolly): there the
+         * finer grid's unknowns cost more than its detail gains (docs/bench/animation.md,
+         * session 42). The plan knows; a renderer without one passes csi-positions --grid. */
+        if (plan.frames > 1 && plan.camera_moves)
+            factor = 1;
     }
     if ((uint64_t)plan.width * factor > CSI_GRID_MAX_SIDE || (uint64_t)plan.height * factor > CSI_GRID_MAX_SIDE) {
         rc = cli_error(prog, CSI_ERR_ARG, "%s: fine grid %llux%llu (%ux%u pixels, %llu cells per pixel side) "

@@ -12,7 +12,8 @@ P="$B/csi-positions"
 "$P" --help > "$T/help" 2>&1; check "[[ $? == 0 ]] && grep -q usage '$T/help'" "--help"
 "$P" --version > "$T/ver" 2>&1; check "[[ $? == 0 ]] && grep -q csi-positions '$T/ver'" "--version"
 
-# --- the same positions as csi-render: static (default grid 8x at 4 spp), moving (1x, T = 8) --
+# --- the same positions as csi-render: static (default grid 8x at 4 spp), moving (2x from one
+# sample per 8 frames, T = 8) --
 static="$S/tests/cli/scenes/small_triangle.scene"
 moving="$S/tests/cli/scenes/small_moving.scene"
 for spp in 1 4 16; do
@@ -31,7 +32,15 @@ for spp in 1 4 16; do
 done
 "$B/csi-render" "$moving" --spp 2 --seed 5 --dump "$T/rm.csid" -o "$T/r.exr" --max-iter 5 -q
 "$P" --out 32x32 --spp 2 --seed 5 --time-steps 8 -o "$T/qm.csid" -q
-check "[[ '$(dump_hdr "$T/qm.csid")' == '32 32 8 32 32 0 2048' ]]" "moving header: $(dump_hdr "$T/qm.csid")"
+check "[[ '$(dump_hdr "$T/qm.csid")' == '64 64 8 32 32 0 2048' ]]" "moving header: $(dump_hdr "$T/qm.csid")"
+# fewer than one sample per 8 frames: the pixel grid (1 spp over 16 frames)
+"$P" --out 32x32 --spp 1 --seed 5 --time-steps 16 -o "$T/qm1.csid" -q
+check "[[ '$(dump_hdr "$T/qm1.csid")' == '32 32 16 32 32 0 1024' ]]" "moving header at 1 spp, 16 frames: $(dump_hdr "$T/qm1.csid")"
+# a moving camera keeps csi-render on the pixel grid (its plan knows; csi-positions does not)
+sed 's/fov 40 size 32 32 }/fov 40 size 32 32 motion { key 0 { translate 0 0 0 } key 1 { translate 0.2 0 0 } } }/' \
+    "$moving" > "$T/camera_moves.scene"
+"$B/csi-render" "$T/camera_moves.scene" --spp 2 --seed 5 --dump "$T/rc.csid" -o "$T/r.exr" --max-iter 5 -q
+check "[[ '$(dump_hdr "$T/rc.csid")' == '32 32 8 32 32 3 2048' ]]" "a moving camera's grid: $(dump_hdr "$T/rc.csid")"
 check "cmp -s <(dump_xyt '$T/qm.csid' 12) <(dump_xyt '$T/rm.csid' 24)" "moving: positions differ from csi-render's"
 # the default on a volume from 2 spp is stratified over each pixel's shutter; csi-render
 # --positions asks for another, as csi-positions --method does

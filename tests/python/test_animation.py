@@ -61,10 +61,25 @@ def main():
         scene = mb.load_scene(p("ball.py"))
         check(scene.animate is not None and scene.size == (16, 16), "the animated scene loads")
 
+        # The grid csi-mitsuba takes (csi_default_grid_factor): from one sample per 8 frames a
+        # volume has 2 x 2 cells a pixel, unless animate() moves the camera (as csi-render keeps
+        # the pixel grid where its plan says the camera moves).
+        with open(p("pan.py"), "w") as f:
+            f.write(SCENE + "\n    params['sensor.to_world'] = T().look_at(origin=[0.3 * time, 0, 5], "
+                    "target=[0.3 * time, 0, 0], up=[0, 1, 0])\n")
+        check(not mb.camera_moves(scene), "the ball's camera is said to move")
+        check(mb.camera_moves(mb.load_scene(p("pan.py"))), "the panning camera is said to hold still")
+        for name, want in (("ball.py", (32, 32, T)), ("pan.py", (16, 16, T))):
+            r = subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", p(name), "--time-steps", str(T), "--spp", "2",
+                                "--dump", p("g.csid"), "-o", p("g.exr"), "-q"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR)))
+            got = csid.read(p("g.csid")).grid if r.returncode == 0 else r.stderr.strip()
+            check(got == want, f"csi-mitsuba {name} at 2 spp, {T} frames: grid {got}, want {want}")
+
         # Samples: each the closed form at its cell's pose. Cells whose centre ray passes within
         # 1e-3 of the outline are skipped (a float32 ray may fall either side; the grid's
         # spacing is 2 / 32 = 0.06 scene units, so they are rare).
-        req = mb.positions_request((16, 16), method="random", seed=3, time_steps=T, fraction=0.5)
+        req = mb.positions_request((16, 16), grid=16, method="random", seed=3, time_steps=T, fraction=0.5)
         s = mb.render_request(scene, req, paths=1, seed=3)
         u, v, _ = req.cell_centres()
         t = req.xyt[:, 2].astype(np.float64)

@@ -64,7 +64,7 @@ def main():
             with open(p(name), "w") as f:
                 f.write(text)
         scene = mb.load_scene(p("noisy.py"))
-        req = mb.positions_request((32, 32), method="random", seed=5, time_steps=8, fraction=0.5)
+        req = mb.positions_request((32, 32), grid=32, method="random", seed=5, time_steps=8, fraction=0.5)
         one = mb.render_request(scene, req, paths=1, seed=5)
         v, t = mb.path_noise(scene, req, one.values, seed=11)
         # the cells path_noise took: one in 16 of the request's, evenly over its order

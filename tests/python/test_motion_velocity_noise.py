@@ -44,7 +44,7 @@ def drift(depth):
 
 def velocity(name):
     scene = mb.load_scene(os.path.join(ROOT, "data", "mitsuba", name + ".py"), size=(W, H))
-    req = mb.positions_request((W, H), method="random", seed=1, time_steps=T, fraction=0.1)
+    req = mb.positions_request((W, H), grid=W, method="random", seed=1, time_steps=T, fraction=0.1)
     s = mb.render_request(scene, req, paths=1, seed=1)
     values = np.asarray(s.values, np.float32)
     check(np.all(np.isfinite(values)), f"{name}: non-finite samples")

@@ -289,7 +289,8 @@ static int test_progress(void)
 }
 
 /* The default grid rule, spelled out independently: static F = 4 for 1-3 spp, 8 for 4-15, 16
- * from 16 (smallest power of two >= 4 with F^2 > 4 spp, at most 16); 1 when moving; halved
+ * from 16 (smallest power of two >= 4 with F^2 > 4 spp, at most 16); moving, 2 from one sample
+ * per 8 frames (8 spp >= t) else 1, and 1 where 2 would pass 65536 cells a side; halved
  * (not below 4) while a side would pass 65536 cells. */
 static int test_default_grid(void)
 {
@@ -297,7 +298,13 @@ static int test_default_grid(void)
     for (size_t i = 0; i < sizeof rule / sizeof rule[0]; i++)
         CHECK(csi_default_grid_factor(128, 96, 1, rule[i].spp) == rule[i].f, "%llu spp: %u",
               (unsigned long long)rule[i].spp, csi_default_grid_factor(128, 96, 1, rule[i].spp));
-    CHECK(csi_default_grid_factor(128, 128, 8, 16) == 1, "moving: 1x");
+    const struct { uint32_t t; uint64_t spp; uint32_t f; } moving[] = {
+        {8, 1, 2}, {9, 1, 1}, {16, 1, 1}, {16, 2, 2}, {32, 3, 1}, {32, 4, 2}, {64, 7, 1}, {64, 8, 2}, {2, 65536, 2}};
+    for (size_t i = 0; i < sizeof moving / sizeof moving[0]; i++)
+        CHECK(csi_default_grid_factor(128, 128, moving[i].t, moving[i].spp) == moving[i].f, "moving, %u frames, %llu spp: %u",
+              moving[i].t, (unsigned long long)moving[i].spp, csi_default_grid_factor(128, 128, moving[i].t, moving[i].spp));
+    CHECK(csi_default_grid_factor(32768, 64, 16, 16) == 2, "moving: 32768 * 2 = 65536 fits");
+    CHECK(csi_default_grid_factor(64, 32769, 16, 16) == 1, "moving: 32769 * 2 > 65536: 1x");
     CHECK(csi_default_grid_factor(4096, 64, 1, 16) == 16, "4096 * 16 = 65536 fits");
     CHECK(csi_default_grid_factor(64, 4097, 1, 16) == 8, "4097 * 16 > 65536: halved to 8");
     CHECK(csi_default_grid_factor(20000, 64, 1, 16) == 4, "never below 4 (the caller refuses the size)");

@@ -271,8 +271,9 @@ class Bench:
     # ---- references -----------------------------------------------------------------------
     def reference(self, name, scene, shash, plan):
         """Static: csi-render --reference R (stratified, R samples per pixel on a sqrt(R)x finer
-        grid). Moving: the fine grid is the pixel grid times T frames, so a reference is every
-        cell traced once (--reference T), averaged over ceil(R / T) seeds (shading noise)."""
+        grid). Moving: csi-render's reference grid has 2 x 2 cells a pixel and T frames, so a
+        reference is every cell traced once (--reference 4T), the pixel the mean of its 2 x 2
+        points, averaged over ceil(R / 4T) seeds (shading noise)."""
         W, H, T = plan["width"], plan["height"], plan["frames"]
         R = self.a.ref_spp
         os.makedirs(self.a.ref_cache, exist_ok=True)
@@ -289,16 +290,17 @@ class Bench:
             frames = np.zeros(0)
             trender = st["t_render_s"]
         else:
-            nseeds = max(1, math.ceil(R / T))
+            nseeds = max(1, math.ceil(R / (4 * T)))
             dumps = []
             trender = 0
             for s in range(nseeds):
                 d = os.path.join(self.work, f"ref_{name}_{s}.csid")
                 _, st = self.render(scene, f"ref_{name}_{s}",
-                                    ["--reference", str(T), "--time-steps", str(T), "--seed", str(s + 1), "--dump", d])
+                                    ["--reference", str(4 * T), "--time-steps", str(T), "--seed", str(s + 1), "--dump", d])
                 trender += st["t_render_s"]
                 dumps.append(d)
-            frames = bc.dump_grid_mean(dumps)  # (T, H, W, 3): grid = pixels at 1x
+            fine = bc.dump_grid_mean(dumps)  # (T, 2H, 2W, 3)
+            frames = fine.reshape(T, H, 2, W, 2, -1).mean(axis=(2, 4)).astype(np.float32)
             for d in dumps:
                 os.remove(d)
             img = frames.mean(axis=0)

@@ -179,7 +179,7 @@ def mitsuba_case(name, seed, rate, size, data, ref_spp, paths):
     if not os.path.exists(dump_path):
         log(f"mitsuba: {name} samples, {100 * rate:g}% of {W}x{H}x{T}, {paths} paths, seed {seed}")
         scene = mb.load_scene(MITSUBA_SCENES[name], size=(W, H))
-        req = mb.positions_request((W, H), method="random", seed=seed + 1, time_steps=T, fraction=rate)
+        req = mb.positions_request((W, H), grid=W, method="random", seed=seed + 1, time_steps=T, fraction=rate)
         s = mb.render_request(scene, req, paths=paths, seed=seed + 1)
         csid.write(dump_path, req.with_values(s.values))
         if paths > 1:

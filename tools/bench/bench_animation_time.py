@@ -56,7 +56,7 @@ def mitsuba_cost(scene, size, lo, hi, paths):
     sc = mb.load_scene(ba.MITSUBA_SCENES[scene], size=(W, H))
     timing = {}
     for r in (lo, hi):
-        req = mb.positions_request((W, H), method="random", seed=1, time_steps=T, fraction=r)
+        req = mb.positions_request((W, H), grid=W, method="random", seed=1, time_steps=T, fraction=r)
         runs = [mb.render_request(sc, req, paths=paths, seed=1).timing for _ in range(4)][1:]
         best = min(runs, key=lambda t: t["render_s"])
         timing[r] = (best["render_s"], len(req.xyt), best["per_path_us"])

@@ -154,6 +154,31 @@ def pose(scene: Scene, time: float):
         raise BridgeError(f"{scene.name}: animate(params, {float(time):.4g}) failed: {_one_line(e)}") from None
 
 
+def camera_moves(scene: Scene) -> bool:
+    """Whether the scene's animate() moves or zooms its sensor over the shutter: its world
+    transform or field of view differs between times 0, 1/2 and 1 (csi-render's plan says the same
+    of its cameras; a moving camera keeps the pixel grid, csi_default_grid_factor's exception).
+    Leaves the scene posed at time 0."""
+    if scene.animate is None:
+        return False
+    import numpy as np
+
+    sensor = scene.mi_scene.sensors()[0]
+    fov = [k for k in scene.params.keys() if k.endswith("x_fov")]
+
+    def state():
+        m = np.array(sensor.world_transform().matrix, dtype=np.float64).reshape(-1)
+        return np.concatenate([m] + [np.array(scene.params[k], dtype=np.float64).reshape(-1) for k in fov])
+
+    poses = []
+    for t in (0.0, 0.5, 1.0):
+        pose(scene, t)
+        poses.append(state())
+    pose(scene, 0.0)
+    scale = max(1.0, float(np.abs(poses[0]).max()))
+    return any(float(np.abs(p - poses[0]).max()) > 1e-6 * scale for p in poses[1:])
+
+
 #: Mitsuba's sensor plugins: how a scene dictionary's sensor entry is recognised.
 SENSOR_TYPES = ("perspective", "thinlens", "orthographic", "telecentric", "radiancemeter", "irradiancemeter",
                 "distant", "batch")

@@ -101,7 +101,8 @@ def parser():
                         "estimated from a second path through one cell in 16, at most 1024). Default: on with "
                         "--paths above 1 or --time-steps above 1 (docs/bench/mitsuba.md, docs/bench/animation.md)")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
-                   help="fine-grid width in cells (default: csi's rule, see csi-positions --help)")
+                   help="fine-grid width in cells (default: csi's rule, see csi-positions --help; an "
+                        "animation whose camera moves keeps the image's width, as csi-render does)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
                    help="positions (default poisson, the compressive method's)")
     s.add_argument("--time-steps", type=_int_range(1, 4096), default=1, metavar="T",
@@ -511,7 +512,10 @@ def _run(a, extra, prog, files, var_path, aov_paths):
                  f"Mitsuba renders them"] if bad else [])
 
     if req is None:
-        req = mb.positions_request(size, spp=a.spp, grid=a.grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
+        grid = a.grid
+        if grid is None and a.time_steps > 1 and mb.camera_moves(scene):
+            grid = size[0]  # a moving camera keeps the pixel grid, as in csi-render (csi-positions --help)
+        req = mb.positions_request(size, spp=a.spp, grid=grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
     seed = a.seed if not a.request else req.seed
     if a.refine and reconstruction_options(extra)[0].get("settle") == "on":
         raise UsageError("--refine and '-- --settle on': the second pass samples the pixels that --settle would give "
