@@ -79,6 +79,8 @@ typedef struct csi_plan {
     uint32_t frames;              /* T: 1 when nothing moves in the shutter */
     bool motion;                  /* anything (camera or object) moves: rays carry time */
     bool camera_moves;
+    bool camera_pans;             /* it moves by translation alone, across its view (no turn,
+                                     zoom or dolly): the picture pans, parallax aside */
     double motion_pixels;         /* largest on-screen travel over the shutter, in pixels */
     const char *frames_rule;      /* "static", "rule", "scene", "override" */
     size_t n_objects;

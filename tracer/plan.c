@@ -175,6 +175,39 @@ static double motion_pixels(const csi_scene *sc, const csi_plan *pl)
     return best;
 }
 
+/* Whether a moving camera only translates, and across its view: every key's rotation and scale
+ * are the first key's, and every key's translation from the first has at most a quarter of its
+ * length along the view direction (a dolly brings the picture's parts closer at different
+ * rates, a turn shears it; a translation across the view moves it, nearer parts faster). */
+static bool camera_pans(const tr_camera *c)
+{
+    const tr_motion *mo = &c->motion;
+    double f[3], n = 0;
+    for (int j = 0; j < 3; j++) {
+        f[j] = c->target[j] - c->position[j];
+        n += f[j] * f[j];
+    }
+    if (!(n > 0))
+        return false;
+    for (size_t i = 1; i < mo->n; i++) {
+        const tr_key *a = &mo->keys[0], *k = &mo->keys[i];
+        if (k->angle != a->angle || (a->angle != 0 && (k->axis[0] != a->axis[0] || k->axis[1] != a->axis[1] ||
+                                                       k->axis[2] != a->axis[2])))
+            return false;
+        double along = 0, len = 0;
+        for (int j = 0; j < 3; j++) {
+            if (k->scale[j] != a->scale[j])
+                return false;
+            const double d = k->translate[j] - a->translate[j];
+            along += d * f[j];
+            len += d * d;
+        }
+        if (fabs(along) / sqrt(n) > 0.25 * sqrt(len))
+            return false;
+    }
+    return true;
+}
+
 csi_status csi_plan_make(const csi_scene *sc, const csi_plan_overrides *ov, csi_plan *pl)
 {
     memset(pl, 0, sizeof *pl);
@@ -226,6 +259,7 @@ csi_status csi_plan_make(const csi_scene *sc, const csi_plan_overrides *ov, csi_
         }
     }
     pl->camera_moves = tr_motion_moves(&sc->camera.motion);
+    pl->camera_pans = pl->camera_moves && camera_pans(&sc->camera);
     pl->motion = pl->camera_moves || pl->n_moving_objects > 0;
     if (pl->motion) {
         pl->motion_pixels = motion_pixels(sc, pl);
@@ -344,9 +378,9 @@ csi_status csi_plan_json_string(const csi_scene *sc, const csi_plan *pl, char **
               pl->width, pl->height, pl->frames, pl->frames_rule);
     sb_printf(&b, ", \"method\": \"%s\"", pl->motion ? "3d-motion" : "2d-antialias");
     sb_printf(&b, ", \"shutter\": [%.17g, %.17g]", sc->shutter_open, sc->shutter_close);
-    sb_printf(&b, ", \"motion\": %s, \"rays_carry_time\": %s, \"camera_moves\": %s",
+    sb_printf(&b, ", \"motion\": %s, \"rays_carry_time\": %s, \"camera_moves\": %s, \"camera_pans\": %s",
               pl->motion ? "true" : "false", pl->motion ? "true" : "false",
-              pl->camera_moves ? "true" : "false");
+              pl->camera_moves ? "true" : "false", pl->camera_pans ? "true" : "false");
     sb_printf(&b, ", \"motion_pixels\": %.6g", pl->motion_pixels);
     sb_printf(&b, ", \"moving_objects\": %zu, \"objects\": [", pl->n_moving_objects);
     for (size_t i = 0; i < sc->n_objects; i++) {

@@ -41,8 +41,9 @@ static void usage(FILE *f)
 "                            Poisson-disk, except on a moving scene from 2 spp: stratified over\n"
 "                            each pixel's shutter]\n"
 "      --grid K              fine-grid width in cells (a multiple of the image width); default\n"
-"                            when moving 2x from one sample per 8 frames (8 spp >= T) and the\n"
-"                            camera holds still, else 1x (docs/bench/animation.md, session 42);\n"
+"                            when moving 2x from one sample per 8 frames (8 spp >= T) if the\n"
+"                            camera holds still, from one per 2 frames if it translates across\n"
+"                            its view, else 1x (docs/bench/animation.md, session 42);\n"
 "                            when static Fx, F the smallest power of two >= 4 with F^2 > 4 spp\n"
 "                            (more than 4 cells per sample), at most 16: F = 4 up to 3 spp, 8\n"
 "                            for 4-15, 16 from 16 (docs/bench/grid.md)\n"
@@ -355,11 +356,13 @@ int main(int argc, char **argv)
         factor = grid_k / plan.width;
     } else {
         factor = csi_default_grid_factor(plan.width, plan.height, plan.frames, spp);
-        /* A moving camera blurs the whole picture, whose detail the finer grid is for, and parts
-         * of it move at other velocities than the basis's shear (parallax, a dolly): there the
-         * finer grid's unknowns cost more than its detail gains (docs/bench/animation.md,
+        /* A moving camera blurs the whole picture, whose detail the finer grid is for, and where
+         * it turns, zooms or dollies, its parts move at other velocities than the basis's one
+         * shear: there the finer grid's unknowns cost more than its detail gains. A camera that
+         * translates across its view pans the picture (parallax aside), which the shear follows:
+         * there the finer grid pays from one sample per 2 frames (docs/bench/animation.md,
          * session 42). The plan knows; a renderer without one passes csi-positions --grid. */
-        if (plan.frames > 1 && plan.camera_moves)
+        if (plan.frames > 1 && plan.camera_moves && !(plan.camera_pans && 2 * spp >= plan.frames))
             factor = 1;
     }
     if ((uint64_t)plan.width * factor > CSI_GRID_MAX_SIDE || (uint64_t)plan.height * factor > CSI_GRID_MAX_SIDE) {

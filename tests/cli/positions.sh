@@ -36,11 +36,18 @@ check "[[ '$(dump_hdr "$T/qm.csid")' == '64 64 8 32 32 0 2048' ]]" "moving heade
 # fewer than one sample per 8 frames: the pixel grid (1 spp over 16 frames)
 "$P" --out 32x32 --spp 1 --seed 5 --time-steps 16 -o "$T/qm1.csid" -q
 check "[[ '$(dump_hdr "$T/qm1.csid")' == '32 32 16 32 32 0 1024' ]]" "moving header at 1 spp, 16 frames: $(dump_hdr "$T/qm1.csid")"
-# a moving camera keeps csi-render on the pixel grid (its plan knows; csi-positions does not)
+# a moving camera keeps csi-render on the pixel grid (its plan knows; csi-positions does not),
+# except one translating across its view from one sample per 2 frames
 sed 's/fov 40 size 32 32 }/fov 40 size 32 32 motion { key 0 { translate 0 0 0 } key 1 { translate 0.2 0 0 } } }/' \
-    "$moving" > "$T/camera_moves.scene"
-"$B/csi-render" "$T/camera_moves.scene" --spp 2 --seed 5 --dump "$T/rc.csid" -o "$T/r.exr" --max-iter 5 -q
-check "[[ '$(dump_hdr "$T/rc.csid")' == '32 32 8 32 32 3 2048' ]]" "a moving camera's grid: $(dump_hdr "$T/rc.csid")"
+    "$moving" > "$T/camera_pans.scene"
+sed 's/fov 40 size 32 32 }/fov 40 size 32 32 motion { key 0 { translate 0 0 0 } key 1 { translate 0 0 0 rotate 0 1 0 8 } } }/' \
+    "$moving" > "$T/camera_turns.scene"
+for c in "pans 2 32" "pans 4 64" "turns 4 32"; do
+    set -- $c
+    "$B/csi-render" "$T/camera_$1.scene" --spp $2 --seed 5 --dump "$T/rc.csid" -o "$T/r.exr" --max-iter 5 -q
+    check "[[ '$(dump_hdr "$T/rc.csid")' == '$3 $3 8 32 32 3 $(( $2 * 1024 ))' ]]" \
+          "a camera that $1, $2 spp: grid $(dump_hdr "$T/rc.csid")"
+done
 check "cmp -s <(dump_xyt '$T/qm.csid' 12) <(dump_xyt '$T/rm.csid' 24)" "moving: positions differ from csi-render's"
 # the default on a volume from 2 spp is stratified over each pixel's shutter; csi-render
 # --positions asks for another, as csi-positions --method does

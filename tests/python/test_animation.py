@@ -62,19 +62,25 @@ def main():
         check(scene.animate is not None and scene.size == (16, 16), "the animated scene loads")
 
         # The grid csi-mitsuba takes (csi_default_grid_factor): from one sample per 8 frames a
-        # volume has 2 x 2 cells a pixel, unless animate() moves the camera (as csi-render keeps
-        # the pixel grid where its plan says the camera moves).
-        with open(p("pan.py"), "w") as f:
-            f.write(SCENE + "\n    params['sensor.to_world'] = T().look_at(origin=[0.3 * time, 0, 5], "
-                    "target=[0.3 * time, 0, 0], up=[0, 1, 0])\n")
-        check(not mb.camera_moves(scene), "the ball's camera is said to move")
-        check(mb.camera_moves(mb.load_scene(p("pan.py"))), "the panning camera is said to hold still")
-        for name, want in (("ball.py", (32, 32, T)), ("pan.py", (16, 16, T))):
-            r = subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", p(name), "--time-steps", str(T), "--spp", "2",
+        # volume has 2 x 2 cells a pixel; a camera that translates across its view from one sample
+        # per 2 frames; any other moving camera keeps the pixel grid (as csi-render's plan
+        # decides for its own cameras).
+        for name, origin, target in (("pan.py", "[0.3 * time, 0, 5]", "[0.3 * time, 0, 0]"),
+                                     ("dolly.py", "[0, 0, 5 - time]", "[0, 0, -time]"),
+                                     ("turn.py", "[0, 0, 5]", "[0.4 * time, 0, 0]")):
+            with open(p(name), "w") as f:
+                f.write(SCENE + f"\n    params['sensor.to_world'] = T().look_at(origin={origin}, target={target}, "
+                        "up=[0, 1, 0])\n")
+        for name, want in (("ball.py", "still"), ("pan.py", "pans"), ("dolly.py", "moves"), ("turn.py", "moves")):
+            got = mb.camera_motion(mb.load_scene(p(name)))
+            check(got == want, f"{name}: the camera {got}, want {want}")
+        for name, spp, want in (("ball.py", 1, (32, 32, T)), ("pan.py", 1, (16, 16, T)), ("pan.py", 2, (32, 32, T)),
+                                ("turn.py", 2, (16, 16, T))):
+            r = subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", p(name), "--time-steps", str(T), "--spp", str(spp),
                                 "--dump", p("g.csid"), "-o", p("g.exr"), "-q"], stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR)))
             got = csid.read(p("g.csid")).grid if r.returncode == 0 else r.stderr.strip()
-            check(got == want, f"csi-mitsuba {name} at 2 spp, {T} frames: grid {got}, want {want}")
+            check(got == want, f"csi-mitsuba {name} at {spp} spp, {T} frames: grid {got}, want {want}")
 
         # Samples: each the closed form at its cell's pose. Cells whose centre ray passes within
         # 1e-3 of the outline are skipped (a float32 ray may fall either side; the grid's

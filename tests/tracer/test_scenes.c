@@ -36,6 +36,8 @@ int main(void)
               "%s: motion %d camera %d moving objects %zu", e->name, pl.motion, pl.camera_moves,
               pl.n_moving_objects);
         CHECK((pl.frames > 1) == e->motion, "%s: frames %u", e->name, pl.frames);
+        /* the train's camera translates sideways, across its view */
+        CHECK(pl.camera_pans == !strcmp(e->name, "train"), "%s: camera_pans %d", e->name, pl.camera_pans);
         CHECK(pl.image_textures == e->textures && pl.checker_textures == e->checker &&
                   pl.ambient_occlusion == e->ao && pl.path_tracing == e->path,
               "%s: effects differ from the scene's description", e->name);

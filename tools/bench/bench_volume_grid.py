@@ -66,8 +66,9 @@ def render_table(a):
                             err.setdefault(("t", F), []).append(json.load(open(st))["t_reconstruct_s"])
             m = {k: float(np.mean(v)) for k, v in err.items()}
             s1 = m["stratified", 1]
-            dflt = 2 if 8 * spp >= T and not plan["camera_moves"] else 1
-            rows.append(f"| {name} | {'moves' if plan['camera_moves'] else 'still'} | {spp} | {m['stratified', 2] / s1:.3f} "
+            camera = "pans" if plan["camera_pans"] else "moves" if plan["camera_moves"] else "still"
+            dflt = 2 if (camera == "still" and 8 * spp >= T) or (camera == "pans" and 2 * spp >= T) else 1
+            rows.append(f"| {name} | {camera} | {spp} | {m['stratified', 2] / s1:.3f} "
                         f"| {m['cs', 1] / s1:.3f} | {m['cs', 2] / s1:.3f} | {dflt}x | {m['cs', dflt] / m['stratified', dflt]:.3f} "
                         f"| {m['t', 1]:.1f} -> {m['t', 2]:.1f} |")
             bc.log(rows[-1])
@@ -97,7 +98,7 @@ def mitsuba_table(a):
             np.save(ref_path, mb.render_reference_frames(sref, T, a.ref_spp, seed=1))
         ref = np.load(ref_path).astype(np.float64).mean(axis=0)
         scene = mb.load_scene(path, size=(SIZE, SIZE))
-        moves = mb.camera_moves(scene)
+        camera = mb.camera_motion(scene)
         cells = []
         for rate in map(float, a.rates.split(",")):
             e = {}
@@ -112,7 +113,7 @@ def mitsuba_table(a):
             m = {F: float(np.mean(v)) for F, v in e.items()}
             cells.append(f"{m[1]:.2e} -> {m[2]:.2e}")
             bc.log(f"{name} {100 * rate:g}% {a.paths} paths: 1x {m[1]:.3e}, 2x {m[2]:.3e}")
-        rows.append(f"| {name} | {'moves' if moves else 'still'} | {a.paths} | " + " | ".join(cells) + " |")
+        rows.append(f"| {name} | {camera} | {a.paths} | " + " | ".join(cells) + " |")
     rates = " | ".join(f"{100 * float(r):g}%" for r in a.rates.split(","))
     return (["Image MSE on the pixel grid -> on 2 x 2 cells a pixel, the same number of samples, seeds 0-%d, "
              "against %d-spp box-filtered references:" % (a.seeds - 1, a.ref_spp), "",

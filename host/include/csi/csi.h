@@ -194,7 +194,8 @@ CSI_API csi_status csi_positions_count(const csi_grid *g, const csi_pos_opts *o,
  * per output pixel, the rule csi-render and csi-positions use. Moving (t > 1): 2 from one sample
  * per 8 frames (8 spp >= t), so that a pixel's samples see more of it than its centre; else 1
  * (the time axis already gives each pixel t cells); 1 where a side would exceed 65536 cells
- * (csi-render keeps 1 where its scene's camera moves, which its plan knows). Static: the
+ * (csi-render keeps 1 where its scene's camera moves, which its plan knows, unless it only
+ * translates across its view and there is a sample per 2 frames). Static: the
  * smallest power of two F >= 4 with F^2 > 4 spp (more than 4 cells per sample), at most 16:
  * F = 4 up to 3 spp, 8 for 4-15, 16 from 16; halved (not below 4) while a side would exceed
  * 65536 cells. Why: the compressive estimate

@@ -154,29 +154,35 @@ def pose(scene: Scene, time: float):
         raise BridgeError(f"{scene.name}: animate(params, {float(time):.4g}) failed: {_one_line(e)}") from None
 
 
-def camera_moves(scene: Scene) -> bool:
-    """Whether the scene's animate() moves or zooms its sensor over the shutter: its world
-    transform or field of view differs between times 0, 1/2 and 1 (csi-render's plan says the same
-    of its cameras; a moving camera keeps the pixel grid, csi_default_grid_factor's exception).
-    Leaves the scene posed at time 0."""
+def camera_motion(scene: Scene) -> str:
+    """How the scene's animate() moves its sensor over the shutter, from its poses at times 0, 1/2
+    and 1: "still"; "pans" when it only translates, across its view (the rotation and field of
+    view the same, each translation at most a quarter along the view direction); else "moves"
+    (csi-render's plan says the same of its cameras: camera_moves, camera_pans). Leaves the scene
+    posed at time 0."""
     if scene.animate is None:
-        return False
+        return "still"
     import numpy as np
 
     sensor = scene.mi_scene.sensors()[0]
     fov = [k for k in scene.params.keys() if k.endswith("x_fov")]
-
-    def state():
-        m = np.array(sensor.world_transform().matrix, dtype=np.float64).reshape(-1)
-        return np.concatenate([m] + [np.array(scene.params[k], dtype=np.float64).reshape(-1) for k in fov])
-
     poses = []
     for t in (0.0, 0.5, 1.0):
         pose(scene, t)
-        poses.append(state())
+        m = np.array(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4)
+        poses.append((m, np.concatenate([np.array(scene.params[k], dtype=np.float64).reshape(-1) for k in fov]
+                                        or [np.zeros(0)])))
     pose(scene, 0.0)
-    scale = max(1.0, float(np.abs(poses[0]).max()))
-    return any(float(np.abs(p - poses[0]).max()) > 1e-6 * scale for p in poses[1:])
+    (m0, f0), eps = poses[0], 1e-6 * max(1.0, float(np.abs(poses[0][0]).max()))
+    if all(float(np.abs(m - m0).max()) <= eps and np.array_equal(f, f0) for m, f in poses[1:]):
+        return "still"
+    forward = m0[:3, 2] / np.linalg.norm(m0[:3, 2])  # the sensor looks along its local +z
+    for m, f in poses[1:]:
+        d = m[:3, 3] - m0[:3, 3]
+        if (float(np.abs(m[:3, :3] - m0[:3, :3]).max()) > eps or not np.array_equal(f, f0)
+                or abs(float(d @ forward)) > 0.25 * float(np.linalg.norm(d))):
+            return "moves"
+    return "pans"
 
 
 #: Mitsuba's sensor plugins: how a scene dictionary's sensor entry is recognised.

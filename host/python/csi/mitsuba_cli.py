@@ -102,7 +102,8 @@ def parser():
                         "--paths above 1 or --time-steps above 1 (docs/bench/mitsuba.md, docs/bench/animation.md)")
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help; an "
-                        "animation whose camera moves keeps the image's width, as csi-render does)")
+                        "animation whose camera moves keeps the image's width, as csi-render does, "
+                        "except a camera translating across its view from one sample per 2 frames)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
                    help="positions (default poisson, the compressive method's)")
     s.add_argument("--time-steps", type=_int_range(1, 4096), default=1, metavar="T",
@@ -513,8 +514,12 @@ def _run(a, extra, prog, files, var_path, aov_paths):
 
     if req is None:
         grid = a.grid
-        if grid is None and a.time_steps > 1 and mb.camera_moves(scene):
-            grid = size[0]  # a moving camera keeps the pixel grid, as in csi-render (csi-positions --help)
+        if grid is None and a.time_steps > 1:
+            # as csi-render: a camera that moves keeps the pixel grid, one that translates across
+            # its view from one sample per 2 frames excepted (csi-render --help, --grid)
+            motion = mb.camera_motion(scene)
+            if motion == "moves" or (motion == "pans" and 2 * a.spp < a.time_steps):
+                grid = size[0]
         req = mb.positions_request(size, spp=a.spp, grid=grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
     seed = a.seed if not a.request else req.seed
     if a.refine and reconstruction_options(extra)[0].get("settle") == "on":
