@@ -175,10 +175,11 @@ static double motion_pixels(const csi_scene *sc, const csi_plan *pl)
     return best;
 }
 
-/* Whether a moving camera only translates, and across its view: every key's rotation and scale
- * are the first key's, and every key's translation from the first has at most a quarter of its
- * length along the view direction (a dolly brings the picture's parts closer at different
- * rates, a turn shears it; a translation across the view moves it, nearer parts faster). */
+/* Whether a moving camera only translates, and across its view: no key turns it (so the view
+ * direction is target - position throughout), every key's scale is the first key's, and every
+ * key's translation from the first has at most a quarter of its length along the view direction
+ * (a dolly brings the picture's parts closer at different rates, a turn shears it; a translation
+ * across the view moves it, nearer parts faster). */
 static bool camera_pans(const tr_camera *c)
 {
     const tr_motion *mo = &c->motion;
@@ -191,8 +192,7 @@ static bool camera_pans(const tr_camera *c)
         return false;
     for (size_t i = 1; i < mo->n; i++) {
         const tr_key *a = &mo->keys[0], *k = &mo->keys[i];
-        if (k->angle != a->angle || (a->angle != 0 && (k->axis[0] != a->axis[0] || k->axis[1] != a->axis[1] ||
-                                                       k->axis[2] != a->axis[2])))
+        if (a->angle != 0 || k->angle != 0)
             return false;
         double along = 0, len = 0;
         for (int j = 0; j < 3; j++) {
