@@ -596,6 +596,13 @@ uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uin
     return f;
 }
 
+uint32_t csi_camera_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp, csi_camera_motion camera)
+{
+    if (t > 1 && (camera == CSI_CAMERA_MOVES || (camera == CSI_CAMERA_PANS && 2 * spp < t)))
+        return 1;
+    return csi_default_grid_factor(out_w, out_h, t, spp);
+}
+
 /* ---- entry ------------------------------------------------------------------------------- */
 
 csi_status csi_positions_host_bytes(const csi_grid *g, const csi_pos_opts *o, uint64_t *bytes)

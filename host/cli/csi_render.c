@@ -355,15 +355,11 @@ int main(int argc, char **argv)
         }
         factor = grid_k / plan.width;
     } else {
-        factor = csi_default_grid_factor(plan.width, plan.height, plan.frames, spp);
-        /* A moving camera blurs the whole picture, whose detail the finer grid is for, and where
-         * it turns, zooms or dollies, its parts move at other velocities than the basis's one
-         * shear: there the finer grid's unknowns cost more than its detail gains. A camera that
-         * translates across its view pans the picture (parallax aside), which the shear follows:
-         * there the finer grid pays from one sample per 2 frames (docs/bench/animation.md,
-         * session 42). The plan knows; a renderer without one passes csi-positions --grid. */
-        if (plan.frames > 1 && plan.camera_moves && !(plan.camera_pans && 2 * spp >= plan.frames))
-            factor = 1;
+        /* the plan knows how the camera moves; a renderer without one passes csi-positions --grid */
+        const csi_camera_motion cam = plan.camera_pans    ? CSI_CAMERA_PANS
+                                      : plan.camera_moves ? CSI_CAMERA_MOVES
+                                                          : CSI_CAMERA_STILL;
+        factor = csi_camera_grid_factor(plan.width, plan.height, plan.frames, spp, cam);
     }
     if ((uint64_t)plan.width * factor > CSI_GRID_MAX_SIDE || (uint64_t)plan.height * factor > CSI_GRID_MAX_SIDE) {
         rc = cli_error(prog, CSI_ERR_ARG, "%s: fine grid %llux%llu (%ux%u pixels, %llu cells per pixel side) "

@@ -65,6 +65,7 @@ def main():
     refused("grid factor of a zero width", "out_w", lambda: csi.default_grid_factor(0, 16))
     refused("grid factor of a negative width", "out_w", lambda: csi.default_grid_factor(-1, 16))
     refused("grid factor of spp 0", "spp", lambda: csi.default_grid_factor(16, 16, 1, 0))
+    refused("grid factor of an unknown camera", "camera", lambda: csi.default_grid_factor(16, 16, 8, 4, camera="zoom"))
     refused("a negative frame", "frame", lambda: rec().write_exr(os.devnull, frame=-1))
     refused("a negative tile", "index", lambda: csi.reconstruct_tile(pos, val, GRID, -1, tiles=2))
     refused("a check of -1 samples", "count", lambda: csi.reconstruct_check(GRID, 3, -1))

@@ -25,6 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "..", "host", "python"))
 import bench_common as bc  # noqa: E402
+import csi  # noqa: E402
 
 SIZE = 64
 
@@ -67,7 +68,7 @@ def render_table(a):
             m = {k: float(np.mean(v)) for k, v in err.items()}
             s1 = m["stratified", 1]
             camera = "pans" if plan["camera_pans"] else "moves" if plan["camera_moves"] else "still"
-            dflt = 2 if (camera == "still" and 8 * spp >= T) or (camera == "pans" and 2 * spp >= T) else 1
+            dflt = csi.default_grid_factor(SIZE, SIZE, T, spp, camera=camera)
             rows.append(f"| {name} | {camera} | {spp} | {m['stratified', 2] / s1:.3f} "
                         f"| {m['cs', 1] / s1:.3f} | {m['cs', 2] / s1:.3f} | {dflt}x | {m['cs', dflt] / m['stratified', dflt]:.3f} "
                         f"| {m['t', 1]:.1f} -> {m['t', 2]:.1f} |")
@@ -79,8 +80,6 @@ def render_table(a):
 
 
 def mitsuba_table(a):
-    import csi
-    from csi import dump as csid  # noqa: F401
     from csi import mitsuba_bridge as mb
 
     import bench_animation as ba

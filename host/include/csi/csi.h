@@ -194,8 +194,7 @@ CSI_API csi_status csi_positions_count(const csi_grid *g, const csi_pos_opts *o,
  * per output pixel, the rule csi-render and csi-positions use. Moving (t > 1): 2 from one sample
  * per 8 frames (8 spp >= t), so that a pixel's samples see more of it than its centre; else 1
  * (the time axis already gives each pixel t cells); 1 where a side would exceed 65536 cells
- * (csi-render keeps 1 where its scene's camera moves, which its plan knows, unless it only
- * translates across its view and there is a sample per 2 frames). Static: the
+ * (csi_camera_grid_factor for a camera that moves). Static: the
  * smallest power of two F >= 4 with F^2 > 4 spp (more than 4 cells per sample), at most 16:
  * F = 4 up to 3 spp, 8 for 4-15, 16 from 16; halved (not below 4) while a side would exceed
  * 65536 cells. Why: the compressive estimate
@@ -203,6 +202,16 @@ CSI_API csi_status csi_positions_count(const csi_grid *g, const csi_pos_opts *o,
  * dominant once most cells are sampled (paper Sec. 4, 5.2, Fig. 7: a larger k); the sweep
  * behind the rule is in the source tree's docs/bench/grid.md. */
 CSI_API uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp);
+/* How a volume's camera moves over the shutter, for csi_camera_grid_factor: held still (or not
+ * known), translating across its view alone (no turn, zoom or dolly), or otherwise. */
+typedef enum csi_camera_motion { CSI_CAMERA_STILL = 0, CSI_CAMERA_PANS = 1, CSI_CAMERA_MOVES = 2 } csi_camera_motion;
+/* csi_default_grid_factor for a renderer that knows its camera (csi-render's plan, csi-mitsuba's
+ * poses): on a volume (t > 1) a moving camera keeps 1, where the finer grid's unknowns cost
+ * more than the detail it gains (the camera's blur removes that detail, and parts the basis's one
+ * shear does not follow multiply them), except a panning one from one sample per 2 frames
+ * (2 spp >= t); CSI_CAMERA_STILL is csi_default_grid_factor. docs/bench/animation.md, session 42. */
+CSI_API uint32_t csi_camera_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp,
+                                        csi_camera_motion camera);
 /* Makes the positions: *out (release with csi_free) holds *n unique positions sorted by
  * csi_grid_index, the same bits for the same inputs. info may be NULL. The methods' details
  * are in csi/positions.h of the source tree. */

@@ -181,6 +181,7 @@ def _bind(L):
         "csi_device_cache_programs": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_int)]),
         "csi_cached_programs_dir": (ctypes.c_int, [ctypes.c_char_p, c_size]),
         "csi_default_grid_factor": (u32, [u32, u32, u32, ctypes.c_uint64]),
+        "csi_camera_grid_factor": (u32, [u32, u32, u32, ctypes.c_uint64, ctypes.c_int]),
         "csi_pos_method_parse": (ctypes.c_int, [ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]),
         "csi_refine_positions": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Image), ctypes.c_double,
                                                 ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size),
@@ -676,11 +677,19 @@ def merge_partials(paths, frames: bool = False) -> Result:
     return res
 
 
-def default_grid_factor(out_w: int, out_h: int, t: int = 1, spp: int = 4) -> int:
-    """csi's fine-grid factor F for spp samples per output pixel (csi_default_grid_factor, the
-    rule of csi-render and csi-positions): the grid is F out_w x F out_h cells, t frames."""
-    return int(lib().csi_default_grid_factor(_whole("out_w", out_w, 1, _U32), _whole("out_h", out_h, 1, _U32),
-                                             _whole("t", t, 1, _U32), _whole("spp", spp, 1, _U64)))
+_CAMERAS = ("still", "pans", "moves")
+
+
+def default_grid_factor(out_w: int, out_h: int, t: int = 1, spp: int = 4, camera: str = "still") -> int:
+    """csi's fine-grid factor F for spp samples per output pixel (csi_camera_grid_factor, the
+    rule of csi-render and csi-positions): the grid is F out_w x F out_h cells, t frames. camera:
+    how a volume's camera moves, "still" (or not known), "pans" (translates across its view
+    alone) or "moves"."""
+    if camera not in _CAMERAS:
+        raise CsiError("CSI_ERR_ARG", f"camera: {camera!r} is not one of {', '.join(_CAMERAS)}")
+    return int(lib().csi_camera_grid_factor(_whole("out_w", out_w, 1, _U32), _whole("out_h", out_h, 1, _U32),
+                                            _whole("t", t, 1, _U32), _whole("spp", spp, 1, _U64),
+                                            _CAMERAS.index(camera)))
 
 
 def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fraction: Optional[float] = None):

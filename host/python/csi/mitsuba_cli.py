@@ -514,12 +514,10 @@ def _run(a, extra, prog, files, var_path, aov_paths):
 
     if req is None:
         grid = a.grid
-        if grid is None and a.time_steps > 1:
-            # as csi-render: a camera that moves keeps the pixel grid, one that translates across
-            # its view from one sample per 2 frames excepted (csi-render --help, --grid)
-            motion = mb.camera_motion(scene)
-            if motion == "moves" or (motion == "pans" and 2 * a.spp < a.time_steps):
-                grid = size[0]
+        if grid is None and a.time_steps > 1:  # the grid for the scene's camera, as csi-render's
+            import csi
+
+            grid = size[0] * csi.default_grid_factor(*size, a.time_steps, a.spp, camera=mb.camera_motion(scene))
         req = mb.positions_request(size, spp=a.spp, grid=grid, method=a.method, seed=a.seed, time_steps=a.time_steps)
     seed = a.seed if not a.request else req.seed
     if a.refine and reconstruction_options(extra)[0].get("settle") == "on":
