@@ -582,9 +582,20 @@ uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uin
      * of the pixel's centre, not of the pixel, and a texture or an edge stays aliased however
      * many samples are taken (stratified's as much as csi's). So 2 x 2 cells a pixel once there
      * is a sample for every 8 of its frames or more; below that the finer grid's four times the
-     * unknowns are too many for the samples (docs/bench/animation.md, session 42). */
-    if (t > 1)
-        return 8 * spp >= t && (uint64_t)out_w * 2 <= 65536 && (uint64_t)out_h * 2 <= 65536 ? 2 : 1;
+     * unknowns are too many for the samples (docs/bench/animation.md, session 42). From 16 spp
+     * 4 x 4: 2 x 2 cells hold a still pixel to the four cells' centres however many samples
+     * there are, and a renderer's jittered samples converge past that (session 43, 16 spp: 2 x 2
+     * cells' image 1.25-2.8x a renderer's stratified MSE on five of eleven scenes, 4 x 4 cells' on
+     * three, the geometric mean 0.86 -> 0.61). 3 x 3 at 9-15 spp gained on textures as much as it
+     * lost on lamps, so the factor stays a power of two, as the static rule's. */
+    if (t > 1) {
+        if (8 * spp < t)
+            return 1;
+        uint32_t f = spp >= 16 ? 4 : 2;
+        while (f > 1 && ((uint64_t)out_w * f > 65536 || (uint64_t)out_h * f > 65536))
+            f /= 2;
+        return f;
+    }
     /* Measured (docs/bench/grid.md, 64x64, 4 seeds, MSE vs a 256-spp reference / stratified's
      * MSE at equal spp): checkerboard 16 spp 2.11 at 4x, 1.52 at 8x, 0.71 at 16x; 1 spp is best
      * at 4x; non-power-of-two factors (6x, 12x) lose; 16x costs about 3-10x 4x to reconstruct. */

@@ -36,6 +36,13 @@ check "[[ '$(dump_hdr "$T/qm.csid")' == '64 64 8 32 32 0 2048' ]]" "moving heade
 # fewer than one sample per 8 frames: the pixel grid (1 spp over 16 frames)
 "$P" --out 32x32 --spp 1 --seed 5 --time-steps 16 -o "$T/qm1.csid" -q
 check "[[ '$(dump_hdr "$T/qm1.csid")' == '32 32 16 32 32 0 1024' ]]" "moving header at 1 spp, 16 frames: $(dump_hdr "$T/qm1.csid")"
+# from one sample per 8 frames 2 x 2 cells a pixel, 4 x 4 from 16 spp
+for sf in 8:2 15:2 16:4 64:4; do
+    spp=${sf%:*}; f=${sf#*:}
+    "$P" --out 32x32 --spp $spp --seed 5 --time-steps 8 -o "$T/qf.csid" -q
+    check "[[ '$(dump_hdr "$T/qf.csid")' == '$((32 * f)) $((32 * f)) 8 32 32 0 $((spp * 1024))' ]]" \
+          "moving header at $spp spp, 8 frames: $(dump_hdr "$T/qf.csid")"
+done
 # a moving camera keeps csi-render on the pixel grid (its plan knows; csi-positions does not),
 # except one translating across its view from one sample per 2 frames
 sed 's/fov 40 size 32 32 }/fov 40 size 32 32 motion { key 0 { translate 0 0 0 } key 1 { translate 0.2 0 0 } } }/' \

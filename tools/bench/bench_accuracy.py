@@ -19,9 +19,12 @@ Methods (names used in the CSVs and plots):
                                 wavelet db4|db8
     cs-<solver>-<wavelet>-sharp the same with --integrate sharp (on request only: --methods)
   moving scenes (3-D motion blur), each on the blurred image and on every frame:
-    random, stratified          per-pixel Monte Carlo over x, y, t; a frame's pixel is the mean of
-                                the pixel's samples in that frame (pixels with none: the pixel's
-                                mean over all t)
+    random, stratified          per-pixel Monte Carlo over x, y, t on a grid of 8 x 8 cells a
+                                pixel (positions nearly continuous, as a renderer's jitter; on
+                                csi's grid of a volume, 1-4 cells a pixel side, they would see
+                                the cells' centres only); a frame's pixel is the mean of the
+                                pixel's samples in that frame (pixels with none: the pixel's mean
+                                over all t)
     oidn                        OIDN on the stratified image and on each Monte Carlo frame
     gauss                       3-D Gaussian normalized convolution (csi --estimator gauss) on
                                 the compressive method's samples, sigma swept and the best picked
@@ -61,6 +64,7 @@ STATIC_METHODS = ["random", "stratified", "oidn"] + STATIC_CS
 # on request (--methods): the same with --integrate sharp (integrate Phi^-1 f_b, not f_b)
 STATIC_CS_SHARP = [m + "-sharp" for m in STATIC_CS]
 MOTION_METHODS = ["random", "stratified", "oidn", "gauss", "cs3d-sparsa"]
+MOTION_MC_GRID = 8  # cells a pixel side of the moving scenes' Monte Carlo positions
 # Alg. 2 variants run only when --methods names them: their csi-reconstruct options
 CS3D_ON_REQUEST = {"cs3d-romp": ["--solver", "romp"],
                    "cs3d-paper": ["--solver", "sparsa", "--motion-time", "dft", "--motion-velocity", "none",
@@ -271,13 +275,14 @@ class Bench:
     # ---- references -----------------------------------------------------------------------
     def reference(self, name, scene, shash, plan):
         """Static: csi-render --reference R (stratified, R samples per pixel on a sqrt(R)x finer
-        grid). Moving: csi-render's reference grid has 2 x 2 cells a pixel and T frames, so a
-        reference is every cell traced once (--reference 4T), the pixel the mean of its 2 x 2
-        points, averaged over ceil(R / 4T) seeds (shading noise)."""
+        grid). Moving: a reference grid of 4 x 4 cells a pixel and T frames (--reference 16T),
+        every cell traced once, the pixel the mean of its 4 x 4 points (finer than any default
+        grid of a volume: at most 4 x 4 cells, csi_default_grid_factor), averaged over
+        ceil(R / 16T) seeds (shading noise)."""
         W, H, T = plan["width"], plan["height"], plan["frames"]
         R = self.a.ref_spp
         os.makedirs(self.a.ref_cache, exist_ok=True)
-        key = f"{name}_{W}x{H}_T{T}_r{R}_{shash}_{self.fp}"
+        key = f"{name}_{W}x{H}_T{T}_r{R}{'_c4' if T > 1 else ''}_{shash}_{self.fp}"
         path = os.path.join(self.a.ref_cache, key + ".npz")
         if os.path.exists(path):
             z = np.load(path)
@@ -290,17 +295,17 @@ class Bench:
             frames = np.zeros(0)
             trender = st["t_render_s"]
         else:
-            nseeds = max(1, math.ceil(R / (4 * T)))
+            nseeds = max(1, math.ceil(R / (16 * T)))
             dumps = []
             trender = 0
             for s in range(nseeds):
                 d = os.path.join(self.work, f"ref_{name}_{s}.csid")
                 _, st = self.render(scene, f"ref_{name}_{s}",
-                                    ["--reference", str(4 * T), "--time-steps", str(T), "--seed", str(s + 1), "--dump", d])
+                                    ["--reference", str(16 * T), "--time-steps", str(T), "--seed", str(s + 1), "--dump", d])
                 trender += st["t_render_s"]
                 dumps.append(d)
-            fine = bc.dump_grid_mean(dumps)  # (T, 2H, 2W, 3)
-            frames = fine.reshape(T, H, 2, W, 2, -1).mean(axis=(2, 4)).astype(np.float32)
+            fine = bc.dump_grid_mean(dumps)  # (T, 4H, 4W, 3)
+            frames = fine.reshape(T, H, 4, W, 4, -1).mean(axis=(2, 4)).astype(np.float32)
             for d in dumps:
                 os.remove(d)
             img = frames.mean(axis=0)
@@ -470,7 +475,8 @@ class Bench:
                     if not (self.want(meth, True) or (meth == "stratified" and self.want("oidn", True))):
                         continue
                     dump = os.path.join(self.work, f"{tag}_{meth}.csid")
-                    img, st = self.render(scene, f"{tag}_{meth}", common + ["--method", meth, "--dump", dump])
+                    img, st = self.render(scene, f"{tag}_{meth}", common + ["--method", meth, "--dump", dump,
+                                                                           "--grid", str(MOTION_MC_GRID * W)])
                     fr, _ = bc.dump_frames(dump, fill=img)
                     os.remove(dump)
                     if self.want(meth, True):

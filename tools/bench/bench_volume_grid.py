@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""A volume's spatial grid: the pixel grid (1x) against 2 x 2 cells a pixel (2x), against
-references of the pixel's area (docs/bench/animation.md, session 42; csi_default_grid_factor).
+"""A volume's spatial grid: the pixel grid (1x) against F x F cells a pixel, against references of
+the pixel's area (docs/bench/animation.md, sessions 42-43; csi_default_grid_factor).
 
-  render   csi-render scenes (bundled names or .scene paths) at 64 x 64 x T: csi and stratified on
-           each grid, seeds 1..S, against `csi-render --reference 16T` (4 x 4 points a pixel a
-           frame; the mean of --ref-seeds seeds for a path-traced scene). Table: image MSE over
-           stratified's on the pixel grid, the default grid's choice marked.
+  render   csi-render scenes (bundled names or .scene paths) at 64 x 64 x T: csi on each grid of
+           --grids, and stratified on the pixel grid and on 8 x 8 cells a pixel (nearly
+           continuous positions, a renderer's Monte Carlo), seeds 1..S, against `csi-render
+           --reference 64T` (8 x 8 points a pixel a frame; the mean of --ref-seeds seeds for a
+           path-traced scene). Table: image MSE over stratified's on 8 x 8 cells, the default
+           grid's choice marked.
   mitsuba  Mitsuba animations (bundled names or .py files with animate()) at 64 x 64 x 16: the
            same number of random cells on each grid (a fraction of the pixel grid's cells, its
            quarter on the 2x grid), N paths a sample, csi's image against the box-filtered
@@ -28,11 +30,14 @@ import bench_common as bc  # noqa: E402
 import csi  # noqa: E402
 
 SIZE = 64
+MC_GRID = 8  # stratified's comparison grid, cells a pixel side: nearly continuous positions
+REF_SIDE = 8  # the reference's points a pixel side a frame
 
 
 def render_table(a):
     bins = bc.binaries(a.build)
     env = bc.default_env()
+    grids = [int(f) for f in a.grids.split(",")]
     rows = []
     for scene in a.scenes.split(","):
         path, _ = bc.scene_variant(scene, (SIZE, SIZE), os.path.join(a.out, "scenes"))
@@ -47,36 +52,39 @@ def render_table(a):
         for s in range(1, a.ref_seeds + 1):
             ref = os.path.join(d, f"ref{s}.exr")
             if not os.path.exists(ref):
-                bc.run([bins["csi-render"], path, "--reference", str(16 * T), "--time-steps", str(T), "--seed", str(s),
-                        "-o", ref, "-q"], env)
+                bc.run([bins["csi-render"], path, "--reference", str(REF_SIDE * REF_SIDE * T), "--time-steps", str(T),
+                        "--seed", str(s), "-o", ref, "-q"], env)
             refs.append(bc.read_exr(ref))
         ref = np.mean(refs, axis=0)
+        camera = "pans" if plan["camera_pans"] else "moves" if plan["camera_moves"] else "still"
         for spp in map(int, a.spp.split(",")):
+            dflt = csi.default_grid_factor(SIZE, SIZE, T, spp, camera=camera)
+            runs = [("cs", F) for F in sorted(set(grids + [dflt]))] + [("stratified", 1), ("stratified", MC_GRID)]
             err = {}
             for seed in range(1, a.seeds + 1):
-                for F in (1, 2):
-                    for method in ("cs", "stratified"):
-                        out = os.path.join(d, f"s{spp}_r{seed}_g{F}_{method}.exr")
-                        st = out[:-4] + ".json"
-                        if not os.path.exists(out):
-                            bc.run([bins["csi-render"], path, "--spp", str(spp), "--seed", str(seed), "--time-steps",
-                                    str(T), "--grid", str(SIZE * F), "--method", method, "-o", out, "--stats", st,
-                                    "-q"], env)
-                        err.setdefault((method, F), []).append(bc.mse(bc.read_exr(out), ref))
-                        if method == "cs":
-                            err.setdefault(("t", F), []).append(json.load(open(st))["t_reconstruct_s"])
+                for method, F in runs:
+                    out = os.path.join(d, f"s{spp}_r{seed}_g{F}_{method}.exr")
+                    st = out[:-4] + ".json"
+                    if not os.path.exists(out):
+                        bc.run([bins["csi-render"], path, "--spp", str(spp), "--seed", str(seed), "--time-steps",
+                                str(T), "--grid", str(SIZE * F), "--method", method, "-o", out, "--stats", st,
+                                "-q"], env)
+                    err.setdefault((method, F), []).append(bc.mse(bc.read_exr(out), ref))
+                    if method == "cs":
+                        err.setdefault(("t", F), []).append(json.load(open(st))["t_reconstruct_s"])
             m = {k: float(np.mean(v)) for k, v in err.items()}
-            s1 = m["stratified", 1]
-            camera = "pans" if plan["camera_pans"] else "moves" if plan["camera_moves"] else "still"
-            dflt = csi.default_grid_factor(SIZE, SIZE, T, spp, camera=camera)
-            rows.append(f"| {name} | {camera} | {spp} | {m['stratified', 2] / s1:.3f} "
-                        f"| {m['cs', 1] / s1:.3f} | {m['cs', 2] / s1:.3f} | {dflt}x | {m['cs', dflt] / m['stratified', dflt]:.3f} "
-                        f"| {m['t', 1]:.1f} -> {m['t', 2]:.1f} |")
+            mc = m["stratified", MC_GRID]
+            cells = " | ".join(f"{m['cs', F] / mc:.3f}" + (" *" if F == dflt else "") for F in grids)
+            rows.append(f"| {name} | {camera} | {spp} | {mc:.3e} | {m['stratified', 1] / mc:.3f} | {cells} | {dflt}x "
+                        f"| {m['cs', dflt] / mc:.3f} | " + ", ".join(f"{m['t', F]:.1f}" for F in grids) + " |")
             bc.log(rows[-1])
-    head = ["| scene | camera | spp | stratified 2x | csi 1x | csi 2x | default | csi / stratified on the default's grid "
-            "| csi s, 1x -> 2x |", "| --- | --- | ---: | ---: | ---: | ---: | --- | ---: | --- |"]
-    return ["Image MSE over stratified's on the pixel grid, seeds 1-%d, against %d seed(s) of --reference %d:"
-            % (a.seeds, a.ref_seeds, 16 * a.time_steps), ""] + head + rows
+    head = ["| scene | camera | spp | stratified %dx MSE | stratified 1x | " % MC_GRID
+            + " | ".join(f"csi {F}x" for F in grids) + " | default | csi default | csi s (" + ", ".join(f"{F}x" for F in grids) + ") |",
+            "| --- | --- | ---: | ---: | ---: | " + " ---: |" * len(grids) + " --- | ---: | --- |"]
+    return ["Image MSE over stratified's on %d x %d cells a pixel (positions nearly continuous, as a renderer's "
+            "jitter), seeds 1-%d, against %d seed(s) of --reference %d (%d x %d points a pixel a frame); * the "
+            "default grid:" % (MC_GRID, MC_GRID, a.seeds, a.ref_seeds, REF_SIDE * REF_SIDE * a.time_steps, REF_SIDE,
+                                REF_SIDE), ""] + head + rows
 
 
 def mitsuba_table(a):
@@ -126,6 +134,7 @@ def main():
     ap.add_argument("--scenes", default=None, help="render: billiards,train; mitsuba: anim_ball,anim_pan")
     ap.add_argument("--spp", default="4,9,16", help="render: samples per pixel")
     ap.add_argument("--time-steps", type=int, default=32, help="render: frames")
+    ap.add_argument("--grids", default="1,2,3,4", help="render: csi's grids, cells a pixel side")
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--ref-seeds", type=int, default=1, help="render: reference seeds (4 for path-traced scenes)")
     ap.add_argument("--rates", default="0.1,0.2,0.3,0.5", help="mitsuba: fractions of the pixel grid's cells")
