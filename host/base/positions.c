@@ -242,11 +242,40 @@ static csi_status stratified(const csi_grid *g, const csi_pos_opts *o, uint64_t 
     memcpy(info->strata, s, sizeof s);
     csi_rng r;
     csi_rng_seed(&r, o->seed);
+    /* A volume's pixel of several cells whose strata split its shutter alone (the split keeps
+     * each stratum's extent in t near its extent in x and y, so a few cells a pixel over many
+     * frames are split in t only): each stratum's cell is dealt from a shuffled deck holding
+     * every cell of the pixel once, a new deck when it runs out, not drawn at random, so that
+     * spp samples fall on min(spp, cells) distinct cells, every cell once before any twice (Latin
+     * hypercube sampling across the pixel's cells and its shutter, McKay, Beckman and Conover
+     * 1979). A still pixel's samples then see as much of it as the grid holds, where independent
+     * draws repeat cells and leave others unseen. */
+    const uint32_t deck_n = bt > 1 && s[0] == 1 && s[1] == 1 && bw * bh > 1 && bw * bh <= 256 ? bw * bh : 0;
+    uint8_t deck[256];
     size_t m = 0;
     for (uint32_t py = 0; py < g->out_h; py++)
         for (uint32_t px = 0; px < g->out_w; px++) {
             const uint64_t x0 = (uint64_t)px * bw, y0 = (uint64_t)py * bh;
-            if (s[0]) {
+            if (deck_n) {
+                uint32_t dealt = deck_n;
+                for (uint32_t c = 0; c < s[2]; c++) {
+                    if (dealt == deck_n) { /* a fresh deck, shuffled (Fisher-Yates) */
+                        for (uint32_t i = 0; i < deck_n; i++)
+                            deck[i] = (uint8_t)i;
+                        for (uint32_t i = deck_n - 1; i > 0; i--) {
+                            const uint32_t j = (uint32_t)csi_rng_below(&r, i + 1);
+                            const uint8_t tmp = deck[i];
+                            deck[i] = deck[j];
+                            deck[j] = tmp;
+                        }
+                        dealt = 0;
+                    }
+                    const uint32_t cell = deck[dealt++];
+                    const uint64_t ta = (uint64_t)c * bt / s[2], tb = (uint64_t)(c + 1) * bt / s[2];
+                    const uint64_t t = ta + csi_rng_below(&r, tb - ta);
+                    lin[m++] = (t * g->h + y0 + cell / bw) * g->w + x0 + cell % bw;
+                }
+            } else if (s[0]) {
                 for (uint32_t c = 0; c < s[2]; c++)
                     for (uint32_t b = 0; b < s[1]; b++)
                         for (uint32_t a = 0; a < s[0]; a++) {

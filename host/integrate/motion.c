@@ -215,7 +215,15 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * one. Half gained on every procedural volume, whose samples are exact, and lost on the
      * path-traced animations (docs/bench/animation.md, round 7 and session 30); with a sheared
      * basis it also lost on the train against the shutter's continuous-time reference. Its
-     * buffers are reserved with auto, as the filter's are, so that the plan need not know. */
+     * buffers are reserved with auto, as the filter's are, so that the plan need not know.
+     * A tenth where exact samples on a grid of 2 x 2 cells a pixel or more (a still camera's),
+     * as many samples as the pixels' cells, show HDR lights that hold still (still_lights.c):
+     * each cell is then seen once or twice, and at an equal weight the solve keeps a still light
+     * at the frames it was seen, bright there and dim between, the image a fraction of what the
+     * samples say, and carries it into the neighbours; the still-picture test above does not
+     * fire there (a pixel's samples differ across its cells). Moving lights keep the weight:
+     * at a tenth each of their samples is held as a still light (docs/bench/animation.md,
+     * session 43). */
     double still_weight = 1;
     if (s == CSI_OK && half && opt->motion_still_weight > 0) {
         still_weight = opt->motion_still_weight;
@@ -225,6 +233,13 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK && still)
             s = csi_recon_still_exact_share(g, pos, values, channels, n, &share);
         still_weight = share > CSI_STILL_PICTURE_SHARE ? 0.5 : 1;
+        const uint64_t cells_xy = (uint64_t)(g->w / g->out_w) * (g->h / g->out_h);
+        bool lights_hold = false;
+        if (s == CSI_OK && still && (opt->sample_flags & CSI_SAMPLES_EXACT) && cells_xy >= 4 &&
+            n >= cells_xy * g->out_w * g->out_h)
+            s = csi_recon_still_lights(g, pos, values, channels, n, &lights_hold);
+        if (lights_hold)
+            still_weight = CSI_STILL_WEIGHT_LIGHTS;
     }
     res->options.motion_still_weight = still_weight;
     const bool still_weighted = still_weight != 1;

@@ -233,11 +233,14 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         csi_half_fourier_sampling_buffers(dims, n, &m->dev);
         /* reserved before the velocity; the still plane's weight is a gain of the filter's
          * buffers, made wherever it is not 1 or auto (motion.c), and auto's look at the samples
-         * holds 13 bytes per pixel (still_samples.c) */
+         * holds 13 bytes per pixel (still_samples.c) or 8 per sample and 12 per bright one
+         * (still_lights.c: counted as if all were bright) */
         if (csi_recon_motion_filter_width(g, n, opt, scope) > 0 || opt->motion_still_weight != 1)
             csi_half_fourier_filter_buffers(dims, &m->dev);
-        if (opt->motion_still_weight <= 0)
+        if (opt->motion_still_weight <= 0) {
             transient_host(m, (uint64_t)np * 13);
+            transient_host(m, (uint64_t)n * 20);
+        }
     } else {
         CSI_TRY(csi_fft_check_size("Fourier basis", dims));
         ncoef = k;

@@ -198,6 +198,51 @@ static int test_stratified_splits(void)
     return 0;
 }
 
+/* A volume's pixel of F x F cells split in t alone: every cell once before any twice, counted
+ * per pixel (each cell's count floor(spp / F^2) or one more), one sample per time stratum. */
+static int test_stratified_cells_dealt(void)
+{
+    struct { csi_grid g; uint32_t spp; } cases[] = {
+        {{32, 32, 32, 16, 16}, 4},  /* 2 x 2 cells, 4 spp: each cell once */
+        {{64, 64, 32, 16, 16}, 16}, /* 4 x 4, 16: each once */
+        {{32, 32, 32, 16, 16}, 6},  /* 2 x 2, 6: two cells twice, two once */
+        {{64, 64, 32, 16, 16}, 5},  /* 4 x 4, 5: five distinct cells */
+        {{32, 32, 64, 16, 16}, 16}, /* 2 x 2, 16 over 64 frames: each cell 4 times */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const csi_grid *g = &cases[i].g;
+        const uint32_t bw = g->w / g->out_w, cells = bw * bw, spp = cases[i].spp;
+        csi_pos_opts o = {.method = CSI_POS_STRATIFIED, .spp = spp, .seed = 11};
+        csi_sample_pos *p;
+        size_t n;
+        csi_pos_info info;
+        REQUIRE_OK(csi_positions(g, &o, &p, &n, &info));
+        CHECK(info.strata[0] == 1 && info.strata[1] == 1 && info.strata[2] == spp, "case %zu: split in t alone (%u %u %u)",
+              i, info.strata[0], info.strata[1], info.strata[2]);
+        CHECK(check_strata(g, p, n, info.strata, spp) == 0, "case %zu: one per time stratum", i);
+        uint32_t *count = calloc((size_t)g->out_w * g->out_h * cells, sizeof *count);
+        if (!count) {
+            CHECK(count != NULL, "case %zu: out of memory", i);
+            free(p);
+            return 1;
+        }
+        for (size_t k = 0; k < n; k++) {
+            const uint32_t px = p[k].x / bw, py = p[k].y / bw;
+            count[((size_t)py * g->out_w + px) * cells + (p[k].y % bw) * bw + p[k].x % bw]++;
+        }
+        int bad = 0;
+        for (size_t pix = 0; pix < (size_t)g->out_w * g->out_h; pix++)
+            for (uint32_t c = 0; c < cells; c++) {
+                const uint32_t k = count[pix * cells + c];
+                bad += k < spp / cells || k > (spp + cells - 1) / cells;
+            }
+        CHECK(bad == 0, "case %zu: %d cells of a pixel sampled unevenly", i, bad);
+        free(count);
+        free(p);
+    }
+    return 0;
+}
+
 static int test_poisson_cases(void)
 {
     /* 3-D with a fraction, a dense case that ends in the uniform fill (radius 1), full grid. */
@@ -330,6 +375,7 @@ int main(void)
     test_counts_and_errors();
     test_methods_basic();
     test_stratified_splits();
+    test_stratified_cells_dealt();
     test_poisson_cases();
     test_random_uniform();
     test_progress();
