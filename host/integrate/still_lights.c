@@ -78,8 +78,12 @@ csi_status csi_recon_still_lights(const csi_grid *g, const csi_sample_pos *pos, 
     size_t nb = 0;
     for (size_t i = 0; i < n; i++)
         nb += luma[i] > thr;
-    bright *b = nb ? malloc(nb * sizeof *b) : NULL;
-    if (nb && !b) {
+    if (nb == 0) { /* no light: nothing holds still */
+        free(luma);
+        return CSI_OK;
+    }
+    bright *b = malloc(nb * sizeof *b);
+    if (!b) {
         free(luma);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu bright samples", nb);
     }
@@ -104,6 +108,6 @@ csi_status csi_recon_still_lights(const csi_grid *g, const csi_sample_pos *pos, 
         held += found;
     }
     free(b);
-    *hold = nb > 0 && 2 * held > nb;
+    *hold = 2 * held > nb;
     return CSI_OK;
 }
