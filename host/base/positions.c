@@ -609,20 +609,21 @@ uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uin
     /* A volume: each pixel already has t cells over its shutter, but a pixel of one spatial cell
      * is seen at its centre only, whatever the spp: the image then converges to the motion blur
      * of the pixel's centre, not of the pixel, and a texture or an edge stays aliased however
-     * many samples are taken (stratified's as much as csi's). So 2 x 2 cells a pixel once there
-     * is a sample for every 8 of its frames or more; below that the finer grid's four times the
-     * unknowns are too many for the samples (docs/bench/animation.md, session 42). From 16 spp
-     * 4 x 4: 2 x 2 cells hold a still pixel to the four cells' centres however many samples
-     * there are, and a renderer's jittered samples converge past that (session 43, 16 spp: 2 x 2
-     * cells' image 1.25-2.8x a renderer's stratified MSE on five of eleven scenes, 4 x 4 cells' on
-     * three, the geometric mean 0.86 -> 0.61). 3 x 3 at 9-15 spp gained on textures as much as it
-     * lost on lamps, so the factor stays a power of two, as the static rule's. */
+     * many samples are taken (stratified's as much as csi's). So F x F cells a pixel once there
+     * is a sample for every 8 of its frames or more, F = floor(sqrt(spp)) between 2 and 4: about
+     * one cell a sample of the pixel, so that stratified positions see each cell once (below 4
+     * spp 2, whose four times the unknowns the fit still carries; docs/bench/animation.md,
+     * session 42). F cells hold a still pixel to their centres however many samples there are,
+     * and a renderer's jittered samples converge past that (session 43: 2 x 2 cells' image at 16
+     * spp 1.25-2.8x a renderer's stratified MSE on five of eleven scenes, 4 x 4 cells' on three;
+     * session 44: 3 x 3 at 9 spp, with the still lights' weight, below it on all eight still-camera
+     * scenes where 2 x 2 was above it on three). Reduced while a side would exceed 65536 cells. */
     if (t > 1) {
         if (8 * spp < t)
             return 1;
-        uint32_t f = spp >= 16 ? 4 : 2;
+        uint32_t f = spp >= 16 ? 4 : spp >= 9 ? 3 : 2;
         while (f > 1 && ((uint64_t)out_w * f > 65536 || (uint64_t)out_h * f > 65536))
-            f /= 2;
+            f--;
         return f;
     }
     /* Measured (docs/bench/grid.md, 64x64, 4 seeds, MSE vs a 256-spp reference / stratified's

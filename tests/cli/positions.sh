@@ -36,8 +36,8 @@ check "[[ '$(dump_hdr "$T/qm.csid")' == '64 64 8 32 32 0 2048' ]]" "moving heade
 # fewer than one sample per 8 frames: the pixel grid (1 spp over 16 frames)
 "$P" --out 32x32 --spp 1 --seed 5 --time-steps 16 -o "$T/qm1.csid" -q
 check "[[ '$(dump_hdr "$T/qm1.csid")' == '32 32 16 32 32 0 1024' ]]" "moving header at 1 spp, 16 frames: $(dump_hdr "$T/qm1.csid")"
-# from one sample per 8 frames 2 x 2 cells a pixel, 4 x 4 from 16 spp
-for sf in 8:2 15:2 16:4 64:4; do
+# from one sample per 8 frames 2 x 2 cells a pixel, 3 x 3 from 9 spp, 4 x 4 from 16
+for sf in 8:2 9:3 15:3 16:4 64:4; do
     spp=${sf%:*}; f=${sf#*:}
     "$P" --out 32x32 --spp $spp --seed 5 --time-steps 8 -o "$T/qf.csid" -q
     check "[[ '$(dump_hdr "$T/qf.csid")' == '$((32 * f)) $((32 * f)) 8 32 32 0 $((spp * 1024))' ]]" \

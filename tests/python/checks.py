@@ -1,5 +1,7 @@
 """Counting checks for the Python tests, as tests/support/testlib.h does for the C ones: a test
-calls check() as often as it likes and ends with `sys.exit(done())` ("N passed, M failed")."""
+calls check() as often as it likes and ends with done(), which prints "N passed, M failed" and
+exits the process, non-zero when a check failed. It exits itself rather than returning the status:
+four tests once ended on a bare `done()`, so their failures printed FAIL and still passed."""
 import sys
 
 passed = failed = 0
@@ -16,4 +18,5 @@ def check(cond, msg):
 
 def done():
     print(f"{passed} passed, {failed} failed")
-    return 1 if failed else 0
+    sys.stdout.flush()
+    raise SystemExit(1 if failed else 0)

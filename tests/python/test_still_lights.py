@@ -70,8 +70,8 @@ def main():
                   f"per-pixel mean's {e_mean:.3e} ({e_csi / e_mean:.2f}x)")
             check(e_csi < bound * e_mean, f"{what} lights, {spp} spp: image MSE {e_csi:.3e} not below {bound}x the "
                   f"per-pixel mean's {e_mean:.3e}")
-    done()
+    return done()
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

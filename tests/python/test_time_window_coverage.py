@@ -77,8 +77,8 @@ def main():
         check(p.returncode != 0 and len(lines) == 1 and src in lines[0] and "time window 2 of 2" in lines[0],
               f"csi-reconstruct --tiles-t 2: exit {p.returncode}, stderr {p.stderr!r}")
         check(sorted(os.listdir(d)) == ["early.csid"], f"files left: {sorted(os.listdir(d))}")
-    done()
+    return done()
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

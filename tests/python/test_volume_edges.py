@@ -92,8 +92,8 @@ def main():
                            capture_output=True, text=True, env=env)
         check(p.returncode == 0 and p.stderr == "", f"csi-reconstruct -q, kernels built afresh: exit "
               f"{p.returncode}, stderr {p.stderr[:200]!r}")
-    done()
+    return done()
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -344,22 +344,24 @@ static int test_default_grid(void)
         CHECK(csi_default_grid_factor(128, 96, 1, rule[i].spp) == rule[i].f, "%llu spp: %u",
               (unsigned long long)rule[i].spp, csi_default_grid_factor(128, 96, 1, rule[i].spp));
     const struct { uint32_t t; uint64_t spp; uint32_t f; } moving[] = {
-        {8, 1, 2}, {9, 1, 1}, {16, 1, 1}, {16, 2, 2}, {32, 3, 1}, {32, 4, 2}, {32, 9, 2}, {32, 15, 2},
-        {32, 16, 4}, {32, 100, 4}, {64, 7, 1}, {64, 8, 2}, {64, 16, 4}, {128, 15, 1}, {2, 65536, 4}};
+        {8, 1, 2}, {9, 1, 1}, {16, 1, 1}, {16, 2, 2}, {32, 3, 1}, {32, 4, 2}, {32, 8, 2}, {32, 9, 3}, {32, 12, 3},
+        {32, 15, 3}, {32, 16, 4}, {32, 100, 4}, {64, 7, 1}, {64, 8, 2}, {64, 16, 4}, {128, 15, 1}, {2, 65536, 4}};
     for (size_t i = 0; i < sizeof moving / sizeof moving[0]; i++)
         CHECK(csi_default_grid_factor(128, 128, moving[i].t, moving[i].spp) == moving[i].f, "moving, %u frames, %llu spp: %u",
               moving[i].t, (unsigned long long)moving[i].spp, csi_default_grid_factor(128, 128, moving[i].t, moving[i].spp));
     /* the camera's motion: a moving one keeps 1, a panning one from 2 spp >= t, a still one the default */
     const struct { uint32_t t; uint64_t spp; csi_camera_motion cam; uint32_t f; } cams[] = {
         {32, 4, CSI_CAMERA_STILL, 2}, {32, 4, CSI_CAMERA_PANS, 1}, {32, 15, CSI_CAMERA_PANS, 1},
-        {32, 16, CSI_CAMERA_PANS, 4}, {16, 9, CSI_CAMERA_PANS, 2},
+        {32, 16, CSI_CAMERA_PANS, 4}, {16, 9, CSI_CAMERA_PANS, 3},
         {32, 64, CSI_CAMERA_MOVES, 1}, {32, 3, CSI_CAMERA_STILL, 1}, {1, 16, CSI_CAMERA_MOVES, 16}};
     for (size_t i = 0; i < sizeof cams / sizeof cams[0]; i++)
         CHECK(csi_camera_grid_factor(128, 128, cams[i].t, cams[i].spp, cams[i].cam) == cams[i].f,
               "camera %d, %u frames, %llu spp: %u", (int)cams[i].cam, cams[i].t, (unsigned long long)cams[i].spp,
               csi_camera_grid_factor(128, 128, cams[i].t, cams[i].spp, cams[i].cam));
     CHECK(csi_default_grid_factor(16384, 64, 16, 16) == 4, "moving: 16384 * 4 = 65536 fits");
-    CHECK(csi_default_grid_factor(16385, 64, 16, 16) == 2, "moving: 16385 * 4 > 65536: halved to 2");
+    CHECK(csi_default_grid_factor(16385, 64, 16, 16) == 3, "moving: 16385 * 4 > 65536: reduced to 3");
+    CHECK(csi_default_grid_factor(21845, 64, 16, 9) == 3, "moving: 21845 * 3 = 65535 fits");
+    CHECK(csi_default_grid_factor(21846, 64, 16, 9) == 2, "moving: 21846 * 3 > 65536: reduced to 2");
     CHECK(csi_default_grid_factor(32768, 64, 16, 16) == 2, "moving: 32768 * 2 = 65536 fits");
     CHECK(csi_default_grid_factor(64, 32769, 16, 16) == 1, "moving: 32769 * 2 > 65536: 1x");
     CHECK(csi_default_grid_factor(4096, 64, 1, 16) == 16, "4096 * 16 = 65536 fits");

@@ -192,9 +192,9 @@ CSI_API csi_status csi_pos_method_parse(const char *s, csi_pos_method *m);
 CSI_API csi_status csi_positions_count(const csi_grid *g, const csi_pos_opts *o, size_t *n);
 /* The default fine-grid factor F (grid = F out_w x F out_h cells, t frames) for `spp` samples
  * per output pixel, the rule csi-render and csi-positions use. Moving (t > 1): from one sample
- * per 8 frames (8 spp >= t) 2, and 4 from 16 spp, so that a pixel's samples see more of it than
- * its centre; else 1 (the time axis already gives each pixel t cells); halved while a side would
- * exceed 65536 cells
+ * per 8 frames (8 spp >= t) 2, 3 from 9 spp and 4 from 16, so that a pixel's samples see more of
+ * it than its centre; else 1 (the time axis already gives each pixel t cells); reduced while a
+ * side would exceed 65536 cells
  * (csi_camera_grid_factor for a camera that moves). Static: the
  * smallest power of two F >= 4 with F^2 > 4 spp (more than 4 cells per sample), at most 16:
  * F = 4 up to 3 spp, 8 for 4-15, 16 from 16; halved (not below 4) while a side would exceed
@@ -211,7 +211,7 @@ typedef enum csi_camera_motion { CSI_CAMERA_STILL = 0, CSI_CAMERA_PANS = 1, CSI_
  * more than the detail it gains (the camera's blur removes that detail, and parts the basis's one
  * shear does not follow multiply them), except a panning one from one sample per 2 frames
  * (2 spp >= t), where it takes csi_default_grid_factor's; CSI_CAMERA_STILL is
- * csi_default_grid_factor. docs/bench/animation.md, sessions 42-43. */
+ * csi_default_grid_factor. docs/bench/animation.md, sessions 42-44. */
 CSI_API uint32_t csi_camera_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp,
                                         csi_camera_motion camera);
 /* Makes the positions: *out (release with csi_free) holds *n unique positions sorted by
