@@ -508,13 +508,24 @@ csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *
 /* Above this share (csi_recon_still_exact_share) a volume's samples are a noise-free picture that
  * mostly holds still: a still camera's exact samples. */
 #define CSI_STILL_PICTURE_SHARE 0.5
-/* Whether a volume's bright samples (HDR lights) hold still: more than half of them have another
- * within one cell in x and y a quarter of the shutter away (still_lights.c); false without any. */
-csi_status csi_recon_still_lights(const csi_grid *g, const csi_sample_pos *pos, const float *values,
-                                  uint32_t channels, size_t n, bool *hold);
-/* The still layer's weight, auto, where exact samples on a grid of 2 x 2 cells a pixel or more, as
- * many as the cells, show lights that hold still (motion.c). */
+/* What of a still camera's exact samples moves, from each sample's neighbours (within one cell in
+ * x and y) at other times (moving_share.c): held, the share of the bright samples (HDR lights)
+ * seen again by a bright neighbour a quarter of the shutter away (0 without any); lights, the
+ * share of all the samples' energy in bright samples that are not; motion, what neighbours a
+ * quarter of the shutter apart differ by beyond those an eighth or less apart, over twice the
+ * samples' variance (the lights capped), infinite when no pair says. */
+typedef struct {
+    double held, lights, motion;
+} csi_moving_share;
+csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, const float *values,
+                                  uint32_t channels, size_t n, csi_moving_share *out);
+/* The still layer's weight, auto, where exact samples on a grid of 2 x 2 cells a pixel or more,
+ * as many as the cells, hold at most CSI_MOVING_LIGHTS_SHARE of their energy in moving lights, and
+ * either show lights that hold still (more than half held) or a motion share of at most
+ * CSI_MOVING_VARIANCE_SHARE (motion.c). */
 #define CSI_STILL_WEIGHT_LIGHTS 0.1
+#define CSI_MOVING_LIGHTS_SHARE 0.25
+#define CSI_MOVING_VARIANCE_SHARE 0.2
 /* A pixel's samples over t (still_samples.c; tile_blend.c from a window's sums): none, one, two or
  * more that differ in some channel, two or more all equal. */
 enum { CSI_STILL_NONE, CSI_STILL_ONE, CSI_STILL_DIFFER, CSI_STILL_AGREE };

@@ -217,13 +217,16 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * basis it also lost on the train against the shutter's continuous-time reference. Its
      * buffers are reserved with auto, as the filter's are, so that the plan need not know.
      * A tenth where exact samples on a grid of 2 x 2 cells a pixel or more (a still camera's),
-     * as many samples as the pixels' cells, show HDR lights that hold still (still_lights.c):
-     * each cell is then seen once or twice, and at an equal weight the solve keeps a still light
-     * at the frames it was seen, bright there and dim between, the image a fraction of what the
-     * samples say, and carries it into the neighbours; the still-picture test above does not
-     * fire there (a pixel's samples differ across its cells). Moving lights keep the weight:
-     * at a tenth each of their samples is held as a still light (docs/bench/animation.md,
-     * session 43). */
+     * as many samples as the pixels' cells, show that little of what they see moves
+     * (moving_share.c: lights that move hold at most a tenth of the samples' energy, and either
+     * the lights hold still or the neighbours' samples differ little more across the shutter
+     * than close in time, against their variance): each cell is then seen once or twice, and at an equal weight the
+     * solve keeps a still light at the frames it was seen, bright there and dim between, the
+     * image a fraction of what the samples say, and carries it into the neighbours, and lets a
+     * still texture flicker over t where nothing says it holds still; the still-picture test
+     * above does not fire there (a pixel's samples differ across its cells). Where much moves
+     * the weight stays: at a tenth each sample of a mover is held where it was seen, a moving
+     * light's worst (docs/bench/animation.md, sessions 43-44). */
     double still_weight = 1;
     if (s == CSI_OK && half && opt->motion_still_weight > 0) {
         still_weight = opt->motion_still_weight;
@@ -234,12 +237,13 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_recon_still_exact_share(g, pos, values, channels, n, &share);
         still_weight = share > CSI_STILL_PICTURE_SHARE ? 0.5 : 1;
         const uint64_t cells_xy = (uint64_t)(g->w / g->out_w) * (g->h / g->out_h);
-        bool lights_hold = false;
         if (s == CSI_OK && still && (opt->sample_flags & CSI_SAMPLES_EXACT) && cells_xy >= 4 &&
-            n >= cells_xy * g->out_w * g->out_h)
-            s = csi_recon_still_lights(g, pos, values, channels, n, &lights_hold);
-        if (lights_hold)
-            still_weight = CSI_STILL_WEIGHT_LIGHTS;
+            n >= cells_xy * g->out_w * g->out_h) {
+            csi_moving_share m;
+            s = csi_recon_moving_share(g, pos, values, channels, n, &m);
+            if (s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (m.held > 0.5 || m.motion <= CSI_MOVING_VARIANCE_SHARE))
+                still_weight = CSI_STILL_WEIGHT_LIGHTS;
+        }
     }
     res->options.motion_still_weight = still_weight;
     const bool still_weighted = still_weight != 1;

@@ -233,8 +233,8 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
         csi_half_fourier_sampling_buffers(dims, n, &m->dev);
         /* reserved before the velocity; the still plane's weight is a gain of the filter's
          * buffers, made wherever it is not 1 or auto (motion.c), and auto's look at the samples
-         * holds 13 bytes per pixel (still_samples.c) or 8 per sample and 12 per bright one
-         * (still_lights.c: counted as if all were bright) */
+         * holds 13 bytes per pixel (still_samples.c) or 20 per sample (moving_share.c: a
+         * sorted copy and the lumas' median) */
         if (csi_recon_motion_filter_width(g, n, opt, scope) > 0 || opt->motion_still_weight != 1)
             csi_half_fourier_filter_buffers(dims, &m->dev);
         if (opt->motion_still_weight <= 0) {
