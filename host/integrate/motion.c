@@ -236,9 +236,12 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         if (s == CSI_OK && still)
             s = csi_recon_still_exact_share(g, pos, values, channels, n, &share);
         still_weight = share > CSI_STILL_PICTURE_SHARE ? 0.5 : 1;
-        const uint64_t cells_xy = (uint64_t)(g->w / g->out_w) * (g->h / g->out_h);
+        /* as many samples as cells a pixel over the whole shutter: a tile's or time window's
+         * whole problem's (a window holds part of the shutter's samples and all its pixels) */
+        const double cells_xy = (double)(g->w / g->out_w) * (g->h / g->out_h);
+        const double pixels = st->scope ? (double)st->scope->out_w * st->scope->out_h : (double)g->out_w * g->out_h;
         if (s == CSI_OK && still && (opt->sample_flags & CSI_SAMPLES_EXACT) && cells_xy >= 4 &&
-            n >= cells_xy * g->out_w * g->out_h) {
+            csi_recon_scope_n(st, n) >= cells_xy * pixels) {
             csi_moving_share m;
             s = csi_recon_moving_share(g, pos, values, channels, n, &m);
             if (s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (m.held > 0.5 || m.motion <= CSI_MOVING_VARIANCE_SHARE))
