@@ -218,15 +218,15 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * buffers are reserved with auto, as the filter's are, so that the plan need not know.
      * A tenth where exact samples on a grid of 2 x 2 cells a pixel or more (a still camera's),
      * as many samples as the pixels' cells, show that little of what they see moves
-     * (moving_share.c: lights that move hold at most a tenth of the samples' energy, and either
-     * the lights hold still or the neighbours' samples differ little more across the shutter
-     * than close in time, against their variance): each cell is then seen once or twice, and at an equal weight the
-     * solve keeps a still light at the frames it was seen, bright there and dim between, the
-     * image a fraction of what the samples say, and carries it into the neighbours, and lets a
-     * still texture flicker over t where nothing says it holds still; the still-picture test
-     * above does not fire there (a pixel's samples differ across its cells). Where much moves
-     * the weight stays: at a tenth each sample of a mover is held where it was seen, a moving
-     * light's worst (docs/bench/animation.md, sessions 43-44). */
+     * (moving_share.c: lights that move hold at most a quarter of the samples' energy, and
+     * either the lights hold still or the neighbours' samples differ little more across the
+     * shutter than close in time, against their variance): each cell is then seen once or
+     * twice, and at an equal weight the solve keeps a still light at the frames it was seen,
+     * bright there and dim between, the image a fraction of what the samples say, and carries it
+     * into the neighbours, and lets a still texture flicker over t where nothing says it holds
+     * still; the still-picture test above does not fire there (a pixel's samples differ across
+     * its cells). Where much moves the weight stays: at a tenth each sample of a mover is held
+     * where it was seen, a moving light's worst (docs/bench/animation.md, sessions 43-44). */
     double still_weight = 1;
     if (s == CSI_OK && half && opt->motion_still_weight > 0) {
         still_weight = opt->motion_still_weight;
@@ -239,12 +239,14 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         /* as many samples as cells a pixel over the whole shutter: a tile's or time window's
          * whole problem's (a window holds part of the shutter's samples and all its pixels) */
         const double cells_xy = (double)(g->w / g->out_w) * (g->h / g->out_h);
-        const double pixels = st->scope ? (double)st->scope->out_w * st->scope->out_h : (double)g->out_w * g->out_h;
+        const double pixels =
+            st->scope ? (double)st->scope->out_w * st->scope->out_h : (double)g->out_w * g->out_h;
         if (s == CSI_OK && still && (opt->sample_flags & CSI_SAMPLES_EXACT) && cells_xy >= 4 &&
             csi_recon_scope_n(st, n) >= cells_xy * pixels) {
             csi_moving_share m;
             s = csi_recon_moving_share(g, pos, values, channels, n, &m);
-            if (s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (m.held > 0.5 || m.motion <= CSI_MOVING_VARIANCE_SHARE))
+            const bool still_lights = m.held > 0.5, little_moves = m.motion <= CSI_MOVING_VARIANCE_SHARE;
+            if (s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (still_lights || little_moves))
                 still_weight = CSI_STILL_WEIGHT_LIGHTS;
         }
     }

@@ -11,9 +11,10 @@
  * light that holds still is seen again there, a moving one is gone. Reported: the share of the
  * bright samples that are held (a still lamp, a lantern, a lit sign 0.99-1.0; two lamps moving
  * across a wall 0.06-0.07; where the bright samples are a few lit surfaces just above white,
- * anything from 0 to 0.7 with the seed), and the share of all the samples' energy (the sum of their lumas squared) in
- * bright samples that are not held (the moving lamps 0.90-0.92; the other scenes measured 0.11 or
- * less, those above 0.01 lit surfaces of movers just above white and a small moving headlight).
+ * anything from 0 to 0.7 with the seed), and the share of all the samples' energy (the sum of
+ * their lumas squared) in bright samples that are not held (the moving lamps 0.90-0.92; the other
+ * scenes measured 0.11 or less, those above 0.01 lit surfaces of movers just above white and a
+ * small moving headlight).
  * A tenth of the still layer's weight holds each sample where it was seen, which costs in
  * proportion to the energy of what moves: most of all a moving light's.
  *
