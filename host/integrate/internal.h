@@ -523,7 +523,7 @@ csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, 
  * as many as the cells, hold at most CSI_MOVING_LIGHTS_SHARE of their energy in moving lights, and
  * either show lights that hold still (more than half held) or a motion share of at most
  * CSI_MOVING_VARIANCE_SHARE (motion.c). */
-#define CSI_STILL_WEIGHT_LIGHTS 0.1
+#define CSI_STILL_WEIGHT_LITTLE_MOVES 0.1
 #define CSI_MOVING_LIGHTS_SHARE 0.25
 #define CSI_MOVING_VARIANCE_SHARE 0.2
 /* A pixel's samples over t (still_samples.c; tile_blend.c from a window's sums): none, one, two or

@@ -247,7 +247,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             s = csi_recon_moving_share(g, pos, values, channels, n, &m);
             const bool still_lights = m.held > 0.5, little_moves = m.motion <= CSI_MOVING_VARIANCE_SHARE;
             if (s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (still_lights || little_moves))
-                still_weight = CSI_STILL_WEIGHT_LIGHTS;
+                still_weight = CSI_STILL_WEIGHT_LITTLE_MOVES;
         }
     }
     res->options.motion_still_weight = still_weight;

@@ -59,6 +59,13 @@ static int by_value(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* A luma capped at the bright threshold: the lights are judged by their own test, and the
+ * motion share is of what the rest of the picture does. */
+static double capped(float luma, float thr)
+{
+    return luma > thr ? thr : luma;
+}
+
 /* The first entry of the sorted list whose column is >= col. */
 static size_t lower(const seen *s, size_t n, uint64_t col)
 {
@@ -101,7 +108,7 @@ csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, 
     qsort(s, n, sizeof *s, by_col);
     double sum = 0, sum2 = 0; /* the capped lumas' variance, in the sorted order */
     for (size_t i = 0; i < n; i++) {
-        const double l = s[i].luma > thr ? thr : s[i].luma;
+        const double l = capped(s[i].luma, thr);
         sum += l, sum2 += l * l;
     }
     const double mean = sum / (double)n, var = sum2 / (double)n - mean * mean;
@@ -111,7 +118,7 @@ csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, 
     for (size_t i = 0; i < n; i++) {
         const uint64_t x = s[i].col % g->w, y = s[i].col / g->w;
         const bool is_bright = s[i].luma > thr;
-        const double li = is_bright ? thr : s[i].luma;
+        const double li = capped(s[i].luma, thr);
         bool found = false;
         for (int dy = -1; dy <= 1; dy++)
             for (int dx = -1; dx <= 1; dx++) {
@@ -122,7 +129,7 @@ csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, 
                     if (j == i)
                         continue;
                     const uint32_t dt = s[j].t > s[i].t ? s[j].t - s[i].t : s[i].t - s[j].t;
-                    const double lj = s[j].luma > thr ? thr : s[j].luma, d2 = (li - lj) * (li - lj);
+                    const double lj = capped(s[j].luma, thr), d2 = (li - lj) * (li - lj);
                     if (dt >= far) {
                         far_sum += d2, far_n++;
                         found = found || s[j].luma > thr;
