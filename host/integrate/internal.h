@@ -453,17 +453,21 @@ bool csi_recon_fit_trust_acts(const csi_grid *g, size_t multi);
  * in the 3 x 3 output pixels around it in the frame that moves with (vx, vy) cells per frame
  * (the pixel at x - vx (t - tc), y - vy (t - tc); with v = 0 its own output pixel and the 8
  * around it; or, given still_range (with v = 0), each output pixel's range from
- * csi_recon_sample_ranges). Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is not signal;
+ * csi_recon_sample_ranges, or given cell_range too, each cell's (csi_recon_cell_ranges)).
+ * Overshoot and ringing beyond what any nearby sample saw (a sharpened HDR edge) is not signal;
  * with non-negative samples this also makes `fine` non-negative. */
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
                                         size_t n, double vx, double vy, bool wide, const float *still_range,
-                                        cl_mem fine);
+                                        const float *cell_range, cl_mem fine);
 /* The aligned pixels it uses at most (wide: when the volume's basis can be sheared; else as many
  * as the output pixels), as a multiple of the output pixels; beyond, it projects onto the range
  * of all the samples. Its device buffer holds that many. A pixel with no sample around takes
  * the range of all the samples. */
 #define CSI_MOTION_RANGE_MAX_PIXELS 4
+/* Its device buffer, in ranges (8 bytes each), for a volume of grid g: with cells the grid's
+ * w x h frame where a still picture's cells may take their own range (csi_recon_cell_ranges). */
+size_t csi_recon_motion_range_cap(const csi_grid *g, bool wide, bool cells);
 /* Alg. 2's image with a still basis (csi_aa_correct AUTO): each pixel of plane (channel c, the
  * box mean of the fitted volume, in and out) moved by the mean of its samples' residuals
  * y - fine_at, shrunk by that correction's estimated risk, then projected onto `range`, the range
@@ -494,6 +498,13 @@ csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const 
                                    uint32_t c, size_t n, float *lohi);
 /* Its host memory while it runs: bytes per pixel of the frame (and a row of prefix sums more). */
 #define CSI_SAMPLE_RANGE_PIXEL_BYTES 80
+/* The range of each cell of g's w x h frame, over all t (sample_range.c): lohi[2 q], lohi[2 q + 1]
+ * for cell q = y w + x, [min, max] of channel c's samples in the 3 x 3 cells around it, or its
+ * output pixel's pixel_range (csi_recon_value_ranges) where those cells hold no sample. For a
+ * still picture of exact samples on a grid of several cells a pixel (motion.c). Host memory:
+ * 16 bytes per cell while it runs, beside lohi's 8. */
+csi_status csi_recon_cell_ranges(const csi_grid *g, const csi_sample_pos *pos, const float *values,
+                                 uint32_t channels, uint32_t c, size_t n, const float *pixel_range, float *lohi);
 /* How much the shutter's first and last quarters of frames differ, over the image's energy, from
  * the samples of a volume (motion_ends.c); 0 without a difference. Above
  * CSI_MOTION_ENDS_DCT a still basis takes the DCT along t instead of the DFT (motion.c). */

@@ -228,6 +228,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * its cells). Where much moves the weight stays: at a tenth each sample of a mover is held
      * where it was seen, a moving light's worst (docs/bench/animation.md, sessions 43-44). */
     double still_weight = 1;
+    bool little_moves = false; /* the samples' own word that little moves (the tenth's rule) */
     if (s == CSI_OK && half && opt->motion_still_weight > 0) {
         still_weight = opt->motion_still_weight;
     } else if (s == CSI_OK && half) {
@@ -245,8 +246,9 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             csi_recon_scope_n(st, n) >= cells_xy * pixels) {
             csi_moving_share m;
             s = csi_recon_moving_share(g, pos, values, channels, n, &m);
-            const bool still_lights = m.held > 0.5, little_moves = m.motion <= CSI_MOVING_VARIANCE_SHARE;
-            if (s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (still_lights || little_moves))
+            const bool still_lights = m.held > 0.5, little_motion = m.motion <= CSI_MOVING_VARIANCE_SHARE;
+            little_moves = s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (still_lights || little_motion);
+            if (little_moves)
                 still_weight = CSI_STILL_WEIGHT_LITTLE_MOVES;
         }
     }
@@ -338,13 +340,23 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * (sample_range.c), from what each pixel's samples say (px, which the move towards their
      * means reads too), from each sample's pixel */
     size_t *pix = NULL;
-    float *range = NULL;
+    float *range = NULL, *cell_range = NULL;
     csi_px_values *px = NULL;
+    /* Where the samples say little moves (the tenth above), the volume's cells are bounded by
+     * the samples of the 3 x 3 cells around each (over all t) rather than of the 3 x 3 pixels:
+     * with several cells a pixel, a pixel's window spans 6 x 6 to 12 x 12 cells, and a still
+     * light's samples in one pixel let the fit keep it, at the frames no sample saw, in cells
+     * a pixel or two away whose own neighbours never saw it (a lantern's glow in the dark pixel
+     * beside it). At one sample a cell over the shutter, 3 x 3 cells hold
+     * about as many samples as 3 x 3 pixels did on the pixel grid the bound was made for. */
+    const bool by_cells = little_moves && (g->w > g->out_w || g->h > g->out_h);
     if (s == CSI_OK && blend && !sheared) {
         pix = malloc((n ? n : 1) * sizeof *pix);
         range = malloc(2 * np * sizeof *range);
         px = malloc((np ? np : 1) * sizeof *px);
-        if (!pix || !range || !px)
+        if (by_cells)
+            cell_range = malloc(2 * (size_t)g->w * g->h * sizeof *cell_range);
+        if (!pix || !range || !px || (by_cells && !cell_range))
             s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu pixels", np);
         const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
         for (size_t i = 0; s == CSI_OK && i < n; i++)
@@ -425,10 +437,12 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
             float all[2];
             csi_recon_pixel_values(g->out_w, g->out_h, pix, values, channels, c, n, px, all);
             s = csi_recon_value_ranges(g->out_w, g->out_h, px, all, range);
+            if (s == CSI_OK && cell_range)
+                s = csi_recon_cell_ranges(g, pos, values, channels, c, n, range, cell_range);
         }
         if (s == CSI_OK && blend)
             s = csi_recon_motion_range_clamp(ctx, g, values, channels, c, pos, n, sheared ? res->options.motion_vx : 0,
-                                             sheared ? res->options.motion_vy : 0, moved, range, st->tmp);
+                                             sheared ? res->options.motion_vy : 0, moved, range, cell_range, st->tmp);
         if (s == CSI_OK)
             s = csi_recon_integrate_volume(ctx, g, st->tmp, c, opt, res, mean, st->out);
         if (s == CSI_OK && own)
@@ -467,6 +481,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     free(fine_at);
     free(pix);
     free(range);
+    free(cell_range);
     free(px);
     free(yhost);
     csi_buffer_release(&mean);

@@ -9,7 +9,7 @@
  * frame that moves with the basis's velocity the pan is still, so the neighbourhood is taken
  * there: cell (x, y, t) belongs to the aligned pixel at x - vx (t - tc), y - vy (t - tc). With a
  * still basis the window is the pixel's own, grown where its values change over t
- * (sample_range.c). */
+ * (sample_range.c), or, where the samples say little moves, the cell's own 3 x 3 cells. */
 #include <math.h>
 #include <stdlib.h>
 
@@ -26,7 +26,7 @@ static long aligned(uint32_t x, uint32_t t, float v, float tc, uint32_t b, float
 csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const float *values,
                                         uint32_t channels, uint32_t c, const csi_sample_pos *pos,
                                         size_t n, double vx, double vy, bool wide, const float *still_range,
-                                        cl_mem fine)
+                                        const float *cell_range, cl_mem fine)
 {
     const size_t np = (size_t)g->out_w * g->out_h;
     uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
@@ -52,6 +52,13 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
      * basis cost the Mitsuba camera slide 1-7% of its image MSE (docs/bench/animation.md,
      * session 30): there the window stays 3 x 3, found here. */
     const bool still = still_range && fvx == 0 && fvy == 0 && na == np;
+    /* each cell its own range: the kernel's pixels are the cells */
+    const bool by_cells = still && cell_range;
+    if (by_cells) {
+        bw = bh = 1;
+        aw = g->w;
+        ah = g->h;
+    }
     float *lo = NULL, *hi = NULL, *lohi = NULL;
     cl_mem dev = NULL;
     csi_status s = CSI_OK;
@@ -101,11 +108,13 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
     cl_kernel kc;
     const cl_uint w = g->w, hh = g->h, cbw = bw, cbh = bh, caw = (cl_uint)aw, cah = (cl_uint)ah;
     const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);
-    /* the buffer csi/plan.h counts: the widest aligned frame (wide) or the output frame */
-    const size_t cap = wide ? CSI_MOTION_RANGE_MAX_PIXELS * np : np;
+    /* the buffer csi/plan.h counts: the widest aligned frame (wide), the cells' frame or the
+     * output frame */
+    const size_t cap = csi_recon_motion_range_cap(g, wide, by_cells);
     s = csi_buffer(ctx, 2 * cap * sizeof(float), CL_MEM_READ_ONLY, "the sample range", &dev);
     if (s == CSI_OK)
-        s = csi_write(ctx, dev, 0, 2 * na * sizeof(float), still ? still_range : lohi);
+        s = csi_write(ctx, dev, 0, 2 * (by_cells ? (size_t)g->w * g->h : na) * sizeof(float),
+                      by_cells ? cell_range : still ? still_range : lohi);
     if (s == CSI_OK)
         s = csi_kernel(ctx, "recon", "csi_clamp_aligned_range", &kc);
     if (s == CSI_OK)
@@ -120,4 +129,11 @@ done:
     csi_buffer_release(&dev);
     free(lo), free(hi), free(lohi);
     return s;
+}
+
+size_t csi_recon_motion_range_cap(const csi_grid *g, bool wide, bool cells)
+{
+    const size_t np = (size_t)g->out_w * g->out_h, wh = (size_t)g->w * g->h;
+    const size_t cap = wide ? CSI_MOTION_RANGE_MAX_PIXELS * np : np;
+    return cells && wh > cap ? wh : cap;
 }

@@ -22,7 +22,14 @@
  * change over t) the window grows until it holds MIN_SAMPLES samples, so that the bound is the
  * range of what passes rather than of one moment; elsewhere it stays 3 x 3. A window with no
  * sample, or one that would have to grow beyond MAX_RADIUS pixels, takes the range of all the
- * samples. All in double, pixels in order: the same bits for the same samples. */
+ * samples. All in double, pixels in order: the same bits for the same samples.
+ *
+ * On a grid of several cells a pixel (a still camera's volume from 4 spp) the 3 x 3 pixels span
+ * 6 x 6 to 12 x 12 cells, each seen about once over the shutter: a still light's samples in one
+ * pixel then bound cells a pixel or more away from it, and the fit keeps the light there at the
+ * frames no sample saw. Where the samples say little moves (motion.c: the still layer's tenth),
+ * each cell takes the range of the samples in the 3 x 3 cells around it instead
+ * (csi_recon_cell_ranges), about as many samples as 3 x 3 pixels held on the pixel grid. */
 #include <math.h>
 #include <stdlib.h>
 
@@ -187,5 +194,56 @@ csi_status csi_recon_sample_ranges(size_t ow, size_t oh, const size_t *pix, cons
     csi_recon_pixel_values(ow, oh, pix, values, channels, c, n, px, all);
     const csi_status s = csi_recon_value_ranges(ow, oh, px, all, lohi);
     free(px);
+    return s;
+}
+
+/* min / max of a (len values, stride step) over [i - 1, i + 1], clipped, into out */
+static void minmax3(const float *lo, const float *hi, float *olo, float *ohi, size_t len, size_t step)
+{
+    for (size_t i = 0; i < len; i++) {
+        float l = lo[i * step], h = hi[i * step];
+        if (i > 0)
+            l = fminf(l, lo[(i - 1) * step]), h = fmaxf(h, hi[(i - 1) * step]);
+        if (i + 1 < len)
+            l = fminf(l, lo[(i + 1) * step]), h = fmaxf(h, hi[(i + 1) * step]);
+        olo[i * step] = l;
+        ohi[i * step] = h;
+    }
+}
+
+csi_status csi_recon_cell_ranges(const csi_grid *g, const csi_sample_pos *pos, const float *values,
+                                 uint32_t channels, uint32_t c, size_t n, const float *pixel_range, float *lohi)
+{
+    const size_t w = g->w, h = g->h, wh = w * h, bw = g->w / g->out_w, bh = g->h / g->out_h;
+    float *lo = malloc(wh * sizeof *lo), *hi = malloc(wh * sizeof *hi);
+    float *tlo = malloc(wh * sizeof *tlo), *thi = malloc(wh * sizeof *thi);
+    csi_status s = CSI_OK;
+    if (!lo || !hi || !tlo || !thi) {
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for the sample range of %zu cells", wh);
+        goto done;
+    }
+    for (size_t i = 0; i < wh; i++) {
+        lo[i] = INFINITY;
+        hi[i] = -INFINITY;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const size_t q = (size_t)pos[i].y * w + pos[i].x;
+        const float v = values[i * channels + c];
+        lo[q] = fminf(lo[q], v);
+        hi[q] = fmaxf(hi[q], v);
+    }
+    for (size_t y = 0; y < h; y++)
+        minmax3(lo + y * w, hi + y * w, tlo + y * w, thi + y * w, w, 1);
+    for (size_t x = 0; x < w; x++)
+        minmax3(tlo + x, thi + x, lo + x, hi + x, h, w);
+    for (size_t y = 0; y < h; y++)
+        for (size_t x = 0; x < w; x++) {
+            const size_t q = y * w + x, p = (y / bh) * g->out_w + x / bw;
+            const bool any = lo[q] <= hi[q];
+            lohi[2 * q] = any ? lo[q] : pixel_range[2 * p];
+            lohi[2 * q + 1] = any ? hi[q] : pixel_range[2 * p + 1];
+        }
+done:
+    free(lo), free(hi), free(tlo), free(thi);
     return s;
 }

@@ -16,17 +16,18 @@ crossing. The truth is each pixel's mean over its area and the shutter by the mi
 2. The weight: 0.1 for the still discs and the texels, 1 for the moving lights and the dim disc
    over the faint texture (its motion share 0.42-0.52; the texels' -0.02-0.01).
 3. The image against the truth, over the per-pixel mean of the same samples (stratified Monte
-   Carlo): the still discs below 0.9x at 4 spp and 0.7x at 16 (measured 0.78x, 0.54x; with the
+   Carlo): the still discs below 0.9x at 4 spp and 0.7x at 16 (measured 0.74x, 0.35x; with the
    weight at one 4.8x and 2.1x: the fit kept each light at the frames its samples saw, dim
-   between), the moving ones below 0.4x and 0.7x (measured 0.23x, 0.54x; at a tenth 0.82x and
+   between; each cell bounded by its own neighbours' samples since session 45, 0.78x and 0.54x
+   before), the moving ones below 0.4x and 0.7x (measured 0.23x, 0.54x; at a tenth 0.82x and
    0.77x: each sample of a moving light held as a still one), the dim disc below 0.5x (measured
    0.34x, 0.31x; at a tenth 0.82x, 0.60x), the texels at most the mean at 4 spp and below 0.8x at
-   16 (measured 0.97x and 0.63x; at weight one 0.88x and 0.68x: where nothing much moves the
+   16 (measured 0.95x and 0.57x; at weight one 0.88x and 0.68x: where nothing much moves the
    tenth is not always the better weight, csi-render's textured scenes gain 10-40% with it).
 4. In 2 time windows (32 frames, margins of 2) every window takes the whole volume's weight, for
    the still and moving lights and the texels at 4 and 16 spp (a window holds part of the
    shutter's samples: until session 44 its count against the cells kept the tenth off), and the
-   still lights' windowed image is within 2x the untiled one's MSE (measured 1.00x and 1.40x;
+   still lights' windowed image is within 2x the untiled one's MSE (measured 0.78x and 1.04x;
    15.3x and 8.3x with the windows at weight one).
 """
 import os
