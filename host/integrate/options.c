@@ -92,7 +92,8 @@ static const row table[] = {
      "pixel's residuals y - g", "cs images: cv when the samples are exact (noise-free point "
      "values: the dump's flag, csi-render without random effects), else blend; none for the "
      "gauss baseline; volumes: "
-     "the fine estimate kept within the samples' range and, with a still basis, the image "
+     "the fine estimate kept within the samples' range (each cell within its own 3 x 3 cells' "
+     "where a still camera's exact samples say little moves) and, with a still basis, the image "
      "corrected by each pixel's mean residual shrunk by its estimated risk, then, samples not "
      "flagged exact, moved towards each pixel's sample mean by the estimated risks of the two"},
     {"cv-select", K_CHOICE, AT(cv_select), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
