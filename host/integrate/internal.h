@@ -465,9 +465,9 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
  * of all the samples. Its device buffer holds that many. A pixel with no sample around takes
  * the range of all the samples. */
 #define CSI_MOTION_RANGE_MAX_PIXELS 4
-/* Its device buffer, in ranges (8 bytes each), for a volume of grid g: with cells the grid's
- * w x h frame where a still picture's cells may take their own range (csi_recon_cell_ranges). */
-size_t csi_recon_motion_range_cap(const csi_grid *g, bool wide, bool cells);
+/* Its device buffer, in ranges (8 bytes each), for a volume of grid g: the aligned pixels it
+ * may use, at least the grid's w x h cells (csi_recon_cell_ranges). */
+size_t csi_recon_motion_range_cap(const csi_grid *g, bool wide);
 /* Alg. 2's image with a still basis (csi_aa_correct AUTO): each pixel of plane (channel c, the
  * box mean of the fitted volume, in and out) moved by the mean of its samples' residuals
  * y - fine_at, shrunk by that correction's estimated risk, then projected onto `range`, the range
@@ -501,7 +501,7 @@ csi_status csi_recon_sample_ranges(size_t w, size_t h, const size_t *pix, const 
 /* The range of each cell of g's w x h frame, over all t (sample_range.c): lohi[2 q], lohi[2 q + 1]
  * for cell q = y w + x, [min, max] of channel c's samples in the 3 x 3 cells around it, or its
  * output pixel's pixel_range (csi_recon_value_ranges) where those cells hold no sample. For a
- * still picture of exact samples on a grid of several cells a pixel (motion.c). Host memory:
+ * still camera's volume on a grid of several cells a pixel where little moves (motion.c). Host memory:
  * 16 bytes per cell while it runs, beside lohi's 8. */
 csi_status csi_recon_cell_ranges(const csi_grid *g, const csi_sample_pos *pos, const float *values,
                                  uint32_t channels, uint32_t c, size_t n, const float *pixel_range, float *lohi);
@@ -519,7 +519,7 @@ csi_status csi_recon_still_exact_share(const csi_grid *g, const csi_sample_pos *
 /* Above this share (csi_recon_still_exact_share) a volume's samples are a noise-free picture that
  * mostly holds still: a still camera's exact samples. */
 #define CSI_STILL_PICTURE_SHARE 0.5
-/* What of a still camera's exact samples moves, from each sample's neighbours (within one cell in
+/* What of a still camera's samples moves, from each sample's neighbours (within one cell in
  * x and y) at other times (moving_share.c): held, the share of the bright samples (HDR lights)
  * seen again by a bright neighbour a quarter of the shutter away (0 without any); lights, the
  * share of all the samples' energy in bright samples that are not; motion, what neighbours a
@@ -537,6 +537,13 @@ csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, 
 #define CSI_STILL_WEIGHT_LITTLE_MOVES 0.1
 #define CSI_MOVING_LIGHTS_SHARE 0.25
 #define CSI_MOVING_VARIANCE_SHARE 0.2
+/* Noisy samples (a path tracer's) on such a grid say little moves, for the cells' own range bound
+ * alone (csi_recon_cell_ranges; the weight stays one), at most CSI_MOVING_LIGHTS_SHARE of their
+ * energy in moving lights and a motion share of at most CSI_MOVING_VARIANCE_SHARE_NOISY: their
+ * noise adds to the variance the share divides by (one path's sample lowered a ball's 0.2 to
+ * 0.09), and what the bound cuts from a mover their shrunk correction does not give back; the
+ * held lights do not count (one path's fireflies are seen again anywhere). */
+#define CSI_MOVING_VARIANCE_SHARE_NOISY 0.1
 /* A pixel's samples over t (still_samples.c; tile_blend.c from a window's sums): none, one, two or
  * more that differ in some channel, two or more all equal. */
 enum { CSI_STILL_NONE, CSI_STILL_ONE, CSI_STILL_DIFFER, CSI_STILL_AGREE };

@@ -242,14 +242,18 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
         const double cells_xy = (double)(g->w / g->out_w) * (g->h / g->out_h);
         const double pixels =
             st->scope ? (double)st->scope->out_w * st->scope->out_h : (double)g->out_w * g->out_h;
-        if (s == CSI_OK && still && (opt->sample_flags & CSI_SAMPLES_EXACT) && cells_xy >= 4 &&
-            csi_recon_scope_n(st, n) >= cells_xy * pixels) {
+        if (s == CSI_OK && still && cells_xy >= 4 && csi_recon_scope_n(st, n) >= cells_xy * pixels) {
             csi_moving_share m;
             s = csi_recon_moving_share(g, pos, values, channels, n, &m);
-            const bool still_lights = m.held > 0.5, little_motion = m.motion <= CSI_MOVING_VARIANCE_SHARE;
-            little_moves = s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (still_lights || little_motion);
-            if (little_moves)
-                still_weight = CSI_STILL_WEIGHT_LITTLE_MOVES;
+            if (opt->sample_flags & CSI_SAMPLES_EXACT) {
+                const bool still_lights = m.held > 0.5, little_motion = m.motion <= CSI_MOVING_VARIANCE_SHARE;
+                little_moves = s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE && (still_lights || little_motion);
+                if (little_moves)
+                    still_weight = CSI_STILL_WEIGHT_LITTLE_MOVES;
+            } else {
+                little_moves = s == CSI_OK && m.lights <= CSI_MOVING_LIGHTS_SHARE &&
+                               m.motion <= CSI_MOVING_VARIANCE_SHARE_NOISY;
+            }
         }
     }
     res->options.motion_still_weight = still_weight;
@@ -342,7 +346,8 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     size_t *pix = NULL;
     float *range = NULL, *cell_range = NULL;
     csi_px_values *px = NULL;
-    /* Where the samples say little moves (the tenth above), the volume's cells are bounded by
+    /* Where the samples say little moves (the tenth above; noisy samples by a stricter share
+     * of motion, internal.h), the volume's cells are bounded by
      * the samples of the 3 x 3 cells around each (over all t) rather than of the 3 x 3 pixels:
      * with several cells a pixel, a pixel's window spans 6 x 6 to 12 x 12 cells, and a still
      * light's samples in one pixel let the fit keep it, at the frames no sample saw, in cells

@@ -108,9 +108,10 @@ csi_status csi_recon_motion_range_clamp(csi_ctx *ctx, const csi_grid *g, const f
     cl_kernel kc;
     const cl_uint w = g->w, hh = g->h, cbw = bw, cbh = bh, caw = (cl_uint)aw, cah = (cl_uint)ah;
     const cl_uint cells = (cl_uint)((size_t)g->w * g->h * g->t);
-    /* the buffer csi/plan.h counts: the widest aligned frame (wide), the cells' frame or the
-     * output frame */
-    const size_t cap = csi_recon_motion_range_cap(g, wide, by_cells);
+    /* the buffer csi/plan.h counts: the widest aligned frame (wide) or the output frame, at
+     * least the cells' frame (whether the cells take their own ranges is decided from the
+     * samples; the buffer does not depend on it, so that the plan is the run's) */
+    const size_t cap = csi_recon_motion_range_cap(g, wide);
     s = csi_buffer(ctx, 2 * cap * sizeof(float), CL_MEM_READ_ONLY, "the sample range", &dev);
     if (s == CSI_OK)
         s = csi_write(ctx, dev, 0, 2 * (by_cells ? (size_t)g->w * g->h : na) * sizeof(float),
@@ -131,9 +132,9 @@ done:
     return s;
 }
 
-size_t csi_recon_motion_range_cap(const csi_grid *g, bool wide, bool cells)
+size_t csi_recon_motion_range_cap(const csi_grid *g, bool wide)
 {
     const size_t np = (size_t)g->out_w * g->out_h, wh = (size_t)g->w * g->h;
     const size_t cap = wide ? CSI_MOTION_RANGE_MAX_PIXELS * np : np;
-    return cells && wh > cap ? wh : cap;
+    return wh > cap ? wh : cap;
 }

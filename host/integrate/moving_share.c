@@ -1,5 +1,7 @@
-/* How much of what a still camera's exact samples see moves: whether the still layer may take a
- * tenth of its weight (motion.c; issue 12, docs/bench/animation.md sessions 43-44).
+/* How much of what a still camera's samples see moves: whether the still layer may take a tenth
+ * of its weight (exact samples) and whether each cell's range bound is its own neighbours'
+ * (exact and noisy samples, the latter by a stricter share of motion) (motion.c; issue 12,
+ * docs/bench/animation.md sessions 43-45).
  *
  * On a fine grid each cell is seen once or twice over the shutter, so a sample alone cannot say
  * whether what it saw was there at the other times. Its neighbours can: the samples of the

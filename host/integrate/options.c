@@ -93,7 +93,7 @@ static const row table[] = {
      "values: the dump's flag, csi-render without random effects), else blend; none for the "
      "gauss baseline; volumes: "
      "the fine estimate kept within the samples' range (each cell within its own 3 x 3 cells' "
-     "where a still camera's exact samples say little moves) and, with a still basis, the image "
+     "where a still camera's samples say little moves) and, with a still basis, the image "
      "corrected by each pixel's mean residual shrunk by its estimated risk, then, samples not "
      "flagged exact, moved towards each pixel's sample mean by the estimated risks of the two"},
     {"cv-select", K_CHOICE, AT(cv_select), 0, 0, switches, F_AUTO, "auto", "on|off|auto",

@@ -300,16 +300,15 @@ static csi_status plan_motion(const csi_grid *g, size_t n, const csi_recon_optio
          * frame that moves with it, at most CSI_MOTION_RANGE_MAX_PIXELS times as many; with a
          * still basis (the velocity is not known yet: counted always) the grown windows' sums
          * (sample_range.c: CSI_SAMPLE_RANGE_PIXEL_BYTES per pixel, a pixel index per sample),
-         * or each cell's where exact samples say little moves (motion.c; what they say is not
-         * known yet: counted wherever they may, exact samples and the still weight left to auto),
-         * the cells' ranges held over the channels */
-        const bool cells = (opt->sample_flags & CSI_SAMPLES_EXACT) && !(opt->motion_still_weight > 0);
-        const uint64_t rp = csi_recon_motion_range_cap(g, moved, cells);
+         * or each cell's where a still camera's samples say little moves (motion.c; not known
+         * yet: the device buffer holds the cells' frame always, and the host counts their
+         * ranges held over the channels) */
+        const uint64_t rp = csi_recon_motion_range_cap(g, moved);
         csi_mem_tally r = {0};
         csi_mem_tally_add(&r, rp * 8, "the sample range");
         transient_dev(m, &r);
-        transient_host(m, rp * 16 + (cells ? (uint64_t)g->w * g->h * 8 : 0) +
-                              (uint64_t)np * CSI_SAMPLE_RANGE_PIXEL_BYTES + (uint64_t)n * 8);
+        transient_host(m, rp * 16 + (uint64_t)g->w * g->h * 8 + (uint64_t)np * CSI_SAMPLE_RANGE_PIXEL_BYTES +
+                              (uint64_t)n * 8);
     }
     if (opt->correct == CSI_CORRECT_BLEND || opt->correct == CSI_CORRECT_CV) {
         csi_sampling_buffers(n, &m->dev); /* the volume gathered at the samples */
