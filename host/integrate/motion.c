@@ -228,7 +228,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * its cells). Where much moves the weight stays: at a tenth each sample of a mover is held
      * where it was seen, a moving light's worst (docs/bench/animation.md, sessions 43-44). */
     double still_weight = 1;
-    bool little_moves = false; /* the samples' own word that little moves (the tenth's rule) */
+    bool little_moves = false; /* the samples' own word that little moves (moving_share.c) */
     if (s == CSI_OK && half && opt->motion_still_weight > 0) {
         still_weight = opt->motion_still_weight;
     } else if (s == CSI_OK && half) {
@@ -346,14 +346,14 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
     size_t *pix = NULL;
     float *range = NULL, *cell_range = NULL;
     csi_px_values *px = NULL;
-    /* Where the samples say little moves (the tenth above; noisy samples by a stricter share
-     * of motion, internal.h), the volume's cells are bounded by
-     * the samples of the 3 x 3 cells around each (over all t) rather than of the 3 x 3 pixels:
-     * with several cells a pixel, a pixel's window spans 6 x 6 to 12 x 12 cells, and a still
-     * light's samples in one pixel let the fit keep it, at the frames no sample saw, in cells
-     * a pixel or two away whose own neighbours never saw it (a lantern's glow in the dark pixel
-     * beside it). At one sample a cell over the shutter, 3 x 3 cells hold
-     * about as many samples as 3 x 3 pixels did on the pixel grid the bound was made for. */
+    /* Where the samples say little moves (the tenth's rule above; noisy samples by a stricter
+     * share of motion, internal.h), the volume's cells are bounded by the samples of the 3 x 3
+     * cells around each (over all t) rather than of the 3 x 3 pixels: with several cells a
+     * pixel, a pixel's window spans 6 x 6 to 12 x 12 cells, and a still light's samples in one
+     * pixel let the fit keep it, at the frames no sample saw, in cells a pixel or two away whose
+     * own neighbours never saw it (a lantern's glow in the dark pixel beside it). At one sample
+     * a cell over the shutter, 3 x 3 cells hold about as many samples as 3 x 3 pixels did on the
+     * pixel grid the bound was made for. */
     const bool by_cells = little_moves && (g->w > g->out_w || g->h > g->out_h);
     if (s == CSI_OK && blend && !sheared) {
         pix = malloc((n ? n : 1) * sizeof *pix);

@@ -27,9 +27,10 @@
  * On a grid of several cells a pixel (a still camera's volume from 4 spp) the 3 x 3 pixels span
  * 6 x 6 to 12 x 12 cells, each seen about once over the shutter: a still light's samples in one
  * pixel then bound cells a pixel or more away from it, and the fit keeps the light there at the
- * frames no sample saw. Where the samples say little moves (motion.c: the still layer's tenth),
- * each cell takes the range of the samples in the 3 x 3 cells around it instead
- * (csi_recon_cell_ranges), about as many samples as 3 x 3 pixels held on the pixel grid. */
+ * frames no sample saw. Where the samples say little moves (motion.c: exact ones by the rule of
+ * the still layer's tenth, noisy ones by a stricter share of motion), each cell takes the range
+ * of the samples in the 3 x 3 cells around it instead (csi_recon_cell_ranges), about as many
+ * samples as 3 x 3 pixels held on the pixel grid. */
 #include <math.h>
 #include <stdlib.h>
 
