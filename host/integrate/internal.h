@@ -540,8 +540,8 @@ csi_status csi_recon_moving_share(const csi_grid *g, const csi_sample_pos *pos, 
 /* Noisy samples (a path tracer's) on such a grid say little moves, for the cells' own range bound
  * alone (csi_recon_cell_ranges; the weight stays one), at most CSI_MOVING_LIGHTS_SHARE of their
  * energy in moving lights and a motion share of at most CSI_MOVING_VARIANCE_SHARE_NOISY: their
- * noise adds to the variance the share divides by (one path's sample lowered a ball's 0.2 to
- * 0.09), and what the bound cuts from a mover their shrunk correction does not give back; the
+ * noise adds to the variance the share divides by (at one path a rolling ball's share fell to
+ * under half its 16-path value), and what the bound cuts from a mover their shrunk correction does not give back; the
  * held lights do not count (one path's fireflies are seen again anywhere). */
 #define CSI_MOVING_VARIANCE_SHARE_NOISY 0.1
 /* A pixel's samples over t (still_samples.c; tile_blend.c from a window's sums): none, one, two or

@@ -354,7 +354,7 @@ csi_status csi_recon_motion(csi_ctx *ctx, const csi_grid *g, uint32_t channels,
      * own neighbours never saw it (a lantern's glow in the dark pixel beside it). At one sample
      * a cell over the shutter, 3 x 3 cells hold about as many samples as 3 x 3 pixels did on the
      * pixel grid the bound was made for. */
-    const bool by_cells = little_moves && (g->w > g->out_w || g->h > g->out_h);
+    const bool by_cells = little_moves; /* decided on 2 x 2 cells a pixel or more only */
     if (s == CSI_OK && blend && !sheared) {
         pix = malloc((n ? n : 1) * sizeof *pix);
         range = malloc(2 * np * sizeof *range);
