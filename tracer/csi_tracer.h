@@ -13,7 +13,8 @@
  *
  * Image space: u to the right, v down, both in [0, 1] over the image; time s in [0, 1] over the
  * shutter interval. A grid sample (x, y, t) stands for the centre of its fine-grid cell:
- * u = (x + 0.5) / w, v = (y + 0.5) / h, s = (t + 0.5) / T (s = 0 when T = 1; see csi/samples.h).
+ * u = (x + 0.5) / w, v = (y + 0.5) / h, s = (t + 0.5) / T (s = 0 when T = 1; see csi/samples.h),
+ * or for a random point of it (csi_tracer_set_cell_jitter).
  *
  * Errors: every function returns a csi_status and leaves a message (csi_last_error()); scene
  * errors read "path:line:column: expected ..., found ..." with status CSI_ERR_SCENE.
@@ -145,7 +146,18 @@ void csi_tracer_free(csi_tracer *tr);
  * step, indices, an estimate of Embree's BVH and threads), before making it. */
 uint64_t csi_tracer_host_bytes(const csi_scene *scene, const csi_plan *plan);
 
-/* Evaluates radiance (linear RGB, rgb[3*i..3*i+2]) at the centres of the grid cells pos[0..n).
+/* Where csi_tracer_eval and csi_tracer_eval_ids place a sample in its cell: the centre (the
+ * default) or, with jitter, a uniform random point of the cell in x, y and t drawn from
+ * (seed, sample index) on a stream apart from the shading's. A jittered sample's expected value
+ * is its cell's mean radiance over the cell's area and time, so the mean of a pixel's samples is
+ * an unbiased estimate of the pixel's box integral however its cells fall on an edge, where
+ * centres give a fixed error that no number of samples removes. Monte Carlo baselines and
+ * references need it to converge to the true integral; csi-render turns it on for those
+ * (docs/scene-format.md, "Sampling contract"). */
+void csi_tracer_set_cell_jitter(csi_tracer *tr, bool jitter);
+
+/* Evaluates radiance (linear RGB, rgb[3*i..3*i+2]) at the centres of the grid cells pos[0..n)
+ * (or random points of them: csi_tracer_set_cell_jitter).
  * grid->t must equal plan->frames; positions must lie inside the grid (grid->out_w/out_h are
  * not used: the image spans the whole grid). The random numbers of sample i depend only on
  * (seed, i): same inputs give the same bits for any thread count. The index restarts at 0 in

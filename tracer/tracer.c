@@ -43,6 +43,7 @@ struct csi_tracer {
     csi_tracer_info info;
     pthread_mutex_t lock;
     csi_tracer_counters counters;
+    bool cell_jitter; /* csi_tracer_set_cell_jitter */
     char embree_error[512];
 };
 
@@ -402,6 +403,10 @@ static inline double rnd(rng *r)
     return (double)(splitmix64(&r->s) >> 11) * (1.0 / 9007199254740992.0);
 }
 
+/* The key of the cells' random points' streams: the seed's, xor'd with the first 64 bits of the
+ * fractional part of sqrt(2) (a constant with nothing to hide). */
+#define JITTER_STREAM 0x6a09e667f3bcc908ull
+
 /* ---- shading -------------------------------------------------------------------------------- */
 
 typedef struct tctx {
@@ -716,6 +721,7 @@ typedef struct job {
     const float *uvs;
     size_t n;
     uint64_t seed;
+    bool jitter; /* a random point of each cell, not its centre (csi_tracer_set_cell_jitter) */
     float *rgb;
     atomic_size_t next, done;
     pthread_mutex_t m;
@@ -749,9 +755,17 @@ static void *worker(void *arg)
             double u, v, s;
             if (jb->pos) {
                 const csi_grid *g = jb->grid;
-                u = (jb->pos[i].x + 0.5) / g->w;
-                v = (jb->pos[i].y + 0.5) / g->h;
-                s = g->t > 1 ? (jb->pos[i].t + 0.5) / g->t : 0;
+                double ju = 0.5, jv = 0.5, js = 0.5;
+                if (jb->jitter) {
+                    /* a stream of its own, so that the shading's numbers stay those of the
+                     * cell's centre */
+                    rng q;
+                    rng_init(&q, jb->seed ^ JITTER_STREAM, jb->ids ? jb->ids[i] : i);
+                    ju = rnd(&q), jv = rnd(&q), js = rnd(&q);
+                }
+                u = (jb->pos[i].x + ju) / g->w;
+                v = (jb->pos[i].y + jv) / g->h;
+                s = g->t > 1 ? (jb->pos[i].t + js) / g->t : 0;
             } else {
                 u = jb->uvs[3 * i];
                 v = jb->uvs[3 * i + 1];
@@ -866,6 +880,7 @@ csi_status csi_tracer_eval_ids(csi_tracer *tr, const csi_grid *grid, const csi_s
     jb.ids = ids;
     jb.n = n;
     jb.seed = seed;
+    jb.jitter = tr->cell_jitter;
     jb.rgb = rgb;
     return run_job(tr, &jb, progress, user);
 }
@@ -888,6 +903,12 @@ csi_status csi_tracer_eval_points(csi_tracer *tr, const float *uvs, size_t n, ui
     jb.seed = seed;
     jb.rgb = rgb;
     return run_job(tr, &jb, progress, user);
+}
+
+void csi_tracer_set_cell_jitter(csi_tracer *tr, bool jitter)
+{
+    if (tr)
+        tr->cell_jitter = jitter;
 }
 
 void csi_tracer_counters_get(const csi_tracer *tr, csi_tracer_counters *c)

@@ -49,6 +49,10 @@ static void usage(FILE *f)
 "                            when static Fx, F the smallest power of two >= 4 with F^2 > 4 spp\n"
 "                            (more than 4 cells per sample), at most 16: F = 4 up to 3 spp, 8\n"
 "                            for 4-15, 16 from 16 (docs/bench/grid.md)\n"
+"      --cell-point P        where a sample lies in its cell (docs/scene-format.md, \"Sampling\n"
+"                            contract\"): jittered (a uniform random point in x, y and t: a\n"
+"                            pixel's samples average to its true integral) or centre [default:\n"
+"                            auto = centre for cs, jittered for Monte Carlo and --reference]\n"
 "      --time-steps T        frames of the volume for a moving scene (default: the plan's rule)\n"
 "      --reference SPP       render a stratified ground truth with SPP samples per pixel instead\n"
 "                            (sqrt(SPP / T) cells a pixel side, at least 2 when moving: the\n"
@@ -129,6 +133,7 @@ typedef struct {
     const char *scene, *method;
     const csi_pos_opts *po;
     uint64_t seed;
+    bool cell_jitter;
     const csi_grid *grid;
     size_t n;
     double t_render, t_recon, t_device, t_write;
@@ -150,6 +155,7 @@ static csi_status write_stats(csi_outset *set, const char *path, const csi_devic
     csi_json_str(j, "positions", csi_pos_method_name(f->po->method));
     csi_json_int(j, "spp", f->po->spp);
     csi_json_int(j, "seed", (int64_t)f->seed);
+    csi_json_str(j, "cell_point", f->cell_jitter ? "jittered" : "centre");
     cli_json_grid(j, f->grid);
     csi_json_int(j, "samples", (int64_t)f->n);
     csi_json_num(j, "t_render_s", f->t_render);
@@ -180,13 +186,13 @@ static csi_status write_stats(csi_outset *set, const char *path, const csi_devic
 int main(int argc, char **argv)
 {
     enum { O_PNG = 256, O_FRAMES, O_STATS, O_DEVICE, O_VERSION, O_SPP, O_METHOD, O_GRID, O_DUMP, O_REF, O_SEED,
-           O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS, O_POSITIONS };
+           O_THREADS, O_PLAN, O_TSTEPS, O_CACHE_PROGRAMS, O_POSITIONS, O_CELL_POINT };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"png", required_argument, 0, O_PNG},
         {"frames", required_argument, 0, O_FRAMES}, {"stats", required_argument, 0, O_STATS},
         {"device", required_argument, 0, O_DEVICE},
         {"spp", required_argument, 0, O_SPP}, {"method", required_argument, 0, O_METHOD},
-        {"positions", required_argument, 0, O_POSITIONS},
+        {"positions", required_argument, 0, O_POSITIONS}, {"cell-point", required_argument, 0, O_CELL_POINT},
         {"grid", required_argument, 0, O_GRID}, {"dump", required_argument, 0, O_DUMP},
         {"reference", required_argument, 0, O_REF}, {"seed", required_argument, 0, O_SEED},
         {"threads", required_argument, 0, O_THREADS}, {"plan", no_argument, 0, O_PLAN},
@@ -202,7 +208,7 @@ int main(int argc, char **argv)
     if (csi_options_new(&opt) != CSI_OK)
         return cli_error(prog, CSI_ERR_NOMEM, "%s", cli_last_error());
     bool quiet = false, plan_only = false, cache_programs = false;
-    const char *device = NULL, *dump_path = NULL, *method = "cs", *positions = "auto";
+    const char *device = NULL, *dump_path = NULL, *method = "cs", *positions = "auto", *cell_point = "auto";
     uint64_t spp = 4, grid_k = 0, ref_spp = 0, seed = 1, threads = 0, tsteps = 0;
     int c, rc = 0;
     opterr = 0;
@@ -237,6 +243,11 @@ int main(int argc, char **argv)
             positions = optarg;
             break;
         }
+        case O_CELL_POINT:
+            if (strcmp(optarg, "auto") && strcmp(optarg, "jittered") && strcmp(optarg, "centre"))
+                rc = cli_error(prog, CSI_ERR_ARG, "--cell-point: '%s' (expected auto, jittered or centre)", optarg);
+            cell_point = optarg;
+            break;
         case O_GRID:
             if (!cli_parse_u64(optarg, 1, CSI_GRID_MAX_SIDE, &grid_k))
                 rc = cli_error(prog, CSI_ERR_ARG, "--grid: '%s' is not a whole number from 1 to %u", optarg,
@@ -338,6 +349,16 @@ int main(int argc, char **argv)
                        reference ? "--reference" : !strcmp(method, "stratified") ? "--method stratified" : "--method random");
         goto done;
     }
+    /* Where a sample lies in its cell (csi_tracer_set_cell_jitter). Monte Carlo and the reference
+     * jitter, as a renderer's do, so that they converge to the pixel's true integral; with
+     * centres they converge to the centres' midpoint rule, which a reference on a lattice of
+     * centres shares with stratified sampling on the same lattice. The compressive method keeps
+     * the centres: against the true integral, jittered cells lost most where small HDR lights
+     * cover part of a cell (a jittered sample of one is all or nothing) and won where thin lit
+     * bars or a panned texture fall between the centres, neither by a margin that holds over
+     * the scenes measured (docs/bench/animation.md, session 46). */
+    const bool cell_jitter = !strcmp(cell_point, "auto") ? reference || strcmp(method, "cs")
+                                                         : !strcmp(cell_point, "jittered");
     csi_grid grid = {.out_w = plan.width, .out_h = plan.height, .t = plan.frames};
     uint64_t factor;
     if (reference) {
@@ -345,8 +366,8 @@ int main(int argc, char **argv)
          * when static; when moving, the block has T frames, so sqrt(SPP / T) per axis, and at
          * least 2: a reference of one cell a pixel would be its centre's motion blur, aliased
          * where the default grid (csi_default_grid_factor) is not. Antialiased as well as
-         * motion-blurred; with fewer samples than cells, one seed's is noisy, and the mean of
-         * several seeds converges to the 2 x 2-point pixel. */
+         * motion-blurred; each sample at a random point of its cell (--cell-point's default
+         * for a reference), so the mean of several seeds converges to the pixel's integral. */
         factor = (uint64_t)ceil(sqrt((double)ref_spp / (double)plan.frames) - 1e-9);
         if (factor < (plan.frames > 1 ? 2u : 1u))
             factor = plan.frames > 1 ? 2 : 1;
@@ -440,6 +461,8 @@ int main(int argc, char **argv)
     s = csi_positions_with_progress(&grid, &popts, &pos, &n, &pinfo, on_positions, &ps);
     if (s == CSI_OK)
         s = csi_tracer_create(scene, &plan, (unsigned)threads, &tr);
+    if (s == CSI_OK)
+        csi_tracer_set_cell_jitter(tr, cell_jitter);
     if (s != CSI_OK) {
         cli_progress_end(&bar);
         rc = cli_error(prog, s, "%s: %s", scene_path, cli_last_error());
@@ -485,13 +508,13 @@ int main(int argc, char **argv)
     csi_result_info info;
     csi_result_info_get(res, &info);
     char mdesc[128];
-    snprintf(mdesc, sizeof mdesc, "%s%s, %s positions", reference ? "reference " : "", info.method,
-             csi_pos_method_name(popts.method));
+    snprintf(mdesc, sizeof mdesc, "%s%s, %s positions%s", reference ? "reference " : "", info.method,
+             csi_pos_method_name(popts.method), cell_jitter ? ", jittered in their cells" : " at their cells' centres");
     double tw = cli_now();
     s = cli_write_images(&outs, set, res, mdesc, &bar);
     tw = cli_now() - tw;
     if (s == CSI_OK && outs.stats) {
-        const run_figures f = {scene_path, reference ? "reference" : method, &popts, seed, &grid, n,
+        const run_figures f = {scene_path, reference ? "reference" : method, &popts, seed, cell_jitter, &grid, n,
                                t_render, t_recon, t_device, tw};
         s = write_stats(set, outs.stats, dev, tr, res, &f);
     }

@@ -81,7 +81,17 @@ check "[[ -s '$T/frames/frame_0000.exr' && -s '$T/frames/frame_0007.png' && ! -e
 for m in stratified random; do
     "$B/csi-render" "$static" --method $m -o "$T/$m.exr" --stats "$T/$m.json" -q
     check "[[ $? == 0 ]] && grep -q '\"estimator\": \"mean\"' '$T/$m.json'" "--method $m"
+    check "[[ '$(json "$T/$m.json" cell_point)' == jittered ]]" "--method $m: cell_point $(json "$T/$m.json" cell_point), not jittered"
 done
+# where a sample lies in its cell: the compressive method at the centres by default, the same bits
+# as --cell-point centre; jittered, other pixels; Monte Carlo at the centres differs from its default
+check "[[ '$(json "$T/static.r.json" cell_point)' == centre ]]" "cs: cell_point $(json "$T/static.r.json" cell_point), not centre"
+"$B/csi-render" "$static" --cell-point centre -o "$T/cc.exr" --stats "$T/cc.json" "${fast[@]}"
+"$B/csi-render" "$static" --cell-point jittered -o "$T/cj.exr" --stats "$T/cj.json" "${fast[@]}"
+check "[[ '$(json "$T/cc.json" image_fnv1a64)' == '$(json "$T/static.r.json" image_fnv1a64)' ]]" "cs --cell-point centre is not the default"
+check "[[ '$(json "$T/cj.json" image_fnv1a64)' != '$(json "$T/cc.json" image_fnv1a64)' && '$(json "$T/cj.json" cell_point)' == jittered ]]" "cs --cell-point jittered: the centres' image"
+"$B/csi-render" "$static" --method stratified --cell-point centre -o "$T/mc.exr" --stats "$T/mc.json" -q
+check "[[ '$(json "$T/mc.json" image_fnv1a64)' != '$(json "$T/stratified.json" image_fnv1a64)' ]]" "stratified --cell-point centre: the jittered image"
 
 # references: SPP distinct stratified samples per pixel, moving scenes included (x, y and t)
 for sc in static moving; do
@@ -91,6 +101,7 @@ for sc in static moving; do
 done
 
 # --- bad input: exit 2, one line naming the problem, no output file --------------------------
+expect_fail "--cell-point" "--cell-point: 'middle'" "$B/csi-render" "$static" --cell-point middle -o "$T/out.exr"
 good="$T/static.csid"
 expect_fail "missing dump" "nonexistent.csid" "$B/csi-reconstruct" "$T/nonexistent.csid" -o "$T/out.exr"
 printf 'XXXX' | cat - <(tail -c +5 "$good") > "$T/magic.csid"

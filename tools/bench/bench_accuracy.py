@@ -276,9 +276,10 @@ class Bench:
     def reference(self, name, scene, shash, plan):
         """Static: csi-render --reference R (stratified, R samples per pixel on a sqrt(R)x finer
         grid). Moving: a reference grid of 4 x 4 cells a pixel and T frames (--reference 16T),
-        every cell traced once, the pixel the mean of its 4 x 4 points (finer than any default
-        grid of a volume: at most 4 x 4 cells, csi_default_grid_factor), averaged over
-        ceil(R / 16T) seeds (shading noise)."""
+        every cell traced once at a random point of it (csi-render's references jitter since
+        session 46), the pixel the mean of its 4 x 4 points (finer than any default grid of a
+        volume: at most 4 x 4 cells, csi_default_grid_factor), averaged over ceil(R / 16T) seeds
+        (shading noise and the points)."""
         W, H, T = plan["width"], plan["height"], plan["frames"]
         R = self.a.ref_spp
         os.makedirs(self.a.ref_cache, exist_ok=True)
