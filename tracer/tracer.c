@@ -721,7 +721,6 @@ typedef struct job {
     const float *uvs;
     size_t n;
     uint64_t seed;
-    bool jitter; /* a random point of each cell, not its centre (csi_tracer_set_cell_jitter) */
     float *rgb;
     atomic_size_t next, done;
     pthread_mutex_t m;
@@ -756,7 +755,7 @@ static void *worker(void *arg)
             if (jb->pos) {
                 const csi_grid *g = jb->grid;
                 double ju = 0.5, jv = 0.5, js = 0.5;
-                if (jb->jitter) {
+                if (tr->cell_jitter) {
                     /* a stream of its own, so that the shading's numbers stay those of the
                      * cell's centre */
                     rng q;
@@ -880,7 +879,6 @@ csi_status csi_tracer_eval_ids(csi_tracer *tr, const csi_grid *grid, const csi_s
     jb.ids = ids;
     jb.n = n;
     jb.seed = seed;
-    jb.jitter = tr->cell_jitter;
     jb.rgb = rgb;
     return run_job(tr, &jb, progress, user);
 }
