@@ -6,12 +6,42 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 static void frame_name(char *buf, size_t len, uint32_t t, const char *ext)
 {
     snprintf(buf, len, "frame_%04u.%s", t, ext);
+}
+
+/* The image format a file name's extension names, among those a user may mean for an image:
+ * "exr", "png", another image format's extension, or NULL (none, or one that names no image). */
+static const char *image_kind(const char *path)
+{
+    static const char *const other[] = {"jpg", "jpeg", "hdr", "pfm", "tif", "tiff", "bmp", "ppm", "tga", "webp"};
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    if (!dot || (slash && dot < slash) || dot[1] == 0)
+        return NULL;
+    const char *ext = dot + 1;
+    if (!strcasecmp(ext, "exr") || !strcasecmp(ext, "png"))
+        return !strcasecmp(ext, "exr") ? "exr" : "png";
+    for (size_t i = 0; i < sizeof other / sizeof *other; i++)
+        if (!strcasecmp(ext, other[i]))
+            return other[i];
+    return NULL;
+}
+
+/* -o writes OpenEXR and --png a PNG whatever the name says, so a name that asks for another
+ * format is refused before any work: "-o out.png" would otherwise leave EXR bytes under a PNG
+ * name. A name without an image extension is taken as given (scripts' temporary names). */
+static csi_status check_kind(const char *path, const char *want, const char *what, const char *hint)
+{
+    const char *kind = image_kind(path);
+    if (kind && strcmp(kind, want))
+        return cli_fail(CSI_ERR_ARG, "%s: %s is written as %s, not %s; %s", path, what,
+                        !strcmp(want, "exr") ? "OpenEXR" : "an 8-bit PNG", kind, hint);
+    return CSI_OK;
 }
 
 csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nframes)
@@ -32,6 +62,10 @@ csi_status cli_outputs_stage(const cli_outputs *o, csi_outset *set, uint32_t nfr
             CSI_TRY(csi_outset_dir_file(set, o->frames_dir, name, "a frame's preview (--frames)"));
         }
     }
+    if (o->exr)
+        CSI_TRY(check_kind(o->exr, "exr", "the image (-o)", "name it .exr (--png FILE.png writes an 8-bit preview)"));
+    if (o->png)
+        CSI_TRY(check_kind(o->png, "png", "the preview (--png)", "name it .png (-o FILE.exr writes the HDR image)"));
     return CSI_OK;
 }
 

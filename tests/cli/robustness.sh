@@ -166,7 +166,12 @@ same "two outputs, one file via ./" "are the same file" "$B/csi-reconstruct" "$T
 printf 'camera { position 0 0 -2 target 0 0 0 size 8 8 }\nmaterial m { texture "tex.png" }\n' > "$T/tx.scene"
 cp "$S/tests/data/io/img_rgb.png" "$T/tex.png"
 same "scene texture as --png" "would overwrite the input" "$B/csi-render" "$T/tx.scene" -o "$T/x.exr" --png "$T/tex.png"
-[[ "$(md5sum "$T/s.csid" "$T/t.scene" "$T/img.png" "$T/more.csid")" == "$sum_before" && ! -e "$T/x.exr" && ! -e "$T/y.exr" ]] \
+# -o writes OpenEXR and --png a PNG: a name asking for the other format is refused, not obeyed in name only
+same "-o named .png" "x.png: the image (-o) is written as OpenEXR, not png" "$B/csi-reconstruct" "$T/s.csid" -o "$T/x.png"
+same "--png named .EXR" "z.EXR: the preview (--png) is written as an 8-bit PNG, not exr" "$B/csi-render" "$T/t.scene" -o "$T/x.exr" --png "$T/z.EXR"
+same "-o named .jpg" "x.jpg: the image (-o) is written as OpenEXR, not jpg" "$B/csi-render" "$T/t.scene" -o "$T/x.jpg"
+[[ "$(md5sum "$T/s.csid" "$T/t.scene" "$T/img.png" "$T/more.csid")" == "$sum_before" && ! -e "$T/x.exr" && ! -e "$T/y.exr" \
+   && ! -e "$T/x.png" && ! -e "$T/z.EXR" && ! -e "$T/x.jpg" ]] \
     && ok || bad "an input changed or an output was written"
 
 # --- inputs that are not regular files -----------------------------------------------------------
