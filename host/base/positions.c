@@ -639,7 +639,12 @@ uint32_t csi_default_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uin
 
 uint32_t csi_camera_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp, csi_camera_motion camera)
 {
-    if (t > 1 && (camera == CSI_CAMERA_MOVES || (camera == CSI_CAMERA_PANS && 2 * spp < t)))
+    /* A camera that translates across its view takes a still one's grid: its motion sweeps the
+     * picture along itself only, so on one cell a pixel the edges and thin lines that run along
+     * the motion are seen at the pixel's centre row (or column) alone and stay aliased at any spp,
+     * as a still camera's were on one cell (docs/bench/animation.md, sessions 42 and 47). Any
+     * other moving camera keeps 1: its blur removes the detail a finer grid is for. */
+    if (t > 1 && camera == CSI_CAMERA_MOVES)
         return 1;
     return csi_default_grid_factor(out_w, out_h, t, spp);
 }

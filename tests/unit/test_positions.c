@@ -349,10 +349,10 @@ static int test_default_grid(void)
     for (size_t i = 0; i < sizeof moving / sizeof moving[0]; i++)
         CHECK(csi_default_grid_factor(128, 128, moving[i].t, moving[i].spp) == moving[i].f, "moving, %u frames, %llu spp: %u",
               moving[i].t, (unsigned long long)moving[i].spp, csi_default_grid_factor(128, 128, moving[i].t, moving[i].spp));
-    /* the camera's motion: a moving one keeps 1, a panning one from 2 spp >= t, a still one the default */
+    /* the camera's motion: a moving one keeps 1, a panning or a still one the default */
     const struct { uint32_t t; uint64_t spp; csi_camera_motion cam; uint32_t f; } cams[] = {
-        {32, 4, CSI_CAMERA_STILL, 2}, {32, 4, CSI_CAMERA_PANS, 1}, {32, 15, CSI_CAMERA_PANS, 1},
-        {32, 16, CSI_CAMERA_PANS, 4}, {16, 9, CSI_CAMERA_PANS, 3},
+        {32, 4, CSI_CAMERA_STILL, 2}, {32, 3, CSI_CAMERA_PANS, 1}, {32, 4, CSI_CAMERA_PANS, 2},
+        {32, 12, CSI_CAMERA_PANS, 3}, {32, 16, CSI_CAMERA_PANS, 4}, {16, 9, CSI_CAMERA_PANS, 3},
         {32, 64, CSI_CAMERA_MOVES, 1}, {32, 3, CSI_CAMERA_STILL, 1}, {1, 16, CSI_CAMERA_MOVES, 16}};
     for (size_t i = 0; i < sizeof cams / sizeof cams[0]; i++)
         CHECK(csi_camera_grid_factor(128, 128, cams[i].t, cams[i].spp, cams[i].cam) == cams[i].f,

@@ -209,9 +209,10 @@ typedef enum csi_camera_motion { CSI_CAMERA_STILL = 0, CSI_CAMERA_PANS = 1, CSI_
 /* csi_default_grid_factor for a renderer that knows its camera (csi-render's plan, csi-mitsuba's
  * poses): on a volume (t > 1) a moving camera keeps 1, where the finer grid's unknowns cost
  * more than the detail it gains (the camera's blur removes that detail, and parts the basis's one
- * shear does not follow multiply them), except a panning one from one sample per 2 frames
- * (2 spp >= t), where it takes csi_default_grid_factor's; CSI_CAMERA_STILL is
- * csi_default_grid_factor. docs/bench/animation.md, sessions 42-44. */
+ * shear does not follow multiply them), except a panning one, which takes
+ * csi_default_grid_factor's as a still one does (its motion blurs nothing across itself);
+ * CSI_CAMERA_STILL and CSI_CAMERA_PANS are csi_default_grid_factor. docs/bench/animation.md,
+ * sessions 42-44 and 47. */
 CSI_API uint32_t csi_camera_grid_factor(uint32_t out_w, uint32_t out_h, uint32_t t, uint64_t spp,
                                         csi_camera_motion camera);
 /* Makes the positions: *out (release with csi_free) holds *n unique positions sorted by

@@ -103,7 +103,7 @@ def parser():
     s.add_argument("--grid", type=_int_range(1, csid.MAX_SIDE), metavar="K",
                    help="fine-grid width in cells (default: csi's rule, see csi-positions --help; an "
                         "animation whose camera moves keeps the image's width, as csi-render does, "
-                        "except a camera translating across its view from one sample per 2 frames)")
+                        "except a camera translating across its view, which takes a still camera's)")
     s.add_argument("--method", choices=("poisson", "stratified", "random"), default="poisson",
                    help="positions (default poisson, the compressive method's)")
     s.add_argument("--time-steps", type=_int_range(1, 4096), default=1, metavar="T",
@@ -127,7 +127,8 @@ def parser():
                         "the share: a few %% more samples for a lower error, but more images a hair above the mean "
                         "of the same samples (docs/bench/mitsuba.md, session 21)")
     s.add_argument("--reference", type=_int_range(1, 1 << 20), metavar="SPP", help="render Mitsuba's box-filtered reference "
-                   "with SPP samples per pixel instead of samples")
+                   "with SPP samples per pixel instead of samples; of an animation with --time-steps T, its motion "
+                   "blur: the mean of T frames posed at (t + 0.5) / T, ceil(SPP / T) samples a pixel each")
     s.add_argument("--sensor", metavar="ID|N", help="which of the scene's sensors renders: its id, or its index in "
                    "declaration order from 0 (as mi.render counts; digits alone are an index); default: the first")
     s.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE",
@@ -494,7 +495,17 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         import numpy as np
 
         t0 = time.perf_counter()
-        ref = mb.render_reference(scene, a.reference, seed=a.seed, progress=lambda d, n: prog("reference pass", d, n))
+        # An animation's reference is its motion blur over the discrete shutter csi's samples see:
+        # the mean of its T frames, each posed at (t + 0.5) / T, SPP samples a pixel in all (as
+        # csi-render's --reference counts them). One pose would be a still frame of the middle.
+        frames = a.time_steps if scene.animate is not None else 1
+        per_frame = -(-a.reference // frames)
+        if frames > 1:
+            ref = mb.render_reference_frames(scene, frames, per_frame, seed=a.seed,
+                                             progress=lambda d, n: prog("reference frames", d, n))
+            ref = ref.astype(np.float64).mean(axis=0).astype(np.float32)
+        else:
+            ref = mb.render_reference(scene, a.reference, seed=a.seed, progress=lambda d, n: prog("reference pass", d, n))
         t_ref = time.perf_counter() - t0
         prog.end()
         if a.output:
@@ -504,10 +515,12 @@ def _run(a, extra, prog, files, var_path, aov_paths):
                 np.save(f, ref)
         if a.stats:
             _write_json(tmp(a.stats), {"tool": PROG, "scene": a.scene, "reference_spp": a.reference, "out": list(size),
+                                  "frames": frames, "reference_spp_per_frame": per_frame,
                                   "seed": a.seed, "t_load_s": t_load, "t_render_s": t_ref,
-                                  "per_path_us": 1e6 * t_ref / (a.reference * size[0] * size[1])})
+                                  "per_path_us": 1e6 * t_ref / (per_frame * frames * size[0] * size[1])})
         bad = int((~np.isfinite(ref)).any(axis=-1).sum())
-        return (f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {a.reference} spp, box filter: {t_ref:.2f} s "
+        spp_said = f"{frames} frames x {per_frame} spp" if frames > 1 else f"{a.reference} spp"
+        return (f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {spp_said}, box filter: {t_ref:.2f} s "
                 f"-> {a.output or a.npy}",
                 [f"{bad} of the reference's pixels are NaN or Inf (the scene's paths give them): written as "
                  f"Mitsuba renders them"] if bad else [])
