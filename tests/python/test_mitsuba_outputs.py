@@ -35,6 +35,10 @@ def main():
         refused(cli(*base, "-o", p("o.exr"), "--dump", p("sub")), "is a directory", "--dump a directory")
         refused(cli(*base, "-o", p("o.exr"), "--stats", p("sub")), "is a directory", "--stats a directory")
         refused(cli(T, "--out", "8x8", "-o", p("o.exr")), "a directory, not a scene file", "a directory as the scene")
+        # -o writes OpenEXR and --png a PNG: a name asking for another format is refused
+        refused(cli(*base, "-o", p("o.png")), "o.png: the image (-o) is written as OpenEXR, not png", "-o named .png")
+        refused(cli(*base, "-o", p("o.exr"), "--png", p("o.EXR")), "the preview (--png) is written as an 8-bit PNG",
+                "--png named .EXR")
         # a write that fails after the others (the library's writers and the renames of the
         # commit, in turn): nothing of the run is left
         outs = ["-o", p("o.exr"), "--png", p("o.png"), "--dump", p("o.csid"), "--stats", p("o.json")]

@@ -454,6 +454,7 @@ def run(a, extra):
                     files.file(path, what)
         except csi.CsiError as e:
             raise UsageError(str(e)) from None
+        _check_image_kinds(a.output, a.png)
         summary, warnings = _run(a, extra, prog, files, var_path, aov_paths)
         try:
             files.commit()
@@ -464,6 +465,23 @@ def run(a, extra):
     for w in warnings:  # what is wrong with the samples is said even with -q
         print(f"{PROG}: warning: {w}", file=sys.stderr)
     return 0
+
+
+_IMAGE_EXTS = ("exr", "png", "jpg", "jpeg", "hdr", "pfm", "tif", "tiff", "bmp", "ppm", "tga", "webp")
+
+
+def _check_image_kinds(exr_path, png_path):
+    """-o writes OpenEXR and --png a PNG whatever the name says: a name that asks for another
+    image format is refused before any rendering, as csi's C programs refuse it (a name without
+    an image extension is taken as given)."""
+    for path, want, what, hint in ((exr_path, "exr", "the image (-o)", "name it .exr (--png FILE.png writes an "
+                                                                        "8-bit preview)"),
+                                   (png_path, "png", "the preview (--png)", "name it .png (-o FILE.exr writes the "
+                                                                             "HDR image)")):
+        ext = os.path.splitext(path)[1][1:].lower() if path else ""
+        if ext in _IMAGE_EXTS and ext != want:
+            raise UsageError(f"{path}: {what} is written as {'OpenEXR' if want == 'exr' else 'an 8-bit PNG'}, "
+                             f"not {ext}; {hint}")
 
 
 def _run(a, extra, prog, files, var_path, aov_paths):
