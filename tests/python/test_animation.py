@@ -125,6 +125,10 @@ def main():
         # the 32 x 32 points' coverage within about 0.02 at an edge pixel: 0.1 is 4 standard
         # deviations and the points' error. A reference of one pose (the middle of the shutter,
         # as csi-mitsuba rendered before) fails this by far where the sphere passes.
+        sub = (np.arange(32) + 0.5) / 32
+        su, sv = np.meshgrid(sub, sub)
+        uu = (xx[..., None, None] + su) / 16  # each pixel's 32 x 32 points
+        vv = (yy[..., None, None] + sv) / 16
         r = subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", p("ball.py"), "--time-steps", str(T),
                             "--reference", "1024", "-o", p("blur.exr"), "--stats", p("blur.json"), "-q"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -135,10 +139,6 @@ def main():
             import json
 
             blur = exr.read(p("blur.exr"))
-            sub = (np.arange(32) + 0.5) / 32
-            su, sv = np.meshgrid(sub, sub)
-            uu = (xx[..., None, None] + su) / 16
-            vv = (yy[..., None, None] + sv) / 16
             cover = np.mean([(inside(uu, vv, (k + 0.5) / T) < 0).mean(axis=(-2, -1)) for k in range(T)], axis=0)
             want = 0.25 + 0.75 * cover
             err = np.abs(blur[..., 0] - want)
@@ -147,6 +147,47 @@ def main():
                   f"mean {err.mean():.4f}")
             st = json.load(open(p("blur.json")))
             check(st["frames"] == T and st["reference_spp_per_frame"] == 1024 // T, f"reference stats {st}")
+
+        # csi-mitsuba --frames: the reference's frames, each against its pose's closed form (the
+        # same bound: 256 spp a frame), and the reconstruction's frames, the bits csi-reconstruct
+        # --frames gives on the dump and its variances, the image the bits of a run without them
+        env = dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR))
+        mcli = lambda *args: subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", p("ball.py"), "-q", *args],  # noqa: E731
+                                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        from csi import exr
+
+        r = mcli("--time-steps", str(T), "--reference", "1024", "--frames", p("rf"))
+        check(r.returncode == 0 and sorted(os.listdir(p("rf"))) == sorted(f"frame_{k:04d}.{e}" for k in range(T)
+                                                                        for e in ("exr", "png")),
+              f"csi-mitsuba --reference --frames: {r.stderr.strip()} {os.listdir(p('rf')) if os.path.isdir(p('rf')) else ''}")
+        if r.returncode == 0:
+            for k in range(T):
+                cover = (inside(uu, vv, (k + 0.5) / T) < 0).mean(axis=(-2, -1))
+                err = np.abs(exr.read(p(f"rf/frame_{k:04d}.exr"))[..., 0] - (0.25 + 0.75 * cover))
+                check(err.max() < 0.1, f"reference frame {k} against its pose's closed form: max {err.max():.3f}")
+        r = mcli("--time-steps", str(T), "--spp", "2", "--seed", "3", "-o", p("mf.exr"), "--frames", p("mf"),
+                 "--dump", p("mf.csid"))
+        r0 = mcli("--time-steps", str(T), "--spp", "2", "--seed", "3", "-o", p("m0.exr"))
+        check(r.returncode == 0 and r0.returncode == 0, f"csi-mitsuba --frames: {r.stderr.strip()} {r0.stderr.strip()}")
+        if r.returncode == 0 and r0.returncode == 0:
+            rr = subprocess.run([os.path.join(build, "csi-reconstruct"), p("mf.csid"), "--variance",
+                                 p("mf.variance.csid"), "-o", p("rf.exr"), "--frames", p("rcf"), "-q"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            check(rr.returncode == 0, f"csi-reconstruct --frames on csi-mitsuba's dump: {rr.stderr.strip()}")
+            same = rr.returncode == 0 and all(np.array_equal(exr.read(p(f"mf/frame_{k:04d}.exr")),
+                                                             exr.read(p(f"rcf/frame_{k:04d}.exr"))) for k in range(T))
+            check(same, "csi-mitsuba's frames differ from csi-reconstruct --frames on its dump")
+            check(np.array_equal(exr.read(p("mf.exr")), exr.read(p("m0.exr"))), "--frames changed the image")
+        # refused before any rendering, one line, nothing written
+        before = set(os.listdir(tmp))
+        for args, want in [(["--spp", "2", "--frames", p("nf")], "give --time-steps above 1"),
+                           (["--time-steps", str(T), "--spp", "2", "--frames", p("nf"), "--", "--estimator", "mean"],
+                            "makes no frames"),
+                           (["--time-steps", str(T), "--spp", "2", "--frames", p("no/nf")], "does not exist")]:
+            r = mcli(*args)
+            check(r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and want in r.stderr,
+                  f"csi-mitsuba {args}: {r.stderr!r}")
+        check(set(os.listdir(tmp)) == before, f"refused runs left {set(os.listdir(tmp)) - before}")
 
         # csi-reconstruct's frames of the dump: an EXR sequence the previews read back.
         csid.write(p("s.csid"), req.with_values(s.values))

@@ -279,7 +279,7 @@ def main():
             ("a sensor index beyond the scene's", "has 2 sensors: 0, 1 (sky)", [p("two.xml"), "--sensor", "2", "-o",
                                                                              p("o.exr")]),
             ("a sensor id the scene lacks", "no sensor has that id", [p("two.xml"), "--sensor", "top", "-o", p("o.exr")]),
-            ("frames after --", "writes no frames", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--frames", "d"]),
+            ("frames after --", "csi-mitsuba's own --frames DIR", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--frames", "d"]),
             ("settle with the second pass", "--settle", ["cornell", "--out", "8x8", "-o", p("o.exr"), "--", "--settle",
                                                          "on"]),
             ("the step's coverage with the second pass", "--step-coverage",

@@ -228,6 +228,7 @@ def _bind(L):
         "csi_outset_input": (ctypes.c_int, [P, ctypes.c_char_p]),
         "csi_outset_file": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
         "csi_outset_dir": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
+        "csi_outset_dir_file": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p]),
         "csi_outset_tmp": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.POINTER(ctypes.c_char_p)]),
         "csi_outset_commit": (ctypes.c_int, [P]),
         "csi_outset_abort": (None, [P]),
@@ -804,6 +805,10 @@ class OutputSet:
     def dir(self, path, what: str):
         """An output folder (made by the writer of its files; checked now)."""
         _check(lib().csi_outset_dir(self._h, self._keep(path if path is not None else ""), self._keep(what)))
+
+    def dir_file(self, path, name: str, what: str):
+        """A file of a stated output folder (its temporary path: tmp(os.path.join(path, name)))."""
+        _check(lib().csi_outset_dir_file(self._h, self._keep(path), self._keep(name), self._keep(what)))
 
     def tmp(self, path) -> str:
         """The temporary path to write the stated output `path` to."""

@@ -82,6 +82,8 @@ def parser():
     o = p.add_argument_group("outputs")
     o.add_argument("-o", "--output", metavar="OUT.exr", help="the reconstructed image (float32 EXR; with --reference: Mitsuba's reference)")
     o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction")
+    o.add_argument("--frames", metavar="DIR", help="an animation's frames (--time-steps above 1): DIR/frame_NNNN.exr "
+                   "and .png, as csi-reconstruct --frames writes them; with --reference, the reference's frames")
     o.add_argument("--dump", metavar="FILE.csid", help="the samples as a csi dump (docs/dump-format.md); with --paths above 1 "
                    "also their variances, FILE.variance.csid (csi-reconstruct --variance)")
     o.add_argument("--aov", action="store_true", help="with --dump: also per-sample albedo and normal at the first hit, "
@@ -209,8 +211,7 @@ def reconstruction_options(args):
             raise UsageError(f"'{word}' after '--' is not one of csi-reconstruct's reconstruction options "
                              f"(see csi-reconstruct --help)")
         if name == "frames":  # an output, not a reconstruction option: the table holds it for the library's callers
-            raise UsageError(f"'{word}' after '--': csi-mitsuba writes no frames (csi-reconstruct --frames DIR on its "
-                             f"--dump does)")
+            raise UsageError(f"'{word}' after '--': the frames are an output, csi-mitsuba's own --frames DIR")
         if kinds.get(name) == "flag" and not eq:
             value = "on"
         elif not eq:
@@ -230,17 +231,21 @@ def reconstruction_options(args):
     return kw, device
 
 
-def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None, progress=None):
-    """reconstruct_result, then its image written to output (EXR) and png; returns the statistics."""
+def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None, progress=None, frame_paths=None):
+    """reconstruct_result, then its image written to output (EXR) and png, and with frame_paths
+    (one (EXR, PNG) pair of paths per frame) the volume's frames; returns the statistics."""
     import csi
 
     t0 = time.perf_counter()
-    res = reconstruct_result(d, extra, variance, progress)
+    res = reconstruct_result(d, extra, variance, progress, frames=bool(frame_paths))
     try:
         if output:
             res.write_exr(output)
         if png:
             res.write_png(png)
+        for t, (exr_path, png_path) in enumerate(frame_paths or ()):
+            res.write_exr(exr_path, frame=t)
+            res.write_png(png_path, frame=t)
     except csi.CsiError as e:
         raise ReconstructError(e) from None
     stats = dict(res.stats)
@@ -248,18 +253,21 @@ def reconstruct(d: csid.Dump, output, png=None, extra=(), variance=None, progres
     return stats
 
 
-def reconstruct_result(d: csid.Dump, extra=(), variance=None, progress=None):
+def reconstruct_result(d: csid.Dump, extra=(), variance=None, progress=None, frames=False):
     """Reconstructs the samples d with csi's library in this process (the same bits as
     csi-reconstruct on their dump, with --variance when `variance`, the samples' variances, is
     given); returns csi's Result. progress: csi.reconstruct's callback, or None. Positions in
     csi's order (sorted by cell, each once: csi-positions' requests) go straight in; any others
     through the library's dump reader, which sorts them and averages repeats as csi-reconstruct
-    does, without the variances (the variance of an averaged repeat is not their mean)."""
+    does, without the variances (the variance of an averaged repeat is not their mean). frames:
+    keep the volume's frames (Result.frames), as csi-reconstruct --frames does."""
     import numpy as np
 
     import csi
 
     kw, device = reconstruction_options(extra)
+    if frames:
+        kw["frames"] = "on"
     w, h, t = d.grid
     xyt = np.asarray(d.xyt, dtype=np.int64)
     idx = (xyt[:, 2] * h + xyt[:, 1]) * w + xyt[:, 0]
@@ -287,6 +295,8 @@ def check_fits(req: csid.Dump, a, extra):
     import csi
 
     kw, device = reconstruction_options(extra)
+    if a.frames:
+        kw["frames"] = "on"
     n = len(req.xyt)
     held = n * (12 + 12 + (12 if a.paths > 1 or (a.time_steps > 1 and a.variance_peaks) else 0))
     try:
@@ -391,7 +401,7 @@ def run(a, extra):
     if a.reference:
         for flag, v in (("--png", a.png), ("--dump", a.dump), ("--aov", a.aov), ("--request", a.request)):
             if v:
-                raise UsageError(f"{flag} does not apply to --reference (it writes -o/--npy/--stats)")
+                raise UsageError(f"{flag} does not apply to --reference (it writes -o/--npy/--frames/--stats)")
         if extra:
             raise UsageError("csi-reconstruct arguments after '--' do not apply to --reference")
     else:
@@ -422,8 +432,16 @@ def run(a, extra):
     if a.refine and (a.reference or a.time_steps > 1):
         raise UsageError("--refine picks pixels of an image: not with " + ("--reference" if a.reference else
                                                                            "--time-steps above 1"))
-    if not (a.output or a.png or a.dump or a.npy):
-        raise UsageError("no output given: use -o OUT.exr, --png, --dump or --npy")
+    if not (a.output or a.png or a.dump or a.npy or a.frames):
+        raise UsageError("no output given: use -o OUT.exr, --png, --frames, --dump or --npy")
+    a.n_frames = 0
+    if a.frames:
+        a.n_frames = csid.read(a.request, want="request").grid[2] if a.request else a.time_steps
+        if a.n_frames < 2:
+            raise UsageError("--frames: an animation's frames; give --time-steps above 1" if not a.request else
+                             f"--frames: {a.request} is an image (grid_t = 1), it has no frames")
+        if estimator == "mean":
+            raise UsageError("--frames: the per-pixel mean (--estimator mean) makes no frames")
     a.params = {}
     for d in a.define:
         name, eq, value = d.partition("=")
@@ -452,6 +470,11 @@ def run(a, extra):
             for path, what in outs:
                 if path:
                     files.file(path, what)
+            if a.frames:  # every frame's files stated now, as csi-reconstruct states them
+                files.dir(a.frames, "the frames folder (--frames)")
+                for t in range(a.n_frames):
+                    files.dir_file(a.frames, f"frame_{t:04d}.exr", "a frame (--frames)")
+                    files.dir_file(a.frames, f"frame_{t:04d}.png", "a frame's preview (--frames)")
         except csi.CsiError as e:
             raise UsageError(str(e)) from None
         _check_image_kinds(a.output, a.png)
@@ -482,6 +505,24 @@ def _check_image_kinds(exr_path, png_path):
         if ext in _IMAGE_EXTS and ext != want:
             raise UsageError(f"{path}: {what} is written as {'OpenEXR' if want == 'exr' else 'an 8-bit PNG'}, "
                              f"not {ext}; {hint}")
+
+
+def frame_paths(a, files):
+    """The temporary (EXR, PNG) paths of --frames' files, one pair per frame; None without it."""
+    if not a.frames:
+        return None
+    name = lambda t, ext: os.path.join(a.frames, f"frame_{t:04d}.{ext}")  # noqa: E731
+    return [(files.tmp(name(t, "exr")), files.tmp(name(t, "png"))) for t in range(a.n_frames)]
+
+
+def write_png(path, rgb):
+    """An 8-bit sRGB preview of an (h, w, 3) array (the reference's frames; csi's own images
+    go through the library's writer)."""
+    from PIL import Image
+
+    from . import preview
+
+    Image.fromarray(preview.to_srgb8(rgb)).save(path, format="PNG")
 
 
 def _run(a, extra, prog, files, var_path, aov_paths):
@@ -518,10 +559,15 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         # csi-render's --reference counts them). One pose would be a still frame of the middle.
         frames = a.time_steps if scene.animate is not None else 1
         per_frame = -(-a.reference // frames)
+        if a.frames and frames != a.n_frames:
+            raise UsageError(f"--frames: {scene.name} is still (no animate(params, time)); its reference has no frames")
         if frames > 1:
-            ref = mb.render_reference_frames(scene, frames, per_frame, seed=a.seed,
-                                             progress=lambda d, n: prog("reference frames", d, n))
-            ref = ref.astype(np.float64).mean(axis=0).astype(np.float32)
+            ref_frames = mb.render_reference_frames(scene, frames, per_frame, seed=a.seed,
+                                                    progress=lambda d, n: prog("reference frames", d, n))
+            ref = ref_frames.astype(np.float64).mean(axis=0).astype(np.float32)
+            for t, (exr_path, png_path) in enumerate(frame_paths(a, files) or ()):
+                exr.write(exr_path, ref_frames[t])
+                write_png(png_path, ref_frames[t])
         else:
             ref = mb.render_reference(scene, a.reference, seed=a.seed, progress=lambda d, n: prog("reference pass", d, n))
         t_ref = time.perf_counter() - t0
@@ -539,7 +585,7 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         bad = int((~np.isfinite(ref)).any(axis=-1).sum())
         spp_said = f"{frames} frames x {per_frame} spp" if frames > 1 else f"{a.reference} spp"
         return (f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {spp_said}, box filter: {t_ref:.2f} s "
-                f"-> {a.output or a.npy}",
+                f"-> {a.output or a.npy or a.frames}",
                 [f"{bad} of the reference's pixels are NaN or Inf (the scene's paths give them): written as "
                  f"Mitsuba renders them"] if bad else [])
 
@@ -557,7 +603,7 @@ def _run(a, extra, prog, files, var_path, aov_paths):
     if a.refine and reconstruction_options(extra)[0].get("step_coverage") == "on":
         raise UsageError("--refine and '-- --step-coverage on': the second pass samples the pixels that step would "
                          "move; give one (--no-refine for --step-coverage)")
-    if a.refine or a.output or a.png:
+    if a.refine or a.output or a.png or a.frames:
         check_fits(req, a, extra)
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
                           progress=lambda d, n: prog("samples", d, n))
@@ -598,11 +644,11 @@ def _run(a, extra, prog, files, var_path, aov_paths):
                 refined_result.write_png(tmp(a.png))
         except csi.CsiError as e:
             raise ReconstructError(e) from None
-    elif a.output or a.png:
+    elif a.output or a.png or a.frames:
         t0 = time.perf_counter()
         stats["reconstruction"] = reconstruct(dump, tmp(a.output), tmp(a.png), extra=extra,
                                                 variance=s.variance if a.variance_peaks else None,
-                                                progress=prog.reconstruction)
+                                                progress=prog.reconstruction, frame_paths=frame_paths(a, files))
         prog.end()
         t_recon = time.perf_counter() - t0
     if a.dump:
