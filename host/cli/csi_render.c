@@ -526,8 +526,9 @@ int main(int argc, char **argv)
     }
     if (!quiet) {
         cli_warn_unconverged(prog, res, quiet);
-        fprintf(stderr, "%s: %ux%u%s from %zu samples (%s) : render %.2f s, reconstruct %.2f s\n", prog,
-                grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, mdesc, t_render, t_recon);
+        fprintf(stderr, "%s: %ux%u%s from %zu samples of a %ux%ux%u grid (%s) : render %.2f s, reconstruct %.2f s\n",
+                prog, grid.out_w, grid.out_h, grid.t > 1 ? " (motion)" : "", n, grid.w, grid.h, grid.t, mdesc, t_render,
+                t_recon);
     }
 done:
     cli_outset_free(set); /* nothing new is left when the run failed */
