@@ -19,6 +19,7 @@ import sys
 import tempfile
 
 import numpy as np
+from PIL import Image
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PYDIR = os.path.join(HERE, "..", "..", "host", "python")
@@ -66,8 +67,8 @@ def main():
         ok(cli(*common, "--dump", p("b.csid"), "-o", p("mean.exr"), "--", "--estimator", "mean"), "render + mean")
         ok(cli(*common, "--dump", p("b.csid"), "--no-variance-peaks", "-o", p("csn.exr")),
            "render + csi without the variances")
-        ok(cli("cornell", "--out", "64x64", "--reference", 256, "--npy", p("ref.npy"), "-o", p("ref.exr"), "-q"),
-           "reference")
+        ok(cli("cornell", "--out", "64x64", "--reference", 256, "--npy", p("ref.npy"), "-o", p("ref.exr"),
+               "--png", p("ref.png"), "-q"), "reference")
         modes = {f: os.stat(p(f)).st_mode & 0o777 for f in ("a.json", "cs.exr", "a.csid", "ref.npy", "ref.exr")
                  if os.path.exists(p(f))}
         check(len(set(modes.values())) == 1, f"the outputs' modes differ: {modes}")
@@ -89,6 +90,13 @@ def main():
 
         ref = np.load(p("ref.npy"))
         check(np.allclose(exr.read(p("ref.exr")), ref, rtol=0, atol=0), "reference EXR differs from the .npy")
+        # its preview: IEC 61966-2-1's sRGB encoding of the clamped linear values, to 8 bits (the
+        # library's PNG writer's; one level of rounding apart)
+        lin = np.clip(ref.astype(np.float64), 0, 1)
+        srgb = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055) * 255
+        png = np.asarray(Image.open(p("ref.png")).convert("RGB"), dtype=np.float64)
+        check(png.shape == ref.shape and np.abs(png - srgb).max() <= 0.5 + 1e-6,
+              f"the reference's preview is not its sRGB encoding: {np.abs(png - srgb).max() if png.shape == ref.shape else png.shape}")
         mean_img = exr.read(p("mean.exr")).astype(np.float64)
         # csi-reconstruct's mean estimator is the per-pixel mean of the very samples in the dump
         # (float32 output: relative rounding 6e-8, summation order apart).

@@ -81,7 +81,8 @@ def parser():
     p.add_argument("scene", metavar="SCENE")
     o = p.add_argument_group("outputs")
     o.add_argument("-o", "--output", metavar="OUT.exr", help="the reconstructed image (float32 EXR; with --reference: Mitsuba's reference)")
-    o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction")
+    o.add_argument("--png", metavar="OUT.png", help="8-bit sRGB preview of the reconstruction (with --reference: of the "
+                   "reference)")
     o.add_argument("--frames", metavar="DIR", help="an animation's frames (--time-steps above 1): DIR/frame_NNNN.exr "
                    "and .png, as csi-reconstruct --frames writes them; with --reference, the reference's frames")
     o.add_argument("--dump", metavar="FILE.csid", help="the samples as a csi dump (docs/dump-format.md); with --paths above 1 "
@@ -399,9 +400,9 @@ def _estimator(extra):
 def run(a, extra):
     prog = _Progress(a.quiet)
     if a.reference:
-        for flag, v in (("--png", a.png), ("--dump", a.dump), ("--aov", a.aov), ("--request", a.request)):
+        for flag, v in (("--dump", a.dump), ("--aov", a.aov), ("--request", a.request)):
             if v:
-                raise UsageError(f"{flag} does not apply to --reference (it writes -o/--npy/--frames/--stats)")
+                raise UsageError(f"{flag} does not apply to --reference (it writes -o/--png/--npy/--frames/--stats)")
         if extra:
             raise UsageError("csi-reconstruct arguments after '--' do not apply to --reference")
     else:
@@ -516,8 +517,8 @@ def frame_paths(a, files):
 
 
 def write_png(path, rgb):
-    """An 8-bit sRGB preview of an (h, w, 3) array (the reference's frames; csi's own images
-    go through the library's writer)."""
+    """An 8-bit sRGB preview of an (h, w, 3) array (the reference and its frames; csi's own
+    images go through the library's writer, with the same encoding)."""
     from PIL import Image
 
     from . import preview
@@ -574,6 +575,8 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         prog.end()
         if a.output:
             exr.write(tmp(a.output), ref)
+        if a.png:
+            write_png(tmp(a.png), ref)
         if a.npy:
             with open(tmp(a.npy), "wb") as f:
                 np.save(f, ref)
@@ -585,7 +588,7 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         bad = int((~np.isfinite(ref)).any(axis=-1).sum())
         spp_said = f"{frames} frames x {per_frame} spp" if frames > 1 else f"{a.reference} spp"
         return (f"{PROG}: {scene.name} {size[0]}x{size[1]} reference, {spp_said}, box filter: {t_ref:.2f} s "
-                f"-> {a.output or a.npy or a.frames}",
+                f"-> {a.output or a.png or a.npy or a.frames}",
                 [f"{bad} of the reference's pixels are NaN or Inf (the scene's paths give them): written as "
                  f"Mitsuba renders them"] if bad else [])
 
