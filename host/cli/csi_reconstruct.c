@@ -43,7 +43,10 @@ static void usage(FILE *f)
 "                            the second pass without a second reconstruction: MORE.csid is DUMP's\n"
 "                            refinement request (the same --refine-share) evaluated by the renderer;\n"
 "                            the image is DUMP's reconstruction with each refined pixel the mean of\n"
-"                            all its samples (csi-mitsuba's image; docs/bench/mitsuba.md, session 20)\n"
+"                            all its samples, then, with the samples' variances (--variance), the\n"
+"                            pixels that still decide it settled on all their samples' mean (not with\n"
+"                            --settle off) (csi-mitsuba's image; docs/bench/mitsuba.md, sessions 20\n"
+"                            and 48)\n"
 );
     cli_recon_usage(f);
     cli_tile_usage(f);
@@ -209,9 +212,12 @@ static csi_status refinement_cells_check(const char *path, const char *in, const
 }
 
 /* --refine-with: MORE's positions must be the request this reconstruction makes (the same cells,
- * in any order); then the refined pixels take the mean of all their samples (csi_refine_apply). */
+ * in any order); then the refined pixels take the mean of all their samples (csi_refine_apply),
+ * and with settle, the pixels that still decide the image settle on theirs (csi_refine_settle:
+ * with the samples' variances only). */
 static csi_status apply_refinement(const char *path, const char *in, const csi_samples *first,
-                                   const csi_samples *more, csi_result *r, double share, size_t *pixels)
+                                   const csi_samples *more, csi_result *r, double share, bool settle,
+                                   size_t *pixels, size_t *settled)
 {
     csi_image img;
     CSI_TRY(csi_result_image(r, &img));
@@ -243,6 +249,8 @@ static csi_status apply_refinement(const char *path, const char *in, const csi_s
     csi_free(want);
     if (s == CSI_OK)
         s = csi_refine_apply(first, more, &img, pixels);
+    if (s == CSI_OK && settle)
+        s = csi_refine_settle(first, more, &img, settled);
     return s;
 }
 
@@ -250,7 +258,7 @@ static csi_status apply_refinement(const char *path, const char *in, const csi_s
 static csi_status write_stats(csi_outset *set, const char *path, const char *in, const char *varfile,
                               const csi_device *dev, const csi_dump *d, const csi_dump_report *rep,
                               const csi_result *r, const double phase[3], double t0, const char *refine,
-                              size_t refine_cells, size_t refine_pixels)
+                              size_t refine_cells, size_t refine_pixels, size_t refine_settled)
 {
     csi_json *j = NULL;
     CSI_TRY(csi_json_new(&j));
@@ -270,6 +278,7 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
     if (refine) { /* the request's size, also when none was written (0 cells) */
         csi_json_int(j, "refine_cells", (int64_t)refine_cells);
         csi_json_int(j, "refine_pixels", (int64_t)refine_pixels);
+        csi_json_int(j, "refine_settled", (int64_t)refine_settled);
     }
     const csi_status s = cli_write_stats(set, path, j);
     csi_json_free(j);
@@ -391,12 +400,19 @@ int main(int argc, char **argv)
                        "applies; give one");
     /* A first pass for a second (csi/settle.h): the pick and its completion need the pixels that
      * decide the image as the fit left them; the second pass samples them instead of settling. */
-    if (!rc && (refine || refine_with) && option_is(opt, "settle", "on"))
-        rc = cli_error(prog, CSI_ERR_ARG, "--settle on and --refine-%s: the second pass samples the pixels that "
-                       "--settle would give their means; give one", refine ? "request" : "with");
+    if (!rc && refine && option_is(opt, "settle", "on"))
+        rc = cli_error(prog, CSI_ERR_ARG, "--settle on and --refine-request: the second pass samples the pixels "
+                       "that --settle would give their means; give one");
+    if (!rc && refine_with && option_is(opt, "settle", "on"))
+        rc = cli_error(prog, CSI_ERR_ARG, "--settle on and --refine-with: the pixels the second pass sampled are "
+                       "given their means, and with the samples' variances the settling follows by itself "
+                       "(--settle off: not)");
     if (!rc && (refine || refine_with) && option_is(opt, "step-coverage", "on"))
         rc = cli_error(prog, CSI_ERR_ARG, "--step-coverage on and --refine-%s: the second pass samples the "
                        "pixels that step would move; give one", refine ? "request" : "with");
+    /* After the second pass, with the samples' variances, the pixels that still decide the image
+     * settle on all their samples (csi_refine_settle), unless --settle off says not to. */
+    const bool settle_after = refine_with && !option_is(opt, "settle", "off");
     if (!rc && (refine || refine_with)) {
         csi_options_set(opt, "settle", "off");
         csi_options_set(opt, "step-coverage", "off");
@@ -523,12 +539,13 @@ int main(int argc, char **argv)
         goto done;
     }
     tp = cli_now();
-    size_t refine_cells = 0, refine_pixels = 0;
+    size_t refine_cells = 0, refine_pixels = 0, refine_settled = 0;
     if (refine)
         s = write_refinement(set, refine, &samples, res, refine_share, &refine_cells, &refine_pixels);
     if (refine_with) {
         const csi_samples ms = {more.grid, more.channels, more.count, more.pos, more.values, more.flags, NULL};
-        s = apply_refinement(refine_with, in, &samples, &ms, res, refine_share, &refine_pixels);
+        s = apply_refinement(refine_with, in, &samples, &ms, res, refine_share, settle_after, &refine_pixels,
+                             &refine_settled);
         refine_cells = more.count;
     }
     if (s == CSI_OK)
@@ -536,7 +553,7 @@ int main(int argc, char **argv)
     phase[2] = cli_now() - tp;
     if (s == CSI_OK && outs.stats)
         s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0,
-                        refine ? refine : refine_with, refine_cells, refine_pixels);
+                        refine ? refine : refine_with, refine_cells, refine_pixels, refine_settled);
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK) {
@@ -552,8 +569,10 @@ int main(int argc, char **argv)
                 dump.grid.out_h, info.n, dump.grid.w, dump.grid.h, dump.grid.t,
                 cli_solver_or_estimator(res, used, sizeof used), cli_now() - t0, all ? "" : " (not converged)");
         if (refine_with)
-            fprintf(stderr, "%s: refine: %zu pixels given the mean of all their samples with %zu more from %s\n",
-                    prog, refine_pixels, refine_cells, refine_with);
+            fprintf(stderr, "%s: refine: %zu pixels given the mean of all their samples with %zu more from %s%s",
+                    prog, refine_pixels, refine_cells, refine_with, refine_settled ? "" : "\n");
+        if (refine_with && refine_settled)
+            fprintf(stderr, ", %zu more settled on their samples' mean\n", refine_settled);
         else if (refine && refine_cells)
             fprintf(stderr, "%s: refine: %zu cells of %zu pixels to sample next in %s\n", prog, refine_cells,
                     refine_pixels, refine);

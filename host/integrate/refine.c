@@ -150,23 +150,23 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     return CSI_OK;
 }
 
-csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, csi_image *image, size_t *pixels)
+/* first and more (NULL: none) hold samples of one image's grid, inside it and finite, and image is
+ * that image: what csi_refine_apply and csi_refine_settle both take. */
+static csi_status check_pair(const csi_samples *first, const csi_samples *more, const csi_image *image)
 {
-    if (!first || !more || !image)
-        return csi_fail(CSI_ERR_ARG, "csi_refine_apply: %s is NULL", !first ? "first" : !more ? "more" : "image");
-    if (pixels)
-        *pixels = 0;
     const csi_grid *g = &first->grid;
-    if (memcmp(g, &more->grid, sizeof *g) || first->channels != more->channels)
+    if (more && (memcmp(g, &more->grid, sizeof *g) || first->channels != more->channels))
         return csi_fail(CSI_ERR_ARG, "refinement: the refined samples' grid (%ux%ux%u for %ux%u, %u channels) is "
                         "not the first samples' (%ux%ux%u for %ux%u, %u channels)", more->grid.w, more->grid.h,
                         more->grid.t, more->grid.out_w, more->grid.out_h, more->channels, g->w, g->h, g->t,
                         g->out_w, g->out_h, first->channels);
     CSI_TRY(check_image(g, first->channels, image));
-    const uint32_t C = first->channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const size_t np = (size_t)g->out_w * g->out_h;
+    const uint32_t C = first->channels;
     const csi_samples *set[2] = {first, more};
-    for (int k = 0; k < 2; k++)
+    for (int k = 0; k < 2 && set[k]; k++) {
+        if (set[k]->count && (!set[k]->pos || !set[k]->values))
+            return csi_fail(CSI_ERR_ARG, "refinement: %zu %s samples without their positions or values", set[k]->count,
+                            k ? "refined" : "first");
         for (size_t i = 0; i < set[k]->count; i++) {
             const csi_sample_pos p = set[k]->pos[i];
             if (p.x >= g->w || p.y >= g->h || p.t)
@@ -177,6 +177,21 @@ csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, c
                     return csi_fail(CSI_ERR_ARG, "refinement: %s sample %zu's value is not finite",
                                     k ? "refined" : "first", i);
         }
+    }
+    return CSI_OK;
+}
+
+csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, csi_image *image, size_t *pixels)
+{
+    if (!first || !more || !image)
+        return csi_fail(CSI_ERR_ARG, "csi_refine_apply: %s is NULL", !first ? "first" : !more ? "more" : "image");
+    if (pixels)
+        *pixels = 0;
+    CSI_TRY(check_pair(first, more, image));
+    const csi_grid *g = &first->grid;
+    const uint32_t C = first->channels, bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    const csi_samples *set[2] = {first, more};
     uint32_t *cnt = calloc(np, sizeof *cnt);
     double *sum = calloc(np * C, sizeof *sum);
     unsigned char *hit = calloc(np, 1);
@@ -212,4 +227,29 @@ csi_status csi_refine_apply(const csi_samples *first, const csi_samples *more, c
     if (pixels)
         *pixels = n;
     return CSI_OK;
+}
+
+csi_status csi_refine_settle(const csi_samples *first, const csi_samples *more, csi_image *image, size_t *pixels)
+{
+    if (!first || !image)
+        return csi_fail(CSI_ERR_ARG, "csi_refine_settle: %s is NULL", !first ? "first" : "image");
+    if (pixels)
+        *pixels = 0;
+    CSI_TRY(check_pair(first, more, image));
+    if (!first->variance)
+        return CSI_OK; /* one path per sample: a pixel's few samples are too noisy a mean (csi/csi.h) */
+    const csi_grid *g = &first->grid;
+    const size_t np = (size_t)g->out_w * g->out_h;
+    uint32_t *cnt = calloc(np, sizeof *cnt);
+    double *sum = calloc(np * first->channels, sizeof *sum);
+    csi_status s = cnt && sum ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    if (s == CSI_OK) { /* every sample of every pixel, the first ones in their order, then the refined ones */
+        csi_pixel_sums_add(g, first->channels, first->pos, first->values, first->count, NULL, cnt, sum);
+        if (more)
+            csi_pixel_sums_add(g, first->channels, more->pos, more->values, more->count, NULL, cnt, sum);
+        s = csi_settle_sums(g, first->channels, cnt, sum, image->data, NULL, pixels);
+    }
+    free(cnt);
+    free(sum);
+    return s;
 }

@@ -1,7 +1,8 @@
 """csi-mitsuba --refine end to end: the first pass's samples, the cells csi asks for next
 (csi_refine_positions on the first pass's reconstruction), Mitsuba rendering them, and the image:
-the first pass's reconstruction with each refined pixel its samples' mean; bad arguments refused
-before any rendering.
+the first pass's reconstruction with each refined pixel its samples' mean, then, with several
+paths per sample, the pixels that still decide it settled on their samples' mean; bad arguments
+refused before any rendering.
 
 Scene: data/mitsuba/horizon.py (a textured plane to the horizon, a sun glinting on a glossy
 sphere: a few pixels hold most of the image's error) at 48x48, 4 samples per pixel of 4 paths
@@ -154,6 +155,52 @@ def main():
             rest3 = np.setdiff1d(np.arange(len(timg)), tp)
             check(np.array_equal(timg[rest3], exr.read(p("r.exr")).reshape(-1, 3)[rest3]),
                   "--refine-passes 2 changed pixels the third pass did not refine")
+
+        # After the passes, with several paths per sample, the pixels that still decide the image
+        # settle on all their samples' mean (csi_refine_settle). The horizon's pick leaves none
+        # (stats: settled 0); street lamps at the same size and sampling leave some. Against the
+        # run with '-- --settle off' (the patch alone) the default differs at exactly the pixels
+        # the stats count, each now the mean of all its samples in the dump; csi-reconstruct
+        # --refine-with on the first pass's dump (and its variances) gives the same bits; with one
+        # path per sample (no variances) nothing is settled.
+        check(st["settled"] == 0, f"the horizon's stats say {st['settled']} pixels settled after the pass")
+        lamps = [os.path.join(ROOT, "data", "mitsuba", "street_lamps.py"), "--out", "48x48", "--spp", 4, "--seed", 3,
+                 "-q"]
+        runs = {name: cli(*lamps, *args) for name, args in (
+            ("ls", ["--paths", 4, "--dump", p("ls.csid"), "-o", p("ls.exr"), "--stats", p("ls.json")]),
+            ("off", ["--paths", 4, "-o", p("off.exr"), "--", "--settle", "off"]),
+            ("one", ["--paths", 4, "--no-refine", "--dump", p("lone.csid"), "-o", p("lone.exr")]),
+            ("p1", ["--paths", 1, "-o", p("p1.exr"), "--stats", p("p1.json")]))}
+        for name, rr in runs.items():
+            check(rr.returncode == 0, f"street lamps, {name}: exit {rr.returncode}: {rr.stderr.strip()}")
+        if not any(rr.returncode for rr in runs.values()):
+            n_set = json.load(open(p("ls.json")))["refine"]["settled"]
+            dl = csid.read(p("ls.csid"))
+            ml = dl.pixel_means().reshape(-1, 3)
+            a_img, b_img = exr.read(p("ls.exr")).reshape(-1, 3), exr.read(p("off.exr")).reshape(-1, 3)
+            moved = np.flatnonzero((a_img != b_img).any(axis=1))
+            # each moved towards its mean by one weight in (0, 1] for all channels (csi/settle.h: the
+            # whole way from 2% of the disagreement, part of it from 0.5%)
+            step, gap = (a_img[moved] - b_img[moved]).astype(np.float64), (ml[moved] - b_img[moved]).astype(np.float64)
+            big = np.abs(gap) > 1e-3 * np.abs(ml[moved]).max(axis=1, keepdims=True)
+            w = np.where(big, step / np.where(big, gap, 1), np.nan)
+            wp = np.nanmean(w, axis=1) if len(moved) else np.zeros(0)
+            spread = np.nanmax(np.abs(w - wp[:, None])) if len(moved) else 0.0
+            check(n_set > 0 and len(moved) == n_set and (wp > 0).all() and (wp <= 1 + 1e-5).all() and spread <= 1e-4,
+                  f"settled after the pass: stats {n_set}, pixels changed {len(moved)}, weights towards their means "
+                  f"{np.round(wp, 4)} (spread over the channels {spread:.2g})")
+            l1 = csid.read(p("lone.csid"))
+            newl = ~np.isin(dl.xyt[:, 1].astype(np.int64) * dl.grid[0] + dl.xyt[:, 0],
+                            l1.xyt[:, 1].astype(np.int64) * dl.grid[0] + l1.xyt[:, 0])
+            csid.write(p("lmore.csid"), csid.Dump(grid=dl.grid, out=dl.out, xyt=dl.xyt[newl], values=dl.values[newl],
+                                                  seed=dl.seed))
+            rw = subprocess.run([programs.find("csi-reconstruct"), p("lone.csid"), "--refine-with", p("lmore.csid"),
+                                 "-o", p("lrw.exr")], capture_output=True, text=True)
+            check(rw.returncode == 0 and np.array_equal(exr.read(p("lrw.exr")), exr.read(p("ls.exr")))
+                  and f"{n_set} more settled" in rw.stderr,
+                  f"csi-reconstruct --refine-with (settling) != csi-mitsuba's image: exit {rw.returncode} "
+                  f"{rw.stderr.strip()}")
+            check(json.load(open(p("p1.json")))["refine"]["settled"] == 0, "one path per sample: pixels settled")
 
         # Refused before any rendering: one line, exit 2, nothing written (the scene a copy: a
         # failure must not write over the repository's).

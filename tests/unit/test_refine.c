@@ -15,7 +15,9 @@
  *     - (7, 7): no sample at all, image (9, 9): no mean to disagree with, not counted either.
  *   The total is 9 + 16 + 5 + 1 = 31: a share just below 5/31 picks the three, just above it
  *   the two largest, 16/31 only (6, 1), and 1 every pixel only if one holds all of it (none).
- * csi_refine_apply sets a refined pixel to the mean of all its samples and nothing else.
+ * csi_refine_apply sets a refined pixel to the mean of all its samples and nothing else;
+ * csi_refine_settle, given the samples' variances, moves the one bright pixel that holds most of
+ * the remaining disagreement to the mean of all its samples and nothing else (below).
  * Also: an image equal to the means up to float rounding picks nothing; the same call twice gives
  * the same cells; a volume, a share outside (0, 1], an image of another size and a NaN value are
  * refused with CSI_ERR_ARG. */
@@ -86,6 +88,16 @@ static size_t expected(const int (*px)[2], int k, csi_sample_pos *out)
     return n;
 }
 
+/* How many values of img differ from was's, pixel `except` apart. */
+static size_t changed_besides(const float *img, const float *was, int except)
+{
+    size_t n = 0;
+    for (int p = 0; p < NP; p++)
+        for (int c = 0; c < C; c++)
+            n += p != except && img[c * NP + p] != was[c * NP + p];
+    return n;
+}
+
 static void check_share(const csi_samples *smp, const csi_image *img, double share, const int (*px)[2], int k,
                         const char *what)
 {
@@ -149,17 +161,55 @@ int main(void)
         csi_image ci = {OW, OW, C, copy};
         size_t set = 0;
         CHECK_OK(csi_refine_apply(&smp, &more, &ci, &set));
-        size_t other = 0;
-        for (int p = 0; p < NP; p++)
-            for (int c = 0; c < C; c++)
-                if (p != 5 * OW + 2)
-                    other += copy[c * NP + p] != s->img[c * NP + p];
+        const size_t other = changed_besides(copy, s->img, 5 * OW + 2);
         CHECK(set == 1 && copy[5 * OW + 2] == 7.125f && copy[NP + 5 * OW + 2] == 8.125f && !other,
               "refine_apply: %zu pixels set, (2, 5) = (%g, %g), want (7.125, 8.125); %zu others changed", set,
               copy[5 * OW + 2], copy[NP + 5 * OW + 2], other);
         csi_samples bad = more;
         bad.channels = 1;
         CHECK(csi_refine_apply(&smp, &bad, &ci, NULL) == CSI_ERR_ARG, "refine_apply: other channels not refused");
+    }
+
+    /* csi_refine_settle: with the samples' variances, a pixel holding most of what still
+     * disagrees, and bright in both (the image and all its samples' mean), takes that mean (the
+     * rule of csi/settle.h). (6, 1)'s 14 missing cells evaluated at (40, 40): its 16 samples'
+     * mean is ((2 + 560) / 16, (4 + 560) / 16) = (35.125, 35.25), exact in float. With the image
+     * at (30, 30) there, its disagreement 5.125^2 + 5.25^2 = 53.83 is 78% of the image's (the
+     * others: 9 + 5 + 1), its channel sums 60 and 70.375 beyond 4 times the image's level (3):
+     * moved, and only it ((2, 5) and (0, 7) hold 13% and 7% but are not bright). Without the
+     * variances nothing moves; without the more samples (6, 1)'s mean is (1, 2), which the image
+     * sees 20 times brighter: a firefly's pattern, left alone. */
+    {
+        static const int px61[][2] = {{6, 1}};
+        csi_sample_pos mp[F * F];
+        const size_t nm = expected(px61, 1, mp);
+        float mv[F * F * C], var[(NP * 2 + F * F) * C] = {0};
+        for (size_t i = 0; i < nm * C; i++)
+            mv[i] = 40;
+        csi_samples more = {g, C, nm, mp, mv, 0, NULL}, with_var = smp;
+        with_var.variance = var;
+        float copy[C * NP];
+        memcpy(copy, s->img, sizeof copy);
+        copy[1 * OW + 6] = 30, copy[NP + 1 * OW + 6] = 30;
+        float before[C * NP];
+        memcpy(before, copy, sizeof before);
+        csi_image ci = {OW, OW, C, copy};
+        size_t moved = 99;
+        CHECK_OK(csi_refine_settle(&smp, &more, &ci, &moved));
+        CHECK(moved == 0 && !memcmp(copy, before, sizeof copy), "refine_settle without variances moved %zu pixels",
+              moved);
+        CHECK_OK(csi_refine_settle(&with_var, NULL, &ci, &moved));
+        CHECK(moved == 0 && !memcmp(copy, before, sizeof copy),
+              "refine_settle without the more samples moved %zu pixels (a firefly's pattern)", moved);
+        CHECK_OK(csi_refine_settle(&with_var, &more, &ci, &moved));
+        const size_t other = changed_besides(copy, before, 1 * OW + 6);
+        CHECK(moved == 1 && copy[1 * OW + 6] == 35.125f && copy[NP + 1 * OW + 6] == 35.25f && !other,
+              "refine_settle: %zu pixels moved, (6, 1) = (%g, %g), want (35.125, 35.25); %zu others changed", moved,
+              copy[1 * OW + 6], copy[NP + 1 * OW + 6], other);
+        csi_samples bad = more;
+        bad.channels = 1;
+        CHECK(csi_refine_settle(&with_var, &bad, &ci, NULL) == CSI_ERR_ARG, "refine_settle: other channels not refused");
+        CHECK(csi_refine_settle(&with_var, &more, NULL, NULL) == CSI_ERR_ARG, "refine_settle: no image not refused");
     }
 
     /* deterministic */

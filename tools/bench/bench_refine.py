@@ -11,8 +11,9 @@ very same samples.
 DIR is a directory of tools/bench/mitsuba_data.py (its seed is read from each dump's .json). Per
 (scene, spp, paths, positions) cell: csi's MSE and relMSE over the mean's on the first pass's
 samples ("before"), the same on all samples ("after": csi and the mean both given the extra
-samples, csi re-solved as csi-reconstruct does on the merged dump), csi-mitsuba --refine's image
-("patched": the first pass's reconstruction with each refined pixel the mean of all its samples),
+samples, csi re-solved as csi-reconstruct does on the merged dump), the patch ("patched": the
+first pass's reconstruction with each refined pixel the mean of all its samples: csi-mitsuba
+--refine's image before session 48, which settles after it with several paths per sample),
 and how many cells and pixels the request held. Each renders only the requested cells (a few hundred paths'
 batches): a cell costs seconds.
 """

@@ -11,7 +11,10 @@
  * is the unbiased one, so such a pixel takes it: no single pixel can then put the image above
  * the mean. A renderer that can sample again settles those pixels better, by sampling every cell
  * of them (the second pass: csi-mitsuba's default, csi-reconstruct --refine-request), and then
- * this step is not wanted (the first pass's image is what the second completes).
+ * this step is not wanted on the first pass (its image is what the second completes). After the
+ * passes, with several paths per sample, it runs once more on all the samples
+ * (csi_refine_settle): with the lights' pixels exact, the pixels left deciding the image are the
+ * fit's rings around them and dim lights among bright ones (docs/bench/mitsuba.md, session 48).
  *
  * The rule. d_p = sum over channels of (x_p - m_p)^2 (x the image, m the mean of the pixel's
  * samples, in double, a difference within float rounding counted as none), share_p = d_p / sum of

@@ -189,6 +189,8 @@ def _bind(L):
         "csi_refine_share_default": (ctypes.c_double, []),
         "csi_refine_apply": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Samples), ctypes.POINTER(_Image),
                                             ctypes.POINTER(c_size)]),
+        "csi_refine_settle": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Samples),
+                                             ctypes.POINTER(_Image), ctypes.POINTER(c_size)]),
         "csi_positions": (ctypes.c_int, [ctypes.POINTER(Grid), ctypes.POINTER(_PosOpts),
                                          ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size), P]),
         "csi_dump_read": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.POINTER(_Dump), P]),
@@ -515,6 +517,17 @@ def _samples_arrays(positions, values):
     return pos, val
 
 
+def _variance_array(variance, val):
+    """None, or each value's variance as contiguous float32 of val's (N, C) shape."""
+    if variance is None:
+        return None
+    var = np.asarray(variance)
+    if var.dtype.kind not in "iuf" or var.size != val.size or var.shape[:1] != val.shape[:1]:
+        raise CsiError("CSI_ERR_ARG", f"variance {var.shape} of {var.dtype}: expected real numbers in the "
+                       f"values' shape {val.shape}")
+    return np.ascontiguousarray(_float32(var, "variance at").reshape(val.shape))
+
+
 def _options_and_device(options, kwargs, device):
     """The options of a call (an Options with the keywords set on it, or new ones of the
     keywords) and its device (a Device, a device's name, or None: the process's default device,
@@ -543,13 +556,7 @@ class _Call:
     def __init__(self, positions, values, grid, device, progress, options, kwargs, exact, variance=None):
         pos, val = _samples_arrays(positions, values)
         grid = _grid(grid)
-        var = None
-        if variance is not None:
-            var = np.asarray(variance)
-            if var.dtype.kind not in "iuf" or var.size != val.size or var.shape[:1] != val.shape[:1]:
-                raise CsiError("CSI_ERR_ARG", f"variance {var.shape} of {var.dtype}: expected real numbers in the "
-                               f"values' shape {val.shape}")
-            var = np.ascontiguousarray(_float32(var, "variance at").reshape(val.shape))
+        var = _variance_array(variance, val)
         options, device = _options_and_device(options, kwargs, device)
         self.arrays, self.options, self.device, self.raised = (pos, val, var), options, device, []
         self.samples = _Samples(grid, val.shape[1], pos.shape[0],
@@ -711,13 +718,15 @@ def positions(grid, spp: int = 4, method: str = "poisson", seed: int = 1, fracti
         L.csi_free(p)
 
 
-def _image_samples(positions, values, grid, keep):
-    """csi_samples over (N, 3) positions and (N, C) or (N,) values, the arrays appended to keep
-    (alive while the library reads them)."""
+def _image_samples(positions, values, grid, keep, variance=None):
+    """csi_samples over (N, 3) positions and (N, C) or (N,) values (and their variances, or
+    None), the arrays appended to keep (alive while the library reads them)."""
     pos, val = _samples_arrays(positions, values)
-    keep.extend((pos, val))
+    var = _variance_array(variance, val)
+    keep.extend((pos, val, var))
     return _Samples(_grid(grid), val.shape[1], pos.shape[0], pos.ctypes.data_as(ctypes.POINTER(u32)),
-                    val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0, None)
+                    val.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), 0,
+                    var.ctypes.data_as(ctypes.POINTER(ctypes.c_float)) if var is not None else None)
 
 
 def _planar_view(image, keep):
@@ -760,6 +769,23 @@ def refine_apply(positions, values, more_positions, more_values, grid, image):
     view = _planar_view(image, keep)
     px = c_size()
     _check(L.csi_refine_apply(ctypes.byref(first), ctypes.byref(more), ctypes.byref(view), ctypes.byref(px)))
+    planar = keep[-1]
+    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+
+
+def refine_settle(positions, values, grid, image, variance=None, more_positions=None, more_values=None):
+    """The image after the last pass, settled (csi_refine_settle): with each sample's variance
+    given (several paths per sample), the pixels where image, the (H, W, C) image after the
+    passes, and the mean of all their samples (these, then the more ones if given) still disagree
+    by a large share of their disagreement over the whole image take that mean; without variances
+    nothing moves. Returns (image, pixels moved); image is a copy."""
+    L, keep = lib(), []
+    first = _image_samples(positions, values, grid, keep, variance)
+    more = _image_samples(more_positions, more_values, grid, keep) if more_positions is not None else None
+    view = _planar_view(image, keep)
+    px = c_size()
+    _check(L.csi_refine_settle(ctypes.byref(first), ctypes.byref(more) if more is not None else None,
+                               ctypes.byref(view), ctypes.byref(px)))
     planar = keep[-1]
     return np.moveaxis(planar, 0, 2).copy(), int(px.value)
 

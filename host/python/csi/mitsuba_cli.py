@@ -118,8 +118,10 @@ def parser():
                    help="a second pass: every cell of the pixels csi cannot decide (where its image and the "
                         "pixel's mean disagree by a large share of their disagreement over the image: an HDR "
                         "highlight one of a pixel's few samples hit; about 2%% more samples) is rendered too, "
-                        "and those pixels take the mean of all their samples (csi-reconstruct "
-                        "--refine-request; --dump writes all the samples; docs/bench/mitsuba.md). Default: on "
+                        "and those pixels take the mean of all their samples; with --paths above 1 the pixels "
+                        "that still decide the image then settle on their samples' mean ('-- --settle off': "
+                        "not) (csi-reconstruct --refine-request, --refine-with; --dump writes all the samples; "
+                        "docs/bench/mitsuba.md). Default: on "
                         "for an image reconstructed by csi; off with --request, --time-steps above 1 or "
                         "-- --estimator mean|gauss; --no-refine samples exactly --spp per pixel")
     s.add_argument("--refine-share", type=float, metavar="S",
@@ -325,9 +327,12 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     pass picks again on all the samples so far and the patched image. Returns (request, samples,
     statistics, image) of all the samples: the first pass's reconstruction (csi's Result) with
     each refined pixel set to the mean of all its samples, which a pixel sampled in every cell is
-    given by the blend. A second reconstruction of all the samples differs from it only in the
-    fit around those pixels: it measured the same error on average and above the mean of the same
-    samples more often (docs/bench/mitsuba.md, session 20), for twice csi's time."""
+    given by the blend; then, with several paths per sample (their variances given to csi), the
+    pixels that still decide the image settled on all their samples' mean (csi_refine_settle;
+    not with '-- --settle off'). A second reconstruction of all the samples differs from the
+    patch only in the fit around the refined pixels: it measured the same error on average and
+    above the mean of the same samples more often (docs/bench/mitsuba.md, sessions 20 and 48),
+    for twice csi's time."""
     import numpy as np
 
     import csi
@@ -339,8 +344,9 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     first = reconstruct_result(req.with_values(s.values), [*extra, "--settle", "off", "--step-coverage", "off"],
                                s.variance if a.variance_peaks else None, getattr(prog, "reconstruction", None))
     t_first = time.perf_counter() - t0
-    info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first,
-            "image": "the first pass's reconstruction, each refined pixel its samples' mean"}
+    info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first, "settled": 0,
+            "image": "the first pass's reconstruction, each refined pixel its samples' mean, then (several "
+                     "paths per sample) the pixels that still decide it settled on their samples' mean"}
     grid = (*req.grid, *req.out)
     w, h, _ = req.grid
     image = first.image
@@ -368,6 +374,12 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
         info["pixels"] += pixels
         info["cells"] += int(len(cells))
         info["passes"].append({"pixels": pixels, "cells": int(len(cells)), "mitsuba": s2.timing})
+    if info["cells"] and s.variance is not None and a.variance_peaks and \
+            reconstruction_options(extra)[0].get("settle") != "off":
+        try:
+            image, info["settled"] = csi.refine_settle(req.xyt, s.values, grid, image, variance=s.variance)
+        except csi.CsiError as e:
+            raise ReconstructError(e) from None
     if info["cells"]:
         first.set_image(image)
     return req, s, info, first
@@ -672,7 +684,8 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         passes = refined["passes"]
         msg += (f"; refine: {refined['cells']} more samples at {refined['pixels']} pixels"
                 + (f" in {len(passes)} passes" if len(passes) > 1 else "")
-                + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else ""))
+                + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else "")
+                + (f", {refined['settled']} more settled on their samples' mean" if refined["settled"] else ""))
     if t_recon is not None:
         msg += f", csi {t_recon:.2f} s"
     warnings = [f"{s.nonfinite} of Mitsuba's paths were NaN or Inf and are counted as 0"] if s.nonfinite else []
