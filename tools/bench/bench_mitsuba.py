@@ -8,8 +8,9 @@ Per scene, spp and paths per sample (default 1, 4, 16 spp x 1, 64 paths at 128x1
 same samples (csi's default grid for the spp, stratified positions: exactly spp samples in
 every pixel; --positions poisson for csi's own) go to every method:
   mean          csi's estimator mean (the per-pixel Monte Carlo mean)
-  csi           csi with its defaults (csi's library in this process, csi.reconstruct_dump: the
-                bits of csi-reconstruct on the dump; times without a process start)
+  csi           csi with its defaults (csi's library in this process, csi.reconstruct_dump with
+                the variances beside the dump: the bits of csi-reconstruct on the dump; times
+                without a process start)
   oidn          Intel Open Image Denoise (pyoidn, HDR, quality high) on the mean, colour only
   oidn+aux      the same with albedo and normal guides: per-pixel means (csi's estimator
                 mean) of Mitsuba's first-hit albedo and shading normal per sample
@@ -93,7 +94,9 @@ def run_cell(files, ref):
     imgs, times = {}, {}
     imgs["mean"], w, inner = reconstruct(files["dump"], estimator="mean")
     times["mean"] = (w, inner)
-    imgs["csi"], w, inner = reconstruct(files["dump"])
+    # the variances beside the dump (several paths per sample), as csi-reconstruct takes them
+    var = files.get("variance")
+    imgs["csi"], w, inner = reconstruct(files["dump"], variance_path=var if var and os.path.exists(var) else None)
     times["csi"] = (w, inner)
     albedo, _, _ = reconstruct(files["albedo"], estimator="mean")
     normal, _, _ = reconstruct(files["normal"], estimator="mean")
