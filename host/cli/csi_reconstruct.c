@@ -568,12 +568,13 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: %ux%u from %zu samples of a %ux%ux%u grid (%s) in %.2f s%s\n", prog, dump.grid.out_w,
                 dump.grid.out_h, info.n, dump.grid.w, dump.grid.h, dump.grid.t,
                 cli_solver_or_estimator(res, used, sizeof used), cli_now() - t0, all ? "" : " (not converged)");
-        if (refine_with)
-            fprintf(stderr, "%s: refine: %zu pixels given the mean of all their samples with %zu more from %s%s",
-                    prog, refine_pixels, refine_cells, refine_with, refine_settled ? "" : "\n");
-        if (refine_with && refine_settled)
-            fprintf(stderr, ", %zu more settled on their samples' mean\n", refine_settled);
-        else if (refine && refine_cells)
+        if (refine_with) {
+            fprintf(stderr, "%s: refine: %zu pixels given the mean of all their samples with %zu more from %s",
+                    prog, refine_pixels, refine_cells, refine_with);
+            if (refine_settled)
+                fprintf(stderr, ", %zu more settled on their samples' mean", refine_settled);
+            fputc('\n', stderr);
+        } else if (refine && refine_cells)
             fprintf(stderr, "%s: refine: %zu cells of %zu pixels to sample next in %s\n", prog, refine_cells,
                     refine_pixels, refine);
         else if (refine)
