@@ -88,14 +88,19 @@ static size_t expected(const int (*px)[2], int k, csi_sample_pos *out)
     return n;
 }
 
-/* How many values of img differ from was's, pixel `except` apart. */
-static size_t changed_besides(const float *img, const float *was, int except)
+/* What a call that should change only pixel (x, y), to (a, b), did: n_px pixels reported, the
+ * image img against its copy before, was. */
+static void check_one_pixel(const char *what, size_t n_px, const float *img, const float *was, int x, int y,
+                            float a, float b)
 {
-    size_t n = 0;
+    const int q = y * OW + x;
+    size_t other = 0;
     for (int p = 0; p < NP; p++)
         for (int c = 0; c < C; c++)
-            n += p != except && img[c * NP + p] != was[c * NP + p];
-    return n;
+            other += p != q && img[c * NP + p] != was[c * NP + p];
+    CHECK(n_px == 1 && img[q] == a && img[NP + q] == b && !other,
+          "%s: %zu pixels, (%d, %d) = (%g, %g), want (%g, %g); %zu others changed", what, n_px, x, y, img[q],
+          img[NP + q], a, b, other);
 }
 
 static void check_share(const csi_samples *smp, const csi_image *img, double share, const int (*px)[2], int k,
@@ -161,10 +166,7 @@ int main(void)
         csi_image ci = {OW, OW, C, copy};
         size_t set = 0;
         CHECK_OK(csi_refine_apply(&smp, &more, &ci, &set));
-        const size_t other = changed_besides(copy, s->img, 5 * OW + 2);
-        CHECK(set == 1 && copy[5 * OW + 2] == 7.125f && copy[NP + 5 * OW + 2] == 8.125f && !other,
-              "refine_apply: %zu pixels set, (2, 5) = (%g, %g), want (7.125, 8.125); %zu others changed", set,
-              copy[5 * OW + 2], copy[NP + 5 * OW + 2], other);
+        check_one_pixel("refine_apply", set, copy, s->img, 2, 5, 7.125f, 8.125f);
         csi_samples bad = more;
         bad.channels = 1;
         CHECK(csi_refine_apply(&smp, &bad, &ci, NULL) == CSI_ERR_ARG, "refine_apply: other channels not refused");
@@ -202,10 +204,7 @@ int main(void)
         CHECK(moved == 0 && !memcmp(copy, before, sizeof copy),
               "refine_settle without the more samples moved %zu pixels (a firefly's pattern)", moved);
         CHECK_OK(csi_refine_settle(&with_var, &more, &ci, &moved));
-        const size_t other = changed_besides(copy, before, 1 * OW + 6);
-        CHECK(moved == 1 && copy[1 * OW + 6] == 35.125f && copy[NP + 1 * OW + 6] == 35.25f && !other,
-              "refine_settle: %zu pixels moved, (6, 1) = (%g, %g), want (35.125, 35.25); %zu others changed", moved,
-              copy[1 * OW + 6], copy[NP + 1 * OW + 6], other);
+        check_one_pixel("refine_settle", moved, copy, before, 6, 1, 35.125f, 35.25f);
         csi_samples bad = more;
         bad.channels = 1;
         CHECK(csi_refine_settle(&with_var, &bad, &ci, NULL) == CSI_ERR_ARG, "refine_settle: other channels not refused");
