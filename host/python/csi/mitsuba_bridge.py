@@ -458,7 +458,8 @@ def _launch(scene, integrator, u, v, time_, seed, aov=False):
     t = mi.Float(_aligned_lanes(time_, m))
     try:
         ray, weight = sensor.sample_ray(t, sampler.next_1d(), pos, sampler.next_2d())
-        L, _, aovs = integrator.sample(scene, sampler, ray)
+        # The sensor's medium, as mi.render passes it: a camera inside fog sees through it.
+        L, _, aovs = integrator.sample(scene, sampler, ray, medium=sensor.get_medium())
         if aov:
             out = np.stack([np.asarray(a)[:n] for a in aovs], axis=1)
         else:
