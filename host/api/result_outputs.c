@@ -173,6 +173,8 @@ void csi_result_stats_phases(const csi_result *r, csi_json *j, double read_s, do
     csi_json_end(j);
     if (r->options.o.cv_select == CSI_SWITCH_ON)
         csi_json_int(j, "cv_switched_pixels", (int64_t)res->cv_switched);
+    if (r->options.o.cv_smooth == CSI_SWITCH_ON)
+        csi_json_int(j, "cv_smoothed_pixels", (int64_t)res->cv_smoothed);
     if (r->options.o.peak_range == CSI_SWITCH_ON)
         csi_json_int(j, "peak_range_pixels", (int64_t)res->peak_range_pixels);
     if (r->options.o.motion_image_cv == CSI_SWITCH_ON)

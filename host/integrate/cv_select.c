@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "csi/cv_smooth.h"
 #include "internal.h"
 
 csi_status csi_cv_folds(const csi_grid *g, const csi_sample_pos *pos, size_t n, uint8_t *fold,
@@ -90,7 +91,8 @@ csi_status csi_cv_choose(const csi_grid *g, uint32_t channels, const csi_sample_
 static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
                             const csi_sample_pos *pos, size_t n, const uint8_t *fold, uint32_t fold_channels,
                             const float *fold_values, const float *cA, const float *cB, uint32_t region,
-                            uint32_t channels, const float *values, float *image, size_t *switched);
+                            uint32_t channels, const float *values, float *image, size_t *switched, float *incA,
+                            float *incB);
 
 csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t n, const uint8_t *fold,
                             uint32_t fold_channels, const float *fold_values, const float *cA,
@@ -98,15 +100,19 @@ csi_status csi_cv_choose_on(const csi_grid *g, const csi_sample_pos *pos, size_t
                             float *image, size_t *switched)
 {
     return choose_at(g, 0, 0, NULL, pos, n, fold, fold_channels, fold_values, cA, cB, region, channels, values,
-                     image, switched);
+                     image, switched, NULL, NULL);
 }
 
 /* csi_cv_choose_on with the regions of an image whose pixel (0, 0) is this one's (ox, oy), and
- * *switched counting only the pixels inside box (x0, y0, x1, y1; NULL: all). */
+ * *switched counting only the pixels inside box (x0, y0, x1, y1; NULL: all). incA, incB (may be
+ * NULL): the folds' reconstructions (cA, cB's planes, which may be these), made the choice's own
+ * predictions from each fold: a pixel that took its mean there has its folds' means
+ * (csi/cv_smooth.h's incumbent). */
 static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
                             const csi_sample_pos *pos, size_t n, const uint8_t *fold, uint32_t fold_channels,
                             const float *fold_values, const float *cA, const float *cB, uint32_t region,
-                            uint32_t channels, const float *values, float *image, size_t *switched)
+                            uint32_t channels, const float *values, float *image, size_t *switched, float *incA,
+                            float *incB)
 {
     if (switched)
         *switched = 0;
@@ -156,6 +162,11 @@ static csi_status choose_at(const csi_grid *g, uint32_t ox, uint32_t oy, const u
             continue;
         for (uint32_t c = 0; c < channels; c++)
             image[(size_t)c * np + p] = (float)((isum[(p * 2) * channels + c] + isum[(p * 2 + 1) * channels + c]) / nt);
+        if (incA && cnt[p * 2] && cnt[p * 2 + 1])
+            for (uint32_t c = 0; c < fc; c++) {
+                incA[(size_t)c * np + p] = (float)(sum[(p * 2) * fc + c] / cnt[p * 2]);
+                incB[(size_t)c * np + p] = (float)(sum[(p * 2 + 1) * fc + c] / cnt[p * 2 + 1]);
+            }
         const uint32_t x = (uint32_t)(p % g->out_w), y = (uint32_t)(p / g->out_w);
         sw += !box || (x >= box[0] && y >= box[1] && x < box[2] && y < box[3]);
     }
@@ -265,9 +276,13 @@ csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, 
         s = fold_image(ctx, g, fc, pos, fv, n, fold, 0, opt, out, &a);
         if (s == CSI_OK)
             s = fold_image(ctx, g, fc, pos, fv, n, fold, 1, opt, out, &b);
+        const bool smooth = out->options.cv_smooth == CSI_SWITCH_ON; /* resolved: opt may say auto */
         if (s == CSI_OK)
             s = choose_at(g, ox, oy, box, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values, out->image,
-                          &out->cv_switched);
+                          &out->cv_switched, smooth ? a : NULL, smooth ? b : NULL);
+        if (s == CSI_OK && smooth)
+            s = csi_cv_smooth(g, ox, oy, box, pos, n, fold, fc, fv, a, b, channels, values, out->image,
+                              &out->cv_smoothed);
     }
     free(mean);
     free(a);

@@ -104,6 +104,12 @@ static const row table[] = {
      "on with the blend (noisy samples, not flagged exact), on the whole image or in each tile's "
      "window, where it acts from 2 samples per pixel on average; off otherwise (another "
      "correction, volumes, the baselines)"},
+    {"cv-smooth", K_CHOICE, AT(cv_smooth), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
+     "with the cross-validated choice: Gaussian averages of the samples 0.5, 1, 2 and 4 pixels "
+     "wide as further candidates, a region taking one where both folds gain significantly over "
+     "what the choice kept, in squared and in relative error; each pixel's value then kept within "
+     "2 standard errors of its own samples' mean (a smoothing removes noise, not signal)",
+     "on wherever the choice is (noisy samples; docs/bench/mitsuba.md, session 49)"},
     {"cv-channels", K_CHOICE, AT(cv_channels), 0, 0, cv_channels, F_AUTO, "auto", "mean|each|auto",
      "samples of several channels: what the cross-validated choice's folds reconstruct, the mean "
      "of the channels (one solve per fold, the choice made on it) or each channel (a solve per "

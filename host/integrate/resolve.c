@@ -202,6 +202,9 @@ csi_status csi_recon_resolve_scoped(const csi_recon_options *in, const csi_grid 
      * MSE of folds per channel within 0.2% in 227 cells of 228 (docs/bench/mitsuba.md, session 19). */
     if (o->cv_channels == CSI_CV_CHANNELS_AUTO)
         o->cv_channels = CSI_CV_CHANNELS_MEAN;
+    /* Its smoothing candidates (csi/cv_smooth.h): wherever the choice is. */
+    if (o->cv_smooth == CSI_SWITCH_AUTO || o->cv_select != CSI_SWITCH_ON)
+        o->cv_smooth = o->cv_select == CSI_SWITCH_ON && o->cv_smooth != CSI_SWITCH_OFF ? CSI_SWITCH_ON : CSI_SWITCH_OFF;
     /* The log fit at isolated peaks (csi/peak_range.h): an option, measured in
      * docs/bench/mitsuba.md (session 10). */
     if (o->peak_range == CSI_SWITCH_AUTO || o->correct != CSI_CORRECT_BLEND || scope)

@@ -328,6 +328,7 @@ csi_status csi_tiles_add(csi_blend *b, const csi_tile_result *t)
     out->t_programs += r->t_programs;
     out->t_cv += r->t_cv;
     out->cv_switched += r->cv_switched;
+    out->cv_smoothed += r->cv_smoothed;
     out->cpu_setup += r->cpu_setup;
     out->cpu_work += r->cpu_work;
     for (uint32_t c = 0; c < C && c < 4; c++)

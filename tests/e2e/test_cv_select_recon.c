@@ -94,6 +94,7 @@ static void composed(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_s
     csi_recon_defaults(&o);
     o.tol = caller_tol; /* 0: auto */
     o.settle = CSI_SWITCH_OFF; /* the choice alone: the settling after it (csi/settle.h) has a test of its own */
+    o.cv_smooth = CSI_SWITCH_OFF; /* and so has its smoothing candidates (csi/cv_smooth.h) */
     csi_recon_result auto_run, whole;
     CHECK_OK(csi_recon(ctx, g, 1, pos, val, n, &o, &auto_run));
     CHECK(auto_run.options.cv_select == CSI_SWITCH_ON, "the choice is not on for noisy samples at 4 spp");
@@ -150,6 +151,7 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
     csi_recon_options on, off;
     csi_recon_defaults(&on);
     on.settle = CSI_SWITCH_OFF; /* the choice alone, as above */
+    on.cv_smooth = CSI_SWITCH_OFF;
     on.tiles = 4;
     on.tile_margin = 4;
     off = on;
@@ -225,6 +227,7 @@ static void tiled(csi_ctx *ctx, csi_ctx *ctx2, const csi_grid *g, const csi_samp
     csi_recon_options won, woff;
     csi_recon_defaults(&won);
     won.settle = CSI_SWITCH_OFF;
+    won.cv_smooth = CSI_SWITCH_OFF;
     woff = won;
     woff.cv_select = CSI_SWITCH_OFF;
     CHECK_OK(csi_recon(ctx, g, 1, pos, val, n, &won, &w_on));

@@ -183,6 +183,9 @@ typedef struct csi_recon_options {
     csi_switch cv_select;         /* images: per region, the image or the per-pixel mean, chosen
                                      by two-fold cross-validation (csi/cv_select.h) */
     csi_cv_channels cv_channels;  /* what its folds reconstruct (above) */
+    csi_switch cv_smooth;         /* with it: Gaussian averages of the samples as further
+                                     candidates, bounded by each pixel's own samples
+                                     (csi/cv_smooth.h) */
     csi_switch peak_range;        /* images with the blend: a pixel whose samples hold one isolated
                                      peak takes a fit of the samples' logarithm
                                      (csi/peak_range.h); auto: off */
@@ -337,6 +340,8 @@ typedef struct csi_recon_result {
     csi_solve_report report[4];
     size_t cv_switched;     /* pixels the cross-validated choice gave their mean (cv_select; in
                                tiles, each tile's in its core) */
+    size_t cv_smoothed;     /* pixels it gave a Gaussian average of the samples (cv_smooth; in
+                               tiles likewise) */
     size_t motion_image_switched; /* pixels that took a binned solve's image (motion_image_cv) */
     size_t peak_range_pixels; /* pixels given the log fit's value (peak_range) */
     size_t settled;         /* pixels moved towards their samples' mean (settle; in tiles, on the

@@ -1,0 +1,233 @@
+/* Smoothings of the samples as further candidates of the cross-validated choice (csi/cv_smooth.h
+ * says why and the rule). All on the host, in double, in sample and pixel order: the same inputs
+ * give the same bits. */
+#include "csi/cv_smooth.h"
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "csi/cv_select.h"
+#include "internal.h"
+
+/* out = the plane `in` (w x h) convolved with a Gaussian of standard deviation sigma truncated at
+ * 3 sigma, zero outside; tmp holds w * h. Separable: along x into tmp, along y into out. */
+static void gauss_plane(const double *in, double *out, double *tmp, uint32_t w, uint32_t h, double sigma)
+{
+    const int r = (int)ceil(3 * sigma);
+    double k[64];
+    for (int i = -r; i <= r; i++)
+        k[i + r] = exp(-0.5 * i * i / (sigma * sigma));
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            double t = 0;
+            for (int i = -r; i <= r; i++) {
+                const long xx = (long)x + i;
+                if (xx >= 0 && xx < (long)w)
+                    t += k[i + r] * in[(size_t)y * w + (size_t)xx];
+            }
+            tmp[(size_t)y * w + x] = t;
+        }
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            double t = 0;
+            for (int i = -r; i <= r; i++) {
+                const long yy = (long)y + i;
+                if (yy >= 0 && yy < (long)h)
+                    t += k[i + r] * tmp[(size_t)yy * w + x];
+            }
+            out[(size_t)y * w + x] = t;
+        }
+}
+
+/* The normalized convolution of `planes` sum planes by the count plane cnt: out[c * np + p] =
+ * (K * sum_c) / (K * cnt), NaN where no sample lies within 3 sigma. */
+static csi_status normconv(const double *sum, const double *cnt, uint32_t planes, uint32_t w, uint32_t h,
+                           double sigma, double *out)
+{
+    const size_t np = (size_t)w * h;
+    double *tmp = malloc(np * sizeof *tmp), *kc = malloc(np * sizeof *kc);
+    if (!tmp || !kc) {
+        free(tmp);
+        free(kc);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    }
+    gauss_plane(cnt, kc, tmp, w, h, sigma);
+    for (uint32_t c = 0; c < planes; c++) {
+        gauss_plane(sum + (size_t)c * np, out + (size_t)c * np, tmp, w, h, sigma);
+        for (size_t p = 0; p < np; p++)
+            out[(size_t)c * np + p] = kc[p] > 1e-12 ? out[(size_t)c * np + p] / kc[p] : NAN;
+    }
+    free(tmp);
+    free(kc);
+    return CSI_OK;
+}
+
+csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box, const csi_sample_pos *pos,
+                         size_t n, const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
+                         const float *cA, const float *cB, uint32_t channels, const float *values, float *image,
+                         size_t *smoothed)
+{
+    if (smoothed)
+        *smoothed = 0;
+    static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
+    const uint32_t w = g->out_w, h = g->out_h, fc = fold_channels, C = channels, r = CSI_CV_REGION;
+    const uint32_t bw = g->w / w, bh = g->h / h;
+    const size_t np = (size_t)w * h;
+    const uint32_t sx = ox % r, sy = oy % r;
+    const size_t rw = (w + sx + r - 1) / r, rh = (h + sy + r - 1) / r, nr = rw * rh;
+    /* per fold: counts and sums of the folds' values (planar); all samples: counts, sums and
+     * squared deviations from the pixel's mean per channel (planar) */
+    double *fcnt = calloc(2 * np, sizeof *fcnt), *fsum = calloc(2 * np * fc, sizeof *fsum);
+    double *cnt = calloc(np, sizeof *cnt), *sum = calloc(np * C, sizeof *sum), *dev = calloc(np * C, sizeof *dev);
+    double *gA = malloc(np * fc * sizeof *gA), *gB = malloc(np * fc * sizeof *gB);
+    double *acc = calloc(nr * 8, sizeof *acc); /* per region: S and sum of squares of 4 gains */
+    double *best = calloc(nr, sizeof *best);
+    int8_t *pick = malloc(nr);
+    double *full = malloc(np * C * sizeof *full);
+    /* per pixel and channel, the least and greatest sample of its 3 x 3 pixels (planar) */
+    float *lo3 = malloc(np * C * sizeof *lo3), *hi3 = malloc(np * C * sizeof *hi3);
+    csi_status s = CSI_OK;
+    if (!fcnt || !fsum || !cnt || !sum || !dev || !gA || !gB || !acc || !best || !pick || !full || !lo3 || !hi3)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    bool nonneg = true;
+    double level = 0; /* the folds' values' mean magnitude: the relative error's floor is its scale */
+    for (size_t i = 0; i < n && s == CSI_OK; i++) {
+        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, w), f = fold[i] & 1;
+        fcnt[f * np + p]++;
+        for (uint32_t c = 0; c < fc; c++) {
+            fsum[(f * fc + c) * np + p] += fold_values[i * fc + c];
+            level += fabs(fold_values[i * fc + c]);
+        }
+        cnt[p]++;
+        for (uint32_t c = 0; c < C; c++) {
+            sum[(size_t)c * np + p] += values[i * C + c];
+            nonneg &= values[i * C + c] >= 0;
+        }
+    }
+    for (size_t i = 0; i < np * C && s == CSI_OK; i++) {
+        lo3[i] = INFINITY;
+        hi3[i] = -INFINITY;
+    }
+    for (size_t i = 0; i < n && s == CSI_OK; i++) {
+        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, w);
+        const long px = (long)(p % w), py = (long)(p / w);
+        for (uint32_t c = 0; c < C; c++) {
+            const float v = values[i * C + c];
+            const double e = v - sum[(size_t)c * np + p] / cnt[p];
+            dev[(size_t)c * np + p] += e * e;
+            for (long y = py - 1; y <= py + 1; y++)
+                for (long x = px - 1; x <= px + 1; x++)
+                    if (x >= 0 && y >= 0 && x < (long)w && y < (long)h) {
+                        const size_t q = (size_t)c * np + (size_t)y * w + (size_t)x;
+                        lo3[q] = v < lo3[q] ? v : lo3[q];
+                        hi3[q] = v > hi3[q] ? v : hi3[q];
+                    }
+        }
+    }
+    level /= (double)(n ? n : 1) * fc;
+    const double floor = CSI_CV_REL_FLOOR * level * level;
+#define REGION_OF(p) ((((p) / w + sy) / r) * rw + ((p) % w + sx) / r)
+    if (pick)
+        memset(pick, -1, nr);
+    for (int k = 0; k < CSI_CV_SMOOTH_WIDTHS && s == CSI_OK; k++) {
+        s = normconv(fsum, fcnt, fc, w, h, sigmas[k], gA);
+        if (s == CSI_OK)
+            s = normconv(fsum + np * fc, fcnt + np, fc, w, h, sigmas[k], gB);
+        if (s != CSI_OK)
+            break;
+        memset(acc, 0, nr * 8 * sizeof *acc);
+        for (size_t p = 0; p < np; p++) {
+            const double na = fcnt[p], nb = fcnt[np + p];
+            if (!na || !nb)
+                continue;
+            double d[4] = {0, 0, 0, 0};
+            bool ok = true;
+            for (uint32_t c = 0; c < fc; c++) {
+                const double sa = fsum[c * np + p], sb = fsum[(fc + c) * np + p];
+                const double ma = sa / na, mb = sb / nb, m = (sa + sb) / (na + nb);
+                const double a = cA[(size_t)c * np + p], b = cB[(size_t)c * np + p];
+                const double ga = gA[(size_t)c * np + p], gb = gB[(size_t)c * np + p];
+                ok &= !isnan(ga) && !isnan(gb);
+                const double da = (a - mb) * (a - mb) - (ga - mb) * (ga - mb);
+                const double db = (b - ma) * (b - ma) - (gb - ma) * (gb - ma);
+                const double rel = floor > 0 ? 1.0 / (m * m + floor) : 0;
+                d[0] += da;
+                d[1] += db;
+                d[2] += da * rel;
+                d[3] += db * rel;
+            }
+            if (!ok)
+                continue;
+            double *a = acc + REGION_OF(p) * 8;
+            for (int j = 0; j < 4; j++) {
+                a[j * 2] += d[j];
+                a[j * 2 + 1] += d[j] * d[j];
+            }
+        }
+        for (size_t q = 0; q < nr; q++) {
+            const double *a = acc + q * 8;
+            bool pass = true;
+            for (int j = 0; j < 4; j++)
+                pass &= a[j * 2] > CSI_CV_Z * sqrt(a[j * 2 + 1]);
+            if (pass && a[0] + a[2] > best[q]) {
+                best[q] = a[0] + a[2];
+                pick[q] = (int8_t)k;
+            }
+        }
+    }
+    size_t changed = 0;
+    for (int k = 0; k < CSI_CV_SMOOTH_WIDTHS && s == CSI_OK; k++) {
+        bool used = false;
+        for (size_t q = 0; q < nr; q++)
+            used |= pick[q] == k;
+        if (!used)
+            continue;
+        if ((s = normconv(sum, cnt, C, w, h, sigmas[k], full)) != CSI_OK)
+            break;
+        for (size_t p = 0; p < np; p++) {
+            /* every cell sampled: the pixel's mean is its exact box integral (issue 9), as the blend
+             * leaves it */
+            if (pick[REGION_OF(p)] != k || cnt[p] < 2 || cnt[p] >= (double)bw * bh)
+                continue;
+            bool moved = false;
+            for (uint32_t c = 0; c < C; c++) {
+                const size_t i = (size_t)c * np + p;
+                if (isnan(full[i]))
+                    continue;
+                const double nn = cnt[p], m = sum[i] / nn;
+                const double se = sqrt(dev[i] / (nn - 1) / nn);
+                double lo = m - CSI_CV_SMOOTH_BOUND * se, hi = m + CSI_CV_SMOOTH_BOUND * se;
+                if (nonneg && lo < 0)
+                    lo = 0;
+                /* nor beyond what the samples around it saw (no halo: issue 9) */
+                lo = lo > lo3[i] ? lo : lo3[i];
+                hi = hi < hi3[i] ? hi : hi3[i];
+                const double v = full[i] < lo ? lo : full[i] > hi ? hi : full[i];
+                const float fv = (float)v;
+                moved |= fv != image[i];
+                image[i] = fv;
+            }
+            const uint32_t x = (uint32_t)(p % w), y = (uint32_t)(p / w);
+            changed += moved && (!box || (x >= box[0] && y >= box[1] && x < box[2] && y < box[3]));
+        }
+    }
+#undef REGION_OF
+    if (smoothed)
+        *smoothed = changed;
+    free(fcnt);
+    free(fsum);
+    free(cnt);
+    free(sum);
+    free(dev);
+    free(gA);
+    free(gB);
+    free(acc);
+    free(best);
+    free(pick);
+    free(full);
+    free(lo3);
+    free(hi3);
+    return s;
+}
