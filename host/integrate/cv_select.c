@@ -281,8 +281,8 @@ csi_status csi_recon_cv_select_at(csi_ctx *ctx, const csi_grid *g, uint32_t ox, 
             s = choose_at(g, ox, oy, box, pos, n, fold, fc, fv, a, b, CSI_CV_REGION, channels, values, out->image,
                           &out->cv_switched, smooth ? a : NULL, smooth ? b : NULL);
         if (s == CSI_OK && smooth)
-            s = csi_cv_smooth(g, ox, oy, box, pos, n, fold, fc, fv, a, b, channels, values, out->image,
-                              &out->cv_smoothed);
+            s = csi_cv_smooth(csi_ctx_row_pool(ctx), g, ox, oy, box, pos, n, fold, fc, fv, a, b, channels, values,
+                              out->image, &out->cv_smoothed);
     }
     free(mean);
     free(a);

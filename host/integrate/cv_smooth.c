@@ -11,40 +11,70 @@
 #include "csi/cv_select.h"
 #include "internal.h"
 
+/* One pass of a separable Gaussian over rows [y0, y1) (csi/row_pool.h: each output row depends
+ * on the input alone, so any split of the rows gives the same bits). */
+typedef struct {
+    const double *in, *k; /* k[i + r] for i in [-r, r] */
+    double *out;
+    uint32_t w, h;
+    int r;
+} blur_pass;
+
+static void blur_x(void *arg, size_t y0, size_t y1)
+{
+    const blur_pass *b = arg;
+    const long w = b->w, r = b->r;
+    for (size_t y = y0; y < y1; y++) {
+        const double *in = b->in + y * b->w;
+        double *out = b->out + y * b->w;
+        for (long x = 0; x < w; x++) {
+            const long i0 = x - r < 0 ? -x : -r, i1 = x + r >= w ? w - 1 - x : r;
+            double t = 0;
+            for (long i = i0; i <= i1; i++)
+                t += b->k[i + r] * in[x + i];
+            out[x] = t;
+        }
+    }
+}
+
+static void blur_y(void *arg, size_t y0, size_t y1)
+{
+    const blur_pass *b = arg;
+    const long h = b->h, r = b->r;
+    const size_t w = b->w;
+    for (size_t y = y0; y < y1; y++) {
+        double *out = b->out + y * w;
+        const long yy = (long)y, i0 = yy - r < 0 ? -yy : -r, i1 = yy + r >= h ? h - 1 - yy : r;
+        for (size_t x = 0; x < w; x++)
+            out[x] = 0;
+        for (long i = i0; i <= i1; i++) {
+            const double k = b->k[i + r], *in = b->in + (size_t)(yy + i) * w;
+            for (size_t x = 0; x < w; x++)
+                out[x] += k * in[x];
+        }
+    }
+}
+
 /* out = the plane `in` (w x h) convolved with a Gaussian of standard deviation sigma truncated at
  * 3 sigma, zero outside; tmp holds w * h. Separable: along x into tmp, along y into out. */
-static void gauss_plane(const double *in, double *out, double *tmp, uint32_t w, uint32_t h, double sigma)
+static void gauss_plane(csi_row_pool *pool, const double *in, double *out, double *tmp, uint32_t w, uint32_t h,
+                        double sigma)
 {
     const int r = (int)ceil(3 * sigma);
     double k[64];
     for (int i = -r; i <= r; i++)
         k[i + r] = exp(-0.5 * i * i / (sigma * sigma));
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++) {
-            double t = 0;
-            for (int i = -r; i <= r; i++) {
-                const long xx = (long)x + i;
-                if (xx >= 0 && xx < (long)w)
-                    t += k[i + r] * in[(size_t)y * w + (size_t)xx];
-            }
-            tmp[(size_t)y * w + x] = t;
-        }
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++) {
-            double t = 0;
-            for (int i = -r; i <= r; i++) {
-                const long yy = (long)y + i;
-                if (yy >= 0 && yy < (long)h)
-                    t += k[i + r] * tmp[(size_t)yy * w + x];
-            }
-            out[(size_t)y * w + x] = t;
-        }
+    blur_pass b = {in, k, tmp, w, h, r};
+    csi_row_pool_run(pool, h, w, blur_x, &b);
+    b.in = tmp;
+    b.out = out;
+    csi_row_pool_run(pool, h, w, blur_y, &b);
 }
 
 /* The normalized convolution of `planes` sum planes by the count plane cnt: out[c * np + p] =
  * (K * sum_c) / (K * cnt), NaN where no sample lies within 3 sigma. */
-static csi_status normconv(const double *sum, const double *cnt, uint32_t planes, uint32_t w, uint32_t h,
-                           double sigma, double *out)
+static csi_status normconv(csi_row_pool *pool, const double *sum, const double *cnt, uint32_t planes, uint32_t w,
+                           uint32_t h, double sigma, double *out)
 {
     const size_t np = (size_t)w * h;
     double *tmp = malloc(np * sizeof *tmp), *kc = malloc(np * sizeof *kc);
@@ -53,9 +83,9 @@ static csi_status normconv(const double *sum, const double *cnt, uint32_t planes
         free(kc);
         return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    gauss_plane(cnt, kc, tmp, w, h, sigma);
+    gauss_plane(pool, cnt, kc, tmp, w, h, sigma);
     for (uint32_t c = 0; c < planes; c++) {
-        gauss_plane(sum + (size_t)c * np, out + (size_t)c * np, tmp, w, h, sigma);
+        gauss_plane(pool, sum + (size_t)c * np, out + (size_t)c * np, tmp, w, h, sigma);
         for (size_t p = 0; p < np; p++)
             out[(size_t)c * np + p] = kc[p] > 1e-12 ? out[(size_t)c * np + p] / kc[p] : NAN;
     }
@@ -64,7 +94,7 @@ static csi_status normconv(const double *sum, const double *cnt, uint32_t planes
     return CSI_OK;
 }
 
-csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box, const csi_sample_pos *pos,
+csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box, const csi_sample_pos *pos,
                          size_t n, const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
                          const float *cA, const float *cB, uint32_t channels, const float *values, float *image,
                          size_t *smoothed)
@@ -88,8 +118,10 @@ csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint
     double *full = malloc(np * C * sizeof *full);
     /* per pixel and channel, the least and greatest sample of its 3 x 3 pixels (planar) */
     float *lo3 = malloc(np * C * sizeof *lo3), *hi3 = malloc(np * C * sizeof *hi3);
+    float *lo1 = malloc(np * C * sizeof *lo1), *hi1 = malloc(np * C * sizeof *hi1); /* its own samples' */
     csi_status s = CSI_OK;
-    if (!fcnt || !fsum || !cnt || !sum || !dev || !gA || !gB || !acc || !best || !pick || !full || !lo3 || !hi3)
+    if (!fcnt || !fsum || !cnt || !sum || !dev || !gA || !gB || !acc || !best || !pick || !full || !lo3 || !hi3 || !lo1 ||
+        !hi1)
         s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     bool nonneg = true;
     double level = 0; /* the folds' values' mean magnitude: the relative error's floor is its scale */
@@ -106,35 +138,45 @@ csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint
             nonneg &= values[i * C + c] >= 0;
         }
     }
+    /* each pixel's own least and greatest sample (lo1, hi1), then its 3 x 3 pixels' (lo3, hi3) */
     for (size_t i = 0; i < np * C && s == CSI_OK; i++) {
-        lo3[i] = INFINITY;
-        hi3[i] = -INFINITY;
+        lo1[i] = INFINITY;
+        hi1[i] = -INFINITY;
     }
     for (size_t i = 0; i < n && s == CSI_OK; i++) {
         const size_t p = csi_recon_pixel_of(pos[i], bw, bh, w);
-        const long px = (long)(p % w), py = (long)(p / w);
         for (uint32_t c = 0; c < C; c++) {
             const float v = values[i * C + c];
-            const double e = v - sum[(size_t)c * np + p] / cnt[p];
-            dev[(size_t)c * np + p] += e * e;
+            const size_t q = (size_t)c * np + p;
+            const double e = v - sum[q] / cnt[p];
+            dev[q] += e * e;
+            lo1[q] = v < lo1[q] ? v : lo1[q];
+            hi1[q] = v > hi1[q] ? v : hi1[q];
+        }
+    }
+    for (uint32_t c = 0; c < C && s == CSI_OK; c++)
+        for (size_t p = 0; p < np; p++) {
+            const long px = (long)(p % w), py = (long)(p / w);
+            float l = INFINITY, u = -INFINITY;
             for (long y = py - 1; y <= py + 1; y++)
                 for (long x = px - 1; x <= px + 1; x++)
                     if (x >= 0 && y >= 0 && x < (long)w && y < (long)h) {
-                        const size_t q = (size_t)c * np + (size_t)y * w + (size_t)x;
-                        lo3[q] = v < lo3[q] ? v : lo3[q];
-                        hi3[q] = v > hi3[q] ? v : hi3[q];
+                        const size_t o = (size_t)c * np + (size_t)y * w + (size_t)x;
+                        l = lo1[o] < l ? lo1[o] : l;
+                        u = hi1[o] > u ? hi1[o] : u;
                     }
+            lo3[(size_t)c * np + p] = l;
+            hi3[(size_t)c * np + p] = u;
         }
-    }
     level /= (double)(n ? n : 1) * fc;
     const double floor = CSI_CV_REL_FLOOR * level * level;
 #define REGION_OF(p) ((((p) / w + sy) / r) * rw + ((p) % w + sx) / r)
     if (pick)
         memset(pick, -1, nr);
     for (int k = 0; k < CSI_CV_SMOOTH_WIDTHS && s == CSI_OK; k++) {
-        s = normconv(fsum, fcnt, fc, w, h, sigmas[k], gA);
+        s = normconv(pool, fsum, fcnt, fc, w, h, sigmas[k], gA);
         if (s == CSI_OK)
-            s = normconv(fsum + np * fc, fcnt + np, fc, w, h, sigmas[k], gB);
+            s = normconv(pool, fsum + np * fc, fcnt + np, fc, w, h, sigmas[k], gB);
         if (s != CSI_OK)
             break;
         memset(acc, 0, nr * 8 * sizeof *acc);
@@ -184,7 +226,7 @@ csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint
             used |= pick[q] == k;
         if (!used)
             continue;
-        if ((s = normconv(sum, cnt, C, w, h, sigmas[k], full)) != CSI_OK)
+        if ((s = normconv(pool, sum, cnt, C, w, h, sigmas[k], full)) != CSI_OK)
             break;
         for (size_t p = 0; p < np; p++) {
             /* every cell sampled: the pixel's mean is its exact box integral (issue 9), as the blend
@@ -229,5 +271,7 @@ csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint
     free(full);
     free(lo3);
     free(hi3);
+    free(lo1);
+    free(hi1);
     return s;
 }

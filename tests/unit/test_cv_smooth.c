@@ -21,7 +21,8 @@
  *      double, from the samples: se^2 = unbiased variance / n) or at 0 where that interval goes
  *      below it, up to float rounding; no value is negative; the squares' pixels, whose samples
  *      all agree (se = 0), keep their mean exactly.
- *   3. Deterministic: two calls give the same bits and count.
+ *   3. Deterministic: on the calling thread alone and on a pool of 3 threads, the same bits and
+ *      count.
  */
 #include <math.h>
 #include <stdio.h>
@@ -129,8 +130,10 @@ static void flat_noise(void)
     memcpy(img, f.mean, np * sizeof *img);
     memcpy(img2, f.mean, np * sizeof *img2);
     size_t sm = 0, sm2 = 0;
-    CHECK_OK(csi_cv_smooth(&f.g, 0, 0, NULL, f.pos, f.n, f.fold, 1, f.val, f.ma, f.mb, 1, f.val, img, &sm));
-    CHECK_OK(csi_cv_smooth(&f.g, 0, 0, NULL, f.pos, f.n, f.fold, 1, f.val, f.ma, f.mb, 1, f.val, img2, &sm2));
+    csi_row_pool *pool = csi_row_pool_new(3);
+    CHECK_OK(csi_cv_smooth(NULL, &f.g, 0, 0, NULL, f.pos, f.n, f.fold, 1, f.val, f.ma, f.mb, 1, f.val, img, &sm));
+    CHECK_OK(csi_cv_smooth(pool, &f.g, 0, 0, NULL, f.pos, f.n, f.fold, 1, f.val, f.ma, f.mb, 1, f.val, img2, &sm2));
+    csi_row_pool_free(pool);
     double e0 = 0, e1 = 0;
     size_t changed = 0;
     for (size_t p = 0; p < np; p++)
@@ -143,7 +146,7 @@ static void flat_noise(void)
     CHECK(e1 < 0.3 * e0, "flat noise: MSE over the smoothed pixels %.3g, the mean's %.3g (ratio %.3f)", e1 / changed,
           e0 / changed, e1 / e0);
     printf("flat noise: %zu of %zu pixels smoothed, their MSE %.3fx the mean's\n", sm, np, e1 / e0);
-    CHECK(sm == sm2 && !memcmp(img, img2, np * sizeof *img), "two calls differ");
+    CHECK(sm == sm2 && !memcmp(img, img2, np * sizeof *img), "the calling thread alone and a pool of 3 threads differ");
     free(img);
     free(img2);
     field_free(&f);
@@ -157,7 +160,7 @@ static void bound(void)
     float *img = malloc(np * sizeof *img);
     memcpy(img, f.mean, np * sizeof *img);
     size_t sm = 0;
-    CHECK_OK(csi_cv_smooth(&f.g, 0, 0, NULL, f.pos, f.n, f.fold, 1, f.val, f.ma, f.mb, 1, f.val, img, &sm));
+    CHECK_OK(csi_cv_smooth(NULL, &f.g, 0, 0, NULL, f.pos, f.n, f.fold, 1, f.val, f.ma, f.mb, 1, f.val, img, &sm));
     size_t changed = 0, outside = 0, negative = 0, squares_moved = 0;
     for (size_t p = 0; p < np; p++) {
         double m = 0, d = 0;

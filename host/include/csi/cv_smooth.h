@@ -50,6 +50,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "csi/row_pool.h"
 #include "csi/samples.h"
 #include "csi/status.h"
 
@@ -65,8 +66,9 @@
  * on, and cA, cB (planar, fold_channels) the incumbent's predictions from each fold alone (above).
  * The regions are those of an image whose pixel (0, 0) is this one's (ox, oy); *smoothed (may be
  * NULL) counts the pixels changed inside box (x0, y0, x1, y1; NULL: all). Deterministic: in
- * double, in sample and pixel order. */
-csi_status csi_cv_smooth(const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box, const csi_sample_pos *pos,
+ * double, in sample and pixel order; the Gaussians' rows on pool's threads (NULL: the calling
+ * thread), the same bits either way. */
+csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box, const csi_sample_pos *pos,
                          size_t n, const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
                          const float *cA, const float *cB, uint32_t channels, const float *values, float *image,
                          size_t *smoothed);
