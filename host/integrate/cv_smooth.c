@@ -94,56 +94,29 @@ static csi_status normconv(csi_row_pool *pool, const double *sum, const double *
     return CSI_OK;
 }
 
-csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box, const csi_sample_pos *pos,
-                         size_t n, const uint8_t *fold, uint32_t fold_channels, const float *fold_values,
-                         const float *cA, const float *cB, uint32_t channels, const float *values, float *image,
-                         size_t *smoothed)
+/* Each pixel's bound per channel (planar): [lo, hi], its own samples' mean m +- K se (se^2 their
+ * unbiased variance / n), not below 0 when no sample is (nonneg), within the least and greatest
+ * sample of its 3 x 3 pixels; NaN where the pixel keeps its value (fewer than 2 samples, or every
+ * cell sampled: its mean is its exact box integral, issue 9, as the blend leaves it). cnt, sum:
+ * each pixel's sample count and channel sums (planar). */
+static csi_status pixel_bounds(const csi_grid *g, const csi_sample_pos *pos, size_t n, uint32_t C, const float *values,
+                               const double *cnt, const double *sum, bool nonneg, double *lo, double *hi)
 {
-    if (smoothed)
-        *smoothed = 0;
-    static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
-    const uint32_t w = g->out_w, h = g->out_h, fc = fold_channels, C = channels, r = CSI_CV_REGION;
-    const uint32_t bw = g->w / w, bh = g->h / h;
+    const uint32_t w = g->out_w, h = g->out_h, bw = g->w / w, bh = g->h / h;
     const size_t np = (size_t)w * h;
-    const uint32_t sx = ox % r, sy = oy % r;
-    const size_t rw = (w + sx + r - 1) / r, rh = (h + sy + r - 1) / r, nr = rw * rh;
-    /* per fold: counts and sums of the folds' values (planar); all samples: counts, sums and
-     * squared deviations from the pixel's mean per channel (planar) */
-    double *fcnt = calloc(2 * np, sizeof *fcnt), *fsum = calloc(2 * np * fc, sizeof *fsum);
-    double *cnt = calloc(np, sizeof *cnt), *sum = calloc(np * C, sizeof *sum), *dev = calloc(np * C, sizeof *dev);
-    double *gA = malloc(np * fc * sizeof *gA), *gB = malloc(np * fc * sizeof *gB);
-    double *acc = calloc(nr * 8, sizeof *acc); /* per region: S and sum of squares of 4 gains */
-    double *best = calloc(nr, sizeof *best);
-    int8_t *pick = malloc(nr);
-    double *full = malloc(np * C * sizeof *full);
-    /* per pixel and channel, the least and greatest sample of its 3 x 3 pixels (planar) */
-    float *lo3 = malloc(np * C * sizeof *lo3), *hi3 = malloc(np * C * sizeof *hi3);
-    float *lo1 = malloc(np * C * sizeof *lo1), *hi1 = malloc(np * C * sizeof *hi1); /* its own samples' */
-    csi_status s = CSI_OK;
-    if (!fcnt || !fsum || !cnt || !sum || !dev || !gA || !gB || !acc || !best || !pick || !full || !lo3 || !hi3 || !lo1 ||
-        !hi1)
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
-    bool nonneg = true;
-    double level = 0; /* the folds' values' mean magnitude: the relative error's floor is its scale */
-    for (size_t i = 0; i < n && s == CSI_OK; i++) {
-        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, w), f = fold[i] & 1;
-        fcnt[f * np + p]++;
-        for (uint32_t c = 0; c < fc; c++) {
-            fsum[(f * fc + c) * np + p] += fold_values[i * fc + c];
-            level += fabs(fold_values[i * fc + c]);
-        }
-        cnt[p]++;
-        for (uint32_t c = 0; c < C; c++) {
-            sum[(size_t)c * np + p] += values[i * C + c];
-            nonneg &= values[i * C + c] >= 0;
-        }
+    double *dev = calloc(np * C, sizeof *dev);
+    float *lo1 = malloc(np * C * sizeof *lo1), *hi1 = malloc(np * C * sizeof *hi1); /* the pixel's own samples' */
+    if (!dev || !lo1 || !hi1) {
+        free(dev);
+        free(lo1);
+        free(hi1);
+        return csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     }
-    /* each pixel's own least and greatest sample (lo1, hi1), then its 3 x 3 pixels' (lo3, hi3) */
-    for (size_t i = 0; i < np * C && s == CSI_OK; i++) {
+    for (size_t i = 0; i < np * C; i++) {
         lo1[i] = INFINITY;
         hi1[i] = -INFINITY;
     }
-    for (size_t i = 0; i < n && s == CSI_OK; i++) {
+    for (size_t i = 0; i < n; i++) {
         const size_t p = csi_recon_pixel_of(pos[i], bw, bh, w);
         for (uint32_t c = 0; c < C; c++) {
             const float v = values[i * C + c];
@@ -154,8 +127,14 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
             hi1[q] = v > hi1[q] ? v : hi1[q];
         }
     }
-    for (uint32_t c = 0; c < C && s == CSI_OK; c++)
+    for (uint32_t c = 0; c < C; c++)
         for (size_t p = 0; p < np; p++) {
+            const size_t q = (size_t)c * np + p;
+            const double nn = cnt[p];
+            if (nn < 2 || nn >= (double)bw * bh) {
+                lo[q] = hi[q] = NAN;
+                continue;
+            }
             const long px = (long)(p % w), py = (long)(p / w);
             float l = INFINITY, u = -INFINITY;
             for (long y = py - 1; y <= py + 1; y++)
@@ -165,14 +144,36 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
                         l = lo1[o] < l ? lo1[o] : l;
                         u = hi1[o] > u ? hi1[o] : u;
                     }
-            lo3[(size_t)c * np + p] = l;
-            hi3[(size_t)c * np + p] = u;
+            const double m = sum[q] / nn, se = sqrt(dev[q] / (nn - 1) / nn);
+            double a = m - CSI_CV_SMOOTH_BOUND * se, b = m + CSI_CV_SMOOTH_BOUND * se;
+            if (nonneg && a < 0)
+                a = 0;
+            /* nor beyond what the samples around it saw (no halo: issue 9) */
+            lo[q] = a > l ? a : l;
+            hi[q] = b < u ? b : u;
         }
-    level /= (double)(n ? n : 1) * fc;
-    const double floor = CSI_CV_REL_FLOOR * level * level;
-#define REGION_OF(p) ((((p) / w + sy) / r) * rw + ((p) % w + sx) / r)
-    if (pick)
-        memset(pick, -1, nr);
+    free(dev);
+    free(lo1);
+    free(hi1);
+    return CSI_OK;
+}
+
+/* The width each region takes (pick[q], an index of CSI_CV_SMOOTH_SIGMAS; -1: none): the test of
+ * csi/cv_smooth.h on the folds' counts and sums (fcnt, fsum: fold-major, planar) and the
+ * incumbent's predictions cA, cB. Regions of side r, rw per row, shifted by (sx, sy). */
+static csi_status pick_widths(csi_row_pool *pool, uint32_t w, uint32_t h, uint32_t fc, const double *fcnt,
+                              const double *fsum, const float *cA, const float *cB, double floor, uint32_t r,
+                              uint32_t sx, uint32_t sy, size_t rw, size_t nr, int8_t *pick)
+{
+    static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
+    const size_t np = (size_t)w * h;
+    double *gA = malloc(np * fc * sizeof *gA), *gB = malloc(np * fc * sizeof *gB);
+    double *acc = malloc(nr * 8 * sizeof *acc); /* per region: the sum and the sum of squares of 4 gains */
+    double *best = calloc(nr, sizeof *best);
+    csi_status s = CSI_OK;
+    if (!gA || !gB || !acc || !best)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    memset(pick, -1, nr);
     for (int k = 0; k < CSI_CV_SMOOTH_WIDTHS && s == CSI_OK; k++) {
         s = normconv(pool, fsum, fcnt, fc, w, h, sigmas[k], gA);
         if (s == CSI_OK)
@@ -202,7 +203,7 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
             }
             if (!ok)
                 continue;
-            double *a = acc + REGION_OF(p) * 8;
+            double *a = acc + ((p / w + sy) / r * rw + (p % w + sx) / r) * 8;
             for (int j = 0; j < 4; j++) {
                 a[j * 2] += d[j];
                 a[j * 2 + 1] += d[j] * d[j];
@@ -219,6 +220,54 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
             }
         }
     }
+    free(gA);
+    free(gB);
+    free(acc);
+    free(best);
+    return s;
+}
+
+csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uint32_t oy, const uint32_t *box,
+                         const csi_sample_pos *pos, size_t n, const uint8_t *fold, uint32_t fold_channels,
+                         const float *fold_values, const float *cA, const float *cB, uint32_t channels,
+                         const float *values, float *image, size_t *smoothed)
+{
+    if (smoothed)
+        *smoothed = 0;
+    static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
+    const uint32_t w = g->out_w, h = g->out_h, fc = fold_channels, C = channels, r = CSI_CV_REGION;
+    const uint32_t bw = g->w / w, bh = g->h / h;
+    const size_t np = (size_t)w * h;
+    const uint32_t sx = ox % r, sy = oy % r;
+    const size_t rw = (w + sx + r - 1) / r, rh = (h + sy + r - 1) / r, nr = rw * rh;
+    /* per fold: counts and sums of the folds' values; all samples: counts and channel sums (planar) */
+    double *fcnt = calloc(2 * np, sizeof *fcnt), *fsum = calloc(2 * np * fc, sizeof *fsum);
+    double *cnt = calloc(np, sizeof *cnt), *sum = calloc(np * C, sizeof *sum);
+    double *lo = malloc(np * C * sizeof *lo), *hi = malloc(np * C * sizeof *hi), *full = malloc(np * C * sizeof *full);
+    int8_t *pick = malloc(nr);
+    csi_status s = CSI_OK;
+    if (!fcnt || !fsum || !cnt || !sum || !lo || !hi || !full || !pick)
+        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    bool nonneg = true;
+    double level = 0; /* the folds' values' mean magnitude: the relative error's floor is its scale */
+    for (size_t i = 0; i < n && s == CSI_OK; i++) {
+        const size_t p = csi_recon_pixel_of(pos[i], bw, bh, w), f = fold[i] & 1;
+        fcnt[f * np + p]++;
+        for (uint32_t c = 0; c < fc; c++) {
+            fsum[(f * fc + c) * np + p] += fold_values[i * fc + c];
+            level += fabs(fold_values[i * fc + c]);
+        }
+        cnt[p]++;
+        for (uint32_t c = 0; c < C; c++) {
+            sum[(size_t)c * np + p] += values[i * C + c];
+            nonneg &= values[i * C + c] >= 0;
+        }
+    }
+    level /= (double)(n ? n : 1) * fc;
+    if (s == CSI_OK)
+        s = pixel_bounds(g, pos, n, C, values, cnt, sum, nonneg, lo, hi);
+    if (s == CSI_OK)
+        s = pick_widths(pool, w, h, fc, fcnt, fsum, cA, cB, CSI_CV_REL_FLOOR * level * level, r, sx, sy, rw, nr, pick);
     size_t changed = 0;
     for (int k = 0; k < CSI_CV_SMOOTH_WIDTHS && s == CSI_OK; k++) {
         bool used = false;
@@ -229,24 +278,14 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
         if ((s = normconv(pool, sum, cnt, C, w, h, sigmas[k], full)) != CSI_OK)
             break;
         for (size_t p = 0; p < np; p++) {
-            /* every cell sampled: the pixel's mean is its exact box integral (issue 9), as the blend
-             * leaves it */
-            if (pick[REGION_OF(p)] != k || cnt[p] < 2 || cnt[p] >= (double)bw * bh)
+            if (pick[(p / w + sy) / r * rw + (p % w + sx) / r] != k)
                 continue;
             bool moved = false;
             for (uint32_t c = 0; c < C; c++) {
                 const size_t i = (size_t)c * np + p;
-                if (isnan(full[i]))
+                if (isnan(full[i]) || isnan(lo[i]))
                     continue;
-                const double nn = cnt[p], m = sum[i] / nn;
-                const double se = sqrt(dev[i] / (nn - 1) / nn);
-                double lo = m - CSI_CV_SMOOTH_BOUND * se, hi = m + CSI_CV_SMOOTH_BOUND * se;
-                if (nonneg && lo < 0)
-                    lo = 0;
-                /* nor beyond what the samples around it saw (no halo: issue 9) */
-                lo = lo > lo3[i] ? lo : lo3[i];
-                hi = hi < hi3[i] ? hi : hi3[i];
-                const double v = full[i] < lo ? lo : full[i] > hi ? hi : full[i];
+                const double v = full[i] < lo[i] ? lo[i] : full[i] > hi[i] ? hi[i] : full[i];
                 const float fv = (float)v;
                 moved |= fv != image[i];
                 image[i] = fv;
@@ -255,23 +294,15 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
             changed += moved && (!box || (x >= box[0] && y >= box[1] && x < box[2] && y < box[3]));
         }
     }
-#undef REGION_OF
     if (smoothed)
         *smoothed = changed;
     free(fcnt);
     free(fsum);
     free(cnt);
     free(sum);
-    free(dev);
-    free(gA);
-    free(gB);
-    free(acc);
-    free(best);
-    free(pick);
+    free(lo);
+    free(hi);
     free(full);
-    free(lo3);
-    free(hi3);
-    free(lo1);
-    free(hi1);
+    free(pick);
     return s;
 }
