@@ -268,31 +268,17 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
         s = pixel_bounds(g, pos, n, C, values, cnt, sum, nonneg, lo, hi);
     if (s == CSI_OK)
         s = pick_widths(pool, w, h, fc, fcnt, fsum, cA, cB, CSI_CV_REL_FLOOR * level * level, r, sx, sy, rw, nr, pick);
-    /* and in regions of twice the side, for the pixels whose smaller region took none (a gain
-     * too small to show in 64 pixels can in 256: csi/cv_select.h's two scales) */
-    const uint32_t r2 = 2 * r, sx2 = ox % r2, sy2 = oy % r2;
-    const size_t rw2 = (w + sx2 + r2 - 1) / r2, nr2 = rw2 * ((h + sy2 + r2 - 1) / r2);
-    int8_t *pick2 = malloc(nr2);
-    if (s == CSI_OK && !pick2)
-        s = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu regions", nr2);
-    if (s == CSI_OK)
-        s = pick_widths(pool, w, h, fc, fcnt, fsum, cA, cB, CSI_CV_REL_FLOOR * level * level, r2, sx2, sy2, rw2, nr2, pick2);
     size_t changed = 0;
     for (int k = 0; k < CSI_CV_SMOOTH_WIDTHS && s == CSI_OK; k++) {
         bool used = false;
         for (size_t q = 0; q < nr; q++)
             used |= pick[q] == k;
-        for (size_t q = 0; q < nr2; q++)
-            used |= pick2[q] == k;
         if (!used)
             continue;
         if ((s = normconv(pool, sum, cnt, C, w, h, sigmas[k], full)) != CSI_OK)
             break;
         for (size_t p = 0; p < np; p++) {
-            int8_t pk = pick[(p / w + sy) / r * rw + (p % w + sx) / r];
-            if (pk < 0)
-                pk = pick2[(p / w + sy2) / r2 * rw2 + (p % w + sx2) / r2];
-            if (pk != k)
+            if (pick[(p / w + sy) / r * rw + (p % w + sx) / r] != k)
                 continue;
             bool moved = false;
             for (uint32_t c = 0; c < C; c++) {
@@ -318,6 +304,5 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
     free(hi);
     free(full);
     free(pick);
-    free(pick2);
     return s;
 }

@@ -31,10 +31,7 @@
  * all four sums S are above CSI_CV_Z times the root of the sums of their squared terms: a
  * significant gain in both directions and in both measures, never one or two pixels' (the
  * self-normalised test of csi/cv_select.h). Of the widths that pass, the region takes the one with
- * the largest sum of its two absolute gains. A pixel whose region takes none is judged again in
- * the region of twice the side that holds it (as the choice judges the mean at both scales): on
- * Mitsuba's dumps relMSE -12% on average instead of -8%, the same cells worse than without the
- * step (docs/bench/mitsuba.md, session 49).
+ * the largest sum of its two absolute gains.
  *
  * The bound. A region's gain is a sum, and a Gaussian that is better over a region can still be
  * far wrong in a few of its pixels (light spread from a lamp into the dark pixel beside it, one
