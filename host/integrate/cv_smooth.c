@@ -11,6 +11,14 @@
 #include "csi/cv_select.h"
 #include "internal.h"
 
+static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
+
+/* The region of side r (rw per row, the image's shifted by sx, sy) holding pixel p of a row of w. */
+static size_t region_of(size_t p, uint32_t w, uint32_t r, uint32_t sx, uint32_t sy, size_t rw)
+{
+    return (p / w + sy) / r * rw + (p % w + sx) / r;
+}
+
 /* One pass of a separable Gaussian over rows [y0, y1) (csi/row_pool.h: each output row depends
  * on the input alone, so any split of the rows gives the same bits). */
 typedef struct {
@@ -165,7 +173,6 @@ static csi_status pick_widths(csi_row_pool *pool, uint32_t w, uint32_t h, uint32
                               const double *fsum, const float *cA, const float *cB, double floor, uint32_t r,
                               uint32_t sx, uint32_t sy, size_t rw, size_t nr, int8_t *pick)
 {
-    static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
     const size_t np = (size_t)w * h;
     double *gA = malloc(np * fc * sizeof *gA), *gB = malloc(np * fc * sizeof *gB);
     double *acc = malloc(nr * 8 * sizeof *acc); /* per region: the sum and the sum of squares of 4 gains */
@@ -203,7 +210,7 @@ static csi_status pick_widths(csi_row_pool *pool, uint32_t w, uint32_t h, uint32
             }
             if (!ok)
                 continue;
-            double *a = acc + ((p / w + sy) / r * rw + (p % w + sx) / r) * 8;
+            double *a = acc + region_of(p, w, r, sx, sy, rw) * 8;
             for (int j = 0; j < 4; j++) {
                 a[j * 2] += d[j];
                 a[j * 2 + 1] += d[j] * d[j];
@@ -234,7 +241,6 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
 {
     if (smoothed)
         *smoothed = 0;
-    static const double sigmas[CSI_CV_SMOOTH_WIDTHS] = CSI_CV_SMOOTH_SIGMAS;
     const uint32_t w = g->out_w, h = g->out_h, fc = fold_channels, C = channels, r = CSI_CV_REGION;
     const uint32_t bw = g->w / w, bh = g->h / h;
     const size_t np = (size_t)w * h;
@@ -278,7 +284,7 @@ csi_status csi_cv_smooth(csi_row_pool *pool, const csi_grid *g, uint32_t ox, uin
         if ((s = normconv(pool, sum, cnt, C, w, h, sigmas[k], full)) != CSI_OK)
             break;
         for (size_t p = 0; p < np; p++) {
-            if (pick[(p / w + sy) / r * rw + (p % w + sx) / r] != k)
+            if (pick[region_of(p, w, r, sx, sy, rw)] != k)
                 continue;
             bool moved = false;
             for (uint32_t c = 0; c < C; c++) {
