@@ -197,19 +197,32 @@ static bool boundary_holds(const step_scratch *s, size_t own, size_t m, int k)
            !misclassified(wn, k, s->x, s->y, s->cls, own);
 }
 
-/* The rule on one pixel (csi/step_coverage.h); 1 if it moved. */
-static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
+/* How a window judges a pixel: its reach in pixels, whether a conic may bound it, whether the
+ * boundary's own coverage needs the pixel's own samples to check it (csi/step_coverage.h). */
+typedef struct step_window {
+    size_t radius;
+    bool conic, checked;
+} step_window;
+
+/* The outer window, then the inner one where the outer's samples are no clean step a line divides. */
+static const step_window WIDE = {2, false, false}, NEAR = {1, true, true};
+
+enum { STEP_NONE = -1, STEP_KEPT = 0, STEP_MOVED = 1 };
+
+/* The rule on one pixel in one window: STEP_NONE where the window's samples are no step its
+ * boundary divides, else STEP_MOVED or STEP_KEPT. */
+static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, const step_window *win)
 {
-    const size_t ow = t->ow, oh = t->oh, p = py * ow + px;
+    const size_t ow = t->ow, oh = t->oh, p = py * ow + px, r = win->radius;
     const size_t own = t->start[p + 1] - t->start[p];
     if (!own)
-        return 0;
+        return STEP_NONE;
     /* the window's samples, the pixel's own first, then its neighbours' in raster order */
     size_t m = 0;
     for (size_t i = t->start[p]; i < t->start[p + 1]; i++)
         s->ids[m++] = t->idx[i];
-    for (size_t yy = py ? py - 1 : 0; yy <= py + 1 && yy < oh; yy++)
-        for (size_t xx = px ? px - 1 : 0; xx <= px + 1 && xx < ow; xx++) {
+    for (size_t yy = py > r ? py - r : 0; yy <= py + r && yy < oh; yy++)
+        for (size_t xx = px > r ? px - r : 0; xx <= px + r && xx < ow; xx++) {
             const size_t q = yy * ow + xx;
             if (q != p)
                 for (size_t i = t->start[q]; i < t->start[q + 1]; i++)
@@ -221,7 +234,7 @@ static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
         hi = csi_fmax(hi, s->l[i]), lo = csi_fmin(lo, s->l[i]);
     }
     if (hi < CSI_STEP_RATIO * csi_fmax(lo, 1e-6 * hi + 1e-30) || hi < CSI_STEP_IMAGE_RATIO * t->image_mean)
-        return 0;
+        return STEP_NONE;
     qsort(s->sorted, m, sizeof *s->sorted, cmp_double);
     const double thr = sqrt(percentile(s->sorted, m, 90.0) * csi_fmax(percentile(s->sorted, m, 10.0), 1e-30));
     size_t nb = 0;
@@ -231,18 +244,18 @@ static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
         if (s->cls[i]) {
             nb++, bmin = csi_fmin(bmin, s->l[i]), bmax = csi_fmax(bmax, s->l[i]);
             if (t->sd[s->ids[i]] > CSI_STEP_NOISE * s->l[i])
-                return 0; /* a bright sample its noise could make: no rim to place */
+                return STEP_NONE; /* a bright sample its noise could make: no rim to place */
         } else {
             dmax = csi_fmax(dmax, s->l[i]);
         }
     }
     if (!nb || nb == m || bmin < CSI_STEP_GAP * dmax || bmax > CSI_STEP_SPREAD * bmin)
-        return 0;
+        return STEP_NONE;
     size_t kb = 0;
     for (size_t i = 0; i < own; i++)
         kb += s->cls[i];
     if (!kb || kb == own)
-        return 0; /* one class of its own: no band (below), and a level that would be a neighbour's */
+        return STEP_KEPT; /* one class of its own: no band (below), and a level that would be a neighbour's */
     /* positions in pixels from the pixel's centre */
     const double bw = t->map.bw, bh = t->map.bh;
     for (size_t i = 0; i < m; i++) {
@@ -253,45 +266,57 @@ static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
     double w[STEP_CONIC];
     int k = STEP_LINE;
     if (!fit_boundary(s->x, s->y, s->cls, m, k, w))
-        return 0;
+        return STEP_NONE;
     if (misclassified(w, k, s->x, s->y, s->cls, m)) {
         k = STEP_CONIC;
-        if (!fit_boundary(s->x, s->y, s->cls, m, k, w) || misclassified(w, k, s->x, s->y, s->cls, m))
-            return 0;
+        if (!win->conic || !fit_boundary(s->x, s->y, s->cls, m, k, w) || misclassified(w, k, s->x, s->y, s->cls, m))
+            return STEP_NONE;
     }
     /* the band: the boundary's least bright-looking bright sample of the pixel's own and its most
      * bright-looking dark one (the window's samples beyond the pixel bound it too tightly where the
      * rim curves: measured, docs/bench/mitsuba.md) */
-    double fb = INFINITY, fd = -INFINITY;
-    for (size_t i = 0; i < own; i++) {
+    double fb = INFINITY, fd = -INFINITY, fb_win = INFINITY, fd_win = -INFINITY;
+    for (size_t i = 0; i < m; i++) {
         const double f = boundary_at(w, k, s->x[i], s->y[i]);
         if (s->cls[i])
-            fb = csi_fmin(fb, f);
+            fb_win = csi_fmin(fb_win, f), fb = i < own ? csi_fmin(fb, f) : fb;
         else
-            fd = csi_fmax(fd, f);
+            fd_win = csi_fmax(fd_win, f), fd = i < own ? csi_fmax(fd, f) : fd;
     }
-    size_t sure_bright = 0, sure_dark = 0, on_bright = 0;
+    size_t sure_bright = 0, sure_dark = 0, on_bright = 0, win_bright = 0, win_dark = 0;
     for (uint32_t cy = 0; cy < t->map.bh; cy++)
         for (uint32_t cx = 0; cx < t->map.bw; cx++) {
             const double f = boundary_at(w, k, ((double)cx + 0.5) / bw - 0.5, ((double)cy + 0.5) / bh - 0.5);
             sure_bright += f >= fb;
             sure_dark += f <= fd;
+            win_bright += f >= fb_win;
+            win_dark += f <= fd_win;
             on_bright += f > 0;
         }
     const double cells = bw * bh, c_lo = (double)sure_bright / cells, c_hi = 1.0 - (double)sure_dark / cells;
-    /* the coverage to clamp: the boundary's where it holds across the pixel and the pixel's own
-     * samples are enough and not one per box, else the pixel's own share */
-    const double share = (double)kb / (double)own;
-    const bool fitted = own >= CSI_STEP_FIT_MIN && !own_one_per_box(t, s, own) && boundary_holds(s, own, m, k);
-    const double est = fitted ? (double)on_bright / cells : share, cov = csi_fmin(csi_fmax(est, c_lo), c_hi);
+    const double share = (double)kb / (double)own, fitted = (double)on_bright / cells;
+    const bool strata = own_one_per_box(t, s, own);
+    double est;
+    if (win->checked) /* the boundary's where it holds across the pixel from enough samples of its own */
+        est = own >= CSI_STEP_FIT_MIN && !strata && boundary_holds(s, own, m, k) ? fitted : share;
+    else /* samples one per stratum: their share, moved only into the band the window's samples allow */
+        est = strata ? csi_fmin(csi_fmax(share, (double)win_bright / cells), 1.0 - (double)win_dark / cells) : fitted;
+    const double cov = csi_fmin(csi_fmax(est, c_lo), c_hi);
     if (cov == share)
-        return 0;
+        return STEP_KEPT;
     double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
     class_level(t, s, own, 1, bright);
     class_level(t, s, own, 0, dark);
     for (uint32_t c = 0; c < t->channels; c++)
         t->delta[(size_t)c * t->np + p] = (float)((cov - share) * (bright[c] - dark[c]));
-    return 1;
+    return STEP_MOVED;
+}
+
+/* The rule on one pixel (csi/step_coverage.h); 1 if it moved. */
+static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
+{
+    const int wide = step_in_window(t, s, px, py, &WIDE);
+    return (wide == STEP_NONE ? step_in_window(t, s, px, py, &NEAR) : wide) == STEP_MOVED;
 }
 
 static void step_pass(void *arg, size_t r0, size_t r1)
@@ -359,13 +384,13 @@ csi_status csi_step_coverage_delta(const csi_grid *g, uint32_t channels, const c
             l += values[i * channels + c], v += variance[i * channels + c];
         lum[i] = l / channels, sd[i] = sqrt(v / channels);
     }
-    /* the most samples a 3 x 3 window holds: each band's scratch */
+    /* the most samples the wider window holds: each band's scratch */
     size_t window_max = 0;
     for (size_t py = 0; py < oh; py++)
         for (size_t px = 0; px < ow; px++) {
             size_t m = 0;
-            for (size_t yy = py ? py - 1 : 0; yy <= py + 1 && yy < oh; yy++)
-                for (size_t xx = px ? px - 1 : 0; xx <= px + 1 && xx < ow; xx++)
+            for (size_t yy = py > WIDE.radius ? py - WIDE.radius : 0; yy <= py + WIDE.radius && yy < oh; yy++)
+                for (size_t xx = px > WIDE.radius ? px - WIDE.radius : 0; xx <= px + WIDE.radius && xx < ow; xx++)
                     m += start[yy * ow + xx + 1] - start[yy * ow + xx];
             window_max = m > window_max ? m : window_max;
         }

@@ -10,37 +10,45 @@
  * the whole of its error: at 4 spp x 64 paths 92-99.9% of the mean's MSE sits in such pixels
  * (docs/bench/mitsuba.md, session 26). csi's fit cannot do better there (it rings at a 100:1
  * step), so the blend and the settling leave these pixels at their means. Yet the samples of the
- * pixel's neighbours say where the boundary runs: a region's rim crosses a 3 x 3 window of pixels
- * holding 36 samples at 4 spp, and the shape of a boundary that separates the window's bright
+ * pixel's neighbours say where the boundary runs: a region's rim crosses a 5 x 5 window of pixels
+ * holding 100 samples at 4 spp, and the shape of a boundary that separates the window's bright
  * samples from its dark ones says which of the pixel's cells lie beyond its own samples of each
  * side, which its own four cannot.
  *
- * The rule, per pixel of a window (the pixel and its 8 neighbours) whose samples span an HDR step,
- * on the samples' channel mean L (a sample's noise: the square root of its channels' mean
- * variance):
+ * The rule, per pixel, in two windows: the wide one (the pixel and the pixels within 2 of it),
+ * bounded by a line; where its samples are not a step as below or no line divides them (a lamp's
+ * disc, a corner, a second light), the near one (the pixel and its 8 neighbours), bounded by a
+ * line or a conic, with checks (below). In a window whose samples span an HDR step, on the
+ * samples' channel mean L (a sample's noise: the square root of its channels' mean variance):
  *   - a step: the window's brightest sample at least CSI_STEP_RATIO times its darkest and
  *     CSI_STEP_IMAGE_RATIO times the image's mean sample; its samples classed bright above the
  *     geometric mean of the window's 10th and 90th percentiles; two levels, not a ramp: the
  *     darkest bright sample at least CSI_STEP_GAP times the brightest dark one, the brightest
  *     bright at most CSI_STEP_SPREAD times the darkest bright; every bright sample's noise at most
  *     CSI_STEP_NOISE of its value (a firefly or a glossy path says nothing of where a rim runs);
- *   - the boundary: a logistic regression of the classes on the samples' positions (a line, or a
- *     conic where no line separates them: a disc's rim), which must separate the window's samples
- *     without error;
+ *   - the boundary: a logistic regression of the classes on the samples' positions (a line; in the
+ *     near window a conic where no line separates them: a disc's rim), which must separate the
+ *     window's samples without error;
  *   - the band: the boundary's function f is positive at the bright samples and negative at the
  *     dark ones; of the pixel's cells, those where f is at least its value at the pixel's own least
  *     bright-looking bright sample are bright by every boundary of that shape through the gap,
  *     those where f is at most its value at the pixel's own most bright-looking dark sample are
- *     dark: coverages c_lo and c_hi. Only the pixel's own samples bound it: a level line through a
+ *     dark: coverages c_lo and c_hi. Only the pixel's own samples bound it (but for stratified
+ *     samples in the wide window, next): a level line through a
  *     neighbour's sample, carried across the pixel by a boundary that does not curve as the rim
  *     does (a lamp's disc a few pixels wide), was measured to cut the pixel wrongly;
- *   - the coverage: the share of the pixel's cells on the bright side of the boundary (f > 0),
- *     when the pixel holds at least CSI_STEP_FIT_MIN samples of its own, they do not lie one per
- *     box of a split of its cells (stratified positions: their own share of a straight rim is
- *     already close, where the boundary, somewhere in the gap between the classes, guesses a row
- *     of cells), and a boundary of the same shape fitted to the neighbours' samples alone classes
- *     every one of the pixel's own right (the shape carries across the pixel: not a rectangle's
- *     corner); else the pixel's own share k / n;
+ *   - the coverage: the share of the pixel's cells on the bright side of the boundary (f > 0).
+ *     In the wide window, taken as it is, except where the pixel's own samples lie one per box of
+ *     a split of its cells (stratified positions: their own share of a straight rim is already
+ *     close, where the boundary, somewhere in the gap between the classes, guesses a row of
+ *     cells): there the pixel's own share k / n, moved only as far as the window's band allows
+ *     (the band above, from all the window's samples). In the near window only when the pixel
+ *     holds at least CSI_STEP_FIT_MIN samples of its own, not one per box, and a boundary of the
+ *     same shape fitted to the neighbours' samples alone classes every one of the pixel's own
+ *     right (the shape carries across the pixel: not a rectangle's corner); else the pixel's own
+ *     share. A line through 100 samples places a rim well enough at any spp; a conic through them
+ *     was measured to cut small flames wrongly, a boundary through 36 to lose to the pixel's own
+ *     share below 8 samples (docs/bench/mitsuba.md, sessions 39 and 50);
  *   - that coverage clamped to [c_lo, c_hi]: where the result is the mean's share, the pixel keeps
  *     its value (a straight rim split exactly by stratified samples keeps the mean); where it is
  *     not, the pixel's value moves by the change from its share times the difference of its own
@@ -49,7 +57,7 @@
  *     measured).
  * Clamping moves an estimate towards an interval; when the interval holds the truth, the estimate
  * gets no farther from it. The gates keep the rule to windows where the boundary is well
- * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, sessions 38 and 39).
+ * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, sessions 38, 39 and 50).
  *
  * Nothing here makes a value negative: a moved value is clamped at 0. */
 #ifndef CSI_STEP_COVERAGE_H
