@@ -135,9 +135,10 @@ static const row table[] = {
      "--refine-with, whose second pass samples those pixels instead"},
     {"step-coverage", K_CHOICE, AT(step_coverage), 0, 0, switches, F_AUTO, "auto", "on|off|auto",
      "images with the blend and each sample's variance (--variance), after --settle: a pixel "
-     "across an HDR step whose own samples' share of the bright side a boundary fitted to its "
-     "3 x 3 pixels' samples rules out moves to the nearest share it allows (tiled: each tile's "
-     "changes of its core, added on the blended image)",
+     "across an HDR step moves to the share of the bright side a line through its 5 x 5 pixels' "
+     "samples gives it (samples one per stratum: their own share, within what the line allows), "
+     "or where no line divides them, a boundary through its 3 x 3 pixels' samples allows "
+     "(tiled: each tile's changes of its core, added on the blended image)",
      "on with the blend (noisy samples) on an image; off otherwise, and with --refine-request or "
      "--refine-with, whose second pass samples those pixels instead"},
     {"cv-n0", K_DOUBLE, AT(cv_n0), 0, 1e6, NULL, 0, "8", "N",
