@@ -45,8 +45,10 @@ static void usage(FILE *f)
 "                            the image is DUMP's reconstruction with each refined pixel the mean of\n"
 "                            all its samples, then, with the samples' variances (--variance), the\n"
 "                            pixels that still decide it settled on all their samples' mean (not with\n"
-"                            --settle off) (csi-mitsuba's image; docs/bench/mitsuba.md, sessions 20\n"
-"                            and 48)\n"
+"                            --settle off), and with MORE's variances beside it too\n"
+"                            (MORE.variance.csid) an HDR step's pixels given the coverage their\n"
+"                            window's samples allow (not with --step-coverage off) (csi-mitsuba's\n"
+"                            image; docs/bench/mitsuba.md, sessions 20, 48 and 50)\n"
 );
     cli_recon_usage(f);
     cli_tile_usage(f);
@@ -214,10 +216,11 @@ static csi_status refinement_cells_check(const char *path, const char *in, const
 /* --refine-with: MORE's positions must be the request this reconstruction makes (the same cells,
  * in any order); then the refined pixels take the mean of all their samples (csi_refine_apply),
  * and with settle, the pixels that still decide the image settle on theirs (csi_refine_settle:
- * with the samples' variances only). */
+ * with the samples' variances only); with step, an HDR step's pixels take the coverage their
+ * window's samples allow (csi_refine_step_coverage: with both dumps' variances only). */
 static csi_status apply_refinement(const char *path, const char *in, const csi_samples *first,
-                                   const csi_samples *more, csi_result *r, double share, bool settle,
-                                   size_t *pixels, size_t *settled)
+                                   const csi_samples *more, csi_result *r, double share, bool settle, bool step,
+                                   size_t *pixels, size_t *settled, size_t *stepped)
 {
     csi_image img;
     CSI_TRY(csi_result_image(r, &img));
@@ -251,6 +254,8 @@ static csi_status apply_refinement(const char *path, const char *in, const csi_s
         s = csi_refine_apply(first, more, &img, pixels);
     if (s == CSI_OK && settle)
         s = csi_refine_settle(first, more, &img, settled);
+    if (s == CSI_OK && step)
+        s = csi_refine_step_coverage(first, more, &img, stepped);
     return s;
 }
 
@@ -258,7 +263,8 @@ static csi_status apply_refinement(const char *path, const char *in, const csi_s
 static csi_status write_stats(csi_outset *set, const char *path, const char *in, const char *varfile,
                               const csi_device *dev, const csi_dump *d, const csi_dump_report *rep,
                               const csi_result *r, const double phase[3], double t0, const char *refine,
-                              size_t refine_cells, size_t refine_pixels, size_t refine_settled)
+                              size_t refine_cells, size_t refine_pixels, size_t refine_settled,
+                              size_t refine_stepped)
 {
     csi_json *j = NULL;
     CSI_TRY(csi_json_new(&j));
@@ -279,6 +285,7 @@ static csi_status write_stats(csi_outset *set, const char *path, const char *in,
         csi_json_int(j, "refine_cells", (int64_t)refine_cells);
         csi_json_int(j, "refine_pixels", (int64_t)refine_pixels);
         csi_json_int(j, "refine_settled", (int64_t)refine_settled);
+        csi_json_int(j, "refine_step_moved", (int64_t)refine_stepped);
     }
     const csi_status s = cli_write_stats(set, path, j);
     csi_json_free(j);
@@ -407,12 +414,17 @@ int main(int argc, char **argv)
         rc = cli_error(prog, CSI_ERR_ARG, "--settle on and --refine-with: the pixels the second pass sampled are "
                        "given their means, and with the samples' variances the settling follows by itself "
                        "(--settle off: not)");
-    if (!rc && (refine || refine_with) && option_is(opt, "step-coverage", "on"))
-        rc = cli_error(prog, CSI_ERR_ARG, "--step-coverage on and --refine-%s: the second pass samples the "
-                       "pixels that step would move; give one", refine ? "request" : "with");
+    if (!rc && refine && option_is(opt, "step-coverage", "on"))
+        rc = cli_error(prog, CSI_ERR_ARG, "--step-coverage on and --refine-request: the second pass samples the "
+                       "pixels that step would move; give one");
+    if (!rc && refine_with && option_is(opt, "step-coverage", "on"))
+        rc = cli_error(prog, CSI_ERR_ARG, "--step-coverage on and --refine-with: the first pass goes without the "
+                       "step, and with both dumps' variances it follows the passes by itself (--step-coverage "
+                       "off: not)");
     /* After the second pass, with the samples' variances, the pixels that still decide the image
      * settle on all their samples (csi_refine_settle), unless --settle off says not to. */
     const bool settle_after = refine_with && !option_is(opt, "settle", "off");
+    const bool step_after = refine_with && !option_is(opt, "step-coverage", "off");
     if (!rc && (refine || refine_with)) {
         csi_options_set(opt, "settle", "off");
         csi_options_set(opt, "step-coverage", "off");
@@ -429,7 +441,7 @@ int main(int argc, char **argv)
     const bool frames = option_is(opt, "frames", "on"), mean = option_is(opt, "estimator", "mean");
 
     csi_status s;
-    csi_dump dump = {0}, var = {0}, more = {0};
+    csi_dump dump = {0}, var = {0}, more = {0}, more_variance = {0};
     csi_dump_report drep = {0}, vrep = {0};
     csi_dump_read_opts ropts = {.drop_invalid = drop};
     double phase[3] = {0}; /* reading the dump, making the device, writing the outputs (s) */
@@ -469,6 +481,10 @@ int main(int argc, char **argv)
                      mhdr.channels, in, hdr.grid.w, hdr.grid.h, hdr.grid.out_w, hdr.grid.out_h, hdr.channels);
     if (s == CSI_OK && refine_with)
         s = csi_outset_input(set, refine_with);
+    /* MORE's variances, as the dump's: beside it (MORE.variance.csid), wherever the dump has them */
+    char *more_var = s == CSI_OK && refine_with && varfile ? variance_beside(refine_with) : NULL;
+    if (s == CSI_OK && more_var)
+        s = csi_outset_input(set, more_var);
     if (s == CSI_OK && refine)
         s = csi_outset_file(set, refine, "the refinement request (--refine-request)");
     if (s == CSI_OK)
@@ -485,9 +501,11 @@ int main(int argc, char **argv)
         s = csi_dump_read(in, &ropts, &dump, &drep);
     if (s == CSI_OK && varfile)
         var_failed = (s = read_variance(varfile, in, &dump, &drep, &ropts, &var, &vrep)) != CSI_OK;
-    csi_dump_report mrep = {0};
+    csi_dump_report mrep = {0}, mvrep = {0};
     if (s == CSI_OK && refine_with)
         s = csi_dump_read(refine_with, &ropts, &more, &mrep);
+    if (s == CSI_OK && more_var)
+        s = read_variance(more_var, refine_with, &more, &mrep, &ropts, &more_variance, &mvrep);
     phase[0] = cli_now() - tp;
     if (s != CSI_OK) {
         rc = cli_error(prog, s, "%s%s", cli_last_error(),
@@ -539,21 +557,25 @@ int main(int argc, char **argv)
         goto done;
     }
     tp = cli_now();
-    size_t refine_cells = 0, refine_pixels = 0, refine_settled = 0;
+    size_t refine_cells = 0, refine_pixels = 0, refine_settled = 0, refine_stepped = 0;
     if (refine)
         s = write_refinement(set, refine, &samples, res, refine_share, &refine_cells, &refine_pixels);
     if (refine_with) {
-        const csi_samples ms = {more.grid, more.channels, more.count, more.pos, more.values, more.flags, NULL};
-        s = apply_refinement(refine_with, in, &samples, &ms, res, refine_share, settle_after, &refine_pixels,
-                             &refine_settled);
+        const csi_samples ms = {more.grid, more.channels, more.count, more.pos, more.values, more.flags,
+                                more_var ? more_variance.values : NULL};
+        s = apply_refinement(refine_with, in, &samples, &ms, res, refine_share, settle_after, step_after,
+                             &refine_pixels, &refine_settled, &refine_stepped);
         refine_cells = more.count;
+        if (s == CSI_OK && !quiet && step_after && varfile && !more_var && more.count)
+            cli_warn(prog, "%s has no variances beside it (its .variance.csid): an HDR step's pixels keep their "
+                     "values after the passes", refine_with);
     }
     if (s == CSI_OK)
         s = cli_write_images(&outs, set, res, NULL, &bar);
     phase[2] = cli_now() - tp;
     if (s == CSI_OK && outs.stats)
         s = write_stats(set, outs.stats, in, varfile, dev, &dump, &drep, res, phase, t0,
-                        refine ? refine : refine_with, refine_cells, refine_pixels, refine_settled);
+                        refine ? refine : refine_with, refine_cells, refine_pixels, refine_settled, refine_stepped);
     if (s == CSI_OK)
         s = csi_outset_commit(set);
     if (s != CSI_OK) {
@@ -573,6 +595,8 @@ int main(int argc, char **argv)
                     prog, refine_pixels, refine_cells, refine_with);
             if (refine_settled)
                 fprintf(stderr, ", %zu more settled on their samples' mean", refine_settled);
+            if (refine_stepped)
+                fprintf(stderr, ", %zu across an HDR step given their window's coverage", refine_stepped);
             fputc('\n', stderr);
         } else if (refine && refine_cells)
             fprintf(stderr, "%s: refine: %zu cells of %zu pixels to sample next in %s\n", prog, refine_cells,
@@ -587,7 +611,9 @@ done:
     csi_dump_free(&dump);
     csi_dump_free(&var);
     csi_dump_free(&more);
+    csi_dump_free(&more_variance);
     free(found);
+    free(more_var);
     csi_options_free(opt);
     return rc;
 }

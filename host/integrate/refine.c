@@ -21,6 +21,7 @@
 
 #include "csi/csi.h"
 #include "csi/settle.h"
+#include "csi/step_coverage.h"
 #include "csi/status.h"
 
 /* The share's default (csi-reconstruct --refine-share, csi-mitsuba --refine-share): a pixel
@@ -251,5 +252,58 @@ csi_status csi_refine_settle(const csi_samples *first, const csi_samples *more, 
     }
     free(cnt);
     free(sum);
+    return s;
+}
+
+/* A sample of first or more by its cell: csi's cell order, then the sample's place (first's, then more's). */
+typedef struct cell_key {
+    uint64_t cell;
+    size_t at;
+} cell_key;
+
+static int cmp_cell_key(const void *a, const void *b)
+{
+    const cell_key *x = a, *y = b;
+    return x->cell != y->cell ? (x->cell > y->cell) - (x->cell < y->cell) : (x->at > y->at) - (x->at < y->at);
+}
+
+csi_status csi_refine_step_coverage(const csi_samples *first, const csi_samples *more, csi_image *image,
+                                    size_t *pixels)
+{
+    if (!first || !image)
+        return csi_fail(CSI_ERR_ARG, "csi_refine_step_coverage: %s is NULL", !first ? "first" : "image");
+    if (pixels)
+        *pixels = 0;
+    CSI_TRY(check_pair(first, more, image));
+    const size_t n1 = first->count, n = n1 + (more ? more->count : 0);
+    if (!first->variance || (more && more->count && !more->variance) || !n)
+        return CSI_OK; /* one path per sample: no noise level to tell a rim from a lucky path */
+    const csi_samples *set[2] = {first, more};
+    const uint32_t C = first->channels;
+    for (int k = 0; k < 2 && set[k]; k++)
+        for (size_t i = 0; i < set[k]->count * C; i++)
+            if (!(set[k]->variance[i] >= 0 && isfinite(set[k]->variance[i])))
+                return csi_fail(CSI_ERR_ARG, "refinement: %s sample %zu's variance is %s", k ? "refined" : "first",
+                                i / C, isfinite(set[k]->variance[i]) ? "negative" : "not finite");
+    cell_key *key = malloc(n * sizeof *key);
+    csi_sample_pos *pos = malloc(n * sizeof *pos);
+    float *val = malloc(n * C * sizeof *val), *var = malloc(n * C * sizeof *var);
+    csi_status s = key && pos && val && var ? CSI_OK : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu samples", n);
+    if (s == CSI_OK) {
+        for (size_t i = 0; i < n; i++) {
+            const csi_samples *from = i < n1 ? first : more;
+            key[i] = (cell_key){csi_grid_index(&first->grid, from->pos[i < n1 ? i : i - n1]), i};
+        }
+        qsort(key, n, sizeof *key, cmp_cell_key);
+        for (size_t j = 0; j < n; j++) {
+            const size_t i = key[j].at, at = i < n1 ? i : i - n1;
+            const csi_samples *from = i < n1 ? first : more;
+            pos[j] = from->pos[at];
+            memcpy(val + j * C, from->values + at * C, C * sizeof *val);
+            memcpy(var + j * C, from->variance + at * C, C * sizeof *var);
+        }
+        s = csi_step_coverage(&first->grid, C, pos, val, var, n, NULL, image->data, pixels);
+    }
+    free(key), free(pos), free(val), free(var);
     return s;
 }

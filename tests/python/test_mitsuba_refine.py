@@ -1,8 +1,8 @@
 """csi-mitsuba --refine end to end: the first pass's samples, the cells csi asks for next
 (csi_refine_positions on the first pass's reconstruction), Mitsuba rendering them, and the image:
 the first pass's reconstruction with each refined pixel its samples' mean, then, with several
-paths per sample, the pixels that still decide it settled on their samples' mean; bad arguments
-refused before any rendering.
+paths per sample, the pixels that still decide it settled on their samples' mean and an HDR step's
+pixels given the coverage their window's samples allow; bad arguments refused before any rendering.
 
 Scene: data/mitsuba/horizon.py (a textured plane to the horizon, a sun glinting on a glossy
 sphere: a few pixels hold most of the image's error) at 48x48, 4 samples per pixel of 4 paths
@@ -35,6 +35,15 @@ def cli(*args):
     env = dict(os.environ, PYTHONPATH=os.path.abspath(PYDIR))
     return subprocess.run([sys.executable, "-m", "csi.mitsuba_cli", *map(str, args)], stdout=subprocess.PIPE,
                           stderr=subprocess.PIPE, text=True, env=env)
+
+
+def second_pass(both, one, path, values=None):
+    """Writes the samples of the dump `both` that the one-pass dump `one` lacks (the second pass's)
+    to path, with `values` (both's own by default: e.g. their variances) in both's order."""
+    key = lambda a: a[:, 1].astype(np.int64) * both.grid[0] + a[:, 0]  # noqa: E731
+    new = ~np.isin(key(both.xyt), key(one.xyt))
+    csid.write(path, csid.Dump(grid=both.grid, out=both.out, xyt=both.xyt[new],
+                               values=(both.values if values is None else values)[new], seed=both.seed))
 
 
 def main():
@@ -189,11 +198,7 @@ def main():
             check(n_set > 0 and len(moved) == n_set and (wp > 0).all() and (wp <= 1 + 1e-5).all() and spread <= 1e-4,
                   f"settled after the pass: stats {n_set}, pixels changed {len(moved)}, weights towards their means "
                   f"{np.round(wp, 4)} (spread over the channels {spread:.2g})")
-            l1 = csid.read(p("lone.csid"))
-            newl = ~np.isin(dl.xyt[:, 1].astype(np.int64) * dl.grid[0] + dl.xyt[:, 0],
-                            l1.xyt[:, 1].astype(np.int64) * dl.grid[0] + l1.xyt[:, 0])
-            csid.write(p("lmore.csid"), csid.Dump(grid=dl.grid, out=dl.out, xyt=dl.xyt[newl], values=dl.values[newl],
-                                                  seed=dl.seed))
+            second_pass(dl, csid.read(p("lone.csid")), p("lmore.csid"))
             rw = subprocess.run([programs.find("csi-reconstruct"), p("lone.csid"), "--refine-with", p("lmore.csid"),
                                  "-o", p("lrw.exr")], capture_output=True, text=True)
             check(rw.returncode == 0 and np.array_equal(exr.read(p("lrw.exr")), exr.read(p("ls.exr")))
@@ -201,6 +206,46 @@ def main():
                   f"csi-reconstruct --refine-with (settling) != csi-mitsuba's image: exit {rw.returncode} "
                   f"{rw.stderr.strip()}")
             check(json.load(open(p("p1.json")))["refine"]["settled"] == 0, "one path per sample: pixels settled")
+
+        # Then, with several paths per sample, an HDR step's pixels the passes did not take move to
+        # the coverage their window's samples allow (csi_refine_step_coverage): the Cornell box's
+        # emitter rims. Against '-- --step-coverage off' the default differs at exactly the pixels
+        # the stats count, each between its own dark and bright samples' levels; csi-reconstruct
+        # --refine-with on the first pass's dump gives the same bits with the second pass's
+        # variances beside its dump, and without them warns and keeps the settled patch.
+        cb = ["cornell", "--out", "48x48", "--spp", 4, "--paths", 4, "--seed", 3, "-q"]
+        runs = {name: cli(*cb, *args) for name, args in (
+            ("cb", ["--dump", p("cb.csid"), "-o", p("cb.exr"), "--stats", p("cb.json")]),
+            ("off", ["-o", p("cboff.exr"), "--", "--step-coverage", "off"]),
+            ("one", ["--no-refine", "--dump", p("cbone.csid")]))}
+        for name, rr in runs.items():
+            check(rr.returncode == 0, f"Cornell box, {name}: exit {rr.returncode}: {rr.stderr.strip()}")
+        if not any(rr.returncode for rr in runs.values()):
+            n_step = json.load(open(p("cb.json")))["refine"]["step_moved"]
+            a_img, b_img = exr.read(p("cb.exr")).reshape(-1, 3), exr.read(p("cboff.exr")).reshape(-1, 3)
+            moved = np.flatnonzero((a_img != b_img).any(axis=1))
+            dc = csid.read(p("cb.csid"))
+            f = dc.grid[0] // dc.out[0]
+            pix = (dc.xyt[:, 1] // f).astype(np.int64) * dc.out[0] + dc.xyt[:, 0] // f
+            between = all((a_img[q] >= dc.values[pix == q].min(axis=0) * (1 - 1e-6)).all()
+                          and (a_img[q] <= dc.values[pix == q].max(axis=0) * (1 + 1e-6)).all() for q in moved)
+            check(n_step > 0 and len(moved) == n_step and between,
+                  f"the step after the passes: stats {n_step}, pixels changed {len(moved)}, within their samples "
+                  f"{between}")
+            c1 = csid.read(p("cbone.csid"))
+            second_pass(dc, c1, p("cbmore.csid"))
+            rw = subprocess.run([programs.find("csi-reconstruct"), p("cbone.csid"), "--refine-with", p("cbmore.csid"),
+                                 "-o", p("cbrw0.exr")], capture_output=True, text=True)
+            check(rw.returncode == 0 and np.array_equal(exr.read(p("cbrw0.exr")), exr.read(p("cboff.exr")))
+                  and "no variances beside it" in rw.stderr,
+                  f"--refine-with without the second pass's variances: exit {rw.returncode} {rw.stderr.strip()}")
+            second_pass(dc, c1, p("cbmore.variance.csid"), csid.read(p("cb.variance.csid")).values)
+            rw = subprocess.run([programs.find("csi-reconstruct"), p("cbone.csid"), "--refine-with", p("cbmore.csid"),
+                                 "-o", p("cbrw.exr")], capture_output=True, text=True)
+            check(rw.returncode == 0 and np.array_equal(exr.read(p("cbrw.exr")), exr.read(p("cb.exr")))
+                  and f"{n_step} across an HDR step" in rw.stderr,
+                  f"csi-reconstruct --refine-with (the step) != csi-mitsuba's image: exit {rw.returncode} "
+                  f"{rw.stderr.strip()}")
 
         # Refused before any rendering: one line, exit 2, nothing written (the scene a copy: a
         # failure must not write over the repository's).

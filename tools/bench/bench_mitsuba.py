@@ -23,7 +23,8 @@ and csi-mitsuba's default, its second pass (two passes: more samples, so apart f
                 then the cells of the pixels it cannot decide rendered through the bridge and
                 those pixels set to the mean of all their samples (csi.refine_positions,
                 csi.refine_apply), then with more than one path the pixels that still decide
-                the image settled on their samples' mean (csi.refine_settle), against
+                the image settled on their samples' mean (csi.refine_settle) and an HDR step's
+                pixels given their window's coverage (csi.refine_step_coverage), against
   mean+pass     the per-pixel mean of the same samples, the first pass's and the second's.
 Figures against Mitsuba's reference (its own render with a box pixel filter at --reference-spp):
 MSE, relMSE = mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01), the count of

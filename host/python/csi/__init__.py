@@ -13,7 +13,7 @@ loaded on first use, and the renderer bridges import their renderer only when th
 __version__ = "0.2.0"
 
 _API = ("CsiError", "Device", "Dump", "Options", "OutputSet", "Result", "cached_programs_dir", "default_grid_factor", "merge_partials", "options",
-        "positions", "read_dump", "reconstruct", "reconstruct_check", "refine_apply", "refine_positions", "refine_settle", "reconstruct_dump", "reconstruct_tile", "version")
+        "positions", "read_dump", "reconstruct", "reconstruct_check", "refine_apply", "refine_positions", "refine_settle", "refine_step_coverage", "reconstruct_dump", "reconstruct_tile", "version")
 
 
 def __getattr__(name):

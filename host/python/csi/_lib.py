@@ -191,6 +191,8 @@ def _bind(L):
                                             ctypes.POINTER(c_size)]),
         "csi_refine_settle": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Samples),
                                              ctypes.POINTER(_Image), ctypes.POINTER(c_size)]),
+        "csi_refine_step_coverage": (ctypes.c_int, [ctypes.POINTER(_Samples), ctypes.POINTER(_Samples),
+                                                    ctypes.POINTER(_Image), ctypes.POINTER(c_size)]),
         "csi_positions": (ctypes.c_int, [ctypes.POINTER(Grid), ctypes.POINTER(_PosOpts),
                                          ctypes.POINTER(ctypes.POINTER(u32)), ctypes.POINTER(c_size), P]),
         "csi_dump_read": (ctypes.c_int, [ctypes.c_char_p, P, ctypes.POINTER(_Dump), P]),
@@ -786,6 +788,25 @@ def refine_settle(positions, values, grid, image, variance=None, more_positions=
     px = c_size()
     _check(L.csi_refine_settle(ctypes.byref(first), ctypes.byref(more) if more is not None else None,
                                ctypes.byref(view), ctypes.byref(px)))
+    planar = keep[-1]
+    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+
+
+def refine_step_coverage(positions, values, grid, image, variance=None, more_positions=None, more_values=None,
+                         more_variance=None):
+    """The image after the settling, its HDR steps' pixels given the coverage their window's samples
+    allow (csi_refine_step_coverage, as csi_reconstruct's last step on a fixed dump), from all the
+    samples (these, then the more ones if given, taken in csi's cell order): with each sample's
+    variance given (several paths per sample); without them nothing moves. Returns (image, pixels
+    moved); image is a copy."""
+    L, keep = lib(), []
+    first = _image_samples(positions, values, grid, keep, variance)
+    more = _image_samples(more_positions, more_values, grid, keep, more_variance) \
+        if more_positions is not None else None
+    view = _planar_view(image, keep)
+    px = c_size()
+    _check(L.csi_refine_step_coverage(ctypes.byref(first), ctypes.byref(more) if more is not None else None,
+                                      ctypes.byref(view), ctypes.byref(px)))
     planar = keep[-1]
     return np.moveaxis(planar, 0, 2).copy(), int(px.value)
 

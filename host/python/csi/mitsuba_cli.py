@@ -120,7 +120,8 @@ def parser():
                         "highlight one of a pixel's few samples hit; about 2%% more samples) is rendered too, "
                         "and those pixels take the mean of all their samples; with --paths above 1 the pixels "
                         "that still decide the image then settle on their samples' mean ('-- --settle off': "
-                        "not) (csi-reconstruct --refine-request, --refine-with; --dump writes all the samples; "
+                        "not) and an HDR step's pixels take the coverage their window's samples allow "
+                        "('-- --step-coverage off': not) (csi-reconstruct --refine-request, --refine-with; --dump writes all the samples; "
                         "docs/bench/mitsuba.md). Default: on "
                         "for an image reconstructed by csi; off with --request, --time-steps above 1 or "
                         "-- --estimator mean|gauss; --no-refine samples exactly --spp per pixel")
@@ -329,7 +330,8 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     each refined pixel set to the mean of all its samples, which a pixel sampled in every cell is
     given by the blend; then, with several paths per sample (their variances given to csi), the
     pixels that still decide the image settled on all their samples' mean (csi_refine_settle;
-    not with '-- --settle off'). A second reconstruction of all the samples differs from the
+    not with '-- --settle off') and an HDR step's pixels given the coverage their window's samples
+    allow (csi_refine_step_coverage; not with '-- --step-coverage off'). A second reconstruction of all the samples differs from the
     patch only in the fit around the refined pixels: it measured the same error on average and
     above the mean of the same samples more often (docs/bench/mitsuba.md, sessions 20 and 48),
     for twice csi's time."""
@@ -344,9 +346,10 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     first = reconstruct_result(req.with_values(s.values), [*extra, "--settle", "off", "--step-coverage", "off"],
                                s.variance if a.variance_peaks else None, getattr(prog, "reconstruction", None))
     t_first = time.perf_counter() - t0
-    info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first, "settled": 0,
+    info = {"pixels": 0, "cells": 0, "passes": [], "t_first_reconstruction_s": t_first, "settled": 0, "step_moved": 0,
             "image": "the first pass's reconstruction, each refined pixel its samples' mean, then (several "
-                     "paths per sample) the pixels that still decide it settled on their samples' mean"}
+                     "paths per sample) the pixels that still decide it settled on their samples' mean and "
+                     "an HDR step's pixels given the coverage their window's samples allow"}
     grid = (*req.grid, *req.out)
     w, h, _ = req.grid
     image = first.image
@@ -378,6 +381,12 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
             reconstruction_options(extra)[0].get("settle") != "off":
         try:
             image, info["settled"] = csi.refine_settle(req.xyt, s.values, grid, image, variance=s.variance)
+        except csi.CsiError as e:
+            raise ReconstructError(e) from None
+    if info["cells"] and s.variance is not None and a.variance_peaks and \
+            reconstruction_options(extra)[0].get("step_coverage") != "off":
+        try:  # the rims the passes did not take (csi_refine_step_coverage; the first pass went without it)
+            image, info["step_moved"] = csi.refine_step_coverage(req.xyt, s.values, grid, image, variance=s.variance)
         except csi.CsiError as e:
             raise ReconstructError(e) from None
     if info["cells"]:
@@ -616,8 +625,8 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         raise UsageError("--refine and '-- --settle on': the second pass samples the pixels that --settle would give "
                          "their means; give one (--no-refine for --settle)")
     if a.refine and reconstruction_options(extra)[0].get("step_coverage") == "on":
-        raise UsageError("--refine and '-- --step-coverage on': the second pass samples the pixels that step would "
-                         "move; give one (--no-refine for --step-coverage)")
+        raise UsageError("--refine and '-- --step-coverage on': the first pass goes without the step, and with "
+                         "--paths above 1 it follows the passes by itself ('-- --step-coverage off': not)")
     if a.refine or a.output or a.png or a.frames:
         check_fits(req, a, extra)
     s = mb.render_request(scene, req, paths=a.paths, seed=seed, aov=a.aov,
@@ -685,7 +694,9 @@ def _run(a, extra, prog, files, var_path, aov_paths):
         msg += (f"; refine: {refined['cells']} more samples at {refined['pixels']} pixels"
                 + (f" in {len(passes)} passes" if len(passes) > 1 else "")
                 + (f" (Mitsuba {sum(q['mitsuba']['render_s'] for q in passes):.2f} s)" if passes else "")
-                + (f", {refined['settled']} more settled on their samples' mean" if refined["settled"] else ""))
+                + (f", {refined['settled']} more settled on their samples' mean" if refined["settled"] else "")
+                + (f", {refined['step_moved']} across an HDR step given their window's coverage"
+                   if refined.get("step_moved") else ""))
     if t_recon is not None:
         msg += f", csi {t_recon:.2f} s"
     warnings = [f"{s.nonfinite} of Mitsuba's paths were NaN or Inf and are counted as 0"] if s.nonfinite else []
