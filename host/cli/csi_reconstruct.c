@@ -37,7 +37,8 @@ static void usage(FILE *f)
 "                            --refine-with (csi-mitsuba --refine does both); not written when no\n"
 "                            pixel is picked (the summary says so). The image is then the first\n"
 "                            pass's, which --refine-with completes (--settle off,\n"
-"                            --step-coverage off)\n"
+"                            --step-coverage off); with no pixel picked it is final: with the\n"
+"                            samples' variances, csi-reconstruct's default image, to the bit\n"
 "      --refine-share S      the share, 0 < S <= 1 [default: 0.005]\n"
 "      --refine-with MORE.csid\n"
 "                            the second pass without a second reconstruction: MORE.csid is DUMP's\n"
@@ -423,8 +424,8 @@ int main(int argc, char **argv)
                        "off: not)");
     /* After the second pass, with the samples' variances, the pixels that still decide the image
      * settle on all their samples (csi_refine_settle), unless --settle off says not to. */
-    const bool settle_after = refine_with && !option_is(opt, "settle", "off");
-    const bool step_after = refine_with && !option_is(opt, "step-coverage", "off");
+    const bool settle_after = (refine || refine_with) && !option_is(opt, "settle", "off");
+    const bool step_after = (refine || refine_with) && !option_is(opt, "step-coverage", "off");
     if (!rc && (refine || refine_with)) {
         csi_options_set(opt, "settle", "off");
         csi_options_set(opt, "step-coverage", "off");
@@ -560,6 +561,14 @@ int main(int argc, char **argv)
     size_t refine_cells = 0, refine_pixels = 0, refine_settled = 0, refine_stepped = 0;
     if (refine)
         s = write_refinement(set, refine, &samples, res, refine_share, &refine_cells, &refine_pixels);
+    if (s == CSI_OK && refine && !refine_cells) { /* no second pass: the image is final, as csi-mitsuba's */
+        csi_image img;
+        s = csi_result_image(res, &img);
+        if (s == CSI_OK && settle_after)
+            s = csi_refine_settle(&samples, NULL, &img, &refine_settled);
+        if (s == CSI_OK && step_after)
+            s = csi_refine_step_coverage(&samples, NULL, &img, &refine_stepped);
+    }
     if (refine_with) {
         const csi_samples ms = {more.grid, more.channels, more.count, more.pos, more.values, more.flags,
                                 more_var ? more_variance.values : NULL};
@@ -602,7 +611,8 @@ int main(int argc, char **argv)
             fprintf(stderr, "%s: refine: %zu cells of %zu pixels to sample next in %s\n", prog, refine_cells,
                     refine_pixels, refine);
         else if (refine)
-            fprintf(stderr, "%s: refine: no pixel to refine; %s not written\n", prog, refine);
+            fprintf(stderr, "%s: refine: no pixel to refine; %s not written, the image is final (%zu pixels "
+                    "settled, %zu across an HDR step moved)\n", prog, refine, refine_settled, refine_stepped);
     }
 done:
     csi_result_free(res);

@@ -246,6 +246,23 @@ def main():
                   and f"{n_step} across an HDR step" in rw.stderr,
                   f"csi-reconstruct --refine-with (the step) != csi-mitsuba's image: exit {rw.returncode} "
                   f"{rw.stderr.strip()}")
+        # Where the pick takes no pixel (--refine-share 1: no pixel holds all the disagreement), the
+        # settling and the step still follow: csi-mitsuba's image and csi-reconstruct
+        # --refine-request's are csi-reconstruct's default image of the same samples, to the bit.
+        z = cli(*cb, "--refine-share", 1, "--dump", p("z.csid"), "-o", p("z.exr"), "--stats", p("z.json"))
+        check(z.returncode == 0, f"--refine-share 1: exit {z.returncode}: {z.stderr.strip()}")
+        if z.returncode == 0:
+            zst = json.load(open(p("z.json")))["refine"]
+            subprocess.run([programs.find("csi-reconstruct"), p("z.csid"), "-o", p("zd.exr"), "-q"], check=True)
+            zr = subprocess.run([programs.find("csi-reconstruct"), p("z.csid"), "--refine-request", p("zreq.csid"),
+                                 "--refine-share", "1", "-o", p("zr.exr"), "-q"], capture_output=True, text=True)
+            check(zst["cells"] == 0 and zst["settled"] + zst["step_moved"] > 0
+                  and np.array_equal(exr.read(p("z.exr")), exr.read(p("zd.exr"))),
+                  f"no pixel picked: stats {zst['cells']} cells, {zst['settled']} settled, {zst['step_moved']} "
+                  "stepped; csi-mitsuba's image != csi-reconstruct's default")
+            check(zr.returncode == 0 and not os.path.exists(p("zreq.csid"))
+                  and np.array_equal(exr.read(p("zr.exr")), exr.read(p("zd.exr"))),
+                  f"--refine-request picking nothing: exit {zr.returncode}, its image != the default {zr.stderr!r}")
 
         # Refused before any rendering: one line, exit 2, nothing written (the scene a copy: a
         # failure must not write over the repository's).

@@ -331,10 +331,11 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
     given by the blend; then, with several paths per sample (their variances given to csi), the
     pixels that still decide the image settled on all their samples' mean (csi_refine_settle;
     not with '-- --settle off') and an HDR step's pixels given the coverage their window's samples
-    allow (csi_refine_step_coverage; not with '-- --step-coverage off'). A second reconstruction of all the samples differs from the
-    patch only in the fit around the refined pixels: it measured the same error on average and
-    above the mean of the same samples more often (docs/bench/mitsuba.md, sessions 20 and 48),
-    for twice csi's time."""
+    allow (csi_refine_step_coverage; not with '-- --step-coverage off'); where no pixel is
+    picked the two still run, which gives csi-reconstruct's default image, to the bit. A second
+    reconstruction of all the samples differs from the patch only in the fit around the refined
+    pixels: it measured the same error on average and above the mean of the same samples more
+    often (docs/bench/mitsuba.md, sessions 20 and 48), for twice csi's time."""
     import numpy as np
 
     import csi
@@ -377,19 +378,19 @@ def refine(scene, req: csid.Dump, s: mb.Samples, a, extra, prog):
         info["pixels"] += pixels
         info["cells"] += int(len(cells))
         info["passes"].append({"pixels": pixels, "cells": int(len(cells)), "mitsuba": s2.timing})
-    if info["cells"] and s.variance is not None and a.variance_peaks and \
-            reconstruction_options(extra)[0].get("settle") != "off":
+    # with several paths per sample, the settling and the step follow the passes; where no pixel was
+    # picked they make csi-reconstruct's default image of the first pass, to the bit
+    if s.variance is not None and a.variance_peaks and reconstruction_options(extra)[0].get("settle") != "off":
         try:
             image, info["settled"] = csi.refine_settle(req.xyt, s.values, grid, image, variance=s.variance)
         except csi.CsiError as e:
             raise ReconstructError(e) from None
-    if info["cells"] and s.variance is not None and a.variance_peaks and \
-            reconstruction_options(extra)[0].get("step_coverage") != "off":
+    if s.variance is not None and a.variance_peaks and reconstruction_options(extra)[0].get("step_coverage") != "off":
         try:  # the rims the passes did not take (csi_refine_step_coverage; the first pass went without it)
             image, info["step_moved"] = csi.refine_step_coverage(req.xyt, s.values, grid, image, variance=s.variance)
         except csi.CsiError as e:
             raise ReconstructError(e) from None
-    if info["cells"]:
+    if info["cells"] or info["settled"] or info["step_moved"]:
         first.set_image(image)
     return req, s, info, first
 
