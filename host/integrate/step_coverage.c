@@ -148,14 +148,14 @@ typedef struct step_scratch {
     unsigned char *cls, *box;
 } step_scratch;
 
-/* The mean of the class's samples among the pixel's own (its first `own` window samples). */
-static void class_level(const step_state *t, const step_scratch *s, size_t own, unsigned char cls, double *level)
+/* The mean of the class's samples among the window's first n (n = own: the pixel's own). */
+static void class_level(const step_state *t, const step_scratch *s, size_t n, unsigned char cls, double *level)
 {
     const uint32_t channels = t->channels;
     size_t k = 0;
     for (uint32_t c = 0; c < channels; c++)
         level[c] = 0.0;
-    for (size_t i = 0; i < own; i++)
+    for (size_t i = 0; i < n; i++)
         if (s->cls[i] == cls) {
             for (uint32_t c = 0; c < channels; c++)
                 level[c] += t->values[s->ids[i] * channels + c];
@@ -198,14 +198,15 @@ static bool boundary_holds(const step_scratch *s, size_t own, size_t m, int k)
 }
 
 /* How a window judges a pixel: its reach in pixels, whether a conic may bound it, whether the
- * boundary's own coverage needs the pixel's own samples to check it (csi/step_coverage.h). */
+ * boundary's own coverage needs the pixel's own samples to check it, whether a pixel whose own
+ * samples are all bright may be dimmed to the window's band (csi/step_coverage.h). */
 typedef struct step_window {
     size_t radius;
-    bool conic, checked;
+    bool conic, checked, dims_all_bright;
 } step_window;
 
 /* The outer window, then the inner one where the outer's samples are no clean step a line divides. */
-static const step_window WIDE = {2, false, false}, NEAR = {1, true, true};
+static const step_window WIDE = {2, false, false, true}, NEAR = {1, true, true, false};
 
 enum { STEP_NONE = -1, STEP_KEPT = 0, STEP_MOVED = 1 };
 
@@ -254,8 +255,9 @@ static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, 
     size_t kb = 0;
     for (size_t i = 0; i < own; i++)
         kb += s->cls[i];
-    if (!kb || kb == own)
-        return STEP_KEPT; /* one class of its own: no band (below), and a level that would be a neighbour's */
+    if (!kb || (kb == own && !win->dims_all_bright))
+        return STEP_KEPT; /* one class of its own: no band of its own (below), and a level of the other
+                             class that would be a neighbour's */
     /* positions in pixels from the pixel's centre */
     const double bw = t->map.bw, bh = t->map.bh;
     for (size_t i = 0; i < m; i++) {
@@ -294,6 +296,17 @@ static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, 
             on_bright += f > 0;
         }
     const double cells = bw * bh, c_lo = (double)sure_bright / cells, c_hi = 1.0 - (double)sure_dark / cells;
+    double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
+    if (kb == own) { /* all its own samples bright: dimmed only as far as the window's dark samples say */
+        const double c_win = 1.0 - (double)win_dark / cells;
+        if (k != STEP_LINE || c_win >= 1.0)
+            return STEP_KEPT;
+        class_level(t, s, own, 1, bright);
+        class_level(t, s, m, 0, dark); /* the window's dark level: the pixel has none of its own */
+        for (uint32_t c = 0; c < t->channels; c++)
+            t->delta[(size_t)c * t->np + p] = (float)((c_win - 1.0) * (bright[c] - dark[c]));
+        return STEP_MOVED;
+    }
     const double share = (double)kb / (double)own, fitted = (double)on_bright / cells;
     const bool strata = own_one_per_box(t, s, own);
     double est;
@@ -304,7 +317,6 @@ static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, 
     const double cov = csi_fmin(csi_fmax(est, c_lo), c_hi);
     if (cov == share)
         return STEP_KEPT;
-    double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
     class_level(t, s, own, 1, bright);
     class_level(t, s, own, 0, dark);
     for (uint32_t c = 0; c < t->channels; c++)

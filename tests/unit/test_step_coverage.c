@@ -14,9 +14,12 @@
  *      the reference is at most the mean's (the rule's promise where its gates hold), and below it
  *      for the straight rim with each position set (some pixels move, or the test says nothing;
  *      one per stratum too: the wide window's line needs no more of the pixel's own samples); a
- *      pixel whose own samples are all of one class keeps its
- *      value bit for bit; a moved pixel's value lies between the levels, D <= x <= B per channel
- *      (it is c B + (1 - c) D for a coverage c in [0, 1], to float rounding).
+ *      pixel whose own samples are all dark keeps its value bit for bit; one whose own samples are
+ *      all bright may only be dimmed (x <= its mean per channel), and over the pixels so dimmed
+ *      the error falls, for each shape where any is (some are on the straight rim, and on the
+ *      rectangle at 4 spp: a rim's pixels of four bright samples that the rim still crosses); a moved
+ *      pixel's value lies between the levels, D <= x <= B per channel (it is c B + (1 - c) D for
+ *      a coverage c in [0, 1], to float rounding).
  *   2. The same straight rim whose bright samples have a standard deviation of 0.3 times their
  *      value (paths that only sometimes reach the emitter): nothing moves (bit for bit).
  *   3. Not two levels: the bright side 0.2 and 2 times B in alternate columns of pixels (10:1 among
@@ -112,7 +115,8 @@ static void make(shape s, int stratified, uint64_t seed, int uneven, double var_
     }
 }
 
-/* The per-pixel mean (planar), and whether each pixel's own samples are all of one class. */
+/* The per-pixel mean (planar), and whether each pixel's own samples are all of one class: 1 all
+ * dark, 2 all bright, else 0. */
 static void pixel_means(const csi_sample_pos *pos, const float *val, float *img, int *one_class)
 {
     double sum[3 * NP] = {0};
@@ -126,15 +130,16 @@ static void pixel_means(const csi_sample_pos *pos, const float *val, float *img,
     for (int p = 0; p < NP; p++) {
         for (int c = 0; c < 3; c++)
             img[c * NP + p] = (float)(sum[c * NP + p] / cnt[p]);
-        one_class[p] = nb[p] == 0 || nb[p] == cnt[p];
+        one_class[p] = nb[p] == 0 ? 1 : nb[p] == cnt[p] ? 2 : 0;
     }
 }
 
-static double squared_error(const float *img, const double *cov)
+/* Summed over the pixels, or only those where only[p] (only: NULL for all). */
+static double squared_error(const float *img, const double *cov, const int *only)
 {
     double e = 0;
     for (int p = 0; p < NP; p++)
-        for (int c = 0; c < 3; c++) {
+        for (int c = 0; only && !only[p] ? 0 : c < 3; c++) {
             const double d = img[c * NP + p] - (cov[p] * BRIGHT[c] + (1 - cov[p]) * DARK[c]);
             e += d * d;
         }
@@ -157,7 +162,8 @@ int main(void)
     for (int s = RIM; s <= RECT; s++) {
         coverage((shape)s, cov);
         double e_mean = 0, e_out = 0, e_mean_set[2] = {0, 0}, e_out_set[2] = {0, 0};
-        size_t moved_all = 0, moved_set[2] = {0, 0};
+        size_t moved_all = 0, moved_set[2] = {0, 0}, dimmed_all = 0;
+        double e_dim_mean = 0, e_dim_out = 0;
         for (int strat = 0; strat < 2; strat++)
             for (uint64_t seed = 1; seed <= 3; seed++) {
                 make((shape)s, strat, seed, 0, 0.0, pos, val, var);
@@ -166,19 +172,24 @@ int main(void)
                 size_t moved = 0;
                 CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, n_samples(), NULL, out, &moved));
                 moved_all += moved, moved_set[strat] += moved;
-                e_mean_set[strat] += squared_error(mean, cov), e_out_set[strat] += squared_error(out, cov);
-                e_mean += squared_error(mean, cov), e_out += squared_error(out, cov);
+                e_mean_set[strat] += squared_error(mean, cov, NULL), e_out_set[strat] += squared_error(out, cov, NULL);
+                e_mean += squared_error(mean, cov, NULL), e_out += squared_error(out, cov, NULL);
                 int kept = 1, between = 1;
-                for (int p = 0; p < NP; p++)
+                static int dimmed[NP];
+                for (int p = 0; p < NP; p++) {
+                    dimmed[p] = one_class[p] == 2 && out[p] != mean[p];
+                    dimmed_all += dimmed[p];
                     for (int c = 0; c < 3; c++) {
                         const float x = out[c * NP + p];
-                        if (one_class[p] && x != mean[c * NP + p])
+                        if ((one_class[p] == 1 && x != mean[c * NP + p]) || (one_class[p] == 2 && x > mean[c * NP + p]))
                             kept = 0;
                         if (x != mean[c * NP + p] &&
                             !(x >= DARK[c] * (1 - 1e-6) && x <= BRIGHT[c] * (1 + 1e-6)))
                             between = 0;
                     }
-                CHECK(kept, "%s, %s, seed %d: a pixel of one class of samples moved", names[s],
+                }
+                e_dim_mean += squared_error(mean, cov, dimmed), e_dim_out += squared_error(out, cov, dimmed);
+                CHECK(kept, "%s, %s, seed %d: a pixel of dark samples moved, or one of bright ones brightened", names[s],
                       strat ? "stratified" : "random", (int)seed);
                 CHECK(between, "%s, %s, seed %d: a moved pixel outside its levels", names[s],
                       strat ? "stratified" : "random", (int)seed);
@@ -187,9 +198,12 @@ int main(void)
                 CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, n_samples(), pool, out2, NULL));
                 CHECK(memcmp(out, out2, sizeof out) == 0, "%s, seed %d: the pool's bits differ", names[s], (int)seed);
             }
-        printf("%s, %d spp: squared error %.4g (the mean's %.4g), %zu pixels moved\n", names[s], spp, e_out, e_mean,
-               moved_all);
+        printf("%s, %d spp: squared error %.4g (the mean's %.4g), %zu pixels moved; %zu of all-bright samples dimmed: "
+               "%.4g (the mean's %.4g)\n", names[s], spp, e_out, e_mean, moved_all, dimmed_all, e_dim_out, e_dim_mean);
         CHECK(e_out <= e_mean, "%s, %d spp: error %.6g above the mean's %.6g", names[s], spp, e_out, e_mean);
+        CHECK(dimmed_all ? e_dim_out < e_dim_mean : s != RIM && (s != RECT || spp != 4),
+              "%s, %d spp: %zu pixels of bright samples dimmed, error %.6g, the mean's %.6g", names[s], spp, dimmed_all,
+              e_dim_out, e_dim_mean);
         for (int strat = 0; s == RIM && strat < 2; strat++)
             CHECK(moved_set[strat] > 0 && e_out_set[strat] < e_mean_set[strat],
                   "straight rim, %s, %d spp: %zu moved, error %.6g, the mean's %.6g", strat ? "stratified" : "random",

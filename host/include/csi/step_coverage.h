@@ -52,9 +52,18 @@
  *   - that coverage clamped to [c_lo, c_hi]: where the result is the mean's share, the pixel keeps
  *     its value (a straight rim split exactly by stratified samples keeps the mean); where it is
  *     not, the pixel's value moves by the change from its share times the difference of its own
- *     bright and dark samples' means. A pixel whose own samples are all of one class is left alone
- *     (no band, and a level of the other class would be a neighbour's: another region's colour,
- *     measured).
+ *     bright and dark samples' means;
+ *   - a pixel whose own samples are all of one class has no band of its own, and a level of the
+ *     other class only from its neighbours (another region's colour, where the window holds two:
+ *     measured). In the near window, and wherever they are all dark, it is left alone (a dark
+ *     pixel brightened beside a corner the line does not see costs its relMSE hundreds of times
+ *     over: measured). In the wide window, where a line divides the samples of 5 x 5 pixels,
+ *     a pixel of bright samples only that the window's band still cuts (its dark samples reach
+ *     into the pixel's cells along the line's normal: a rim that crosses the pixel's corner
+ *     between its samples) is dimmed to the band's bright side: by (1 - c_win) times its own
+ *     mean minus the window's dark samples' mean, c_win the share of its cells where f exceeds
+ *     its value at the window's most bright-looking dark sample: the band's clamp again, with
+ *     the window's samples bounding it (docs/bench/mitsuba.md, session 51).
  * Clamping moves an estimate towards an interval; when the interval holds the truth, the estimate
  * gets no farther from it. The gates keep the rule to windows where the boundary is well
  * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, sessions 38, 39 and 50).
