@@ -199,10 +199,10 @@ static bool boundary_holds(const step_scratch *s, size_t own, size_t m, int k)
 
 /* How a window judges a pixel: its reach in pixels, whether a conic may bound it, whether the
  * boundary's own coverage needs the pixel's own samples to check it, whether a pixel whose own
- * samples are all bright may be dimmed to the window's band (csi/step_coverage.h). */
+ * samples are all of one class moves to the window's band (csi/step_coverage.h). */
 typedef struct step_window {
     size_t radius;
-    bool conic, checked, dims_all_bright;
+    bool conic, checked, one_class_to_band;
 } step_window;
 
 /* The outer window, then the inner one where the outer's samples are no clean step a line divides. */
@@ -255,7 +255,7 @@ static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, 
     size_t kb = 0;
     for (size_t i = 0; i < own; i++)
         kb += s->cls[i];
-    if (!kb || (kb == own && !win->dims_all_bright))
+    if ((!kb || kb == own) && !win->one_class_to_band)
         return STEP_KEPT; /* one class of its own: no band of its own (below), and a level of the other
                              class that would be a neighbour's */
     /* positions in pixels from the pixel's centre */
@@ -297,14 +297,16 @@ static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, 
         }
     const double cells = bw * bh, c_lo = (double)sure_bright / cells, c_hi = 1.0 - (double)sure_dark / cells;
     double bright[STEP_MAX_CHANNELS], dark[STEP_MAX_CHANNELS];
-    if (kb == own) { /* all its own samples bright: dimmed only as far as the window's dark samples say */
-        const double c_win = 1.0 - (double)win_dark / cells;
-        if (k != STEP_LINE || c_win >= 1.0)
+    if (!kb || kb == own) { /* all its own samples of one class: moved only into the window's band */
+        const double share = kb ? 1.0 : 0.0;
+        const double c_win = kb ? 1.0 - (double)win_dark / cells : (double)win_bright / cells;
+        if (k != STEP_LINE || c_win == share || (!kb && own < 2))
             return STEP_KEPT;
-        class_level(t, s, own, 1, bright);
-        class_level(t, s, m, 0, dark); /* the window's dark level: the pixel has none of its own */
+        /* the other class's level from the window's samples: the pixel has none of its own */
+        class_level(t, s, kb ? own : m, 1, bright);
+        class_level(t, s, kb ? m : own, 0, dark);
         for (uint32_t c = 0; c < t->channels; c++)
-            t->delta[(size_t)c * t->np + p] = (float)((c_win - 1.0) * (bright[c] - dark[c]));
+            t->delta[(size_t)c * t->np + p] = (float)((c_win - share) * (bright[c] - dark[c]));
         return STEP_MOVED;
     }
     const double share = (double)kb / (double)own, fitted = (double)on_bright / cells;

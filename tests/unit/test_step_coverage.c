@@ -14,10 +14,10 @@
  *      the reference is at most the mean's (the rule's promise where its gates hold), and below it
  *      for the straight rim with each position set (some pixels move, or the test says nothing;
  *      one per stratum too: the wide window's line needs no more of the pixel's own samples); a
- *      pixel whose own samples are all dark keeps its value bit for bit; one whose own samples are
- *      all bright may only be dimmed (x <= its mean per channel), and over the pixels so dimmed
- *      the error falls, for each shape where any is (some are on the straight rim, and on the
- *      rectangle at 4 spp: a rim's pixels of four bright samples that the rim still crosses); a moved
+ *      pixel whose own samples are all dark may only brighten (x >= its mean per channel), one
+ *      whose own samples are all bright only dim, and over the pixels of one class so moved the
+ *      error falls, for each shape where any move (some do on the straight rim, and on the
+ *      rectangle at 4 spp: a rim's pixels whose samples all fell on one side of it); a moved
  *      pixel's value lies between the levels, D <= x <= B per channel (it is c B + (1 - c) D for
  *      a coverage c in [0, 1], to float rounding).
  *   2. The same straight rim whose bright samples have a standard deviation of 0.3 times their
@@ -162,8 +162,8 @@ int main(void)
     for (int s = RIM; s <= RECT; s++) {
         coverage((shape)s, cov);
         double e_mean = 0, e_out = 0, e_mean_set[2] = {0, 0}, e_out_set[2] = {0, 0};
-        size_t moved_all = 0, moved_set[2] = {0, 0}, dimmed_all = 0;
-        double e_dim_mean = 0, e_dim_out = 0;
+        size_t moved_all = 0, moved_set[2] = {0, 0}, one_moved_all = 0;
+        double e_one_mean = 0, e_one_out = 0;
         for (int strat = 0; strat < 2; strat++)
             for (uint64_t seed = 1; seed <= 3; seed++) {
                 make((shape)s, strat, seed, 0, 0.0, pos, val, var);
@@ -174,22 +174,22 @@ int main(void)
                 moved_all += moved, moved_set[strat] += moved;
                 e_mean_set[strat] += squared_error(mean, cov, NULL), e_out_set[strat] += squared_error(out, cov, NULL);
                 e_mean += squared_error(mean, cov, NULL), e_out += squared_error(out, cov, NULL);
-                int kept = 1, between = 1;
-                static int dimmed[NP];
+                int away = 1, between = 1;
+                static int one_moved[NP];
                 for (int p = 0; p < NP; p++) {
-                    dimmed[p] = one_class[p] == 2 && out[p] != mean[p];
-                    dimmed_all += dimmed[p];
+                    one_moved[p] = one_class[p] && out[p] != mean[p];
+                    one_moved_all += one_moved[p];
                     for (int c = 0; c < 3; c++) {
                         const float x = out[c * NP + p];
-                        if ((one_class[p] == 1 && x != mean[c * NP + p]) || (one_class[p] == 2 && x > mean[c * NP + p]))
-                            kept = 0;
+                        if ((one_class[p] == 1 && x < mean[c * NP + p]) || (one_class[p] == 2 && x > mean[c * NP + p]))
+                            away = 0;
                         if (x != mean[c * NP + p] &&
                             !(x >= DARK[c] * (1 - 1e-6) && x <= BRIGHT[c] * (1 + 1e-6)))
                             between = 0;
                     }
                 }
-                e_dim_mean += squared_error(mean, cov, dimmed), e_dim_out += squared_error(out, cov, dimmed);
-                CHECK(kept, "%s, %s, seed %d: a pixel of dark samples moved, or one of bright ones brightened", names[s],
+                e_one_mean += squared_error(mean, cov, one_moved), e_one_out += squared_error(out, cov, one_moved);
+                CHECK(away, "%s, %s, seed %d: a pixel of dark samples darkened, or one of bright ones brightened", names[s],
                       strat ? "stratified" : "random", (int)seed);
                 CHECK(between, "%s, %s, seed %d: a moved pixel outside its levels", names[s],
                       strat ? "stratified" : "random", (int)seed);
@@ -198,12 +198,13 @@ int main(void)
                 CHECK_OK(csi_step_coverage(&g, 3, pos, val, var, n_samples(), pool, out2, NULL));
                 CHECK(memcmp(out, out2, sizeof out) == 0, "%s, seed %d: the pool's bits differ", names[s], (int)seed);
             }
-        printf("%s, %d spp: squared error %.4g (the mean's %.4g), %zu pixels moved; %zu of all-bright samples dimmed: "
-               "%.4g (the mean's %.4g)\n", names[s], spp, e_out, e_mean, moved_all, dimmed_all, e_dim_out, e_dim_mean);
+        printf("%s, %d spp: squared error %.4g (the mean's %.4g), %zu pixels moved; %zu of them of one class of "
+               "samples: %.4g (the mean's %.4g)\n", names[s], spp, e_out, e_mean, moved_all, one_moved_all, e_one_out,
+               e_one_mean);
         CHECK(e_out <= e_mean, "%s, %d spp: error %.6g above the mean's %.6g", names[s], spp, e_out, e_mean);
-        CHECK(dimmed_all ? e_dim_out < e_dim_mean : s != RIM && (s != RECT || spp != 4),
-              "%s, %d spp: %zu pixels of bright samples dimmed, error %.6g, the mean's %.6g", names[s], spp, dimmed_all,
-              e_dim_out, e_dim_mean);
+        CHECK(one_moved_all ? e_one_out < e_one_mean : s != RIM && (s != RECT || spp != 4),
+              "%s, %d spp: %zu pixels of one class of samples moved, error %.6g, the mean's %.6g", names[s], spp,
+              one_moved_all, e_one_out, e_one_mean);
         for (int strat = 0; s == RIM && strat < 2; strat++)
             CHECK(moved_set[strat] > 0 && e_out_set[strat] < e_mean_set[strat],
                   "straight rim, %s, %d spp: %zu moved, error %.6g, the mean's %.6g", strat ? "stratified" : "random",
