@@ -25,7 +25,12 @@
  *   3. Not two levels: the bright side 0.2 and 2 times B in alternate columns of pixels (10:1 among
  *      the bright samples of any window, beyond the rule's 8:1): nothing moves.
  *   4. One cell per pixel (every sample its pixel's exact value): nothing moves.
- *   5. The rows in bands on a pool of 2 threads: the same bits as on the calling thread. */
+ *   5. The rows in bands on a pool of 2 threads: the same bits as on the calling thread.
+ *   6. A strip light under 3 pixels tall, slightly slanted (every 5 x 5 window on its rim holds both
+ *      edges, so no line divides it; the convex region's band takes it, csi/convex_band.h), both
+ *      position sets, 3 seeds: at 4 and 16 spp the error at most half the mean's (issue 9's target
+ *      at 4 spp, here on noise-free samples of the shape the band is for; without the band 0.64x at
+ *      4 spp). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -46,7 +51,7 @@ static size_t n_samples(void)
 
 static const double BRIGHT[3] = {100, 50, 25}, DARK[3] = {1, 1, 1};
 
-typedef enum { RIM, SMALL_DISC, LARGE_DISC, RECT } shape;
+typedef enum { RIM, SMALL_DISC, LARGE_DISC, RECT, STRIP } shape;
 
 /* Is the image point (x, y), in pixels, on the bright side? */
 static int bright_at(shape s, double x, double y)
@@ -60,6 +65,8 @@ static int bright_at(shape s, double x, double y)
         return (x - 16.3) * (x - 16.3) + (y - 15.7) * (y - 15.7) < 1.6 * 1.6;
     case RECT:
         return x > 9.3 && x < 22.6 && y > 10.4 && y < 19.7;
+    case STRIP: /* a strip light under 3 pixels tall: every 5 x 5 window on its rim holds both edges */
+        return x > 6.3 && x < 25.4 && y > 14.2 + 0.05 * x && y < 16.9 + 0.05 * x;
     default:
         return (x - 15.6) * (x - 15.6) + (y - 16.2) * (y - 16.2) < 6.0 * 6.0;
     }
@@ -157,9 +164,9 @@ int main(void)
     CHECK(pool != NULL, "no row pool");
 
     /* 1. the rim, two discs and a rectangle, both position sets, 3 seeds, 4 and 16 spp */
-    static const char *names[] = {"straight rim", "small disc", "large disc", "rectangle"};
+    static const char *names[] = {"straight rim", "small disc", "large disc", "rectangle", "strip"};
     for (spp = 4; spp <= 16; spp *= 4)
-    for (int s = RIM; s <= RECT; s++) {
+    for (int s = RIM; s <= STRIP; s++) {
         coverage((shape)s, cov);
         double e_mean = 0, e_out = 0, e_mean_set[2] = {0, 0}, e_out_set[2] = {0, 0};
         size_t moved_all = 0, moved_set[2] = {0, 0}, one_moved_all = 0;
@@ -202,6 +209,8 @@ int main(void)
                "samples: %.4g (the mean's %.4g)\n", names[s], spp, e_out, e_mean, moved_all, one_moved_all, e_one_out,
                e_one_mean);
         CHECK(e_out <= e_mean, "%s, %d spp: error %.6g above the mean's %.6g", names[s], spp, e_out, e_mean);
+        CHECK(s != STRIP || e_out <= 0.5 * e_mean, "strip, %d spp: error %.6g above half the mean's %.6g", spp, e_out,
+              e_mean);
         CHECK(one_moved_all ? e_one_out < e_one_mean : s != RIM && (s != RECT || spp != 4),
               "%s, %d spp: %zu pixels of one class of samples moved, error %.6g, the mean's %.6g", names[s], spp,
               one_moved_all, e_one_out, e_one_mean);

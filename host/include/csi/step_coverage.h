@@ -18,7 +18,9 @@
  * The rule, per pixel, in two windows: the wide one (the pixel and the pixels within 2 of it),
  * bounded by a line; where its samples are not a step as below or no line divides them (a lamp's
  * disc, a corner, a second light), the near one (the pixel and its 8 neighbours), bounded by a
- * line or a conic, with checks (below). In a window whose samples span an HDR step, on the
+ * line or a conic, with checks (below); where that does not move the pixel either, the wide
+ * window once more with one side of the step taken as convex (last item). In a window whose
+ * samples span an HDR step, on the
  * samples' channel mean L (a sample's noise: the square root of its channels' mean variance):
  *   - a step: the window's brightest sample at least CSI_STEP_RATIO times its darkest and
  *     CSI_STEP_IMAGE_RATIO times the image's mean sample; its samples classed bright above the
@@ -66,7 +68,16 @@
  *     the share of its cells where f exceeds its value at the window's most bright-looking dark
  *     one (a rim across a pixel's corner between its samples); by c_win - share times the
  *     difference of the bright and dark levels, the other class's level the mean of the window's
- *     samples of that class (docs/bench/mitsuba.md, session 51).
+ *     samples of that class (docs/bench/mitsuba.md, session 51);
+ *   - the convex side: where no line divides the wide window's samples, one side may still be a
+ *     convex region on the other (an emitter's corner, a strip light a few pixels tall, a lamp's
+ *     disc; or the dark side, beside a bright region's inner corner): its samples' convex hull
+ *     holds none of the other side's. Then, whichever side that is alone, the cells every convex
+ *     region through the samples puts on each side bound the coverage (csi/convex_band.h), and
+ *     the pixel's share is clamped to them, as above (a pixel of one dark sample excepted), the
+ *     levels its own or, for a class it lacks, the window's. Where both sides are convex a line
+ *     divides them (the first rule's case); where neither, nothing is certain. Measured, session
+ *     51: the benchmark's Cornell box at 4 spp x 64 paths, whose emitter is under 4 pixels tall.
  * Clamping moves an estimate towards an interval; when the interval holds the truth, the estimate
  * gets no farther from it. The gates keep the rule to windows where the boundary is well
  * determined: measured on Mitsuba's samples (docs/bench/mitsuba.md, sessions 38, 39 and 50).
