@@ -284,12 +284,14 @@ static int step_move(step_state *t, step_scratch *s, size_t p, size_t own, size_
 }
 
 /* The rule on one pixel in one window: STEP_NONE where the window's samples are no step its
- * boundary divides, else STEP_MOVED or STEP_KEPT. */
-static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, const step_window *win)
+ * boundary divides, else STEP_MOVED or STEP_KEPT. *stepped (may be NULL): whether they span a step. */
+static int step_in_window(step_state *t, step_scratch *s, size_t px, size_t py, const step_window *win, bool *stepped)
 {
     const size_t p = py * t->ow + px;
     size_t own, kb;
     const size_t m = window_step(t, s, px, py, win->radius, &own, &kb);
+    if (stepped)
+        *stepped = m > 0;
     if (!m)
         return STEP_NONE;
     if ((!kb || kb == own) && !win->one_class_to_band)
@@ -384,10 +386,13 @@ static int step_convex(step_state *t, step_scratch *s, size_t px, size_t py)
 /* The rule on one pixel (csi/step_coverage.h); 1 if it moved. */
 static int step_pixel(step_state *t, step_scratch *s, size_t px, size_t py)
 {
-    const int wide = step_in_window(t, s, px, py, &WIDE);
+    bool wide_step;
+    const int wide = step_in_window(t, s, px, py, &WIDE, &wide_step);
     if (wide != STEP_NONE)
         return wide == STEP_MOVED;
-    return step_in_window(t, s, px, py, &NEAR) == STEP_MOVED || step_convex(t, s, px, py) == STEP_MOVED;
+    /* the convex side only where the wide window spans a step (else it would not: the same window) */
+    return step_in_window(t, s, px, py, &NEAR, NULL) == STEP_MOVED ||
+           (wide_step && step_convex(t, s, px, py) == STEP_MOVED);
 }
 
 static void step_pass(void *arg, size_t r0, size_t r1)
