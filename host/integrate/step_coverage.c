@@ -402,7 +402,7 @@ static void step_pass(void *arg, size_t r0, size_t r1)
     step_scratch s = {malloc(wm * sizeof *s.ids), malloc(wm * sizeof *s.l), malloc(wm * sizeof *s.sorted),
                       malloc(wm * sizeof *s.x), malloc(wm * sizeof *s.y), malloc(3 * wm * sizeof *s.span),
                       malloc(wm), malloc(wm), malloc(wm * sizeof *s.bright), malloc(wm * sizeof *s.dark),
-                      malloc((wm + 1) * sizeof *s.hull)};
+                      malloc(2 * wm * sizeof *s.hull)};
     if (!s.ids || !s.l || !s.sorted || !s.x || !s.y || !s.span || !s.cls || !s.box || !s.bright || !s.dark ||
         !s.hull) {
         atomic_store(&t->nomem, 1);

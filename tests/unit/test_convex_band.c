@@ -75,7 +75,7 @@ int main(void)
 {
     test_rng r;
     test_rng_seed(&r, 51);
-    csi_point2 in[N_IN_MAX], out[N_OUT_MAX], cells[N_CELLS], hull[N_IN_MAX + 1], copy[N_IN_MAX];
+    csi_point2 in[N_IN_MAX], out[N_OUT_MAX], cells[N_CELLS], hull[2 * N_IN_MAX], copy[N_IN_MAX];
     double span[3 * N_OUT_MAX];
     size_t moved_in = 0, moved_out = 0;
 

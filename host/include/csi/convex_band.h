@@ -25,7 +25,7 @@ typedef struct csi_point2 {
 } csi_point2;
 
 /* in: the region's samples (n_in, reordered in place), out: the others' (n_out). hull: room for
- * n_in + 1 points; span: room for 3 n_out doubles. cells: n_cells points. Returns false where the
+ * 2 n_in points (the monotone chain's stack at its longest); span: room for 3 n_out doubles. cells: n_cells points. Returns false where the
  * hull of `in` holds a point of `out` (no convex region through them: the caller's region is not
  * convex there), else true with *sure_in the cells inside that hull (on its edges too) and
  * *sure_out the cells that would bring a point of `out` inside the hull of `in` and the cell. */
