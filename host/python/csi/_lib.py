@@ -761,18 +761,27 @@ def refine_positions(positions, values, grid, image, share: Optional[float] = No
     return cells, int(px.value)
 
 
+def _refine_image(fn, positions, values, grid, image, variance, more_positions, more_values, more_variance):
+    """One of csi_refine_apply / _settle / _step_coverage on image (H, W, C) and the samples (the more
+    ones None where absent): (a copy of the image it gives, the pixels it changed)."""
+    keep = []
+    first = _image_samples(positions, values, grid, keep, variance)
+    more = _image_samples(more_positions, more_values, grid, keep, more_variance) \
+        if more_positions is not None else None
+    view = _planar_view(image, keep)
+    px = c_size()
+    _check(fn(ctypes.byref(first), ctypes.byref(more) if more is not None else None, ctypes.byref(view),
+              ctypes.byref(px)))
+    planar = keep[-1]
+    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+
+
 def refine_apply(positions, values, more_positions, more_values, grid, image):
     """The image after the second pass (csi_refine_apply): image, the (H, W, C) reconstruction of
     the first samples, with every pixel that holds one of the more samples (the request,
     evaluated) set to the mean of all its samples. Returns (image, pixels set); image is a copy."""
-    L, keep = lib(), []
-    first = _image_samples(positions, values, grid, keep)
-    more = _image_samples(more_positions, more_values, grid, keep)
-    view = _planar_view(image, keep)
-    px = c_size()
-    _check(L.csi_refine_apply(ctypes.byref(first), ctypes.byref(more), ctypes.byref(view), ctypes.byref(px)))
-    planar = keep[-1]
-    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+    return _refine_image(lib().csi_refine_apply, positions, values, grid, image, None, more_positions, more_values,
+                         None)
 
 
 def refine_settle(positions, values, grid, image, variance=None, more_positions=None, more_values=None):
@@ -781,15 +790,8 @@ def refine_settle(positions, values, grid, image, variance=None, more_positions=
     passes, and the mean of all their samples (these, then the more ones if given) still disagree
     by a large share of their disagreement over the whole image take that mean; without variances
     nothing moves. Returns (image, pixels moved); image is a copy."""
-    L, keep = lib(), []
-    first = _image_samples(positions, values, grid, keep, variance)
-    more = _image_samples(more_positions, more_values, grid, keep) if more_positions is not None else None
-    view = _planar_view(image, keep)
-    px = c_size()
-    _check(L.csi_refine_settle(ctypes.byref(first), ctypes.byref(more) if more is not None else None,
-                               ctypes.byref(view), ctypes.byref(px)))
-    planar = keep[-1]
-    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+    return _refine_image(lib().csi_refine_settle, positions, values, grid, image, variance, more_positions,
+                         more_values, None)
 
 
 def refine_step_coverage(positions, values, grid, image, variance=None, more_positions=None, more_values=None,
@@ -799,16 +801,8 @@ def refine_step_coverage(positions, values, grid, image, variance=None, more_pos
     samples (these, then the more ones if given, taken in csi's cell order): with each sample's
     variance given (several paths per sample); without them nothing moves. Returns (image, pixels
     moved); image is a copy."""
-    L, keep = lib(), []
-    first = _image_samples(positions, values, grid, keep, variance)
-    more = _image_samples(more_positions, more_values, grid, keep, more_variance) \
-        if more_positions is not None else None
-    view = _planar_view(image, keep)
-    px = c_size()
-    _check(L.csi_refine_step_coverage(ctypes.byref(first), ctypes.byref(more) if more is not None else None,
-                                      ctypes.byref(view), ctypes.byref(px)))
-    planar = keep[-1]
-    return np.moveaxis(planar, 0, 2).copy(), int(px.value)
+    return _refine_image(lib().csi_refine_step_coverage, positions, values, grid, image, variance, more_positions,
+                         more_values, more_variance)
 
 
 class OutputSet:
