@@ -14,6 +14,14 @@
  * more than that part would buy spread evenly. csi_refine_apply then gives the refined pixels that
  * mean without a second reconstruction (csi-mitsuba's second pass, csi-reconstruct --refine-with).
  *
+ * The disagreement is blind where the image already is the pixel's mean: where the fit gives a
+ * light's pixel its samples' mean, or the blend takes it, the two agree however wrong both are (a
+ * glint one of four samples hit, a lamp's rim). There the mean's own error speaks: its sampling
+ * variance from the spread of the pixel's samples, (1 - n / N) s^2 / n over the channels (s^2 the
+ * unbiased variance of n samples, N cells: the finite-population factor, 0 for a full pixel; the
+ * textbook estimate under simple random sampling, e.g. Cochran, Sampling Techniques, 1977,
+ * ch. 2). A pixel whose estimate holds the same share of that sum over the image is picked too.
+ *
  * Everything in double, in sample order: the same inputs give the same cells. */
 #include <math.h>
 #include <stdlib.h>
@@ -25,9 +33,9 @@
 #include "csi/status.h"
 
 /* The share's default (csi-reconstruct --refine-share, csi-mitsuba --refine-share): a pixel
- * that holds 0.5% of the disagreement. At most 1 / share pixels can, and the neighbours of at
- * most 50 pixels holding 2% (csi/settle.h), so the request is bounded by 200 + 400 pixels' cells
- * whatever the image's size. */
+ * that holds 0.5% of the disagreement or of the means' sampling variance. At most 1 / share
+ * pixels can hold it of each, and the neighbours of at most 50 pixels holding 2% (csi/settle.h),
+ * so the request is bounded by 200 + 200 + 400 pixels' cells whatever the image's size. */
 #define CSI_REFINE_SHARE_DEFAULT 0.005
 
 double csi_refine_share_default(void)
@@ -48,6 +56,32 @@ static csi_status check_image(const csi_grid *g, uint32_t channels, const csi_im
         return csi_fail(CSI_ERR_ARG, "refinement: a %ux%u image of %u channels for %ux%u samples of %u", image->w,
                         image->h, image->channels, g->out_w, g->out_h, channels);
     return CSI_OK;
+}
+
+/* Each pixel's estimate of its mean's sampling variance, risk[p] = (1 - n / N) sum_c s_c^2 / n
+ * for its n >= 2 samples (cnt, sum: their count and channel sums) of N cells, 0 with fewer; the
+ * sum over the image returned. s_c^2 from the deviations from the mean, a second pass over the
+ * samples, so that equal values give exactly 0 (a flat region holds no share of it). */
+static double mean_sampling_variance(const csi_grid *g, uint32_t C, const csi_sample_pos *pos, const float *values,
+                                     size_t count, const uint32_t *cnt, const double *sum, double *risk)
+{
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
+    const size_t np = (size_t)g->out_w * g->out_h, cells = (size_t)bw * bh;
+    memset(risk, 0, np * sizeof *risk);
+    for (size_t i = 0; i < count; i++) {
+        const size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+        for (uint32_t c = 0; c < C; c++) {
+            const double e = values[i * C + c] - sum[p * C + c] / cnt[p];
+            risk[p] += e * e;
+        }
+    }
+    double total = 0;
+    for (size_t p = 0; p < np; p++) {
+        const double n = cnt[p];
+        risk[p] = cnt[p] >= 2 ? (1 - n / (double)cells) * risk[p] / (n - 1) / n : 0;
+        total += risk[p];
+    }
+    return total;
 }
 
 csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, double share,
@@ -90,13 +124,16 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     const double *d2 = dis.d2, total = dis.total;
     /* and the neighbours of the pixels that settle wholly, which settling counts as holding 2%
      * (csi_settle_shares) */
-    double *sh = malloc((np ? np : 1) * sizeof *sh);
-    csi_status st = sh ? csi_settle_shares(g, C, cnt, dis.sum, image->data, d2, total, sh)
-                       : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    double *sh = malloc((np ? np : 1) * sizeof *sh), *risk = malloc((np ? np : 1) * sizeof *risk), risk_total = 0;
+    csi_status st = sh && risk ? csi_settle_shares(g, C, cnt, dis.sum, image->data, d2, total, sh)
+                               : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
+    if (st == CSI_OK)
+        risk_total = mean_sampling_variance(g, C, s->pos, s->values, s->count, cnt, dis.sum, risk);
     size_t flagged = 0, n = 0;
 #define PICKED(p)                                                                                  \
-    (cnt[p] && cnt[p] < cells && total > 0 &&                                                      \
-     (d2[p] >= share * total || sh[p] >= share))
+    (cnt[p] && cnt[p] < cells &&                                                                   \
+     ((total > 0 && (d2[p] >= share * total || sh[p] >= share)) ||                                 \
+      (risk_total > 0 && risk[p] >= share * risk_total)))
     for (size_t p = 0; p < np && st == CSI_OK; p++)
         if (PICKED(p)) {
             flagged++;
@@ -138,6 +175,7 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
 #undef PICKED
     csi_pixel_disagreement_free(&dis);
     free(sh);
+    free(risk);
     free(slot);
     free(taken);
     if (st != CSI_OK) {

@@ -250,9 +250,10 @@ def main():
                   and f"{n_step} across an HDR step" in rw.stderr,
                   f"csi-reconstruct --refine-with (the step) != csi-mitsuba's image: exit {rw.returncode} "
                   f"{rw.stderr.strip()}")
-        # Where the pick takes no pixel (--refine-share 1: no pixel holds all the disagreement), the
-        # settling and the step still follow: csi-mitsuba's image and csi-reconstruct
-        # --refine-request's are csi-reconstruct's default image of the same samples, to the bit.
+        # Where the pick takes no pixel (--refine-share 1: no pixel holds all the disagreement or all
+        # the means' sampling variance), the settling and the step still follow: csi-mitsuba's image
+        # and csi-reconstruct --refine-request's are csi-reconstruct's default image of the same
+        # samples, to the bit.
         z = cli(*cb, "--refine-share", 1, "--dump", p("z.csid"), "-o", p("z.exr"), "--stats", p("z.json"))
         check(z.returncode == 0, f"--refine-share 1: exit {z.returncode}: {z.stderr.strip()}")
         if z.returncode == 0:

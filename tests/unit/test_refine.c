@@ -18,6 +18,13 @@
  * csi_refine_apply sets a refined pixel to the mean of all its samples and nothing else;
  * csi_refine_settle, given the samples' variances, moves the one bright pixel that holds most of
  * the remaining disagreement to the mean of all its samples and nothing else (below).
+ * The mean's own error: where the image is every pixel's mean (no disagreement anywhere), a pixel
+ * is picked when its mean's sampling variance, (1 - n / N) s^2 / n over the channels, holds the
+ * share of that sum: (3, 3)'s two samples (1, 2) and (9, 2) give s^2 = 32 in channel 0, so
+ * (1 - 2 / 16) 32 / 2 = 14; (5, 6)'s (1, 2) and (1, 4) give 0.875 x 2 / 2 = 0.875 (the total
+ * 14.875): a share just below 0.875 / 14.875 picks both, just above it (3, 3) alone, above
+ * 14 / 14.875 none; (4, 4), sampled in every cell with values 1 and 3 in turn, has nothing left
+ * to sample (N = n: 0).
  * Also: an image equal to the means up to float rounding picks nothing; the same call twice gives
  * the same cells; a volume, a share outside (0, 1], an image of another size and a NaN value are
  * refused with CSI_ERR_ARG. */
@@ -209,6 +216,36 @@ int main(void)
         bad.channels = 1;
         CHECK(csi_refine_settle(&with_var, &bad, &ci, NULL) == CSI_ERR_ARG, "refine_settle: other channels not refused");
         CHECK(csi_refine_settle(&with_var, &more, NULL, NULL) == CSI_ERR_ARG, "refine_settle: no image not refused");
+    }
+
+    /* the mean's own error, where the image is the means */
+    {
+        scene *sp = malloc(sizeof *sp);
+        if (!sp)
+            return 1;
+        make(sp);
+        for (size_t i = 0; i < sp->n; i++) {
+            const csi_sample_pos q = sp->pos[i];
+            const uint32_t px = q.x / F, py = q.y / F;
+            if (px == 3 && py == 3 && q.x % F == 3)
+                sp->val[i * C] = 9;
+            if (px == 5 && py == 6 && q.x % F == 3)
+                sp->val[i * C + 1] = 4;
+            if (px == 4 && py == 4 && (q.x + q.y) % 2)
+                sp->val[i * C] = 3;
+        }
+        for (int p = 0; p < NP; p++)
+            sp->img[p] = 1, sp->img[NP + p] = 2;
+        set_px(sp, 3, 3, 5, 2);
+        set_px(sp, 5, 6, 1, 3);
+        set_px(sp, 4, 4, 2, 2);
+        csi_samples ss = {g, C, sp->n, sp->pos, sp->val, 0, NULL};
+        csi_image si = {OW, OW, C, sp->img};
+        static const int both[][2] = {{3, 3}, {5, 6}}, first[][2] = {{3, 3}};
+        check_share(&ss, &si, 0.875 / 14.875 * (1 - 1e-9), both, 2, "spread: share just below 0.875/14.875");
+        check_share(&ss, &si, 0.875 / 14.875 * (1 + 1e-9), first, 1, "spread: share just above 0.875/14.875");
+        check_share(&ss, &si, 14 / 14.875 * (1 + 1e-9), NULL, 0, "spread: share just above 14/14.875");
+        free(sp);
     }
 
     /* deterministic */
