@@ -25,7 +25,12 @@ and csi-mitsuba's default, its second pass (two passes: more samples, so apart f
                 csi.refine_apply), then with more than one path the pixels that still decide
                 the image settled on their samples' mean (csi.refine_settle) and an HDR step's
                 pixels given their window's coverage (csi.refine_step_coverage), against
-  mean+pass     the per-pixel mean of the same samples, the first pass's and the second's.
+  mean+pass     the per-pixel mean of the same samples, the first pass's and the second's;
+  oidn+pass, oidn+aux+pass
+                OIDN on mean+pass, colour only and with the guides (the first pass's: the
+                second renders no albedo or normal), what a user of OIDN gets from those samples;
+  csi-mitsuba>oidn, csi-mitsuba>oidn+aux
+                OIDN on csi-mitsuba's image, colour only and with the same guides.
 Figures against Mitsuba's reference (its own render with a box pixel filter at --reference-spp):
 MSE, relMSE = mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01), the count of
 negative values, and each method's time. Mitsuba's cost per sample and per path is measured in
@@ -281,20 +286,25 @@ def report(results, args):
         if any("two_passes" in c for c in r["cells"].values()):
             L.append("")
             L.append("csi-mitsuba's default, two passes (the second pass's samples added to both; ratios to mean+pass, "
-                     "the mean of all the samples):")
+                     "the mean of all the samples; the last two columns: OIDN on csi-mitsuba's image, colour only and "
+                     "with the guides, over the better of OIDN on mean+pass with and without them, per figure):")
             L.append("")
             L.append("| spp | paths | extra samples | mean+pass: MSE | relMSE | csi-mitsuba: MSE / relMSE ratio | "
-                     "first pass alone (csi / mean) | negatives |")
-            L.append("| --- | --- | --- | --- | --- | --- | --- | --- |")
+                     "first pass alone (csi / mean) | negatives | csi-mitsuba>oidn | csi-mitsuba>oidn+aux |")
+            L.append("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
             for c in r["cells"].values():
                 q = c.get("two_passes")
                 if not q:
                     continue
                 m0, x = q["methods"]["mean+pass"], q["methods"]["csi-mitsuba"]
                 f0, f1 = c["methods"]["mean"], c["methods"]["csi"]
+                qm = q["methods"]
+                best = {k: min(qm[m][k] for m in ("oidn+pass", "oidn+aux+pass")) for k in ("mse", "relmse")}
                 L.append(f"| {c['spp']} | {c['paths']} | {100 * q['extra_samples'] / q['samples']:.2f}% | {fmt(m0['mse'])} | "
                          f"{fmt(m0['relmse'])} | **{x['mse'] / m0['mse']:.3f} / {x['relmse'] / m0['relmse']:.3f}** | "
-                         f"{f1['mse'] / f0['mse']:.3f} / {f1['relmse'] / f0['relmse']:.3f} | {x['negatives']} |")
+                         f"{f1['mse'] / f0['mse']:.3f} / {f1['relmse'] / f0['relmse']:.3f} | {x['negatives']} | "
+                         + " | ".join(f"{qm[m]['mse'] / best['mse']:.3f} / {qm[m]['relmse'] / best['relmse']:.3f}"
+                                      for m in ("csi-mitsuba>oidn", "csi-mitsuba>oidn+aux")) + " |")
             L.append("")
         for e in r.get("equal_time_two_passes", []):
             L.append(f"Equal time, two passes, {e['paths']} path(s) per sample: csi-mitsuba at 4 spp takes "
@@ -359,6 +369,11 @@ def main(argv=None):
                                               "mitsuba_when_cached": info["mitsuba"]}
                 if a.two_passes:
                     two, extra, t_render, t_csi = two_passes(files, scene_obj, paths, a.refine_passes)
+                    albedo, _, _ = reconstruct(files["albedo"], estimator="mean")
+                    normal, _, _ = reconstruct(files["normal"], estimator="mean")
+                    mp, cm = (np.asarray(two[k], np.float32).reshape(ref.shape) for k in ("mean+pass", "csi-mitsuba"))
+                    two.update({"oidn+pass": oidn(mp)[0], "oidn+aux+pass": oidn(mp, albedo, normal)[0],
+                                "csi-mitsuba>oidn": oidn(cm)[0], "csi-mitsuba>oidn+aux": oidn(cm, albedo, normal)[0]})
                     cells[f"s{spp}_p{paths}"]["two_passes"] = {
                         "samples": info["samples"], "extra_samples": extra, "t_second_render_s": t_render, "t_csi_s": t_csi,
                         "methods": {m: {"mse": mse(im, ref), "relmse": relmse(im, ref), "negatives": int((im < 0).sum()),
