@@ -20,7 +20,9 @@
  * variance from the spread of the pixel's samples, (1 - n / N) s^2 / n over the channels (s^2 the
  * unbiased variance of n samples, N cells: the finite-population factor, 0 for a full pixel; the
  * textbook estimate under simple random sampling, e.g. Cochran, Sampling Techniques, 1977,
- * ch. 2). A pixel whose estimate holds the same share of that sum over the image is picked too.
+ * ch. 2); a pixel of one sample has no spread of its own and takes its 3 x 3 pixels' (a lone bright
+ * sample at 1 spp is seen from beside it). A pixel whose estimate holds the same share of that sum
+ * over the image is picked too.
  *
  * Everything in double, in sample order: the same inputs give the same cells. */
 #include <math.h>
@@ -58,29 +60,76 @@ static csi_status check_image(const csi_grid *g, uint32_t channels, const csi_im
     return CSI_OK;
 }
 
-/* Each pixel's estimate of its mean's sampling variance, risk[p] = (1 - n / N) sum_c s_c^2 / n
- * for its n >= 2 samples (cnt, sum: their count and channel sums) of N cells, 0 with fewer; the
- * sum over the image returned. s_c^2 from the deviations from the mean, a second pass over the
- * samples, so that equal values give exactly 0 (a flat region holds no share of it). */
+/* Each pixel's estimate of its mean's sampling variance (1 - n / N) s^2 / n summed over the
+ * channels, n of its N cells sampled (cnt; sum: the channel sums), in risk[p]; the sum over the
+ * image returned (CSI_ERR_NOMEM in *st, and 0, when the window sums do not fit). s^2 is the
+ * unbiased variance of the pixel's own samples from n >= 2; a pixel of one sample has none, and
+ * takes that of its 3 x 3 pixels' samples (from two of them; the window clipped at the border),
+ * so that at 1 spp a lone bright sample's neighbours are seen too. Deviations from the means, in
+ * a pass over the samples after the sums, so that equal values give exactly 0 (a flat region
+ * holds no share of it). */
 static double mean_sampling_variance(const csi_grid *g, uint32_t C, const csi_sample_pos *pos, const float *values,
-                                     size_t count, const uint32_t *cnt, const double *sum, double *risk)
+                                     size_t count, const uint32_t *cnt, const double *sum, double *risk,
+                                     csi_status *st)
 {
-    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h;
-    const size_t np = (size_t)g->out_w * g->out_h, cells = (size_t)bw * bh;
+    const uint32_t bw = g->w / g->out_w, bh = g->h / g->out_h, W = g->out_w, H = g->out_h;
+    const size_t np = (size_t)W * H, cells = (size_t)bw * bh;
     memset(risk, 0, np * sizeof *risk);
+    size_t single = 0;
+    for (size_t p = 0; p < np; p++)
+        single += cnt[p] == 1;
+    /* the 3 x 3 windows' counts and channel sums, for the pixels of one sample */
+    size_t *wn = single ? calloc(np, sizeof *wn) : NULL;
+    double *ws = single ? calloc(np * C, sizeof *ws) : NULL;
+    if (single && (!wn || !ws)) {
+        free(wn);
+        free(ws);
+        *st = csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels' windows", np);
+        return 0;
+    }
+    for (size_t p = 0; p < np && single; p++) {
+        if (cnt[p] != 1)
+            continue;
+        const uint32_t x = (uint32_t)(p % W), y = (uint32_t)(p / W);
+        for (uint32_t qy = y ? y - 1 : 0; qy <= y + 1 && qy < H; qy++)
+            for (uint32_t qx = x ? x - 1 : 0; qx <= x + 1 && qx < W; qx++) {
+                const size_t q = (size_t)qy * W + qx;
+                wn[p] += cnt[q];
+                for (uint32_t c = 0; c < C; c++)
+                    ws[p * C + c] += sum[q * C + c];
+            }
+    }
     for (size_t i = 0; i < count; i++) {
-        const size_t p = (size_t)(pos[i].y / bh) * g->out_w + pos[i].x / bw;
+        const uint32_t x = pos[i].x / bw, y = pos[i].y / bh;
+        const size_t p = (size_t)y * W + x;
         for (uint32_t c = 0; c < C; c++) {
             const double e = values[i * C + c] - sum[p * C + c] / cnt[p];
             risk[p] += e * e;
         }
+        if (!single)
+            continue;
+        /* the sample's share of each window of a one-sample pixel that holds it */
+        for (uint32_t qy = y ? y - 1 : 0; qy <= y + 1 && qy < H; qy++)
+            for (uint32_t qx = x ? x - 1 : 0; qx <= x + 1 && qx < W; qx++) {
+                const size_t q = (size_t)qy * W + qx;
+                if (cnt[q] != 1 || wn[q] < 2)
+                    continue;
+                for (uint32_t c = 0; c < C; c++) {
+                    const double e = values[i * C + c] - ws[q * C + c] / (double)wn[q];
+                    risk[q] += e * e;
+                }
+            }
     }
     double total = 0;
     for (size_t p = 0; p < np; p++) {
-        const double n = cnt[p];
-        risk[p] = cnt[p] >= 2 ? (1 - n / (double)cells) * risk[p] / (n - 1) / n : 0;
+        const double n = cnt[p], f = 1 - n / (double)cells;
+        risk[p] = cnt[p] >= 2                ? f * risk[p] / (n - 1) / n
+                  : cnt[p] == 1 && wn[p] >= 2 ? f * risk[p] / (double)(wn[p] - 1)
+                                              : 0;
         total += risk[p];
     }
+    free(wn);
+    free(ws);
     return total;
 }
 
@@ -128,7 +177,7 @@ csi_status csi_refine_positions(const csi_samples *s, const csi_image *image, do
     csi_status st = sh && risk ? csi_settle_shares(g, C, cnt, dis.sum, image->data, d2, total, sh)
                                : csi_fail(CSI_ERR_NOMEM, "out of host memory for %zu pixels", np);
     if (st == CSI_OK)
-        risk_total = mean_sampling_variance(g, C, s->pos, s->values, s->count, cnt, dis.sum, risk);
+        risk_total = mean_sampling_variance(g, C, s->pos, s->values, s->count, cnt, dis.sum, risk, &st);
     size_t flagged = 0, n = 0;
 #define PICKED(p)                                                                                  \
     (cnt[p] && cnt[p] < cells &&                                                                   \

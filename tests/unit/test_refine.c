@@ -24,7 +24,11 @@
  * (1 - 2 / 16) 32 / 2 = 14; (5, 6)'s (1, 2) and (1, 4) give 0.875 x 2 / 2 = 0.875 (the total
  * 14.875): a share just below 0.875 / 14.875 picks both, just above it (3, 3) alone, above
  * 14 / 14.875 none; (4, 4), sampled in every cell with values 1 and 3 in turn, has nothing left
- * to sample (N = n: 0).
+ * to sample (N = n: 0). A pixel of one sample takes the spread of its 3 x 3 pixels' samples: with
+ * (1, 1)'s second sample gone and (2, 1)'s channel 0 at 1 and 9 (its own (1 - 2/16) 32 / 2 = 14),
+ * (1, 1)'s window holds 17 samples, channel 0 sixteen 1s and one 9: s^2 = (97 - 25^2 / 17) / 16 =
+ * 64 / 17, so (1 - 1/16) 64 / 17 = 60 / 17 of the total 298 / 17. A share just below 60 / 298
+ * picks both (all 15 of (1, 1)'s empty cells), just above it (2, 1) alone.
  * Also: an image equal to the means up to float rounding picks nothing; the same call twice gives
  * the same cells; a volume, a share outside (0, 1], an image of another size and a NaN value are
  * refused with CSI_ERR_ARG. */
@@ -245,6 +249,46 @@ int main(void)
         check_share(&ss, &si, 0.875 / 14.875 * (1 - 1e-9), both, 2, "spread: share just below 0.875/14.875");
         check_share(&ss, &si, 0.875 / 14.875 * (1 + 1e-9), first, 1, "spread: share just above 0.875/14.875");
         check_share(&ss, &si, 14 / 14.875 * (1 + 1e-9), NULL, 0, "spread: share just above 14/14.875");
+        free(sp);
+    }
+
+    /* a pixel of one sample, by its 3 x 3 pixels' spread */
+    {
+        scene *sp = malloc(sizeof *sp);
+        if (!sp)
+            return 1;
+        make(sp);
+        size_t k = 0;
+        for (size_t i = 0; i < sp->n; i++) {
+            const csi_sample_pos q = sp->pos[i];
+            if (q.x == 1 * F + 3 && q.y == 1 * F + 2)
+                continue; /* (1, 1)'s second sample */
+            sp->pos[k] = q;
+            sp->val[k * C] = q.x == 2 * F + 3 && q.y == 1 * F + 2 ? 9 : sp->val[i * C];
+            sp->val[k * C + 1] = sp->val[i * C + 1];
+            k++;
+        }
+        sp->n = k;
+        for (int p = 0; p < NP; p++)
+            sp->img[p] = 1, sp->img[NP + p] = 2;
+        set_px(sp, 2, 1, 5, 2);
+        set_px(sp, 4, 4, 1, 2);
+        csi_samples ss = {g, C, sp->n, sp->pos, sp->val, 0, NULL};
+        csi_image si = {OW, OW, C, sp->img};
+        static const int only21[][2] = {{2, 1}};
+        check_share(&ss, &si, 60.0 / 298 * (1 + 1e-9), only21, 1, "one sample: share just above 60/298");
+        csi_sample_pos want[15 + 14], *got = NULL;
+        size_t nw = 0, n = 0, pixels = 0;
+        for (uint32_t cy = 0; cy < F; cy++)
+            for (uint32_t cx = 0; cx < F; cx++)
+                if (cx || cy)
+                    want[nw++] = (csi_sample_pos){1 * F + cx, 1 * F + cy, 0};
+        nw += expected(only21, 1, want + nw);
+        CHECK_OK(csi_refine_positions(&ss, &si, 60.0 / 298 * (1 - 1e-9), &got, &n, &pixels));
+        CHECK(pixels == 2 && n == nw && got && !memcmp(got, want, nw * sizeof *want),
+              "one sample: share just below 60/298 gave %zu pixels and %zu cells, want 2 and %zu (the rule's)", pixels,
+              n, nw);
+        csi_free(got);
         free(sp);
     }
 

@@ -462,8 +462,9 @@ CSI_API csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channe
  * default, csi_refine_share_default(), 0.005), and, for a share up to 0.02, when it lies beside
  * a bright pixel holding 0.02 or more (the same light: csi/settle.h), or when its mean's sampling
  * variance estimated from its samples' spread, (1 - n / N) s^2 / n summed over the channels (n of
- * its N cells sampled, n >= 2), is at least `share` of that sum over the image (where the image
- * is the pixel's mean, the two cannot disagree however wrong both are); *out gets every cell of
+ * its N cells sampled; a pixel of one sample takes s^2 from its 3 x 3 pixels' samples), is at
+ * least `share` of that sum over the image (where the image is the pixel's mean, the two cannot
+ * disagree however wrong both are); *out gets every cell of
  * the picked pixels that holds no sample (pixels in row order, each block's cells in row order),
  * *count how many and *pixels (may be NULL) the pixels picked. Evaluate them, append them to the
  * samples and reconstruct again: a pixel sampled in every cell is its samples' mean. Images only
