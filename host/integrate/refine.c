@@ -1,6 +1,7 @@
 /* Where to sample next (csi_refine_positions in csi/csi.h): every cell not yet sampled of the
  * pixels on which the image and the mean of the pixel's own samples disagree so much that the
- * pixel alone holds a given share of their disagreement over the whole image.
+ * pixel alone holds a given share of their disagreement over the whole image, or whose mean's own
+ * sampling variance holds that share of its sum (below).
  *
  * Why those pixels. On a renderer's HDR samples (a sun, a lamp, an emitter's edge) at a few
  * samples per pixel, one to three pixels carry most of an image's error, whichever estimator
@@ -8,8 +9,9 @@
  * of the pixel it covers, and neither the fit nor the mean can tell from those samples
  * (docs/bench/mitsuba.md, sessions 15 and 20). Where the two estimates disagree by a large share
  * of the image's total disagreement is where one of them is that wrong; sampling the pixel's
- * every cell settles it for both: the mean becomes the pixel's exact box mean (up to the paths'
- * noise) and the blend takes it (csi_aa_correct: a fully sampled pixel's mean has no sampling
+ * every cell settles it for both: the mean becomes the mean of the pixel's every cell centre (its
+ * box mean up to the paths' noise, but for a light smaller than a few cells, which the lattice of
+ * centres aliases) and the blend takes it (csi_aa_correct: a fully sampled pixel's mean has no sampling
  * error). A few pixels' cells are a small part of the samples; the image's error drops by far
  * more than that part would buy spread evenly. csi_refine_apply then gives the refined pixels that
  * mean without a second reconstruction (csi-mitsuba's second pass, csi-reconstruct --refine-with).
