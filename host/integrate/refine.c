@@ -11,9 +11,9 @@
  * of the image's total disagreement is where one of them is that wrong; sampling the pixel's
  * every cell settles it for both: the mean becomes the mean of the pixel's every cell centre (its
  * box mean up to the paths' noise, but for a light smaller than a few cells, which the lattice of
- * centres aliases) and the blend takes it (csi_aa_correct: a fully sampled pixel's mean has no sampling
- * error). A few pixels' cells are a small part of the samples; the image's error drops by far
- * more than that part would buy spread evenly. csi_refine_apply then gives the refined pixels that
+ * centres aliases) and the blend takes it (csi_aa_correct: a fully sampled pixel's mean has no
+ * sampling error). A few pixels' cells are a small part of the samples; the image's error drops
+ * by far more than that part would buy spread evenly. csi_refine_apply then gives the refined pixels that
  * mean without a second reconstruction (csi-mitsuba's second pass, csi-reconstruct --refine-with).
  *
  * The disagreement is blind where the image already is the pixel's mean: where the fit gives a

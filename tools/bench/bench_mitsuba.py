@@ -96,7 +96,8 @@ def oidn(color, albedo=None, normal=None):
 
 
 def run_cell(files, ref):
-    """Every method on one dump. Returns {method: metrics} and {method: image}."""
+    """Every method on one dump. Returns {method: metrics} and {method: image}, the images with the
+    guides OIDN took ("albedo", "normal": the per-pixel means of Mitsuba's first-hit AOVs)."""
     imgs, times = {}, {}
     imgs["mean"], w, inner = reconstruct(files["dump"], estimator="mean")
     times["mean"] = (w, inner)
@@ -117,6 +118,7 @@ def run_cell(files, ref):
     imgs["avg"] = 0.5 * (imgs["oidn+aux"] + imgs["csi>oidn+aux"])
     times["avg"] = (times["csi>oidn+aux"][0] + times["oidn+aux"][1], 0.0)
     imgs["mix>oidn+aux"], t = oidn(0.5 * (imgs["mean"] + imgs["csi"]), albedo, normal)
+    imgs["albedo"], imgs["normal"] = albedo, normal
     times["mix>oidn+aux"] = (times["csi"][0] + times["mean"][0] + t, t)
     res = {}
     for m in METHODS:
@@ -369,8 +371,7 @@ def main(argv=None):
                                               "mitsuba_when_cached": info["mitsuba"]}
                 if a.two_passes:
                     two, extra, t_render, t_csi = two_passes(files, scene_obj, paths, a.refine_passes)
-                    albedo, _, _ = reconstruct(files["albedo"], estimator="mean")
-                    normal, _, _ = reconstruct(files["normal"], estimator="mean")
+                    albedo, normal = imgs["albedo"], imgs["normal"]
                     mp, cm = (np.asarray(two[k], np.float32).reshape(ref.shape) for k in ("mean+pass", "csi-mitsuba"))
                     two.update({"oidn+pass": oidn(mp)[0], "oidn+aux+pass": oidn(mp, albedo, normal)[0],
                                 "csi-mitsuba>oidn": oidn(cm)[0], "csi-mitsuba>oidn+aux": oidn(cm, albedo, normal)[0]})

@@ -464,12 +464,12 @@ CSI_API csi_status csi_result_report(const csi_result *r, uint32_t c, csi_channe
  * variance estimated from its samples' spread, (1 - n / N) s^2 / n summed over the channels (n of
  * its N cells sampled; a pixel of one sample takes s^2 from its 3 x 3 pixels' samples), is at
  * least `share` of that sum over the image (where the image is the pixel's mean, the two cannot
- * disagree however wrong both are); *out gets every cell of
- * the picked pixels that holds no sample (pixels in row order, each block's cells in row order),
- * *count how many and *pixels (may be NULL) the pixels picked. Evaluate them, append them to the
- * samples and reconstruct again: a pixel sampled in every cell is its samples' mean. Images only
- * (grid.t == 1); image is the reconstruction of these samples (csi_result_image). *out is freed
- * with csi_free (NULL when nothing is picked). Deterministic. Measured in docs/bench/mitsuba.md. */
+ * disagree however wrong both are); *out gets every cell of the picked pixels that holds no
+ * sample (pixels in row order, each block's cells in row order), *count how many and *pixels (may
+ * be NULL) the pixels picked. Evaluate them, append them to the samples and reconstruct again: a
+ * pixel sampled in every cell is its samples' mean. Images only (grid.t == 1); image is the
+ * reconstruction of these samples (csi_result_image). *out is freed with csi_free (NULL when
+ * nothing is picked). Deterministic. Measured in docs/bench/mitsuba.md. */
 CSI_API csi_status csi_refine_positions(const csi_samples *samples, const csi_image *image, double share,
                                         csi_sample_pos **out, size_t *count, size_t *pixels);
 CSI_API double csi_refine_share_default(void);
